@@ -1,0 +1,133 @@
+"""geomtex: dense triangle meshes as geometry textures — height-map patches in oriented boxes.
+
+>>> import geomtex as gt
+>>> gts = gt.convert(gt.load_mesh("bunny.obj"), max_resolution=256)
+>>> gts.stats["charts"], gts.stats["empty_fraction"]
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any, Callable, Literal
+
+from . import _core
+from ._core import GeometryTextureSet, __version__
+from ._errors import (
+    CancelledError,
+    DeviceError,
+    FileError,
+    FormatError,
+    GeomtexError,
+    MeshError,
+    ParameterError,
+)
+from ._mesh import Mesh, as_mesh, load_mesh
+
+__all__ = [
+    "CancelledError",
+    "DeviceError",
+    "FileError",
+    "FormatError",
+    "GeometryTextureSet",
+    "GeomtexError",
+    "Mesh",
+    "MeshError",
+    "ParameterError",
+    "__version__",
+    "convert",
+    "load",
+    "load_mesh",
+]
+
+ProgressCallback = Callable[[str, float], "bool | None"]
+
+
+def _number(name: str, value: Any, kind: type) -> Any:
+    if isinstance(value, bool) or not isinstance(value, (int, float) if kind is float else int):
+        raise ParameterError(f"{name} must be {'a number' if kind is float else 'an integer'}, got {value!r}")
+    return value
+
+
+def convert(
+    mesh: Any,
+    *,
+    max_resolution: int = 256,
+    texel_size: float | None = None,
+    charts: int | None = None,
+    chart_error: float = 0.06,
+    max_charts: int = 4096,
+    lloyd_iterations: int = 6,
+    overlap_rings: int = 1,
+    dilation: int = 2,
+    frame: Literal["min_area", "pca"] = "min_area",
+    normals: Literal["smooth", "flat"] = "smooth",
+    progress: bool | ProgressCallback | None = None,
+) -> GeometryTextureSet:
+    """Converts a mesh into geometry textures.
+
+    mesh: a :class:`Mesh`, ``trimesh.Trimesh`` or a mesh file path.
+    max_resolution: longest side of any patch in texels; one texel size serves every patch.
+    texel_size: world size of a texel (grown if a chart would exceed ``max_resolution``).
+    charts: exact VSA chart count; by default charts are added until the area-weighted mean
+        L2,1 error ``sum(area |n - N|^2) / sum(area)`` is at most ``chart_error``.
+    overlap_rings: rings of neighbouring faces each patch also draws (seamless borders).
+    dilation: texels of normal/color dilation into empty space.
+    frame: in-plane axes from the minimum-area rectangle (default) or 2D PCA (the paper's).
+    normals: interpolated vertex normals (``"smooth"``) or face normals (``"flat"``).
+    progress: True for a tqdm bar, or ``callback(stage, fraction)``; returning False cancels.
+
+    The work runs in Rust on all cores with the GIL released.
+    """
+    m = as_mesh(mesh)
+    _number("max_resolution", max_resolution, int)
+    _number("chart_error", chart_error, float)
+    for name, v in [("max_charts", max_charts), ("lloyd_iterations", lloyd_iterations),
+                    ("overlap_rings", overlap_rings), ("dilation", dilation)]:
+        _number(name, v, int)
+    if charts is not None:
+        _number("charts", charts, int)
+    if texel_size is not None:
+        _number("texel_size", texel_size, float)
+    callback: ProgressCallback | None
+    bar = None
+    if progress is True:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=100, desc="geomtex", unit="%", leave=False)
+
+        def callback(stage: str, fraction: float) -> None:
+            bar.set_description(f"geomtex {stage}")
+            bar.n = round(100 * fraction) if stage in ("raster", "done") else bar.n
+            bar.refresh()
+    elif callable(progress):
+        callback = progress
+    elif progress in (None, False):
+        callback = None
+    else:
+        raise ParameterError(f"progress must be True, False, None or a callable, got {progress!r}")
+    try:
+        return _core.convert(
+            m,
+            max_resolution=max_resolution,
+            texel_size=None if texel_size is None else float(texel_size),
+            charts=charts,
+            chart_error=float(chart_error),
+            max_charts=max_charts,
+            lloyd_iterations=lloyd_iterations,
+            overlap_rings=overlap_rings,
+            dilation=dilation,
+            frame=frame,
+            normals=normals,
+            progress=callback,
+        )
+    finally:
+        if bar is not None:
+            bar.close()
+
+
+def load(path: str | os.PathLike[str]) -> GeometryTextureSet:
+    """Reads a .gtex file. Raises FormatError for anything that is not an intact version-1 file."""
+    p = os.fspath(path)
+    if not os.path.exists(p):
+        raise FileError(f"no such file: {p}")
+    return _core.load(p)

@@ -1,0 +1,427 @@
+//! Mesh → geometry textures, stage by stage:
+//! partition (VSA) → folding repair → overlap rings → frames → texel size → raster → dilation.
+//!
+//! Space: world (the mesh's coordinates, f64) in, patch boxes in world out.
+
+pub mod frame;
+pub mod overlap;
+pub mod raster;
+pub mod vsa;
+
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::time::Instant;
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+pub use frame::InPlane;
+pub use raster::NormalSource;
+
+use crate::error::{GeomtexError, Result};
+use crate::gtex::{GeometryTextureSet, Patch, Stats};
+use crate::mesh::{Mesh, MeshGeometry};
+use frame::FOLD_COS;
+use raster::PatchBox;
+use vsa::{ChartTarget, FaceSet, NONE};
+
+/// Keywords of `convert`. `Default` gives the documented defaults.
+#[derive(Clone, Debug)]
+pub struct ConvertOptions {
+    /// Longest side of any patch, in texels. The texel size is one for the whole set, chosen so
+    /// the largest chart just fits.
+    pub max_resolution: u32,
+    /// World size of a texel; grown if a chart would then exceed `max_resolution`.
+    pub texel_size: Option<f64>,
+    /// Exact chart count for VSA (before folding repair). `None`: driven by `chart_error`.
+    pub charts: Option<usize>,
+    /// Target area-weighted mean L2,1 error of VSA, sum(area |n - N|^2) / sum(area).
+    pub chart_error: f64,
+    /// Cap on VSA charts when driven by `chart_error`.
+    pub max_charts: usize,
+    /// Lloyd iterations after the last chart insertion.
+    pub lloyd_iterations: usize,
+    /// Rings of neighbouring faces each chart also draws.
+    pub overlap_rings: usize,
+    /// Texels of normal/color dilation into empty space.
+    pub dilation: usize,
+    pub in_plane: InPlane,
+    pub normals: NormalSource,
+}
+
+impl Default for ConvertOptions {
+    fn default() -> Self {
+        ConvertOptions {
+            max_resolution: 256,
+            texel_size: None,
+            charts: None,
+            chart_error: 0.06,
+            max_charts: 4096,
+            lloyd_iterations: 6,
+            overlap_rings: 1,
+            dilation: 2,
+            in_plane: InPlane::MinAreaRect,
+            normals: NormalSource::Smooth,
+        }
+    }
+}
+
+impl ConvertOptions {
+    pub fn validate(&self) -> Result<()> {
+        let bad = |m: String| Err(GeomtexError::Parameter(m));
+        if !(2..=16384).contains(&self.max_resolution) {
+            return bad(format!(
+                "max_resolution must be in [2, 16384], got {}",
+                self.max_resolution
+            ));
+        }
+        if let Some(t) = self.texel_size {
+            if !(t.is_finite() && t > 0.0) {
+                return bad(format!(
+                    "texel_size must be a positive finite number, got {t}"
+                ));
+            }
+        }
+        if self.charts == Some(0) {
+            return bad("charts must be at least 1".into());
+        }
+        if !(self.chart_error.is_finite() && (0.0..=4.0).contains(&self.chart_error)) {
+            return bad(format!(
+                "chart_error must be in [0, 4], got {}",
+                self.chart_error
+            ));
+        }
+        if self.max_charts == 0 {
+            return bad("max_charts must be at least 1".into());
+        }
+        if self.overlap_rings > 16 {
+            return bad(format!(
+                "overlap_rings must be at most 16, got {}",
+                self.overlap_rings
+            ));
+        }
+        if self.dilation > 64 {
+            return bad(format!(
+                "dilation must be at most 64, got {}",
+                self.dilation
+            ));
+        }
+        if self.lloyd_iterations > 1000 {
+            return bad(format!(
+                "lloyd_iterations must be at most 1000, got {}",
+                self.lloyd_iterations
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Progress: called with a stage name and its completed fraction in [0, 1]; returning false
+/// cancels the conversion. May be called from worker threads.
+pub type Progress<'a> = &'a (dyn Fn(&str, f64) -> bool + Sync);
+
+struct Timer {
+    start: Instant,
+    seconds: Vec<(String, f64)>,
+}
+
+impl Timer {
+    fn lap(&mut self, stage: &str) {
+        let now = Instant::now();
+        self.seconds
+            .push((stage.into(), (now - self.start).as_secs_f64()));
+        self.start = now;
+    }
+}
+
+fn report(progress: Progress, stage: &str, fraction: f64) -> Result<()> {
+    if progress(stage, fraction) {
+        Ok(())
+    } else {
+        Err(GeomtexError::Cancelled(stage.into()))
+    }
+}
+
+/// A chart after repair: its faces and height direction.
+struct Chart {
+    faces: Vec<u32>,
+    z: DVec3,
+}
+
+pub fn convert(
+    mesh: &Mesh,
+    opts: &ConvertOptions,
+    progress: Progress,
+) -> Result<GeometryTextureSet> {
+    opts.validate()?;
+    let total_start = Instant::now();
+    let mut timer = Timer {
+        start: total_start,
+        seconds: Vec::new(),
+    };
+    let mut stats = Stats::default();
+
+    report(progress, "geometry", 0.0)?;
+    let geo = MeshGeometry::new(mesh);
+    let active: Vec<u32> = (0..mesh.faces.len() as u32)
+        .filter(|&f| !geo.degenerate[f as usize])
+        .collect();
+    if active.is_empty() {
+        return Err(GeomtexError::Mesh(format!(
+            "all {} faces are degenerate (zero area or a repeated vertex): nothing to convert",
+            mesh.faces.len()
+        )));
+    }
+    timer.lap("geometry");
+
+    // Partition.
+    report(progress, "partition", 0.0)?;
+    let mut scratch = vec![NONE; mesh.faces.len()];
+    let set = FaceSet::new(&geo, &active, &mut scratch);
+    let target = match opts.charts {
+        Some(n) => ChartTarget::Count(n),
+        None => ChartTarget::MeanError {
+            tolerance: opts.chart_error,
+            max_charts: opts.max_charts,
+        },
+    };
+    let part = vsa::partition(&set, target, opts.lloyd_iterations);
+    let mut groups: Vec<Vec<u32>> = vec![Vec::new(); part.proxies.len()];
+    for (l, &c) in part.labels.iter().enumerate() {
+        groups[c as usize].push(set.global[l]);
+    }
+    groups.retain(|g| !g.is_empty());
+    drop(set);
+    timer.lap("partition");
+
+    // Folding repair: a chart folds if any face has normal·z <= 0 in its frame. The paper's
+    // frame (median normal) is the yardstick for the "before" figures.
+    report(progress, "repair", 0.0)?;
+    let initial_charts = groups.len();
+    let (mut folding_before, mut inverted_before) = (0usize, 0usize);
+    for g in &groups {
+        let z = frame::median_normal(&geo, g)
+            .try_normalize()
+            .unwrap_or(DVec3::Z);
+        let inv = g
+            .iter()
+            .filter(|&&f| geo.face_normals[f as usize].dot(z) <= 0.0)
+            .count();
+        folding_before += (inv > 0) as usize;
+        inverted_before += inv;
+    }
+    let mut queue = groups;
+    let mut charts: Vec<Chart> = Vec::with_capacity(queue.len());
+    let mut splits = 0usize;
+    while let Some(faces) = queue.pop() {
+        let (z, worst) = frame::choose_z(&geo, &faces);
+        if worst > FOLD_COS || faces.len() == 1 {
+            charts.push(Chart { faces, z });
+            continue;
+        }
+        let sub = FaceSet::new(&geo, &faces, &mut scratch);
+        let halves = vsa::split_in_two(&sub, z);
+        let mut parts: Vec<Vec<u32>> = vec![Vec::new(); halves.proxies.len()];
+        for (l, &c) in halves.labels.iter().enumerate() {
+            if c != NONE {
+                parts[c as usize].push(sub.global[l]);
+            }
+        }
+        parts.retain(|p| !p.is_empty());
+        if parts.len() < 2 {
+            // VSA could not separate them (identical normals cannot fold): split by facing.
+            let (up, down): (Vec<u32>, Vec<u32>) = faces
+                .iter()
+                .partition(|&&f| geo.face_normals[f as usize].dot(z) > FOLD_COS);
+            parts = vec![up, down];
+            parts.retain(|p| !p.is_empty());
+        }
+        splits += 1;
+        queue.extend(parts);
+    }
+    // Largest charts first: a stable, meaningful order for users and for atlas packing.
+    charts.sort_by(|a, b| {
+        b.faces
+            .len()
+            .cmp(&a.faces.len())
+            .then(a.faces[0].cmp(&b.faces[0]))
+    });
+    timer.lap("repair");
+
+    // Overlap rings.
+    report(progress, "overlap", 0.0)?;
+    let rings: Vec<(Vec<u32>, usize)> = charts
+        .par_iter()
+        .map(|c| overlap::ring_faces(mesh, &geo, &c.faces, c.z, opts.overlap_rings))
+        .collect();
+    let ring_faces_skipped: usize = rings.iter().map(|r| r.1).sum();
+    timer.lap("overlap");
+
+    // Frames: axes and the tight box of everything each chart draws, relative to a chart vertex.
+    report(progress, "frame", 0.0)?;
+    let frames: Vec<([DVec3; 3], DVec3, DVec3, DVec3)> = charts
+        .par_iter()
+        .zip(&rings)
+        .map(|(c, (ring, _))| {
+            let mut verts: Vec<u32> = c
+                .faces
+                .iter()
+                .chain(ring)
+                .flat_map(|&f| mesh.faces[f as usize])
+                .collect();
+            verts.sort_unstable();
+            verts.dedup();
+            let points: Vec<DVec3> = verts.iter().map(|&v| mesh.positions[v as usize]).collect();
+            let axes = frame::in_plane_axes(&points, c.z, opts.in_plane);
+            let reference = points[0];
+            let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+            for p in &points {
+                let d = *p - reference;
+                let l = DVec3::new(d.dot(axes[0]), d.dot(axes[1]), d.dot(axes[2]));
+                lo = lo.min(l);
+                hi = hi.max(l);
+            }
+            (axes, reference, lo, hi)
+        })
+        .collect();
+    let longest = frames
+        .iter()
+        .map(|f| (f.3 - f.2).x.max((f.3 - f.2).y))
+        .fold(0.0, f64::max);
+    let fit = longest / opts.max_resolution as f64;
+    let mut texel = opts.texel_size.map_or(fit, |t| t.max(fit));
+    if texel <= 0.0 {
+        texel = geo.diagonal.max(f64::MIN_POSITIVE) * 1e-6; // every chart is a point
+    }
+    let boxes: Vec<PatchBox> = frames
+        .iter()
+        .map(|(axes, reference, lo, hi)| {
+            let size = *hi - *lo;
+            let res = |s: f64| ((s / texel).ceil() as u32).clamp(2, opts.max_resolution.max(2));
+            let (w, h) = (res(size.x), res(size.y));
+            // Centre the chart in its whole-texel box.
+            let pad_x = (w as f64 * texel - size.x) * 0.5;
+            let pad_y = (h as f64 * texel - size.y) * 0.5;
+            let corner = DVec3::new(lo.x - pad_x, lo.y - pad_y, lo.z);
+            PatchBox {
+                origin: *reference + axes[0] * corner.x + axes[1] * corner.y + axes[2] * corner.z,
+                axes: *axes,
+                extent: DVec3::new(w as f64 * texel, h as f64 * texel, size.z.max(texel * 1e-6)),
+                width: w,
+                height: h,
+            }
+        })
+        .collect();
+    timer.lap("frame");
+
+    // Raster.
+    report(progress, "raster", 0.0)?;
+    let done = AtomicUsize::new(0);
+    let cancelled = AtomicBool::new(false);
+    let n = charts.len();
+    let mut maps: Vec<raster::Maps> = charts
+        .par_iter()
+        .zip(&rings)
+        .zip(&boxes)
+        .map(|((c, (ring, _)), bx)| {
+            if cancelled.load(Ordering::Relaxed) {
+                return raster::Maps {
+                    heights: vec![],
+                    normals: vec![],
+                    colors: vec![],
+                };
+            }
+            let faces: Vec<u32> = c.faces.iter().chain(ring).copied().collect();
+            let m = raster::rasterize(mesh, &geo, &faces, bx, opts.normals);
+            let k = done.fetch_add(1, Ordering::Relaxed) + 1;
+            if k % 16 == 0 && !progress("raster", k as f64 / n as f64) {
+                cancelled.store(true, Ordering::Relaxed);
+            }
+            m
+        })
+        .collect();
+    if cancelled.load(Ordering::Relaxed) {
+        return Err(GeomtexError::Cancelled("raster".into()));
+    }
+    timer.lap("raster");
+
+    report(progress, "dilate", 0.0)?;
+    maps.par_iter_mut()
+        .zip(&boxes)
+        .for_each(|(m, bx)| raster::dilate(m, bx.width, bx.height, opts.dilation));
+    timer.lap("dilate");
+
+    let patches: Vec<Patch> = charts
+        .into_iter()
+        .zip(rings)
+        .zip(boxes)
+        .zip(maps)
+        .map(|(((c, (ring, _)), bx), m)| Patch {
+            origin: bx.origin,
+            axes: bx.axes,
+            extent: bx.extent,
+            width: bx.width,
+            height: bx.height,
+            heights: m.heights,
+            normals: m.normals,
+            colors: m.colors,
+            faces: c.faces,
+            ring_faces: ring,
+        })
+        .collect();
+
+    // Figures, recomputed from the output rather than carried along.
+    let folding_after = patches
+        .iter()
+        .filter(|p| frame::min_dot(&geo, &p.faces, p.axes[2]) <= 0.0)
+        .count();
+    let inverted_after: usize = patches
+        .iter()
+        .map(|p| {
+            p.faces
+                .iter()
+                .filter(|&&f| geo.face_normals[f as usize].dot(p.axes[2]) <= 0.0)
+                .count()
+        })
+        .sum();
+    let mut set = GeometryTextureSet {
+        patches,
+        texel_size: texel,
+        stats: Stats::default(),
+    };
+    let (texels, empty) = (set.texels(), set.empty_texels());
+    for (name, v) in [
+        ("faces", mesh.faces.len() as f64),
+        ("vertices", mesh.positions.len() as f64),
+        ("degenerate_faces", (mesh.faces.len() - active.len()) as f64),
+        ("charts", set.patches.len() as f64),
+        ("vsa_charts", initial_charts as f64),
+        ("repair_splits", splits as f64),
+        ("folding_charts", folding_after as f64),
+        ("inverted_triangles", inverted_after as f64),
+        ("folding_charts_before_repair", folding_before as f64),
+        ("inverted_triangles_before_repair", inverted_before as f64),
+        (
+            "ring_faces",
+            set.patches
+                .iter()
+                .map(|p| p.ring_faces.len())
+                .sum::<usize>() as f64,
+        ),
+        ("ring_faces_skipped", ring_faces_skipped as f64),
+        ("texels", texels as f64),
+        ("empty_texels", empty as f64),
+        ("empty_fraction", empty as f64 / texels.max(1) as f64),
+        ("bytes", set.map_bytes() as f64),
+        ("texel_size", texel),
+        ("diagonal", geo.diagonal),
+    ] {
+        stats.set(name, v);
+    }
+    timer
+        .seconds
+        .push(("total".into(), total_start.elapsed().as_secs_f64()));
+    stats.seconds = timer.seconds;
+    set.stats = stats;
+    report(progress, "done", 1.0)?;
+    Ok(set)
+}

@@ -1,0 +1,439 @@
+//! Variational Shape Approximation (Cohen-Steiner, Alliez, Desbrun 2004) with the L2,1 metric:
+//! faces are clustered by normal, each cluster (chart) has an area-weighted proxy normal, and the
+//! error of face f against proxy N is area(f) * |n_f - N|^2.
+//!
+//! Written here because no maintained Rust crate implements VSA. The same solver serves the global
+//! partition and the two-way splits that folding repair asks for: both run on a `FaceSet`, a set of
+//! faces with adjacency restricted to the set and local indices 0..n.
+//!
+//! Space: face normals in world space (unit vectors); only directions matter here.
+
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
+
+use glam::DVec3;
+
+use crate::mesh::{Csr, MeshGeometry};
+
+pub const NONE: u32 = u32::MAX;
+
+/// Faces of the mesh (by global index) with adjacency restricted to them, indexed locally.
+pub struct FaceSet {
+    pub global: Vec<u32>,
+    pub normals: Vec<DVec3>,
+    pub areas: Vec<f64>,
+    pub centroids: Vec<DVec3>,
+    pub neighbors: Csr,
+}
+
+impl FaceSet {
+    /// `local_of` is scratch of one entry per mesh face, all NONE on entry and on return.
+    pub fn new(geo: &MeshGeometry, faces: &[u32], local_of: &mut [u32]) -> FaceSet {
+        for (l, &g) in faces.iter().enumerate() {
+            local_of[g as usize] = l as u32;
+        }
+        let mut pairs = Vec::with_capacity(faces.len() * 3);
+        for (l, &g) in faces.iter().enumerate() {
+            for &nb in geo.face_neighbors.row(g as usize) {
+                let ln = local_of[nb as usize];
+                if ln != NONE {
+                    pairs.push((l as u32, ln));
+                }
+            }
+        }
+        let neighbors = Csr::from_pairs(faces.len(), &pairs);
+        for &g in faces {
+            local_of[g as usize] = NONE;
+        }
+        FaceSet {
+            global: faces.to_vec(),
+            normals: faces
+                .iter()
+                .map(|&g| geo.face_normals[g as usize])
+                .collect(),
+            areas: faces.iter().map(|&g| geo.face_areas[g as usize]).collect(),
+            centroids: faces.iter().map(|&g| geo.centroids[g as usize]).collect(),
+            neighbors,
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.global.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.global.is_empty()
+    }
+
+    #[inline]
+    fn error(&self, f: usize, proxy: DVec3) -> f64 {
+        self.areas[f] * (self.normals[f] - proxy).length_squared()
+    }
+
+    /// Connected components (by edge adjacency inside the set): a label per face and the count.
+    fn components(&self) -> (Vec<u32>, usize) {
+        let mut comp = vec![NONE; self.len()];
+        let mut count = 0;
+        let mut stack = Vec::new();
+        for start in 0..self.len() {
+            if comp[start] != NONE {
+                continue;
+            }
+            comp[start] = count as u32;
+            stack.push(start as u32);
+            while let Some(f) = stack.pop() {
+                for &nb in self.neighbors.row(f as usize) {
+                    if comp[nb as usize] == NONE {
+                        comp[nb as usize] = count as u32;
+                        stack.push(nb);
+                    }
+                }
+            }
+            count += 1;
+        }
+        (comp, count)
+    }
+}
+
+/// How many charts the global partition should end with.
+#[derive(Clone, Copy, Debug)]
+pub enum ChartTarget {
+    /// Exactly this many (or the number of connected components, if larger).
+    Count(usize),
+    /// Add charts until the area-weighted mean L2,1 error, sum(area |n - N|^2) / sum(area), is at
+    /// most this value, but never more than `max_charts`.
+    MeanError { tolerance: f64, max_charts: usize },
+}
+
+/// A partition of a `FaceSet`: a chart label per local face and a proxy normal per chart.
+pub struct Partition {
+    pub labels: Vec<u32>,
+    pub proxies: Vec<DVec3>,
+}
+
+#[derive(PartialEq)]
+struct Candidate {
+    error: f64,
+    face: u32,
+    proxy: u32,
+}
+impl Eq for Candidate {}
+impl Ord for Candidate {
+    fn cmp(&self, other: &Self) -> Ordering {
+        // Reversed: BinaryHeap is a max-heap and we pop the smallest error first.
+        other
+            .error
+            .total_cmp(&self.error)
+            .then_with(|| other.face.cmp(&self.face))
+    }
+}
+impl PartialOrd for Candidate {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+struct Solver<'a> {
+    set: &'a FaceSet,
+    proxies: Vec<DVec3>,
+    seeds: Vec<u32>,
+    labels: Vec<u32>,
+    heap: BinaryHeap<Candidate>,
+}
+
+impl<'a> Solver<'a> {
+    fn new(set: &'a FaceSet, seeds: Vec<u32>) -> Self {
+        let proxies = seeds.iter().map(|&s| set.normals[s as usize]).collect();
+        Solver {
+            set,
+            proxies,
+            seeds,
+            labels: vec![NONE; set.len()],
+            heap: BinaryHeap::new(),
+        }
+    }
+
+    fn push_neighbors(&mut self, f: u32, proxy: u32) {
+        let n = self.proxies[proxy as usize];
+        for &nb in self.set.neighbors.row(f as usize) {
+            if self.labels[nb as usize] == NONE {
+                self.heap.push(Candidate {
+                    error: self.set.error(nb as usize, n),
+                    face: nb,
+                    proxy,
+                });
+            }
+        }
+    }
+
+    /// Grows every chart from its seed, always taking the globally cheapest (face, proxy) pair.
+    fn flood(&mut self) {
+        self.labels.fill(NONE);
+        self.heap.clear();
+        for (i, &s) in self.seeds.iter().enumerate() {
+            if self.labels[s as usize] == NONE {
+                self.labels[s as usize] = i as u32;
+            }
+        }
+        for i in 0..self.seeds.len() {
+            if self.labels[self.seeds[i] as usize] == i as u32 {
+                self.push_neighbors(self.seeds[i], i as u32);
+            }
+        }
+        while let Some(c) = self.heap.pop() {
+            if self.labels[c.face as usize] != NONE {
+                continue;
+            }
+            self.labels[c.face as usize] = c.proxy;
+            self.push_neighbors(c.face, c.proxy);
+        }
+    }
+
+    /// Proxy = normalized area-weighted mean normal; new seed = the region's best-fitting face.
+    /// Charts left empty (two seeds on one face) are dropped.
+    fn fit_and_reseed(&mut self) {
+        let k = self.proxies.len();
+        let mut sums = vec![DVec3::ZERO; k];
+        for (f, &l) in self.labels.iter().enumerate() {
+            if l != NONE {
+                sums[l as usize] += self.set.normals[f] * self.set.areas[f];
+            }
+        }
+        for i in 0..k {
+            // A region whose normals cancel (a thin closed sliver) keeps its previous proxy.
+            if let Some(n) = sums[i].try_normalize() {
+                self.proxies[i] = n;
+            }
+        }
+        let mut best = vec![(f64::INFINITY, NONE); k];
+        for (f, &l) in self.labels.iter().enumerate() {
+            if l != NONE {
+                let e = self.set.error(f, self.proxies[l as usize]);
+                if e < best[l as usize].0 {
+                    best[l as usize] = (e, f as u32);
+                }
+            }
+        }
+        let keep: Vec<usize> = (0..k).filter(|&i| best[i].1 != NONE).collect();
+        if keep.len() != k {
+            let mut remap = vec![NONE; k];
+            for (new, &old) in keep.iter().enumerate() {
+                remap[old] = new as u32;
+            }
+            for l in self.labels.iter_mut() {
+                if *l != NONE {
+                    *l = remap[*l as usize];
+                }
+            }
+            self.proxies = keep.iter().map(|&i| self.proxies[i]).collect();
+        }
+        self.seeds = keep.iter().map(|&i| best[i].1).collect();
+    }
+
+    fn lloyd(&mut self, iterations: usize) {
+        for _ in 0..iterations.max(1) {
+            self.flood();
+            self.fit_and_reseed();
+        }
+        self.flood();
+    }
+
+    /// Per chart: total error and the worst face.
+    fn region_errors(&self) -> Vec<(f64, u32, u32)> {
+        let mut out = vec![(0.0, NONE, 0u32); self.proxies.len()];
+        let mut worst = vec![-1.0f64; self.proxies.len()];
+        for (f, &l) in self.labels.iter().enumerate() {
+            let e = self.set.error(f, self.proxies[l as usize]);
+            let r = &mut out[l as usize];
+            r.0 += e;
+            r.2 += 1;
+            if e > worst[l as usize] {
+                worst[l as usize] = e;
+                r.1 = f as u32;
+            }
+        }
+        out
+    }
+
+    fn into_partition(self) -> Partition {
+        Partition {
+            labels: self.labels,
+            proxies: self.proxies,
+        }
+    }
+}
+
+/// Initial seeds: one per connected component (every face must be reachable by some flood),
+/// then farthest-point sampling on face centroids up to `k` seeds.
+fn initial_seeds(set: &FaceSet, k: usize) -> Vec<u32> {
+    let (comp, n_comp) = set.components();
+    let mut seeds = vec![NONE; n_comp];
+    for (f, &c) in comp.iter().enumerate() {
+        let s = &mut seeds[c as usize];
+        if *s == NONE || set.areas[f] > set.areas[*s as usize] {
+            *s = f as u32;
+        }
+    }
+    let mut dist: Vec<f64> = vec![f64::INFINITY; set.len()];
+    let update = |dist: &mut Vec<f64>, s: u32| {
+        let c = set.centroids[s as usize];
+        for (f, d) in dist.iter_mut().enumerate() {
+            *d = d.min((set.centroids[f] - c).length_squared());
+        }
+    };
+    for &s in &seeds {
+        update(&mut dist, s);
+    }
+    while seeds.len() < k {
+        let (far, d) = dist
+            .iter()
+            .enumerate()
+            .max_by(|a, b| a.1.total_cmp(b.1))
+            .map(|(i, d)| (i as u32, *d))
+            .unwrap();
+        if d <= 0.0 {
+            break;
+        }
+        seeds.push(far);
+        update(&mut dist, far);
+    }
+    seeds
+}
+
+/// Partitions a face set. Charts are added in rounds at the worst face of the worst charts
+/// (hierarchical insertion), with a few Lloyd iterations after each round.
+pub fn partition(set: &FaceSet, target: ChartTarget, lloyd_iterations: usize) -> Partition {
+    if set.is_empty() {
+        return Partition {
+            labels: vec![],
+            proxies: vec![],
+        };
+    }
+    let total_area: f64 = set.areas.iter().sum::<f64>().max(f64::MIN_POSITIVE);
+    let (want, tolerance, cap) = match target {
+        ChartTarget::Count(n) => (n.max(1), -1.0, n.max(1)),
+        ChartTarget::MeanError {
+            tolerance,
+            max_charts,
+        } => (max_charts, tolerance, max_charts),
+    };
+    let want = want.min(set.len());
+    let mut solver = Solver::new(set, initial_seeds(set, want.min(8)));
+    solver.lloyd(3);
+    loop {
+        let regions = solver.region_errors();
+        let mean = regions.iter().map(|r| r.0).sum::<f64>() / total_area;
+        let count = solver.proxies.len();
+        if count >= want.min(cap) || mean <= tolerance {
+            break;
+        }
+        // Grow by about a quarter per round: few rounds, little overshoot of an error target.
+        let add = (want.min(cap) - count).min((count / 4).max(1));
+        let mut order: Vec<usize> = (0..count).filter(|&i| regions[i].2 > 1).collect();
+        if order.is_empty() {
+            break;
+        }
+        order.sort_by(|&a, &b| regions[b].0.total_cmp(&regions[a].0));
+        for &i in order.iter().take(add) {
+            let f = regions[i].1;
+            solver.seeds.push(f);
+            solver.proxies.push(set.normals[f as usize]);
+        }
+        solver.lloyd(2);
+    }
+    solver.lloyd(lloyd_iterations);
+    solver.into_partition()
+}
+
+/// Splits a (connected) chart in two: seeds at the face that fits `z` worst and the one that fits
+/// it best, then Lloyd iterations. Used by folding repair.
+pub fn split_in_two(set: &FaceSet, z: DVec3) -> Partition {
+    let score = |f: usize| set.normals[f].dot(z);
+    let worst = (0..set.len())
+        .min_by(|&a, &b| score(a).total_cmp(&score(b)))
+        .unwrap();
+    let best = (0..set.len())
+        .max_by(|&a, &b| score(a).total_cmp(&score(b)))
+        .unwrap();
+    let mut solver = Solver::new(set, vec![best as u32, worst as u32]);
+    solver.lloyd(4);
+    solver.into_partition()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::Mesh;
+
+    /// A closed axis-aligned box made of a grid per side: VSA with 6 charts must find the sides.
+    fn cube(n: usize) -> Mesh {
+        let mut pos = Vec::new();
+        let mut faces = Vec::new();
+        for axis in 0..3 {
+            for side in [0.0, 1.0] {
+                let base = (pos.len() / 3) as i64;
+                for j in 0..=n {
+                    for i in 0..=n {
+                        let (a, b) = (i as f64 / n as f64, j as f64 / n as f64);
+                        let mut p = [0.0; 3];
+                        p[axis] = side;
+                        p[(axis + 1) % 3] = a;
+                        p[(axis + 2) % 3] = b;
+                        pos.extend_from_slice(&p);
+                    }
+                }
+                for j in 0..n as i64 {
+                    for i in 0..n as i64 {
+                        let v = |i: i64, j: i64| base + j * (n as i64 + 1) + i;
+                        let (q0, q1, q2, q3) = (v(i, j), v(i + 1, j), v(i + 1, j + 1), v(i, j + 1));
+                        if side > 0.5 {
+                            faces.extend_from_slice(&[q0, q1, q2, q0, q2, q3]);
+                        } else {
+                            faces.extend_from_slice(&[q0, q2, q1, q0, q3, q2]);
+                        }
+                    }
+                }
+            }
+        }
+        Mesh::from_flat(&pos, &faces, None).unwrap()
+    }
+
+    #[test]
+    fn six_charts_on_a_cube_are_its_sides() {
+        let m = cube(6);
+        let geo = MeshGeometry::new(&m);
+        let all: Vec<u32> = (0..m.faces.len() as u32).collect();
+        let mut scratch = vec![NONE; m.faces.len()];
+        let set = FaceSet::new(&geo, &all, &mut scratch);
+        let p = partition(&set, ChartTarget::Count(6), 10);
+        assert_eq!(p.proxies.len(), 6);
+        for (f, &l) in p.labels.iter().enumerate() {
+            assert!(
+                set.normals[f].dot(p.proxies[l as usize]) > 0.999,
+                "face {f}"
+            );
+        }
+    }
+
+    #[test]
+    fn error_target_stops_at_zero_error() {
+        let m = cube(4);
+        let geo = MeshGeometry::new(&m);
+        let all: Vec<u32> = (0..m.faces.len() as u32).collect();
+        let mut scratch = vec![NONE; m.faces.len()];
+        let set = FaceSet::new(&geo, &all, &mut scratch);
+        let p = partition(
+            &set,
+            ChartTarget::MeanError {
+                tolerance: 1e-9,
+                max_charts: 100,
+            },
+            5,
+        );
+        assert!(
+            p.proxies.len() >= 6 && p.proxies.len() <= 12,
+            "{}",
+            p.proxies.len()
+        );
+    }
+}

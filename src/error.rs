@@ -1,0 +1,38 @@
+//! One error enum for the whole core. The binding layer maps each variant to one Python exception
+//! class (`geomtex.MeshError`, ...), all under `geomtex.GeomtexError`.
+
+use thiserror::Error;
+
+#[derive(Debug, Error)]
+pub enum GeomtexError {
+    /// The input mesh is unusable (NaN, bad indices, empty, wrong sizes).
+    #[error("{0}")]
+    Mesh(String),
+    /// A keyword or parameter is out of range or contradicts another.
+    #[error("{0}")]
+    Parameter(String),
+    /// A .gtex file is not one, is truncated, corrupt, or of an unknown version.
+    #[error("{0}")]
+    Format(String),
+    /// Reading or writing a file failed.
+    #[error("{context}: {source}")]
+    Io {
+        context: String,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The progress callback asked to stop.
+    #[error("conversion cancelled during stage '{0}'")]
+    Cancelled(String),
+}
+
+pub type Result<T> = std::result::Result<T, GeomtexError>;
+
+impl GeomtexError {
+    pub fn io(context: impl Into<String>, source: std::io::Error) -> Self {
+        GeomtexError::Io {
+            context: context.into(),
+            source,
+        }
+    }
+}

@@ -1,0 +1,258 @@
+//! The .gtex file format, version 1. Little-endian throughout.
+//!
+//! ```text
+//! header (32 bytes): magic b"GTEX\r\n\x1a\n" | version u32 | reserved u32 | payload length u64 |
+//!                    CRC-32 of the payload u32 | reserved u32
+//! payload: texel_size f64 | stats: count u32, then (name: len u16 + UTF-8, value f64) |
+//!          seconds: same | patch count u32 | each patch:
+//!          origin 3 f64 | axes 9 f64 | extent 3 f64 | width u32 | height u32 | faces u32 |
+//!          ring faces u32 | face ids u32[] | ring face ids u32[] | heights u16[w*h] |
+//!          normals i8[w*h*4] | colors u8[w*h*4]
+//! ```
+//! Written by hand (not serde/bincode) so the layout is fixed, documented and readable from any
+//! language; the magic catches text-mode mangling the way PNG's does.
+
+use glam::DVec3;
+
+use crate::gtex::{GeometryTextureSet, Patch, Stats};
+
+pub const MAGIC: &[u8; 8] = b"GTEX\r\n\x1a\n";
+pub const VERSION: u32 = 1;
+const HEADER: usize = 32;
+
+fn put_f64s(out: &mut Vec<u8>, v: &[f64]) {
+    for x in v {
+        out.extend_from_slice(&x.to_le_bytes());
+    }
+}
+
+fn put_named(out: &mut Vec<u8>, list: &[(String, f64)]) {
+    out.extend_from_slice(&(list.len() as u32).to_le_bytes());
+    for (name, v) in list {
+        let b = name.as_bytes();
+        out.extend_from_slice(&(b.len().min(u16::MAX as usize) as u16).to_le_bytes());
+        out.extend_from_slice(&b[..b.len().min(u16::MAX as usize)]);
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+}
+
+pub fn encode(set: &GeometryTextureSet) -> Vec<u8> {
+    let mut p = Vec::with_capacity(set.map_bytes() + 1024);
+    put_f64s(&mut p, &[set.texel_size]);
+    put_named(&mut p, &set.stats.values);
+    put_named(&mut p, &set.stats.seconds);
+    p.extend_from_slice(&(set.patches.len() as u32).to_le_bytes());
+    for patch in &set.patches {
+        put_f64s(&mut p, &patch.origin.to_array());
+        for a in &patch.axes {
+            put_f64s(&mut p, &a.to_array());
+        }
+        put_f64s(&mut p, &patch.extent.to_array());
+        for n in [
+            patch.width,
+            patch.height,
+            patch.faces.len() as u32,
+            patch.ring_faces.len() as u32,
+        ] {
+            p.extend_from_slice(&n.to_le_bytes());
+        }
+        for f in patch.faces.iter().chain(&patch.ring_faces) {
+            p.extend_from_slice(&f.to_le_bytes());
+        }
+        for q in &patch.heights {
+            p.extend_from_slice(&q.to_le_bytes());
+        }
+        p.extend_from_slice(bytemuck::cast_slice(&patch.normals));
+        p.extend_from_slice(bytemuck::cast_slice(&patch.colors));
+    }
+    let mut out = Vec::with_capacity(HEADER + p.len());
+    out.extend_from_slice(MAGIC);
+    out.extend_from_slice(&VERSION.to_le_bytes());
+    out.extend_from_slice(&0u32.to_le_bytes());
+    out.extend_from_slice(&(p.len() as u64).to_le_bytes());
+    out.extend_from_slice(&crc32fast::hash(&p).to_le_bytes());
+    out.extend_from_slice(&0u32.to_le_bytes());
+    out.extend_from_slice(&p);
+    out
+}
+
+/// A bounds-checked reader that names what it was reading when the data ran out.
+struct Reader<'a> {
+    data: &'a [u8],
+    pos: usize,
+}
+
+impl<'a> Reader<'a> {
+    fn take(&mut self, n: usize, what: &str) -> Result<&'a [u8], String> {
+        if self.data.len() - self.pos < n {
+            return Err(format!(
+                "truncated: {what} needs {n} bytes at payload offset {} but only {} remain",
+                self.pos,
+                self.data.len() - self.pos
+            ));
+        }
+        let s = &self.data[self.pos..self.pos + n];
+        self.pos += n;
+        Ok(s)
+    }
+    fn u16(&mut self, what: &str) -> Result<u16, String> {
+        Ok(u16::from_le_bytes(self.take(2, what)?.try_into().unwrap()))
+    }
+    fn u32(&mut self, what: &str) -> Result<u32, String> {
+        Ok(u32::from_le_bytes(self.take(4, what)?.try_into().unwrap()))
+    }
+    fn f64(&mut self, what: &str) -> Result<f64, String> {
+        Ok(f64::from_le_bytes(self.take(8, what)?.try_into().unwrap()))
+    }
+    fn vec3(&mut self, what: &str) -> Result<DVec3, String> {
+        Ok(DVec3::new(
+            self.f64(what)?,
+            self.f64(what)?,
+            self.f64(what)?,
+        ))
+    }
+    fn named(&mut self, what: &str) -> Result<Vec<(String, f64)>, String> {
+        let n = self.u32(what)? as usize;
+        let mut out = Vec::with_capacity(n.min(4096));
+        for _ in 0..n {
+            let len = self.u16(what)? as usize;
+            let name = String::from_utf8(self.take(len, what)?.to_vec())
+                .map_err(|_| format!("{what}: a name is not UTF-8"))?;
+            out.push((name, self.f64(what)?));
+        }
+        Ok(out)
+    }
+}
+
+pub fn decode(bytes: &[u8]) -> Result<GeometryTextureSet, String> {
+    if bytes.len() < HEADER || &bytes[..8] != MAGIC {
+        return Err("not a .gtex file (bad magic number or shorter than its header)".into());
+    }
+    let version = u32::from_le_bytes(bytes[8..12].try_into().unwrap());
+    if version != VERSION {
+        return Err(format!(
+            "file format version {version}; this geomtex reads version {VERSION}"
+        ));
+    }
+    let len = u64::from_le_bytes(bytes[16..24].try_into().unwrap());
+    let crc = u32::from_le_bytes(bytes[24..28].try_into().unwrap());
+    let payload = &bytes[HEADER..];
+    if payload.len() as u64 != len {
+        return Err(format!(
+            "truncated or padded: the header promises {len} payload bytes, the file has {}",
+            payload.len()
+        ));
+    }
+    if crc32fast::hash(payload) != crc {
+        return Err("checksum mismatch: the file is corrupt".into());
+    }
+    let mut r = Reader {
+        data: payload,
+        pos: 0,
+    };
+    let texel_size = r.f64("texel size")?;
+    let stats = Stats {
+        values: r.named("stats")?,
+        seconds: r.named("stage seconds")?,
+    };
+    let n = r.u32("patch count")? as usize;
+    let mut patches = Vec::with_capacity(n.min(1 << 16));
+    for k in 0..n {
+        let what = format!("patch {k}");
+        let origin = r.vec3(&what)?;
+        let axes = [r.vec3(&what)?, r.vec3(&what)?, r.vec3(&what)?];
+        let extent = r.vec3(&what)?;
+        let (w, h) = (r.u32(&what)?, r.u32(&what)?);
+        let (nf, nr) = (r.u32(&what)? as usize, r.u32(&what)? as usize);
+        let texels = w as usize * h as usize;
+        let ids = r.take((nf + nr) * 4, &format!("{what} face ids"))?;
+        let ids: Vec<u32> = ids
+            .chunks_exact(4)
+            .map(|c| u32::from_le_bytes(c.try_into().unwrap()))
+            .collect();
+        let heights = r
+            .take(texels * 2, &format!("{what} heights"))?
+            .chunks_exact(2)
+            .map(|c| u16::from_le_bytes([c[0], c[1]]))
+            .collect();
+        let normals =
+            bytemuck::cast_slice::<u8, [i8; 4]>(r.take(texels * 4, &format!("{what} normals"))?)
+                .to_vec();
+        let colors =
+            bytemuck::cast_slice::<u8, [u8; 4]>(r.take(texels * 4, &format!("{what} colors"))?)
+                .to_vec();
+        patches.push(Patch {
+            origin,
+            axes,
+            extent,
+            width: w,
+            height: h,
+            heights,
+            normals,
+            colors,
+            faces: ids[..nf].to_vec(),
+            ring_faces: ids[nf..].to_vec(),
+        });
+    }
+    if r.pos != payload.len() {
+        return Err(format!(
+            "{} bytes of trailing data after the last patch",
+            payload.len() - r.pos
+        ));
+    }
+    Ok(GeometryTextureSet {
+        patches,
+        texel_size,
+        stats,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> GeometryTextureSet {
+        let patch = Patch {
+            origin: DVec3::new(1e6, -2.0, 0.5),
+            axes: [DVec3::X, DVec3::Y, DVec3::Z],
+            extent: DVec3::new(2.0, 3.0, 0.25),
+            width: 2,
+            height: 3,
+            heights: vec![0, 1, 2, 65535, 7, 0],
+            normals: vec![[0, 0, 127, 0]; 6],
+            colors: vec![[1, 2, 3, 255]; 6],
+            faces: vec![4, 5],
+            ring_faces: vec![9],
+        };
+        let mut stats = Stats::default();
+        stats.set("charts", 1.0);
+        stats.seconds.push(("raster".into(), 0.5));
+        GeometryTextureSet {
+            patches: vec![patch],
+            texel_size: 1.0,
+            stats,
+        }
+    }
+
+    #[test]
+    fn round_trip_is_exact() {
+        let s = sample();
+        assert_eq!(decode(&encode(&s)).unwrap(), s);
+    }
+
+    #[test]
+    fn every_truncation_and_flip_is_caught() {
+        let b = encode(&sample());
+        for cut in 0..b.len() {
+            assert!(decode(&b[..cut]).is_err(), "cut at {cut}");
+        }
+        for i in (HEADER..b.len()).step_by(7) {
+            let mut c = b.clone();
+            c[i] ^= 0x40;
+            assert!(decode(&c).unwrap_err().contains("checksum"));
+        }
+        let mut v = b.clone();
+        v[8] = 9;
+        assert!(decode(&v).unwrap_err().contains("version 9"));
+    }
+}

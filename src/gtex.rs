@@ -1,0 +1,197 @@
+//! Geometry textures: a set of height-map patches, each in its own oriented box.
+//!
+//! Spaces:
+//! - world: the source mesh's coordinates (f64).
+//! - patch-local: the patch box is the unit cube; x/y are texture u/v, z is height.
+//!   world = origin + axes[0] * (u * extent.x) + axes[1] * (v * extent.y) + axes[2] * (h * extent.z).
+//!
+//! Texel (i, j) (column i along u, row j along v) covers u in [i/w, (i+1)/w] and is sampled at its
+//! centre. Maps are row-major with row 0 at v = 0. Heights are 16-bit: 0 = empty, 1..=65535 map
+//! linearly to h in [0, 1]. Normals are patch-local unit vectors as signed bytes (x, y, z, 0).
+
+use std::io::Write;
+use std::path::Path;
+
+use glam::{DMat4, DVec3, DVec4};
+
+use crate::error::{GeomtexError, Result};
+
+/// Largest 16-bit height code; code 0 means "no surface".
+pub const HEIGHT_MAX: u16 = u16::MAX;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Patch {
+    pub origin: DVec3,
+    /// Orthonormal, right-handed x, y, z (z = the chart's "up", the height direction).
+    pub axes: [DVec3; 3],
+    /// Box size along each axis in world units.
+    pub extent: DVec3,
+    pub width: u32,
+    pub height: u32,
+    pub heights: Vec<u16>,
+    pub normals: Vec<[i8; 4]>,
+    pub colors: Vec<[u8; 4]>,
+    /// The chart's own faces in the source mesh.
+    pub faces: Vec<u32>,
+    /// Overlap-ring faces also drawn into this patch's maps.
+    pub ring_faces: Vec<u32>,
+}
+
+impl Patch {
+    /// 4x4 matrix taking the unit cube (patch-local) to world space.
+    pub fn world_from_patch(&self) -> DMat4 {
+        DMat4::from_cols(
+            (self.axes[0] * self.extent.x).extend(0.0),
+            (self.axes[1] * self.extent.y).extend(0.0),
+            (self.axes[2] * self.extent.z).extend(0.0),
+            DVec4::new(self.origin.x, self.origin.y, self.origin.z, 1.0),
+        )
+    }
+
+    /// Patch-local position of texel (i, j) holding height code `q` (> 0).
+    #[inline]
+    pub fn texel_local(&self, i: u32, j: u32, q: u16) -> DVec3 {
+        DVec3::new(
+            (i as f64 + 0.5) / self.width as f64,
+            (j as f64 + 0.5) / self.height as f64,
+            decode_height(q),
+        )
+    }
+
+    #[inline]
+    pub fn local_to_world(&self, l: DVec3) -> DVec3 {
+        self.origin
+            + self.axes[0] * (l.x * self.extent.x)
+            + self.axes[1] * (l.y * self.extent.y)
+            + self.axes[2] * (l.z * self.extent.z)
+    }
+
+    pub fn texels(&self) -> usize {
+        self.width as usize * self.height as usize
+    }
+
+    pub fn empty_texels(&self) -> usize {
+        self.heights.iter().filter(|&&q| q == 0).count()
+    }
+
+    /// Bytes the maps take: 16-bit height + RGBA8 normal + RGBA8 color per texel.
+    pub fn map_bytes(&self) -> usize {
+        self.texels() * (2 + 4 + 4)
+    }
+}
+
+/// Height in [0, 1] to its 16-bit code in [1, 65535].
+#[inline]
+pub fn encode_height(h: f64) -> u16 {
+    1 + (h.clamp(0.0, 1.0) * (HEIGHT_MAX - 1) as f64).round() as u16
+}
+
+#[inline]
+pub fn decode_height(q: u16) -> f64 {
+    (q.max(1) - 1) as f64 / (HEIGHT_MAX - 1) as f64
+}
+
+#[inline]
+pub fn encode_snorm8(n: DVec3) -> [i8; 4] {
+    let c = |x: f64| (x.clamp(-1.0, 1.0) * 127.0).round() as i8;
+    [c(n.x), c(n.y), c(n.z), 0]
+}
+
+#[inline]
+pub fn decode_snorm8(n: [i8; 4]) -> DVec3 {
+    DVec3::new(n[0] as f64, n[1] as f64, n[2] as f64) / 127.0
+}
+
+/// Named figures of a conversion: counts in `values`, per-stage wall-clock seconds in `seconds`.
+/// Kept as ordered name/value lists so the file format and the Python dict need no schema.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Stats {
+    pub values: Vec<(String, f64)>,
+    pub seconds: Vec<(String, f64)>,
+}
+
+impl Stats {
+    pub fn set(&mut self, name: &str, v: f64) {
+        match self.values.iter_mut().find(|(n, _)| n == name) {
+            Some(e) => e.1 = v,
+            None => self.values.push((name.to_string(), v)),
+        }
+    }
+
+    pub fn get(&self, name: &str) -> Option<f64> {
+        self.values.iter().find(|(n, _)| n == name).map(|e| e.1)
+    }
+}
+
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct GeometryTextureSet {
+    pub patches: Vec<Patch>,
+    /// World size of one texel (the same for every patch).
+    pub texel_size: f64,
+    pub stats: Stats,
+}
+
+impl GeometryTextureSet {
+    /// Every non-empty texel as a world point (f64) and world unit normal (f32).
+    pub fn to_points(&self) -> (Vec<[f64; 3]>, Vec<[f32; 3]>) {
+        let mut points = Vec::new();
+        let mut normals = Vec::new();
+        for p in &self.patches {
+            for j in 0..p.height {
+                for i in 0..p.width {
+                    let t = (j * p.width + i) as usize;
+                    let q = p.heights[t];
+                    if q == 0 {
+                        continue;
+                    }
+                    points.push(p.local_to_world(p.texel_local(i, j, q)).to_array());
+                    let nl = decode_snorm8(p.normals[t]);
+                    let nw = (p.axes[0] * nl.x + p.axes[1] * nl.y + p.axes[2] * nl.z)
+                        .normalize_or_zero();
+                    normals.push(nw.as_vec3().to_array());
+                }
+            }
+        }
+        (points, normals)
+    }
+
+    pub fn texels(&self) -> usize {
+        self.patches.iter().map(Patch::texels).sum()
+    }
+
+    pub fn empty_texels(&self) -> usize {
+        self.patches.iter().map(Patch::empty_texels).sum()
+    }
+
+    pub fn map_bytes(&self) -> usize {
+        self.patches.iter().map(Patch::map_bytes).sum()
+    }
+
+    /// Writes the set atomically: a temporary file beside `path`, synced, then renamed over it,
+    /// so a failure never leaves a half-written file.
+    pub fn save(&self, path: &Path) -> Result<()> {
+        let bytes = crate::format::encode(self);
+        let dir = match path.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+        let ctx = |what: &str| format!("{what} {}", path.display());
+        let mut tmp = tempfile::NamedTempFile::new_in(dir)
+            .map_err(|e| GeomtexError::io(ctx("cannot create a temporary file to write"), e))?;
+        tmp.write_all(&bytes)
+            .map_err(|e| GeomtexError::io(ctx("cannot write"), e))?;
+        tmp.as_file()
+            .sync_all()
+            .map_err(|e| GeomtexError::io(ctx("cannot sync"), e))?;
+        tmp.persist(path)
+            .map_err(|e| GeomtexError::io(ctx("cannot rename into"), e.error))?;
+        Ok(())
+    }
+
+    pub fn load(path: &Path) -> Result<GeometryTextureSet> {
+        let bytes = std::fs::read(path)
+            .map_err(|e| GeomtexError::io(format!("cannot read {}", path.display()), e))?;
+        crate::format::decode(&bytes)
+            .map_err(|e| GeomtexError::Format(format!("{}: {e}", path.display())))
+    }
+}

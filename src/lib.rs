@@ -1,0 +1,19 @@
+//! geomtex: dense triangle meshes as geometry textures — height-map patches in oriented boxes.
+//!
+//! The core is pure Rust (no PyO3): `mesh` validates input, `convert` turns a mesh into a
+//! `gtex::GeometryTextureSet`, `format` reads and writes .gtex files. The Python binding layer
+//! lives in `python/` behind the `python` feature.
+
+pub mod convert;
+pub mod error;
+pub mod format;
+pub mod gtex;
+pub mod mesh;
+
+#[cfg(feature = "python")]
+mod python;
+
+pub use convert::{convert, ConvertOptions, InPlane, NormalSource};
+pub use error::{GeomtexError, Result};
+pub use gtex::{GeometryTextureSet, Patch, Stats};
+pub use mesh::Mesh;

@@ -1,0 +1,462 @@
+//! The Python binding layer (`geomtex._core`): thin wrappers over the core, numpy in and out,
+//! the GIL released around heavy work, and every core error mapped in one place (`to_py_err`)
+//! onto the exception tree defined in `geomtex/_errors.py`.
+
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+
+use numpy::ndarray::{Array1, Array2, Array3};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyReadonlyArray2, PyUntypedArrayMethods};
+use pyo3::exceptions::PyRuntimeError;
+use pyo3::prelude::*;
+use pyo3::types::{PyBytes, PyDict};
+
+use crate::convert::{ConvertOptions, InPlane, NormalSource};
+use crate::error::GeomtexError;
+use crate::gtex::GeometryTextureSet;
+use crate::mesh::Mesh;
+
+/// The one place core errors become Python exceptions.
+fn to_py_err(e: GeomtexError) -> PyErr {
+    let class = match &e {
+        GeomtexError::Mesh(_) => "MeshError",
+        GeomtexError::Parameter(_) => "ParameterError",
+        GeomtexError::Format(_) => "FormatError",
+        GeomtexError::Io { .. } => "FileError",
+        GeomtexError::Cancelled(_) => "CancelledError",
+    };
+    let msg = e.to_string();
+    Python::attach(
+        |py| match py.import("geomtex._errors").and_then(|m| m.getattr(class)) {
+            Ok(cls) => match cls.call1((msg.clone(),)) {
+                Ok(inst) => PyErr::from_value(inst),
+                Err(err) => err,
+            },
+            Err(_) => PyRuntimeError::new_err(msg),
+        },
+    )
+}
+
+fn parameter_error(msg: String) -> PyErr {
+    to_py_err(GeomtexError::Parameter(msg))
+}
+
+/// A validated triangle mesh (f64 positions, u32 faces, optional RGBA8 vertex colors).
+#[pyclass(name = "Mesh", module = "geomtex._core", subclass, frozen)]
+pub struct PyMesh {
+    inner: Arc<Mesh>,
+}
+
+#[pymethods]
+impl PyMesh {
+    #[new]
+    #[pyo3(signature = (vertices, faces, vertex_colors = None))]
+    fn new(
+        py: Python<'_>,
+        vertices: PyReadonlyArray2<'_, f64>,
+        faces: PyReadonlyArray2<'_, i64>,
+        vertex_colors: Option<PyReadonlyArray2<'_, u8>>,
+    ) -> PyResult<Self> {
+        let shape_err = |what: &str, shape: &[usize], cols: usize| {
+            to_py_err(GeomtexError::Mesh(format!(
+                "{what} must have shape (N, {cols}); got {shape:?}"
+            )))
+        };
+        if vertices.shape()[1] != 3 {
+            return Err(shape_err("vertices", vertices.shape(), 3));
+        }
+        if faces.shape()[1] != 3 {
+            return Err(shape_err("faces", faces.shape(), 3));
+        }
+        if let Some(c) = &vertex_colors {
+            if c.shape()[1] != 4 {
+                return Err(shape_err("vertex_colors", c.shape(), 4));
+            }
+        }
+        let v = vertices
+            .as_array()
+            .as_standard_layout()
+            .into_owned()
+            .into_raw_vec_and_offset()
+            .0;
+        let f = faces
+            .as_array()
+            .as_standard_layout()
+            .into_owned()
+            .into_raw_vec_and_offset()
+            .0;
+        let c = vertex_colors.map(|c| {
+            c.as_array()
+                .as_standard_layout()
+                .into_owned()
+                .into_raw_vec_and_offset()
+                .0
+        });
+        let mesh = py
+            .detach(|| Mesh::from_flat(&v, &f, c.as_deref()))
+            .map_err(to_py_err)?;
+        Ok(PyMesh {
+            inner: Arc::new(mesh),
+        })
+    }
+
+    /// (N, 3) float64 vertex positions (a copy).
+    #[getter]
+    fn vertices<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        let flat: Vec<f64> = self
+            .inner
+            .positions
+            .iter()
+            .flat_map(|p| p.to_array())
+            .collect();
+        Array2::from_shape_vec((self.inner.positions.len(), 3), flat)
+            .unwrap()
+            .into_pyarray(py)
+    }
+
+    /// (M, 3) uint32 vertex indices (a copy).
+    #[getter]
+    fn faces<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<u32>> {
+        let flat: Vec<u32> = self.inner.faces.iter().flatten().copied().collect();
+        Array2::from_shape_vec((self.inner.faces.len(), 3), flat)
+            .unwrap()
+            .into_pyarray(py)
+    }
+
+    /// (N, 4) uint8 RGBA vertex colors, or None.
+    #[getter]
+    fn vertex_colors<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<u8>>> {
+        self.inner.colors.as_ref().map(|c| {
+            let flat: Vec<u8> = c.iter().flatten().copied().collect();
+            Array2::from_shape_vec((c.len(), 4), flat)
+                .unwrap()
+                .into_pyarray(py)
+        })
+    }
+
+    #[getter]
+    fn n_vertices(&self) -> usize {
+        self.inner.positions.len()
+    }
+
+    #[getter]
+    fn n_faces(&self) -> usize {
+        self.inner.faces.len()
+    }
+
+    /// Length of the bounding-box diagonal.
+    #[getter]
+    fn diagonal(&self) -> f64 {
+        self.inner.diagonal()
+    }
+
+    /// (2, 3) float64: the bounding box's min and max corners.
+    #[getter]
+    fn bounds<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        let (lo, hi) = self.inner.bounds();
+        let flat = [lo.to_array(), hi.to_array()].concat();
+        Array2::from_shape_vec((2, 3), flat)
+            .unwrap()
+            .into_pyarray(py)
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "<geomtex.Mesh {} vertices, {} faces{}>",
+            self.inner.positions.len(),
+            self.inner.faces.len(),
+            if self.inner.colors.is_some() {
+                ", colored"
+            } else {
+                ""
+            }
+        )
+    }
+}
+
+/// Height-map patches in oriented boxes, converted from a mesh or loaded from a .gtex file.
+#[pyclass(name = "GeometryTextureSet", module = "geomtex._core", frozen)]
+pub struct PyGeometryTextureSet {
+    inner: Arc<GeometryTextureSet>,
+}
+
+/// Stats that are fractions or lengths; every other stat is a count and comes out as int.
+const FLOAT_STATS: &[&str] = &["empty_fraction", "texel_size", "diagonal"];
+
+#[pymethods]
+impl PyGeometryTextureSet {
+    fn __len__(&self) -> usize {
+        self.inner.patches.len()
+    }
+
+    /// Figures of the conversion (see DESIGN.md), with per-stage wall-clock seconds under
+    /// "seconds".
+    #[getter]
+    fn stats<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for (name, v) in &self.inner.stats.values {
+            if !FLOAT_STATS.contains(&name.as_str()) && v.fract() == 0.0 && v.abs() < 9e15 {
+                d.set_item(name, *v as i64)?;
+            } else {
+                d.set_item(name, *v)?;
+            }
+        }
+        let s = PyDict::new(py);
+        for (name, v) in &self.inner.stats.seconds {
+            s.set_item(name, *v)?;
+        }
+        d.set_item("seconds", s)?;
+        Ok(d)
+    }
+
+    /// World size of one texel (the same in every patch).
+    #[getter]
+    fn texel_size(&self) -> f64 {
+        self.inner.texel_size
+    }
+
+    /// (P, 4, 4) float64: each patch's world_from_patch (unit cube → world box).
+    #[getter]
+    fn world_from_patch<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray3<f64>> {
+        let mut flat = Vec::with_capacity(self.inner.patches.len() * 16);
+        for p in &self.inner.patches {
+            // Row-major for numpy: row r = (col0[r], col1[r], col2[r], col3[r]).
+            let m = p.world_from_patch().transpose();
+            flat.extend_from_slice(&m.to_cols_array());
+        }
+        Array3::from_shape_vec((self.inner.patches.len(), 4, 4), flat)
+            .unwrap()
+            .into_pyarray(py)
+    }
+
+    /// (M,) int32: the patch holding each source face, -1 for degenerate faces left out.
+    fn face_patch<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<i32>> {
+        let n = self.inner.stats.get("faces").unwrap_or(0.0) as usize;
+        let max_face = self
+            .inner
+            .patches
+            .iter()
+            .flat_map(|p| p.faces.iter())
+            .max()
+            .copied();
+        let n = n.max(max_face.map_or(0, |m| m as usize + 1));
+        let mut out = vec![-1i32; n];
+        for (k, p) in self.inner.patches.iter().enumerate() {
+            for &f in &p.faces {
+                out[f as usize] = k as i32;
+            }
+        }
+        Array1::from_vec(out).into_pyarray(py)
+    }
+
+    /// One patch's maps and frame as numpy arrays: height (H, W) uint16 (0 = empty), normal
+    /// (H, W, 4) int8 (patch-local xyz/127), color (H, W, 4) uint8, world_from_patch (4, 4),
+    /// origin (3,), axes (3, 3) (rows x, y, z), extent (3,), faces and ring_faces (uint32).
+    fn patch<'py>(&self, py: Python<'py>, index: isize) -> PyResult<Bound<'py, PyDict>> {
+        let n = self.inner.patches.len() as isize;
+        let i = if index < 0 { index + n } else { index };
+        if i < 0 || i >= n {
+            return Err(pyo3::exceptions::PyIndexError::new_err(format!(
+                "patch index {index} out of range for {n} patches"
+            )));
+        }
+        let p = &self.inner.patches[i as usize];
+        let (h, w) = (p.height as usize, p.width as usize);
+        let d = PyDict::new(py);
+        d.set_item(
+            "height",
+            Array2::from_shape_vec((h, w), p.heights.clone())
+                .unwrap()
+                .into_pyarray(py),
+        )?;
+        let normals: Vec<i8> = p.normals.iter().flatten().copied().collect();
+        d.set_item(
+            "normal",
+            Array3::from_shape_vec((h, w, 4), normals)
+                .unwrap()
+                .into_pyarray(py),
+        )?;
+        let colors: Vec<u8> = p.colors.iter().flatten().copied().collect();
+        d.set_item(
+            "color",
+            Array3::from_shape_vec((h, w, 4), colors)
+                .unwrap()
+                .into_pyarray(py),
+        )?;
+        let m = p.world_from_patch().transpose().to_cols_array().to_vec();
+        d.set_item(
+            "world_from_patch",
+            Array2::from_shape_vec((4, 4), m).unwrap().into_pyarray(py),
+        )?;
+        d.set_item(
+            "origin",
+            Array1::from_vec(p.origin.to_array().to_vec()).into_pyarray(py),
+        )?;
+        let axes: Vec<f64> = p.axes.iter().flat_map(|a| a.to_array()).collect();
+        d.set_item(
+            "axes",
+            Array2::from_shape_vec((3, 3), axes)
+                .unwrap()
+                .into_pyarray(py),
+        )?;
+        d.set_item(
+            "extent",
+            Array1::from_vec(p.extent.to_array().to_vec()).into_pyarray(py),
+        )?;
+        d.set_item("faces", Array1::from_vec(p.faces.clone()).into_pyarray(py))?;
+        d.set_item(
+            "ring_faces",
+            Array1::from_vec(p.ring_faces.clone()).into_pyarray(py),
+        )?;
+        Ok(d)
+    }
+
+    /// Every non-empty texel as a world point: ((N, 3) float64 points, (N, 3) float32 unit
+    /// normals).
+    fn to_points<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f32>>) {
+        let inner = self.inner.clone();
+        let (p, n) = py.detach(move || inner.to_points());
+        let k = p.len();
+        (
+            Array2::from_shape_vec((k, 3), p.into_flattened())
+                .unwrap()
+                .into_pyarray(py),
+            Array2::from_shape_vec((k, 3), n.into_flattened())
+                .unwrap()
+                .into_pyarray(py),
+        )
+    }
+
+    /// Writes a .gtex file atomically (no half file is ever left behind).
+    fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        let inner = self.inner.clone();
+        py.detach(move || inner.save(&path)).map_err(to_py_err)
+    }
+
+    fn _repr_png_<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyBytes>> {
+        let png = slf
+            .py()
+            .import("geomtex._preview")?
+            .call_method1("set_png", (slf,))?;
+        Ok(png.cast_into::<PyBytes>()?)
+    }
+
+    fn __repr__(&self) -> String {
+        let s = &self.inner;
+        format!(
+            "<geomtex.GeometryTextureSet {} patches, {} texels ({:.1}% empty), texel {:.4e}>",
+            s.patches.len(),
+            s.texels(),
+            100.0 * s.empty_texels() as f64 / s.texels().max(1) as f64,
+            s.texel_size
+        )
+    }
+}
+
+/// Loads a .gtex file; FormatError if it is not one, is truncated, corrupt or of another version.
+#[pyfunction]
+fn load(py: Python<'_>, path: PathBuf) -> PyResult<PyGeometryTextureSet> {
+    let set = py
+        .detach(move || GeometryTextureSet::load(&path))
+        .map_err(to_py_err)?;
+    Ok(PyGeometryTextureSet {
+        inner: Arc::new(set),
+    })
+}
+
+/// Converts a mesh to geometry textures (see geomtex.convert for the keywords).
+#[pyfunction]
+#[pyo3(signature = (mesh, *, max_resolution = 256, texel_size = None, charts = None,
+    chart_error = 0.06, max_charts = 4096, lloyd_iterations = 6, overlap_rings = 1,
+    dilation = 2, frame = "min_area", normals = "smooth", progress = None))]
+#[allow(clippy::too_many_arguments)]
+fn convert(
+    py: Python<'_>,
+    mesh: &Bound<'_, PyMesh>,
+    max_resolution: i64,
+    texel_size: Option<f64>,
+    charts: Option<i64>,
+    chart_error: f64,
+    max_charts: i64,
+    lloyd_iterations: i64,
+    overlap_rings: i64,
+    dilation: i64,
+    frame: &str,
+    normals: &str,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<PyGeometryTextureSet> {
+    let nonneg = |name: &str, v: i64| -> PyResult<usize> {
+        usize::try_from(v).map_err(|_| parameter_error(format!("{name} must be >= 0, got {v}")))
+    };
+    let opts = ConvertOptions {
+        max_resolution: u32::try_from(max_resolution).map_err(|_| {
+            parameter_error(format!(
+                "max_resolution must be in [2, 16384], got {max_resolution}"
+            ))
+        })?,
+        texel_size,
+        charts: charts.map(|c| nonneg("charts", c)).transpose()?,
+        chart_error,
+        max_charts: nonneg("max_charts", max_charts)?,
+        lloyd_iterations: nonneg("lloyd_iterations", lloyd_iterations)?,
+        overlap_rings: nonneg("overlap_rings", overlap_rings)?,
+        dilation: nonneg("dilation", dilation)?,
+        in_plane: match frame {
+            "min_area" => InPlane::MinAreaRect,
+            "pca" => InPlane::Pca,
+            other => {
+                return Err(parameter_error(format!(
+                    "frame must be 'min_area' or 'pca', got {other:?}"
+                )))
+            }
+        },
+        normals: match normals {
+            "smooth" => NormalSource::Smooth,
+            "flat" => NormalSource::Flat,
+            other => {
+                return Err(parameter_error(format!(
+                    "normals must be 'smooth' or 'flat', got {other:?}"
+                )))
+            }
+        },
+    };
+    let inner = mesh.get().inner.clone();
+    // An exception raised by the callback (KeyboardInterrupt from tqdm, say) stops the
+    // conversion and is re-raised as it was.
+    let callback_error: Mutex<Option<PyErr>> = Mutex::new(None);
+    let result = py.detach(|| {
+        let report = |stage: &str, fraction: f64| -> bool {
+            let Some(cb) = &progress else { return true };
+            Python::attach(|py| match cb.call1(py, (stage, fraction)) {
+                Ok(r) => r.is_none(py) || r.is_truthy(py).unwrap_or(true),
+                Err(e) => {
+                    *callback_error.lock().unwrap() = Some(e);
+                    false
+                }
+            })
+        };
+        crate::convert::convert(&inner, &opts, &report)
+    });
+    match result {
+        Ok(set) => Ok(PyGeometryTextureSet {
+            inner: Arc::new(set),
+        }),
+        Err(e) => Err(callback_error
+            .into_inner()
+            .unwrap()
+            .unwrap_or_else(|| to_py_err(e))),
+    }
+}
+
+#[pymodule]
+fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyMesh>()?;
+    m.add_class::<PyGeometryTextureSet>()?;
+    m.add_function(wrap_pyfunction!(convert, m)?)?;
+    m.add_function(wrap_pyfunction!(load, m)?)?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}
