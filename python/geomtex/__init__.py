@@ -54,8 +54,9 @@ def convert(
     max_resolution: int = 256,
     texel_size: float | None = None,
     charts: int | None = None,
-    chart_error: float = 0.06,
+    chart_error: float = 0.1,
     max_charts: int = 4096,
+    compactness: float = 1.0,
     lloyd_iterations: int = 6,
     overlap_rings: int = 1,
     dilation: int = 2,
@@ -81,6 +82,7 @@ def convert(
     m = as_mesh(mesh)
     _number("max_resolution", max_resolution, int)
     _number("chart_error", chart_error, float)
+    _number("compactness", compactness, float)
     for name, v in [("max_charts", max_charts), ("lloyd_iterations", lloyd_iterations),
                     ("overlap_rings", overlap_rings), ("dilation", dilation)]:
         _number(name, v, int)
@@ -113,6 +115,7 @@ def convert(
             charts=charts,
             chart_error=float(chart_error),
             max_charts=max_charts,
+            compactness=float(compactness),
             lloyd_iterations=lloyd_iterations,
             overlap_rings=overlap_rings,
             dilation=dilation,

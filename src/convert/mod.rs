@@ -38,6 +38,8 @@ pub struct ConvertOptions {
     pub chart_error: f64,
     /// Cap on VSA charts when driven by `chart_error`.
     pub max_charts: usize,
+    /// Weight of VSA's compactness term (0 = plain L2,1 VSA); rounder charts waste fewer texels.
+    pub compactness: f64,
     /// Lloyd iterations after the last chart insertion.
     pub lloyd_iterations: usize,
     /// Rings of neighbouring faces each chart also draws.
@@ -54,8 +56,9 @@ impl Default for ConvertOptions {
             max_resolution: 256,
             texel_size: None,
             charts: None,
-            chart_error: 0.06,
+            chart_error: 0.1,
             max_charts: 4096,
+            compactness: 1.0,
             lloyd_iterations: 6,
             overlap_rings: 1,
             dilation: 2,
@@ -88,6 +91,12 @@ impl ConvertOptions {
             return bad(format!(
                 "chart_error must be in [0, 4], got {}",
                 self.chart_error
+            ));
+        }
+        if !(self.compactness.is_finite() && (0.0..=100.0).contains(&self.compactness)) {
+            return bad(format!(
+                "compactness must be in [0, 100], got {}",
+                self.compactness
             ));
         }
         if self.max_charts == 0 {
@@ -184,7 +193,7 @@ pub fn convert(
             max_charts: opts.max_charts,
         },
     };
-    let part = vsa::partition(&set, target, opts.lloyd_iterations);
+    let part = vsa::partition(&set, target, opts.lloyd_iterations, opts.compactness);
     let mut groups: Vec<Vec<u32>> = vec![Vec::new(); part.proxies.len()];
     for (l, &c) in part.labels.iter().enumerate() {
         groups[c as usize].push(set.global[l]);

@@ -65,6 +65,7 @@ impl FaceSet {
         self.global.is_empty()
     }
 
+    /// The L2,1 error alone: what the chart-count target and reports measure.
     #[inline]
     fn error(&self, f: usize, proxy: DVec3) -> f64 {
         self.areas[f] * (self.normals[f] - proxy).length_squared()
@@ -135,30 +136,53 @@ impl PartialOrd for Candidate {
 
 struct Solver<'a> {
     set: &'a FaceSet,
+    /// Weight of the compactness term, already divided by the squared typical chart radius.
+    compactness: f64,
     proxies: Vec<DVec3>,
+    /// Area-weighted centroid of each chart (for the compactness term).
+    centres: Vec<DVec3>,
     seeds: Vec<u32>,
     labels: Vec<u32>,
     heap: BinaryHeap<Candidate>,
 }
 
 impl<'a> Solver<'a> {
-    fn new(set: &'a FaceSet, seeds: Vec<u32>) -> Self {
+    fn new(set: &'a FaceSet, seeds: Vec<u32>, compactness: f64) -> Self {
         let proxies = seeds.iter().map(|&s| set.normals[s as usize]).collect();
+        let centres = seeds.iter().map(|&s| set.centroids[s as usize]).collect();
         Solver {
             set,
+            compactness,
             proxies,
+            centres,
             seeds,
             labels: vec![NONE; set.len()],
             heap: BinaryHeap::new(),
         }
     }
 
+    fn add_proxy(&mut self, seed: u32) {
+        self.seeds.push(seed);
+        self.proxies.push(self.set.normals[seed as usize]);
+        self.centres.push(self.set.centroids[seed as usize]);
+    }
+
+    /// Flooding cost: L2,1 error plus an area-weighted squared distance to the chart's centre,
+    /// which keeps charts round so their boxes waste fewer texels.
+    #[inline]
+    fn cost(&self, f: usize, proxy: usize) -> f64 {
+        self.set.error(f, self.proxies[proxy])
+            + self.compactness
+                * self.set.areas[f]
+                * (self.set.centroids[f] - self.centres[proxy]).length_squared()
+    }
+
     fn push_neighbors(&mut self, f: u32, proxy: u32) {
-        let n = self.proxies[proxy as usize];
         for &nb in self.set.neighbors.row(f as usize) {
             if self.labels[nb as usize] == NONE {
+                let error = self.cost(nb as usize, proxy as usize);
                 self.heap.push(Candidate {
-                    error: self.set.error(nb as usize, n),
+                    error,
                     face: nb,
                     proxy,
                 });
@@ -194,9 +218,13 @@ impl<'a> Solver<'a> {
     fn fit_and_reseed(&mut self) {
         let k = self.proxies.len();
         let mut sums = vec![DVec3::ZERO; k];
+        let mut centres = vec![(DVec3::ZERO, 0.0); k];
         for (f, &l) in self.labels.iter().enumerate() {
             if l != NONE {
-                sums[l as usize] += self.set.normals[f] * self.set.areas[f];
+                let a = self.set.areas[f];
+                sums[l as usize] += self.set.normals[f] * a;
+                centres[l as usize].0 += self.set.centroids[f] * a;
+                centres[l as usize].1 += a;
             }
         }
         for i in 0..k {
@@ -204,11 +232,14 @@ impl<'a> Solver<'a> {
             if let Some(n) = sums[i].try_normalize() {
                 self.proxies[i] = n;
             }
+            if centres[i].1 > 0.0 {
+                self.centres[i] = centres[i].0 / centres[i].1;
+            }
         }
         let mut best = vec![(f64::INFINITY, NONE); k];
         for (f, &l) in self.labels.iter().enumerate() {
             if l != NONE {
-                let e = self.set.error(f, self.proxies[l as usize]);
+                let e = self.cost(f, l as usize);
                 if e < best[l as usize].0 {
                     best[l as usize] = (e, f as u32);
                 }
@@ -226,6 +257,7 @@ impl<'a> Solver<'a> {
                 }
             }
             self.proxies = keep.iter().map(|&i| self.proxies[i]).collect();
+            self.centres = keep.iter().map(|&i| self.centres[i]).collect();
         }
         self.seeds = keep.iter().map(|&i| best[i].1).collect();
     }
@@ -302,7 +334,15 @@ fn initial_seeds(set: &FaceSet, k: usize) -> Vec<u32> {
 
 /// Partitions a face set. Charts are added in rounds at the worst face of the worst charts
 /// (hierarchical insertion), with a few Lloyd iterations after each round.
-pub fn partition(set: &FaceSet, target: ChartTarget, lloyd_iterations: usize) -> Partition {
+///
+/// `compactness` weighs the squared distance to a chart's centre against the L2,1 error, in units
+/// of the typical chart radius (sqrt(area / charts)); 0 gives plain VSA.
+pub fn partition(
+    set: &FaceSet,
+    target: ChartTarget,
+    lloyd_iterations: usize,
+    compactness: f64,
+) -> Partition {
     if set.is_empty() {
         return Partition {
             labels: vec![],
@@ -318,7 +358,9 @@ pub fn partition(set: &FaceSet, target: ChartTarget, lloyd_iterations: usize) ->
         } => (max_charts, tolerance, max_charts),
     };
     let want = want.min(set.len());
-    let mut solver = Solver::new(set, initial_seeds(set, want.min(8)));
+    let scaled = |k: usize| compactness * k as f64 / total_area;
+    let mut solver = Solver::new(set, initial_seeds(set, want.min(8)), 0.0);
+    solver.compactness = scaled(solver.proxies.len());
     solver.lloyd(3);
     loop {
         let regions = solver.region_errors();
@@ -335,10 +377,9 @@ pub fn partition(set: &FaceSet, target: ChartTarget, lloyd_iterations: usize) ->
         }
         order.sort_by(|&a, &b| regions[b].0.total_cmp(&regions[a].0));
         for &i in order.iter().take(add) {
-            let f = regions[i].1;
-            solver.seeds.push(f);
-            solver.proxies.push(set.normals[f as usize]);
+            solver.add_proxy(regions[i].1);
         }
+        solver.compactness = scaled(solver.proxies.len());
         solver.lloyd(2);
     }
     solver.lloyd(lloyd_iterations);
@@ -355,7 +396,7 @@ pub fn split_in_two(set: &FaceSet, z: DVec3) -> Partition {
     let best = (0..set.len())
         .max_by(|&a, &b| score(a).total_cmp(&score(b)))
         .unwrap();
-    let mut solver = Solver::new(set, vec![best as u32, worst as u32]);
+    let mut solver = Solver::new(set, vec![best as u32, worst as u32], 0.0);
     solver.lloyd(4);
     solver.into_partition()
 }
@@ -405,7 +446,7 @@ mod tests {
         let all: Vec<u32> = (0..m.faces.len() as u32).collect();
         let mut scratch = vec![NONE; m.faces.len()];
         let set = FaceSet::new(&geo, &all, &mut scratch);
-        let p = partition(&set, ChartTarget::Count(6), 10);
+        let p = partition(&set, ChartTarget::Count(6), 10, 0.0);
         assert_eq!(p.proxies.len(), 6);
         for (f, &l) in p.labels.iter().enumerate() {
             assert!(

@@ -370,7 +370,7 @@ fn load(py: Python<'_>, path: PathBuf) -> PyResult<PyGeometryTextureSet> {
 /// Converts a mesh to geometry textures (see geomtex.convert for the keywords).
 #[pyfunction]
 #[pyo3(signature = (mesh, *, max_resolution = 256, texel_size = None, charts = None,
-    chart_error = 0.06, max_charts = 4096, lloyd_iterations = 6, overlap_rings = 1,
+    chart_error = 0.1, max_charts = 4096, compactness = 1.0, lloyd_iterations = 6, overlap_rings = 1,
     dilation = 2, frame = "min_area", normals = "smooth", progress = None))]
 #[allow(clippy::too_many_arguments)]
 fn convert(
@@ -381,6 +381,7 @@ fn convert(
     charts: Option<i64>,
     chart_error: f64,
     max_charts: i64,
+    compactness: f64,
     lloyd_iterations: i64,
     overlap_rings: i64,
     dilation: i64,
@@ -401,6 +402,7 @@ fn convert(
         charts: charts.map(|c| nonneg("charts", c)).transpose()?,
         chart_error,
         max_charts: nonneg("max_charts", max_charts)?,
+        compactness,
         lloyd_iterations: nonneg("lloyd_iterations", lloyd_iterations)?,
         overlap_rings: nonneg("overlap_rings", overlap_rings)?,
         dilation: nonneg("dilation", dilation)?,

@@ -1,0 +1,72 @@
+"""Command line: convert a mesh file to geometry textures, write the .gtex, a PNG and a stats table.
+
+    python -m geomtex                      # the bunny that ships inside pymeshlab
+    python -m geomtex mesh.obj -o out/ --max-resolution 512
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+
+import geomtex as gt
+from geomtex._preview import overview
+
+
+def default_mesh() -> Path:
+    """The 56,172-face watertight bunny in the pymeshlab wheel: every install has a real mesh."""
+    try:
+        import pymeshlab
+    except ImportError:
+        raise SystemExit("no mesh given and pymeshlab (which ships the default bunny) is not installed")
+    return Path(pymeshlab.__file__).parent / "tests" / "sample_meshes" / "bunny.obj"
+
+
+def stats_table(gts: gt.GeometryTextureSet) -> str:
+    st = gts.stats
+    rows = [
+        ("faces", f"{st['faces']:,} ({st['degenerate_faces']} degenerate)"),
+        ("patches (charts)", f"{st['charts']} (VSA {st['vsa_charts']}, +{st['repair_splits']} by folding repair)"),
+        ("folding charts", f"{st['folding_charts']} (before repair: {st['folding_charts_before_repair']})"),
+        ("inverted triangles", f"{st['inverted_triangles']} (before repair: {st['inverted_triangles_before_repair']})"),
+        ("texels", f"{st['texels']:,} ({100 * st['empty_fraction']:.1f}% empty)"),
+        ("texel size", f"{st['texel_size']:.4g} ({st['texel_size'] / st['diagonal']:.2e} of the diagonal)"),
+        ("map bytes", f"{st['bytes'] / 1e6:.2f} MB"),
+    ]
+    rows += [(f"seconds: {k}", f"{v:.3f}") for k, v in st["seconds"].items()]
+    width = max(len(r[0]) for r in rows)
+    return "\n".join(f"{k:<{width}}  {v}" for k, v in rows)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m geomtex", description=__doc__.splitlines()[0])
+    ap.add_argument("mesh", nargs="?", help="mesh file (OBJ/PLY/STL/OFF); default: pymeshlab's bunny")
+    ap.add_argument("-o", "--out", default="out", help="output folder (default: out/)")
+    ap.add_argument("--max-resolution", type=int, default=256)
+    ap.add_argument("--charts", type=int, default=None, help="exact VSA chart count")
+    ap.add_argument("--frame", choices=["min_area", "pca"], default="min_area")
+    ap.add_argument("--quiet", action="store_true", help="no progress bar")
+    args = ap.parse_args(argv)
+
+    path = Path(args.mesh) if args.mesh else default_mesh()
+    try:
+        mesh = gt.load_mesh(path)
+        gts = gt.convert(mesh, max_resolution=args.max_resolution, charts=args.charts,
+                         frame=args.frame, progress=not args.quiet)
+        out = Path(args.out)
+        os.makedirs(out, exist_ok=True)
+        gtex, png = out / f"{path.stem}.gtex", out / f"{path.stem}.png"
+        gts.save(gtex)
+        overview(gts, 512, title=path.name).save(png)
+    except gt.GeomtexError as e:
+        print(f"geomtex: {type(e).__name__}: {e}", file=sys.stderr)
+        return 2
+    print(f"{path} -> {gtex} ({gtex.stat().st_size / 1e6:.1f} MB), {png}")
+    print(stats_table(gts))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

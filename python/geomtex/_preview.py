@@ -1,0 +1,94 @@
+"""Pictures for notebooks and the command line, drawn with numpy + Pillow (no GPU needed):
+a point-splat view of every texel, colored by patch and shaded by its normal, beside a mosaic of
+the largest height maps.
+
+Image space: row 0 at the top; the view looks at the model's centre from azimuth/elevation.
+"""
+
+from __future__ import annotations
+
+import io
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+from PIL import Image, ImageDraw
+
+_PALETTE = np.array(
+    [[31, 119, 180], [255, 127, 14], [44, 160, 44], [214, 39, 40], [148, 103, 189], [140, 86, 75],
+     [227, 119, 194], [127, 127, 127], [188, 189, 34], [23, 190, 207], [174, 199, 232], [255, 187, 120],
+     [152, 223, 138], [255, 152, 150], [197, 176, 213], [196, 156, 148]], dtype=np.float64)
+
+
+def _view_axes(azimuth_deg: float, elevation_deg: float) -> tuple[npt.NDArray[np.float64], ...]:
+    az, el = np.radians(azimuth_deg), np.radians(elevation_deg)
+    forward = -np.array([np.cos(el) * np.sin(az), np.sin(el), np.cos(el) * np.cos(az)])  # towards model
+    right = np.cross(forward, [0.0, 1.0, 0.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    return right, up, forward
+
+
+def splat(gts: Any, size: int = 512, azimuth_deg: float = 30.0, elevation_deg: float = 20.0,
+          max_points: int = 3_000_000) -> Image.Image:
+    """Orthographic point-splat image of the texel points (nearest point wins per pixel)."""
+    points, normals = gts.to_points()
+    counts = [int((gts.patch(i)["height"] > 0).sum()) for i in range(len(gts))]
+    patch = np.repeat(np.arange(len(counts)), counts)
+    if len(points) > max_points:
+        pick = np.random.default_rng(0).choice(len(points), max_points, replace=False)
+        points, normals, patch = points[pick], normals[pick], patch[pick]
+    img = np.full((size, size, 3), 255, np.uint8)
+    if len(points) == 0:
+        return Image.fromarray(img)
+    right, up, forward = _view_axes(azimuth_deg, elevation_deg)
+    centre = 0.5 * (points.min(axis=0) + points.max(axis=0))
+    rel = points - centre
+    x, y, depth = rel @ right, rel @ up, rel @ forward
+    half = 0.52 * max(np.ptp(x), np.ptp(y), 1e-300)
+    col = np.clip(((x / half) * 0.5 + 0.5) * size, 0, size - 1).astype(np.int64)
+    row = np.clip((0.5 - (y / half) * 0.5) * size, 0, size - 1).astype(np.int64)
+    order = np.argsort(-depth)  # far first, so the nearest point is written last and wins
+    shade = np.clip(-(normals.astype(np.float64) @ forward), 0.0, 1.0) * 0.75 + 0.25
+    rgb = _PALETTE[patch % len(_PALETTE)] * shade[:, None]
+    img[row[order], col[order]] = rgb[order].astype(np.uint8)
+    return Image.fromarray(img)
+
+
+def height_mosaic(gts: Any, size: int = 512, tiles: int = 36) -> Image.Image:
+    """The largest height maps in a grid, empty texels black, heights in grey."""
+    n = min(tiles, len(gts))
+    grid = max(1, int(np.ceil(np.sqrt(n))))
+    cell = size // grid
+    out = Image.new("L", (size, size), 0)
+    for k in range(n):
+        h = gts.patch(k)["height"].astype(np.float64)
+        filled = h > 0
+        g = np.zeros_like(h)
+        if filled.any():
+            lo, hi = h[filled].min(), h[filled].max()
+            g[filled] = 70 + 185 * (h[filled] - lo) / max(hi - lo, 1.0)
+        tile = Image.fromarray(g[::-1].astype(np.uint8))  # v up
+        scale = (cell - 4) / max(tile.size)
+        tile = tile.resize((max(1, int(tile.size[0] * scale)), max(1, int(tile.size[1] * scale))), Image.NEAREST)
+        out.paste(tile, ((k % grid) * cell + 2, (k // grid) * cell + 2))
+    return out.convert("RGB")
+
+
+def overview(gts: Any, size: int = 512, title: str | None = None) -> Image.Image:
+    st = gts.stats
+    caption = title or ""
+    caption += (f"  {st['charts']} patches  {st['texels']:,} texels  "
+                f"{100 * st['empty_fraction']:.1f}% empty  {st['bytes'] / 1e6:.1f} MB")
+    canvas = Image.new("RGB", (2 * size, size + 24), (255, 255, 255))
+    canvas.paste(splat(gts, size), (0, 24))
+    canvas.paste(height_mosaic(gts, size), (size, 24))
+    ImageDraw.Draw(canvas).text((8, 6), caption.strip(), fill=(0, 0, 0))
+    return canvas
+
+
+def set_png(gts: Any) -> bytes:
+    """PNG bytes of `overview`, for Jupyter's _repr_png_."""
+    buf = io.BytesIO()
+    overview(gts, 384).save(buf, format="PNG")
+    return buf.getvalue()
