@@ -75,7 +75,7 @@ class Mesh(_core.Mesh):
         v = _vertices(vertices)
         f = _faces(faces)
         c = _colors(vertex_colors, v.shape[0])
-        return super().__new__(cls, v, f, c)
+        return super().__new__(cls, v, f, c)  # type: ignore[return-value]  # builds cls
 
     @classmethod
     def from_trimesh(cls, mesh: Any) -> "Mesh":

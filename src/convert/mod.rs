@@ -199,6 +199,7 @@ pub fn convert(
         groups[c as usize].push(set.global[l]);
     }
     groups.retain(|g| !g.is_empty());
+    let vsa_mean_error = part.mean_error;
     drop(set);
     timer.lap("partition");
 
@@ -404,6 +405,7 @@ pub fn convert(
         ("degenerate_faces", (mesh.faces.len() - active.len()) as f64),
         ("charts", set.patches.len() as f64),
         ("vsa_charts", initial_charts as f64),
+        ("vsa_mean_error", vsa_mean_error),
         ("repair_splits", splits as f64),
         ("folding_charts", folding_after as f64),
         ("inverted_triangles", inverted_after as f64),

@@ -110,6 +110,8 @@ pub enum ChartTarget {
 pub struct Partition {
     pub labels: Vec<u32>,
     pub proxies: Vec<DVec3>,
+    /// Area-weighted mean L2,1 error, sum(area |n - N|^2) / sum(area).
+    pub mean_error: f64,
 }
 
 #[derive(PartialEq)]
@@ -288,9 +290,12 @@ impl<'a> Solver<'a> {
     }
 
     fn into_partition(self) -> Partition {
+        let total_area = self.set.areas.iter().sum::<f64>().max(f64::MIN_POSITIVE);
+        let mean_error = self.region_errors().iter().map(|r| r.0).sum::<f64>() / total_area;
         Partition {
             labels: self.labels,
             proxies: self.proxies,
+            mean_error,
         }
     }
 }
@@ -347,6 +352,7 @@ pub fn partition(
         return Partition {
             labels: vec![],
             proxies: vec![],
+            mean_error: 0.0,
         };
     }
     let total_area: f64 = set.areas.iter().sum::<f64>().max(f64::MIN_POSITIVE);

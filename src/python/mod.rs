@@ -181,7 +181,7 @@ pub struct PyGeometryTextureSet {
 }
 
 /// Stats that are fractions or lengths; every other stat is a count and comes out as int.
-const FLOAT_STATS: &[&str] = &["empty_fraction", "texel_size", "diagonal"];
+const FLOAT_STATS: &[&str] = &["empty_fraction", "texel_size", "diagonal", "vsa_mean_error"];
 
 #[pymethods]
 impl PyGeometryTextureSet {

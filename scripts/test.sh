@@ -1,0 +1,15 @@
+#!/usr/bin/env bash
+# The whole test suite: Rust core tests (no Python, no GPU), pytest, and the type stubs.
+# Any failure — including pytest finding no tests (exit 5) — fails the script.
+set -euo pipefail
+. "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
+
+echo "== cargo test (pure-Rust core)"
+cargo test --release --quiet
+
+echo "== pytest"
+python -m pytest -q -p no:cacheprovider tests "$@"
+
+echo "== type stubs (mypy.stubtest) and mypy"
+python -m mypy.stubtest geomtex._core
+python -m mypy

@@ -1,0 +1,88 @@
+"""Shared fixtures: real meshes (the shared scans, pymeshlab's bundled bunny) and generated ones,
+each converted once per session."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import geomtex as gt
+
+SHARED_MESHES = Path(__file__).resolve().parents[2] / "shared" / "meshes"
+SHARED_NAMES = ["stanford-bunny", "fandisk", "rocker-arm", "spot", "homer", "teapot"]
+
+
+def shared_mesh_path(name: str) -> Path:
+    path = SHARED_MESHES / f"{name}.obj"
+    if not path.exists():
+        pytest.skip(f"{path} is absent: the shared reference meshes are not beside this checkout")
+    return path
+
+
+def pymeshlab_bunny_path() -> Path:
+    import pymeshlab
+
+    return Path(pymeshlab.__file__).parent / "tests" / "sample_meshes" / "bunny.obj"
+
+
+def _pymeshlab_mesh(make) -> gt.Mesh:  # type: ignore[no-untyped-def]
+    import pymeshlab
+
+    ms = pymeshlab.MeshSet()
+    make(ms)
+    m = ms.current_mesh()
+    return gt.Mesh(m.vertex_matrix(), m.face_matrix())
+
+
+def wavy_sheet(n: int = 60) -> gt.Mesh:
+    """An open height-field sheet z = 0.15 sin(3x) cos(2y) over [-1, 1]^2."""
+    xs = np.linspace(-1, 1, n + 1)
+    x, y = np.meshgrid(xs, xs)
+    z = 0.15 * np.sin(3 * x) * np.cos(2 * y)
+    v = np.column_stack([x.ravel(), y.ravel(), z.ravel()])
+    i = np.arange(n)[None, :] + (n + 1) * np.arange(n)[:, None]
+    q = np.stack([i, i + 1, i + n + 2, i + n + 1], -1).reshape(-1, 4)
+    f = np.concatenate([q[:, [0, 1, 2]], q[:, [0, 2, 3]]])
+    return gt.Mesh(v, f)
+
+
+GENERATED = {
+    "sphere": lambda: _pymeshlab_mesh(lambda ms: ms.create_sphere(subdiv=4)),
+    "torus": lambda: _pymeshlab_mesh(lambda ms: ms.create_torus(hradius=1.0, vradius=0.3, hsubdiv=96, vsubdiv=32)),
+    "fractal_terrain": lambda: _pymeshlab_mesh(lambda ms: ms.create_fractal_terrain(steps=7, maxheight=0.3, seed=3)),
+    "single_triangle": lambda: gt.Mesh([[0, 0, 0], [1, 0, 0], [0.2, 0.9, 0.1]], [[0, 1, 2]]),
+    "open_sheet": wavy_sheet,
+}
+
+
+class Converted:
+    def __init__(self, mesh: gt.Mesh, gts: gt.GeometryTextureSet) -> None:
+        self.mesh = mesh
+        self.gts = gts
+        self.points, self.normals = gts.to_points()
+
+
+_cache: dict[str, Converted] = {}
+
+
+def converted(name: str) -> Converted:
+    """Converts a named mesh once per session with the default keywords."""
+    if name not in _cache:
+        if name in GENERATED:
+            mesh = GENERATED[name]()
+        elif name == "pymeshlab-bunny":
+            mesh = gt.load_mesh(pymeshlab_bunny_path())
+        else:
+            mesh = gt.load_mesh(shared_mesh_path(name))
+        _cache[name] = Converted(mesh, gt.convert(mesh))
+    return _cache[name]
+
+
+@pytest.fixture(scope="session")
+def bunny() -> Converted:
+    """The Stanford scan (69,451 faces) if the shared meshes are here, else pymeshlab's bunny."""
+    if (SHARED_MESHES / "stanford-bunny.obj").exists():
+        return converted("stanford-bunny")
+    return converted("pymeshlab-bunny")

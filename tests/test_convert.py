@@ -1,0 +1,173 @@
+"""Conversion quality on real and generated meshes, checked against independent references:
+folding recomputed here in numpy from the mesh and the patch frames, distances by trimesh
+(closest point) and scipy (k-d tree) on the original mesh."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import geomtex as gt
+from geomtex import reference
+from conftest import GENERATED, SHARED_NAMES, Converted, converted
+
+# Tolerances, as fractions of the bounding-box diagonal.
+POINTS_RMS_REL = 5e-4  # texel points → mesh (issue 2: 0.05%)
+COVERAGE_P99_REL = 2e-3  # mesh → nearest texel point, 99th percentile (issue 2: 0.2%)
+
+
+def face_normals(mesh: gt.Mesh) -> tuple[np.ndarray, np.ndarray]:
+    v, f = mesh.vertices, mesh.faces.astype(np.int64)
+    cross = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    length = np.linalg.norm(cross, axis=1)
+    return cross / np.maximum(length, 1e-300)[:, None], 0.5 * length
+
+
+def check_no_folding(c: Converted) -> int:
+    """Every chart face must face up (normal·z > 0) in its patch's frame. Returns the checked count."""
+    normals, area = face_normals(c.mesh)
+    wfp = c.gts.world_from_patch
+    face_patch = c.gts.face_patch()
+    assigned = face_patch >= 0
+    z = wfp[face_patch[assigned], :3, 2]
+    z /= np.linalg.norm(z, axis=1, keepdims=True)
+    dots = np.einsum("ij,ij->i", normals[assigned], z)
+    assert dots.min() > 0.0, f"{(dots <= 0).sum()} inverted faces; worst normal·z {dots.min():.3g}"
+    # Every face with an area is in exactly one chart.
+    diag = c.mesh.diagonal
+    assert np.all(assigned[area > (diag * 1e-9) ** 2])
+    return int(assigned.sum())
+
+
+def check_distances(c: Converted, n_points: int = 5000, n_samples: int = 50_000) -> tuple[float, float]:
+    diag = reference.diagonal(c.mesh)
+    rng = np.random.default_rng(0)
+    pick = rng.choice(len(c.points), min(n_points, len(c.points)), replace=False)
+    d = reference.points_to_mesh(c.points[pick], c.mesh)
+    rms = float(np.sqrt(np.mean(d**2)) / diag)
+    cover = reference.mesh_to_points(c.mesh, c.points, samples=n_samples)
+    p99 = float(np.percentile(cover, 99) / diag)
+    assert rms <= POINTS_RMS_REL, f"texel points lie {rms:.2e} (RMS, of the diagonal) off the mesh"
+    assert p99 <= COVERAGE_P99_REL, f"mesh covered only to {p99:.2e} of the diagonal (p99)"
+    return rms, p99
+
+
+def test_bunny_meets_the_issue_targets(bunny: Converted) -> None:
+    st = bunny.gts.stats
+    assert st["folding_charts"] == 0 and st["inverted_triangles"] == 0
+    check_no_folding(bunny)
+    assert st["empty_fraction"] <= 0.30, f"{st['empty_fraction']:.3f} empty (paper: 0.388)"
+    # Empty fraction recounted from the maps themselves.
+    heights = [bunny.gts.patch(i)["height"] for i in range(len(bunny.gts))]
+    recount = sum(int((h == 0).sum()) for h in heights) / sum(h.size for h in heights)
+    assert recount == pytest.approx(st["empty_fraction"], abs=1e-12)
+    assert max(max(h.shape) for h in heights) <= 256
+    check_distances(bunny, n_points=20_000, n_samples=200_000)
+
+
+@pytest.mark.parametrize("name", [n for n in SHARED_NAMES if n != "stanford-bunny"])
+def test_shared_meshes(name: str) -> None:
+    c = converted(name)
+    assert c.gts.stats["folding_charts"] == 0
+    check_no_folding(c)
+    check_distances(c)
+    assert c.gts.stats["empty_fraction"] < 0.40
+
+
+@pytest.mark.parametrize("name", sorted(GENERATED))
+def test_generated_meshes(name: str) -> None:
+    c = converted(name)
+    check_no_folding(c)
+    check_distances(c)
+    if name == "single_triangle":
+        assert len(c.gts) == 1
+    if name == "sphere":
+        # A closed convex surface cannot be one height field: it needs at least 2 charts.
+        assert len(c.gts) >= 2
+
+
+def test_open_sheet_heights_follow_the_surface() -> None:
+    """Texel points of z = 0.15 sin 3x cos 2y lie on the analytic surface up to the mesh's own
+    piecewise-linear error (grid spacing 1/30: |f''| h^2 / 8 ~ 6e-4)."""
+    c = converted("open_sheet")
+    x, y, z = c.points.T
+    err = np.abs(z - 0.15 * np.sin(3 * x) * np.cos(2 * y))
+    assert err.max() < 1.5e-3
+
+
+def test_normals_agree_with_the_mesh(bunny: Converted) -> None:
+    """Smooth texel normals vs the face normal of the closest triangle (trimesh): median angle."""
+    import trimesh
+
+    tm = trimesh.Trimesh(bunny.mesh.vertices, bunny.mesh.faces, process=False)
+    k = 1000.0 / reference.diagonal(tm)
+    scaled = trimesh.Trimesh(tm.vertices * k, tm.faces, process=False)
+    pick = np.random.default_rng(1).choice(len(bunny.points), 4000, replace=False)
+    _, _, tri = trimesh.proximity.closest_point(scaled, bunny.points[pick] * k)
+    n = bunny.normals[pick].astype(np.float64)
+    assert np.allclose(np.linalg.norm(n, axis=1), 1.0, atol=1e-5)
+    angle = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", n, tm.face_normals[tri]), -1, 1)))
+    assert np.median(angle) < 5.0, f"median normal error {np.median(angle):.2f} degrees"
+
+
+def test_min_area_frames_waste_no_more_than_pca(bunny: Converted) -> None:
+    pca = gt.convert(bunny.mesh, frame="pca")
+    assert pca.stats["folding_charts"] == 0
+    assert bunny.gts.stats["empty_fraction"] <= pca.stats["empty_fraction"]
+
+
+def test_far_from_origin_keeps_detail(bunny: Converted) -> None:
+    """The same bunny placed at 1e6: texel points still on the surface to 1e-5 of the diagonal."""
+    offset = np.array([1e6, -2e6, 5e5])
+    moved = gt.Mesh(bunny.mesh.vertices + offset, bunny.mesh.faces)
+    gts = gt.convert(moved)
+    assert gts.stats["charts"] == bunny.gts.stats["charts"]
+    points, _ = gts.to_points()
+    pick = np.random.default_rng(2).choice(len(points), 3000, replace=False)
+    d = reference.points_to_mesh(points[pick] - offset, bunny.mesh)
+    assert np.sqrt(np.mean(d**2)) / bunny.mesh.diagonal < 1e-5
+
+
+def test_conversion_is_deterministic(bunny: Converted) -> None:
+    again = gt.convert(bunny.mesh)
+    assert len(again) == len(bunny.gts)
+    for i in (0, len(again) // 2, len(again) - 1):
+        a, b = again.patch(i), bunny.gts.patch(i)
+        for key in ("height", "normal", "color", "world_from_patch", "faces"):
+            assert np.array_equal(a[key], b[key]), key
+
+
+def test_keywords_change_what_they_say(bunny: Converted) -> None:
+    m = bunny.mesh
+    few = gt.convert(m, charts=40, max_resolution=64)
+    assert 40 <= few.stats["charts"] <= 40 + few.stats["repair_splits"]
+    assert max(max(few.patch(i)["height"].shape) for i in range(len(few))) <= 64
+    no_ring = gt.convert(m, charts=40, max_resolution=64, overlap_rings=0)
+    assert no_ring.stats["ring_faces"] == 0 and few.stats["ring_faces"] > 0
+    assert no_ring.stats["empty_fraction"] > few.stats["empty_fraction"]
+    fixed = gt.convert(m, charts=40, texel_size=few.texel_size * 2)
+    assert fixed.texel_size == pytest.approx(few.texel_size * 2)
+    assert fixed.stats["texels"] < few.stats["texels"]
+
+
+def test_vertex_colors_reach_the_color_maps() -> None:
+    sheet = wavy_sheet_colored()
+    gts = gt.convert(sheet)
+    for i in range(len(gts)):
+        p = gts.patch(i)
+        filled = p["height"] > 0
+        # Red rises with x from 0 to 255 across the sheet; green is constant.
+        assert np.all(p["color"][filled][:, 1] == 100)
+    pts, _ = gts.to_points()
+    reds = np.concatenate([gts.patch(i)["color"][gts.patch(i)["height"] > 0][:, 0] for i in range(len(gts))])
+    want = (pts[:, 0] + 1) / 2 * 255
+    assert np.abs(reds.astype(float) - want).max() <= 2.0
+
+
+def wavy_sheet_colored() -> gt.Mesh:
+    from conftest import wavy_sheet
+
+    s = wavy_sheet(40)
+    v = s.vertices
+    colors = np.column_stack([np.round((v[:, 0] + 1) / 2 * 255), np.full(len(v), 100), np.zeros(len(v)), np.full(len(v), 255)])
+    return gt.Mesh(v, s.faces, colors.astype(np.uint8))

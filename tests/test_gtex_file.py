@@ -1,0 +1,85 @@
+"""The .gtex file: bit-exact round trips, atomic writes, and every corruption caught."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+import geomtex as gt
+from conftest import Converted, converted
+
+
+@pytest.fixture(scope="module")
+def sheet() -> Converted:
+    return converted("open_sheet")
+
+
+def test_round_trip_is_bit_exact(sheet: Converted, tmp_path) -> None:
+    path = tmp_path / "sheet.gtex"
+    sheet.gts.save(path)
+    back = gt.load(path)
+    assert len(back) == len(sheet.gts)
+    assert back.texel_size == sheet.gts.texel_size
+    assert back.stats == sheet.gts.stats
+    assert np.array_equal(back.world_from_patch, sheet.gts.world_from_patch)
+    for i in range(len(back)):
+        a, b = back.patch(i), sheet.gts.patch(i)
+        assert a.keys() == b.keys()
+        for key in a:
+            assert a[key].dtype == b[key].dtype and np.array_equal(a[key], b[key]), (i, key)
+    pts, nrm = back.to_points()
+    assert np.array_equal(pts, sheet.points) and np.array_equal(nrm, sheet.normals)
+    # Saving what was loaded writes the same bytes.
+    back.save(tmp_path / "again.gtex")
+    assert (tmp_path / "again.gtex").read_bytes() == path.read_bytes()
+
+
+def test_every_corruption_is_a_format_error(sheet: Converted, tmp_path) -> None:
+    path = tmp_path / "s.gtex"
+    sheet.gts.save(path)
+    data = path.read_bytes()
+    cases = {
+        "truncated": data[: len(data) // 3],
+        "header only": data[:32],
+        "tiny": data[:5],
+        "flipped payload byte": data[:500] + bytes([data[500] ^ 1]) + data[501:],
+        "bad magic": b"XTEX" + data[4:],
+        "future version": data[:8] + (7).to_bytes(4, "little") + data[12:],
+        "trailing garbage": data + b"\0" * 10,
+    }
+    messages = {
+        "truncated": "truncated", "header only": "truncated", "tiny": "not a .gtex",
+        "flipped payload byte": "checksum", "bad magic": "not a .gtex", "future version": "version 7",
+        "trailing garbage": "padded",
+    }
+    for name, blob in cases.items():
+        bad = tmp_path / f"{name.replace(' ', '_')}.gtex"
+        bad.write_bytes(blob)
+        with pytest.raises(gt.FormatError, match=messages[name]) as e:
+            gt.load(bad)
+        assert bad.name in str(e.value), name
+
+
+def test_missing_file_is_a_file_error(tmp_path) -> None:
+    with pytest.raises(gt.FileError, match="no such file"):
+        gt.load(tmp_path / "nope.gtex")
+
+
+def test_failed_save_leaves_nothing_behind(sheet: Converted, tmp_path) -> None:
+    with pytest.raises(gt.FileError, match="missing_dir"):
+        sheet.gts.save(tmp_path / "missing_dir" / "x.gtex")
+    # A directory in the way: the rename fails, the old content and the folder stay clean.
+    (tmp_path / "taken.gtex").mkdir()
+    with pytest.raises(gt.FileError):
+        sheet.gts.save(tmp_path / "taken.gtex")
+    assert sorted(os.listdir(tmp_path)) == ["taken.gtex"]
+
+
+def test_overwrite_replaces_atomically(sheet: Converted, tmp_path) -> None:
+    path = tmp_path / "x.gtex"
+    path.write_bytes(b"old")
+    sheet.gts.save(path)
+    assert gt.load(path).stats == sheet.gts.stats
+    assert sorted(os.listdir(tmp_path)) == ["x.gtex"]
