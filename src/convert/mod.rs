@@ -436,3 +436,104 @@ pub fn convert(
     report(progress, "done", 1.0)?;
     Ok(set)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A UV sphere of radius 1 (poles are fans): closed, so it can never be a single height field.
+    fn uv_sphere(rings: usize, segments: usize) -> Mesh {
+        let mut pos = vec![0.0, 0.0, 1.0];
+        for r in 1..rings {
+            let theta = std::f64::consts::PI * r as f64 / rings as f64;
+            for s in 0..segments {
+                let phi = std::f64::consts::TAU * s as f64 / segments as f64;
+                pos.extend_from_slice(&[
+                    theta.sin() * phi.cos(),
+                    theta.sin() * phi.sin(),
+                    theta.cos(),
+                ]);
+            }
+        }
+        pos.extend_from_slice(&[0.0, 0.0, -1.0]);
+        let ring = |r: usize, s: usize| (1 + (r - 1) * segments + s % segments) as i64;
+        let south = (pos.len() / 3 - 1) as i64;
+        let mut faces = Vec::new();
+        for s in 0..segments {
+            faces.extend_from_slice(&[0, ring(1, s), ring(1, s + 1)]);
+            faces.extend_from_slice(&[south, ring(rings - 1, s + 1), ring(rings - 1, s)]);
+        }
+        for r in 1..rings - 1 {
+            for s in 0..segments {
+                let (a, b, c, d) = (
+                    ring(r, s),
+                    ring(r, s + 1),
+                    ring(r + 1, s + 1),
+                    ring(r + 1, s),
+                );
+                faces.extend_from_slice(&[a, d, c, a, c, b]);
+            }
+        }
+        Mesh::from_flat(&pos, &faces, None).unwrap()
+    }
+
+    #[test]
+    fn sphere_converts_without_folding_and_on_the_surface() {
+        let mesh = uv_sphere(24, 48);
+        let set = convert(&mesh, &ConvertOptions::default(), &|_, _| true).unwrap();
+        let geo = MeshGeometry::new(&mesh);
+        assert!(set.patches.len() >= 2);
+        let mut seen = vec![0u32; mesh.faces.len()];
+        for p in &set.patches {
+            for &f in &p.faces {
+                seen[f as usize] += 1;
+                assert!(geo.face_normals[f as usize].dot(p.axes[2]) > 0.0);
+            }
+        }
+        assert!(
+            seen.iter().all(|&n| n == 1),
+            "every face in exactly one chart"
+        );
+        // Texel points lie on the triangles: between the inscribed and the unit sphere.
+        let chord_sag = 1.0 - (std::f64::consts::PI / 24.0).cos();
+        let (points, normals) = set.to_points();
+        assert!(points.len() > 10_000);
+        for (p, n) in points.iter().zip(&normals) {
+            let r = glam::DVec3::from_array(*p).length();
+            assert!(r <= 1.0 + 1e-6 && r >= 1.0 - chord_sag - 1e-6, "radius {r}");
+            let radial = glam::DVec3::from_array(*p).normalize();
+            assert!(radial.dot(glam::Vec3::from_array(*n).as_dvec3()) > 0.95);
+        }
+        assert_eq!(set.stats.get("folding_charts"), Some(0.0));
+    }
+
+    #[test]
+    fn cancel_and_bad_options_are_errors() {
+        let mesh = uv_sphere(8, 16);
+        let e = convert(&mesh, &ConvertOptions::default(), &|stage, _| {
+            stage != "raster"
+        });
+        assert!(matches!(e, Err(GeomtexError::Cancelled(s)) if s == "raster"));
+        let opts = ConvertOptions {
+            max_resolution: 1,
+            ..Default::default()
+        };
+        assert!(matches!(
+            convert(&mesh, &opts, &|_, _| true),
+            Err(GeomtexError::Parameter(_))
+        ));
+    }
+
+    #[test]
+    fn fixed_chart_count_is_met_before_repair() {
+        let mesh = uv_sphere(16, 32);
+        let opts = ConvertOptions {
+            charts: Some(12),
+            ..Default::default()
+        };
+        let set = convert(&mesh, &opts, &|_, _| true).unwrap();
+        assert_eq!(set.stats.get("vsa_charts"), Some(12.0));
+        let splits = set.stats.get("repair_splits").unwrap();
+        assert_eq!(set.patches.len() as f64, 12.0 + splits);
+    }
+}

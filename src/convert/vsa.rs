@@ -476,6 +476,7 @@ mod tests {
                 max_charts: 100,
             },
             5,
+            0.0,
         );
         assert!(
             p.proxies.len() >= 6 && p.proxies.len() <= 12,
