@@ -65,8 +65,9 @@ def test_bunny_meets_the_issue_targets(bunny: Converted) -> None:
     check_distances(bunny, n_points=20_000, n_samples=200_000)
 
 
-@pytest.mark.parametrize("name", [n for n in SHARED_NAMES if n != "stanford-bunny"])
-def test_shared_meshes(name: str) -> None:
+@pytest.mark.parametrize("name", ["pymeshlab-bunny"] + [n for n in SHARED_NAMES if n != "stanford-bunny"])
+def test_real_meshes(name: str) -> None:
+    """The shared scans, and the watertight bunny inside the pymeshlab wheel (always present)."""
     c = converted(name)
     assert c.gts.stats["folding_charts"] == 0
     check_no_folding(c)
