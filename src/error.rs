@@ -21,6 +21,9 @@ pub enum GeomtexError {
         #[source]
         source: std::io::Error,
     },
+    /// No usable GPU adapter, or the GPU refused a resource.
+    #[error("{0}")]
+    Device(String),
     /// The progress callback asked to stop.
     #[error("conversion cancelled during stage '{0}'")]
     Cancelled(String),

@@ -9,6 +9,7 @@ pub mod error;
 pub mod format;
 pub mod gtex;
 pub mod mesh;
+pub mod render;
 
 #[cfg(feature = "python")]
 mod python;

@@ -10,8 +10,12 @@ from __future__ import annotations
 import os
 from typing import Any, Callable, Literal
 
-from . import _core
-from ._core import GeometryTextureSet, __version__
+# Mesa's Vulkan device-select layer prints a spurious "XDG_RUNTIME_DIR is invalid" on headless
+# machines; geomtex picks its adapter itself, so the layer is not needed.
+os.environ.setdefault("NODEVICE_SELECT", "1")
+
+from . import _core  # noqa: E402
+from ._core import Camera, Frame, GeometryTextureSet, Renderer, Scene, __version__
 from ._errors import (
     CancelledError,
     DeviceError,
@@ -24,15 +28,19 @@ from ._errors import (
 from ._mesh import Mesh, as_mesh, load_mesh
 
 __all__ = [
+    "Camera",
     "CancelledError",
     "DeviceError",
     "FileError",
     "FormatError",
+    "Frame",
     "GeometryTextureSet",
     "GeomtexError",
     "Mesh",
     "MeshError",
     "ParameterError",
+    "Renderer",
+    "Scene",
     "__version__",
     "convert",
     "load",

@@ -92,3 +92,33 @@ def set_png(gts: Any) -> bytes:
     buf = io.BytesIO()
     overview(gts, 384).save(buf, format="PNG")
     return buf.getvalue()
+
+
+def frame_image(frame: Any) -> Image.Image:
+    """The frame's color over white (its alpha is 0 where nothing was hit)."""
+    rgba = np.asarray(frame.color)
+    white = Image.new("RGBA", (rgba.shape[1], rgba.shape[0]), (255, 255, 255, 255))
+    return Image.alpha_composite(white, Image.fromarray(rgba, "RGBA")).convert("RGB")
+
+
+def frame_png(frame: Any) -> bytes:
+    buf = io.BytesIO()
+    frame_image(frame).save(buf, format="PNG")
+    return buf.getvalue()
+
+
+def save_frame(frame: Any, path: Any) -> None:
+    """Writes the frame's color as a PNG via a temporary file and a rename (no half file)."""
+    import os
+    import tempfile
+
+    target = os.fspath(path)
+    folder = os.path.dirname(os.path.abspath(target))
+    fd, tmp = tempfile.mkstemp(suffix=".png", dir=folder)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(frame_png(frame))
+        os.replace(tmp, target)
+    except BaseException:
+        os.unlink(tmp)
+        raise

@@ -55,3 +55,41 @@ def mesh_to_points(mesh: Any, points: npt.ArrayLike, samples: int = 200_000, see
     samp, _ = trimesh.sample.sample_surface(tm, samples, seed=seed)
     d, _ = cKDTree(np.asarray(points, dtype=np.float64)).query(samp)
     return np.asarray(d, dtype=np.float64)
+
+
+def raycast(mesh: Any, camera: Any, width: int, height: int) -> dict[str, npt.NDArray[Any]]:
+    """First hits of the camera's pixel rays on the mesh, by trimesh (embreex when installed).
+
+    Same conventions as ``Renderer.render``: row 0 at the top, ``depth`` is z-depth along the
+    camera's forward axis (+inf on a miss), ``normal`` the hit triangle's unit normal (0 on a
+    miss), ``hit`` a boolean mask, ``triangle`` the hit face (-1 on a miss).
+    """
+    tm = _trimesh(mesh)
+    origins, directions = camera.rays(width, height)
+    o = origins.reshape(-1, 3)
+    d = directions.reshape(-1, 3)
+    # Ray casting on a copy centred on the mesh: embree intersects in float32, so a model far
+    # from the origin would lose its detail otherwise.
+    centre = tm.bounds.mean(axis=0)
+    local = type(tm)(tm.vertices - centre, tm.faces, process=False)
+    locations, ray_index, tri_index = local.ray.intersects_location(o - centre, d, multiple_hits=False)
+    depth = np.full(len(o), np.inf)
+    normal = np.zeros((len(o), 3))
+    triangle = np.full(len(o), -1, dtype=np.int64)
+    forward = np.asarray(camera.forward)
+    depth[ray_index] = (locations + centre - o[ray_index]) @ forward + (o[ray_index] - o[ray_index]) @ forward
+    if camera.kind != "orthographic":
+        eye = np.asarray(camera.world_from_camera)[:3, 3]
+        depth[ray_index] = (locations + centre - eye) @ forward
+    else:
+        plane = np.asarray(camera.world_from_camera)[:3, 3]
+        depth[ray_index] = (locations + centre - plane) @ forward
+    normal[ray_index] = tm.face_normals[tri_index]
+    triangle[ray_index] = tri_index
+    shape = (height, width)
+    return {
+        "depth": depth.reshape(shape).astype(np.float32),
+        "normal": normal.reshape(shape + (3,)).astype(np.float32),
+        "hit": np.isfinite(depth).reshape(shape),
+        "triangle": triangle.reshape(shape),
+    }

@@ -16,6 +16,8 @@ use crate::error::GeomtexError;
 use crate::gtex::GeometryTextureSet;
 use crate::mesh::Mesh;
 
+mod render;
+
 /// The one place core errors become Python exceptions.
 fn to_py_err(e: GeomtexError) -> PyErr {
     let class = match &e {
@@ -24,6 +26,7 @@ fn to_py_err(e: GeomtexError) -> PyErr {
         GeomtexError::Format(_) => "FormatError",
         GeomtexError::Io { .. } => "FileError",
         GeomtexError::Cancelled(_) => "CancelledError",
+        GeomtexError::Device(_) => "DeviceError",
     };
     let msg = e.to_string();
     Python::attach(
@@ -44,7 +47,7 @@ fn parameter_error(msg: String) -> PyErr {
 /// A validated triangle mesh (f64 positions, u32 faces, optional RGBA8 vertex colors).
 #[pyclass(name = "Mesh", module = "geomtex._core", subclass, frozen)]
 pub struct PyMesh {
-    inner: Arc<Mesh>,
+    pub(crate) inner: Arc<Mesh>,
 }
 
 #[pymethods]
@@ -177,7 +180,7 @@ impl PyMesh {
 /// Height-map patches in oriented boxes, converted from a mesh or loaded from a .gtex file.
 #[pyclass(name = "GeometryTextureSet", module = "geomtex._core", frozen)]
 pub struct PyGeometryTextureSet {
-    inner: Arc<GeometryTextureSet>,
+    pub(crate) inner: Arc<GeometryTextureSet>,
 }
 
 /// Stats that are fractions or lengths; every other stat is a count and comes out as int.
@@ -459,6 +462,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyGeometryTextureSet>()?;
     m.add_function(wrap_pyfunction!(convert, m)?)?;
     m.add_function(wrap_pyfunction!(load, m)?)?;
+    render::register(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

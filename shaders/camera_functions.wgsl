@@ -1,0 +1,46 @@
+// Shared by every pipeline: the camera uniform, per-pixel rays and reversed-Z depth.
+//
+// Spaces: view space is OpenGL-style (camera at the origin, looking down -Z, +Y up). It is
+// camera-relative: every matrix reaching the GPU was composed in f64 on the CPU with the camera
+// position subtracted, so models far from the world origin keep their precision.
+// Pixel (column x, row y) has its centre at (x + 0.5, y + 0.5), row 0 at the top.
+
+struct Camera {
+    clip_from_view: mat4x4<f32>,
+    // Rotation part of view_from_world (for headlight shading of world normals).
+    view_from_world: mat4x4<f32>,
+    // Pixel centre → view ray: a = (px * ray.x + ray.z, py * ray.y + ray.w).
+    // Perspective: direction (a, -1) from the origin. Orthographic: origin (a, 0), direction -Z.
+    ray: vec4<f32>,
+    // x: 1 if orthographic, y: near, z: far (orthographic only), w: unused.
+    params: vec4<f32>,
+}
+
+struct Ray {
+    origin: vec3<f32>,
+    dir: vec3<f32>,
+}
+
+fn camera_ray(cam: Camera, pixel: vec2<f32>) -> Ray {
+    let a = vec2<f32>(pixel.x * cam.ray.x + cam.ray.z, pixel.y * cam.ray.y + cam.ray.w);
+    if (cam.params.x > 0.5) {
+        return Ray(vec3<f32>(a, 0.0), vec3<f32>(0.0, 0.0, -1.0));
+    }
+    return Ray(vec3<f32>(0.0), vec3<f32>(a, -1.0));
+}
+
+// Reversed Z: perspective depth = near / z_distance (infinite far plane, 0 = nothing);
+// orthographic depth = (far - z_distance) / (far - near).
+fn depth_from_distance(cam: Camera, z_distance: f32) -> f32 {
+    if (cam.params.x > 0.5) {
+        return clamp((cam.params.z - z_distance) / (cam.params.z - cam.params.y), 0.0, 1.0);
+    }
+    return clamp(cam.params.y / max(z_distance, 1e-30), 0.0, 1.0);
+}
+
+// Headlight: light comes from the eye, so shading needs no light setup.
+fn headlight(cam: Camera, base: vec3<f32>, world_normal: vec3<f32>, view_dir: vec3<f32>) -> vec3<f32> {
+    let n = (cam.view_from_world * vec4<f32>(world_normal, 0.0)).xyz;
+    let lambert = abs(dot(normalize(n), normalize(view_dir)));
+    return base * (0.25 + 0.75 * lambert);
+}

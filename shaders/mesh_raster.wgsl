@@ -1,0 +1,51 @@
+// Ordinary triangle meshes, rasterized into the same color/normal/id/depth targets as the
+// geometry-texture patches so the nearer surface wins at every pixel.
+//
+// Spaces: object space (vertices relative to the mesh's own centre, f32), view space
+// (camera-relative, see camera_functions.wgsl), world for output normals.
+
+struct MeshObject {
+    view_from_object: mat4x4<f32>,
+    world_normal_from_object: mat4x4<f32>,
+    // x: id written to the id target.
+    ids: vec4<i32>,
+}
+
+@group(0) @binding(0) var<uniform> camera: Camera;
+@group(1) @binding(0) var<uniform> object: MeshObject;
+
+struct VsIn {
+    @location(0) position: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) color: vec4<f32>,
+}
+
+struct VsOut {
+    @builtin(position) position: vec4<f32>,
+    @location(0) view_pos: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) color: vec4<f32>,
+}
+
+@vertex
+fn vs_main(v: VsIn) -> VsOut {
+    let view = object.view_from_object * vec4<f32>(v.position, 1.0);
+    let n = (object.world_normal_from_object * vec4<f32>(v.normal, 0.0)).xyz;
+    return VsOut(camera.clip_from_view * view, view.xyz, n, v.color);
+}
+
+struct FsOut {
+    @location(0) color: vec4<f32>,
+    @location(1) normal: vec4<f32>,
+    @location(2) id: i32,
+}
+
+@fragment
+fn fs_main(in: VsOut) -> FsOut {
+    let n = normalize(in.normal);
+    var out: FsOut;
+    out.color = vec4<f32>(headlight(camera, in.color.rgb, n, in.view_pos), in.color.a);
+    out.normal = vec4<f32>(n, 0.0);
+    out.id = object.ids.x;
+    return out;
+}

@@ -1,0 +1,348 @@
+//! Cameras, in the pyrender/trimesh convention: `world_from_camera` is an OpenGL-style pose
+//! (the camera looks down its -Z axis, +Y up). OpenCV intrinsics are accepted too (their pose looks
+//! down +Z with +Y down and is converted on the way in).
+//!
+//! Pixels: pixel (column x, row y) covers [x, x+1] x [y, y+1], centre at +0.5, row 0 at the top.
+//! An OpenCV principal point (cx, cy) refers to pixel centres at integers, as OpenCV does.
+//! Depth: reversed Z; perspective cameras have an infinite far plane.
+
+use glam::{DMat4, DVec3, DVec4};
+
+use crate::error::{GeomtexError, Result};
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Projection {
+    /// Vertical field of view in radians; square pixels, principal point at the image centre.
+    Perspective { yfov: f64 },
+    /// OpenCV intrinsics for an image of exactly this size.
+    Intrinsics {
+        fx: f64,
+        fy: f64,
+        cx: f64,
+        cy: f64,
+        width: u32,
+        height: u32,
+    },
+    /// Half the view's height in world units; the width follows the image's aspect.
+    Orthographic { ymag: f64 },
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    pub world_from_camera: DMat4,
+    pub projection: Projection,
+    /// Near plane distance; `None` chooses one from the scene's bounds at render time.
+    pub near: Option<f64>,
+}
+
+/// Per-render projection numbers derived from a camera and an image size.
+#[derive(Clone, Copy, Debug)]
+pub struct Lens {
+    pub orthographic: bool,
+    /// Pixel centre (px, py) → a = (px * ray[0] + ray[2], py * ray[1] + ray[3]) (see the shader).
+    pub ray: [f64; 4],
+    pub clip_from_view: DMat4,
+    pub near: f64,
+    pub far: f64,
+}
+
+fn check_finite(what: &str, v: &[f64]) -> Result<()> {
+    if v.iter().all(|x| x.is_finite()) {
+        Ok(())
+    } else {
+        Err(GeomtexError::Parameter(format!(
+            "{what} must be finite, got {v:?}"
+        )))
+    }
+}
+
+fn check_pose(m: &DMat4) -> Result<()> {
+    check_finite("world_from_camera", &m.to_cols_array())?;
+    let r = [
+        m.x_axis.truncate(),
+        m.y_axis.truncate(),
+        m.z_axis.truncate(),
+    ];
+    let orthonormal = (0..3).all(|i| (r[i].length() - 1.0).abs() < 1e-6)
+        && r[0].dot(r[1]).abs() < 1e-6
+        && r[0].dot(r[2]).abs() < 1e-6
+        && r[1].dot(r[2]).abs() < 1e-6;
+    if !orthonormal || m.row(3) != DVec4::new(0.0, 0.0, 0.0, 1.0) {
+        return Err(GeomtexError::Parameter(
+            "world_from_camera must be a rigid transform (orthonormal rotation, last row 0 0 0 1)"
+                .into(),
+        ));
+    }
+    Ok(())
+}
+
+impl Camera {
+    /// A perspective camera at `eye` looking at `target`.
+    pub fn look_at(eye: DVec3, target: DVec3, up: DVec3, yfov_deg: f64) -> Result<Camera> {
+        check_finite(
+            "eye, target and up",
+            &[eye.to_array(), target.to_array(), up.to_array()].concat(),
+        )?;
+        if !(yfov_deg > 0.0 && yfov_deg < 180.0) {
+            return Err(GeomtexError::Parameter(format!(
+                "yfov_deg must be in (0, 180), got {yfov_deg}"
+            )));
+        }
+        let pose = Self::pose(eye, target, up)?;
+        Ok(Camera {
+            world_from_camera: pose,
+            projection: Projection::Perspective {
+                yfov: yfov_deg.to_radians(),
+            },
+            near: None,
+        })
+    }
+
+    /// The OpenGL pose at `eye` looking at `target` with `up` roughly up.
+    pub fn pose(eye: DVec3, target: DVec3, up: DVec3) -> Result<DMat4> {
+        let forward = (target - eye).try_normalize().ok_or_else(|| {
+            GeomtexError::Parameter("look_at: eye and target are the same point".into())
+        })?;
+        let right = forward
+            .cross(up)
+            .try_normalize()
+            .filter(|r| r.is_finite())
+            .ok_or_else(|| {
+                GeomtexError::Parameter("look_at: up is parallel to the viewing direction".into())
+            })?;
+        let true_up = right.cross(forward);
+        Ok(DMat4::from_cols(
+            right.extend(0.0),
+            true_up.extend(0.0),
+            (-forward).extend(0.0),
+            eye.extend(1.0),
+        ))
+    }
+
+    /// OpenCV intrinsics `k` (3x3, row-major) with an OpenCV pose (camera looks down +Z, +Y down),
+    /// for an image of `width` x `height`.
+    pub fn from_intrinsics(
+        k: [[f64; 3]; 3],
+        world_from_camera_cv: DMat4,
+        width: u32,
+        height: u32,
+    ) -> Result<Camera> {
+        check_finite("K", &k.concat())?;
+        check_pose(&world_from_camera_cv)?;
+        let (fx, fy, cx, cy) = (k[0][0], k[1][1], k[0][2], k[1][2]);
+        if !(fx > 0.0 && fy > 0.0) || k[0][1] != 0.0 || k[1][0] != 0.0 || k[2] != [0.0, 0.0, 1.0] {
+            return Err(GeomtexError::Parameter(format!(
+                "K must be [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] with fx, fy > 0, got {k:?}"
+            )));
+        }
+        // OpenCV camera axes (x right, y down, z forward) → OpenGL (x right, y up, z backward).
+        let flip = DMat4::from_diagonal(DVec4::new(1.0, -1.0, -1.0, 1.0));
+        Ok(Camera {
+            world_from_camera: world_from_camera_cv * flip,
+            projection: Projection::Intrinsics {
+                fx,
+                fy,
+                cx,
+                cy,
+                width,
+                height,
+            },
+            near: None,
+        })
+    }
+
+    /// An orthographic camera with an OpenGL pose; `ymag` is half the view's height in world units.
+    pub fn orthographic(world_from_camera: DMat4, ymag: f64) -> Result<Camera> {
+        check_pose(&world_from_camera)?;
+        if !(ymag.is_finite() && ymag > 0.0) {
+            return Err(GeomtexError::Parameter(format!(
+                "ymag must be positive, got {ymag}"
+            )));
+        }
+        Ok(Camera {
+            world_from_camera,
+            projection: Projection::Orthographic { ymag },
+            near: None,
+        })
+    }
+
+    pub fn view_from_world(&self) -> DMat4 {
+        self.world_from_camera.inverse()
+    }
+
+    pub fn eye(&self) -> DVec3 {
+        self.world_from_camera.w_axis.truncate()
+    }
+
+    /// (fx, fy, cx, cy) in OpenCV pixel units for a perspective camera and this image size.
+    pub fn intrinsics(&self, width: u32, height: u32) -> Result<Option<[f64; 4]>> {
+        match self.projection {
+            Projection::Perspective { yfov } => {
+                let f = 0.5 * height as f64 / (0.5 * yfov).tan();
+                Ok(Some([
+                    f,
+                    f,
+                    0.5 * width as f64 - 0.5,
+                    0.5 * height as f64 - 0.5,
+                ]))
+            }
+            Projection::Intrinsics {
+                fx,
+                fy,
+                cx,
+                cy,
+                width: w,
+                height: h,
+            } => {
+                if (w, h) != (width, height) {
+                    return Err(GeomtexError::Parameter(format!(
+                        "the camera's intrinsics are for a {w}x{h} image but the renderer is {width}x{height}"
+                    )));
+                }
+                Ok(Some([fx, fy, cx, cy]))
+            }
+            Projection::Orthographic { .. } => Ok(None),
+        }
+    }
+
+    /// Projection numbers for an image size and the view-space depth range [z_min, z_max]
+    /// (distances along the view direction) that the scene occupies.
+    pub fn lens(&self, width: u32, height: u32, z_min: f64, z_max: f64) -> Result<Lens> {
+        let (w, h) = (width as f64, height as f64);
+        match self.intrinsics(width, height)? {
+            Some([fx, fy, cx, cy]) => {
+                // Near: half-way to the nearest scene point, never 0 (camera inside the scene).
+                let scale = z_max.abs().max(z_min.abs()).max(f64::MIN_POSITIVE);
+                let near = self.near.unwrap_or_else(|| (0.5 * z_min).max(scale * 1e-7));
+                // See camera_functions.wgsl: pixel centre px = u + 0.5 for OpenCV column u.
+                let ray = [1.0 / fx, -1.0 / fy, -(cx + 0.5) / fx, (cy + 0.5) / fy];
+                let clip_from_view = DMat4::from_cols(
+                    DVec4::new(2.0 * fx / w, 0.0, 0.0, 0.0),
+                    DVec4::new(0.0, 2.0 * fy / h, 0.0, 0.0),
+                    DVec4::new(
+                        -((2.0 * cx + 1.0) / w - 1.0),
+                        -(1.0 - (2.0 * cy + 1.0) / h),
+                        0.0,
+                        -1.0,
+                    ),
+                    DVec4::new(0.0, 0.0, near, 0.0),
+                );
+                Ok(Lens {
+                    orthographic: false,
+                    ray,
+                    clip_from_view,
+                    near,
+                    far: f64::INFINITY,
+                })
+            }
+            None => {
+                let Projection::Orthographic { ymag } = self.projection else {
+                    unreachable!()
+                };
+                let xmag = ymag * w / h;
+                let margin = 1e-3 * (z_max - z_min).abs().max(ymag);
+                let near = self.near.unwrap_or(z_min - margin);
+                let far = (z_max + margin).max(near + margin);
+                let ray = [2.0 * xmag / w, -2.0 * ymag / h, -xmag, ymag];
+                let clip_from_view = DMat4::from_cols(
+                    DVec4::new(1.0 / xmag, 0.0, 0.0, 0.0),
+                    DVec4::new(0.0, 1.0 / ymag, 0.0, 0.0),
+                    DVec4::new(0.0, 0.0, 1.0 / (far - near), 0.0),
+                    DVec4::new(0.0, 0.0, far / (far - near), 1.0),
+                );
+                Ok(Lens {
+                    orthographic: true,
+                    ray,
+                    clip_from_view,
+                    near,
+                    far,
+                })
+            }
+        }
+    }
+
+    /// World-space ray through the centre of pixel (x, y): (origin, unit direction). The one
+    /// definition the shader mirrors and the reference ray caster uses.
+    pub fn pixel_ray(&self, lens: &Lens, x: f64, y: f64) -> (DVec3, DVec3) {
+        let a = (x * lens.ray[0] + lens.ray[2], y * lens.ray[1] + lens.ray[3]);
+        let (o, d) = if lens.orthographic {
+            (DVec3::new(a.0, a.1, 0.0), DVec3::NEG_Z)
+        } else {
+            (DVec3::ZERO, DVec3::new(a.0, a.1, -1.0))
+        };
+        let m = self.world_from_camera;
+        (m.transform_point3(o), m.transform_vector3(d).normalize())
+    }
+
+    /// View-space z distance (along the camera's forward axis) from a reversed-Z depth value.
+    pub fn distance_from_depth(lens: &Lens, depth: f32) -> f32 {
+        if depth <= 0.0 {
+            return f32::INFINITY;
+        }
+        if lens.orthographic {
+            (lens.far - depth as f64 * (lens.far - lens.near)) as f32
+        } else {
+            (lens.near / depth as f64) as f32
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn projection_puts_pixel_rays_back_on_their_pixels() {
+        let cam = Camera::look_at(DVec3::new(1.0, 2.0, 5.0), DVec3::ZERO, DVec3::Y, 50.0).unwrap();
+        let k = [[300.0, 0.0, 150.0], [0.0, 310.0, 90.0], [0.0, 0.0, 1.0]];
+        let cv = Camera::from_intrinsics(k, DMat4::IDENTITY, 320, 200).unwrap();
+        for (c, w, h) in [(cam, 64, 48), (cv, 320, 200)] {
+            let lens = c.lens(w, h, 1.0, 10.0).unwrap();
+            let view_from_world = c.view_from_world();
+            for (x, y) in [(0.5, 0.5), (10.5, 30.5), (w as f64 - 0.5, h as f64 - 0.5)] {
+                let (o, d) = c.pixel_ray(&lens, x, y);
+                let p = view_from_world.transform_point3(o + d * 3.0);
+                let clip = lens.clip_from_view * p.extend(1.0);
+                let ndc = clip.truncate() / clip.w;
+                let px = (ndc.x + 1.0) * 0.5 * w as f64;
+                let py = (1.0 - ndc.y) * 0.5 * h as f64;
+                assert!(
+                    (px - x).abs() < 1e-9 && (py - y).abs() < 1e-9,
+                    "{px},{py} vs {x},{y}"
+                );
+                let depth = ndc.z as f32;
+                let back = Camera::distance_from_depth(&lens, depth);
+                assert!((back as f64 - (-p.z)).abs() < 1e-5 * -p.z);
+            }
+        }
+    }
+
+    #[test]
+    fn opencv_principal_point_is_the_pixel_centre() {
+        // A ray through OpenCV pixel (cx, cy) goes straight down the optical axis (+Z in OpenCV).
+        let k = [[500.0, 0.0, 99.0], [0.0, 500.0, 49.0], [0.0, 0.0, 1.0]];
+        let cam = Camera::from_intrinsics(k, DMat4::IDENTITY, 200, 100).unwrap();
+        let lens = cam.lens(200, 100, 1.0, 2.0).unwrap();
+        let (_, d) = cam.pixel_ray(&lens, 99.5, 49.5);
+        assert!((d - DVec3::Z).length() < 1e-12, "{d:?}");
+        // Pixel to the right (+x) and below (+y in OpenCV).
+        let (_, d) = cam.pixel_ray(&lens, 100.5, 50.5);
+        assert!(d.x > 0.0 && d.y > 0.0);
+    }
+
+    #[test]
+    fn bad_cameras_are_parameter_errors() {
+        assert!(Camera::look_at(DVec3::ONE, DVec3::ONE, DVec3::Y, 45.0).is_err());
+        assert!(Camera::look_at(DVec3::ZERO, DVec3::Y, DVec3::Y, 45.0).is_err());
+        assert!(Camera::look_at(DVec3::ZERO, DVec3::Z, DVec3::Y, 180.0).is_err());
+        assert!(Camera::orthographic(DMat4::from_scale(DVec3::splat(2.0)), 1.0).is_err());
+        let cam = Camera::from_intrinsics(
+            [[1.0, 0.0, 1.0], [0.0, 1.0, 1.0], [0.0, 0.0, 1.0]],
+            DMat4::IDENTITY,
+            4,
+            4,
+        )
+        .unwrap();
+        assert!(cam.lens(8, 8, 1.0, 2.0).is_err());
+    }
+}

@@ -1,0 +1,109 @@
+//! Headless wgpu device: adapter choice (high performance first, `WGPU_BACKEND` and an
+//! adapter-name override honoured), and a clear error when there is none.
+
+use crate::error::{GeomtexError, Result};
+
+/// Environment variables naming the adapter to use (a case-insensitive substring of its name).
+pub const ADAPTER_ENV: [&str; 2] = ["GEOMTEX_ADAPTER", "WGPU_ADAPTER_NAME"];
+
+const NO_ADAPTER_HELP: &str = "no GPU adapter found. geomtex renders through Vulkan, Metal, DX12 \
+or GL; on a machine without a GPU install Mesa's software Vulkan driver (lavapipe): \
+`apt-get install mesa-vulkan-drivers libvulkan1` on Debian/Ubuntu";
+
+pub struct Gpu {
+    pub adapter: wgpu::Adapter,
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub timestamps: bool,
+}
+
+impl Gpu {
+    pub fn new() -> Result<Gpu> {
+        pollster::block_on(Self::new_async())
+    }
+
+    async fn new_async() -> Result<Gpu> {
+        // Honours WGPU_BACKEND (and the other WGPU_* instance variables).
+        let instance =
+            wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let wanted = ADAPTER_ENV
+            .iter()
+            .find_map(|k| std::env::var(k).ok())
+            .filter(|s| !s.is_empty());
+        let adapter = match wanted {
+            Some(name) => {
+                let all = instance.enumerate_adapters(wgpu::Backends::all()).await;
+                let names: Vec<String> = all
+                    .iter()
+                    .map(|a| format!("{} ({:?})", a.get_info().name, a.get_info().backend))
+                    .collect();
+                all.into_iter()
+                    .find(|a| {
+                        a.get_info()
+                            .name
+                            .to_lowercase()
+                            .contains(&name.to_lowercase())
+                    })
+                    .ok_or_else(|| {
+                        GeomtexError::Device(format!(
+                            "no adapter's name contains {name:?} (from {}); available: {}",
+                            ADAPTER_ENV.join(" or "),
+                            if names.is_empty() {
+                                "none".to_string()
+                            } else {
+                                names.join(", ")
+                            }
+                        ))
+                    })?
+            }
+            None => instance
+                .request_adapter(&wgpu::RequestAdapterOptions {
+                    // Without this a machine with a GPU and lavapipe may pick the CPU adapter.
+                    power_preference: wgpu::PowerPreference::HighPerformance,
+                    force_fallback_adapter: false,
+                    compatible_surface: None,
+                    apply_limit_buckets: false,
+                })
+                .await
+                .map_err(|e| GeomtexError::Device(format!("{NO_ADAPTER_HELP} ({e})")))?,
+        };
+        let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
+        let (device, queue) = adapter
+            .request_device(&wgpu::DeviceDescriptor {
+                label: Some("geomtex"),
+                required_features: if timestamps {
+                    wgpu::Features::TIMESTAMP_QUERY
+                } else {
+                    wgpu::Features::empty()
+                },
+                required_limits: adapter.limits(),
+                experimental_features: wgpu::ExperimentalFeatures::default(),
+                memory_hints: wgpu::MemoryHints::Performance,
+                trace: wgpu::Trace::Off,
+            })
+            .await
+            .map_err(|e| GeomtexError::Device(format!("the adapter refused a device: {e}")))?;
+        // Errors outside an error scope are reported, not turned into a panic across the FFI.
+        device.on_uncaptured_error(std::sync::Arc::new(|e| {
+            eprintln!("geomtex: uncaptured GPU error: {e}")
+        }));
+        Ok(Gpu {
+            adapter,
+            device,
+            queue,
+            timestamps,
+        })
+    }
+
+    /// Adapter name, backend, device type and driver, for users and bug reports.
+    pub fn info(&self) -> Vec<(&'static str, String)> {
+        let i = self.adapter.get_info();
+        vec![
+            ("name", i.name),
+            ("backend", format!("{:?}", i.backend)),
+            ("device_type", format!("{:?}", i.device_type)),
+            ("driver", i.driver),
+            ("driver_info", i.driver_info),
+        ]
+    }
+}
