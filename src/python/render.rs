@@ -309,8 +309,8 @@ impl PyRenderer {
     }
 
     /// Renders a Scene, a GeometryTextureSet or a Mesh seen by `camera`.
-    #[pyo3(signature = (obj, camera, *, steps_per_texel = 1.0, min_linear_steps = 4,
-        max_linear_steps = 1024, binary_steps = 10, background = (255, 255, 255, 0)))]
+    #[pyo3(signature = (obj, camera, *, steps_per_texel = 0.5, min_linear_steps = 2,
+        max_linear_steps = 1024, binary_steps = 8, background = (255, 255, 255, 0)))]
     #[allow(clippy::too_many_arguments)]
     fn render(
         &self,
