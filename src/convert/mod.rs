@@ -311,11 +311,17 @@ pub fn convert(
             // Centre the chart in its whole-texel box.
             let pad_x = (w as f64 * texel - size.x) * 0.5;
             let pad_y = (h as f64 * texel - size.y) * 0.5;
-            let corner = DVec3::new(lo.x - pad_x, lo.y - pad_y, lo.z);
+            // At least a texel thick, flat charts centred: a box of (near) zero height would
+            // turn patch-local z into huge numbers that f32 on the GPU cannot resolve. A margin
+            // above and below the surface keeps a ray entering through the box's top or bottom
+            // strictly off the surface, so its first sample knows which side it is on.
+            let thickness = size.z.max(texel) + 0.04 * texel;
+            let pad_z = (thickness - size.z) * 0.5;
+            let corner = DVec3::new(lo.x - pad_x, lo.y - pad_y, lo.z - pad_z);
             PatchBox {
                 origin: *reference + axes[0] * corner.x + axes[1] * corner.y + axes[2] * corner.z,
                 axes: *axes,
-                extent: DVec3::new(w as f64 * texel, h as f64 * texel, size.z.max(texel * 1e-6)),
+                extent: DVec3::new(w as f64 * texel, h as f64 * texel, thickness),
                 width: w,
                 height: h,
             }
@@ -494,13 +500,19 @@ mod tests {
             seen.iter().all(|&n| n == 1),
             "every face in exactly one chart"
         );
-        // Texel points lie on the triangles: between the inscribed and the unit sphere.
+        // Texel points lie on the facets (inside the unit ball, outside the facets' inscribed
+        // sphere), except where conservative coverage extrapolates a facet's plane by at most half
+        // a texel diagonal: so 1 - sag <= r <= 1 + 0.71 texel.
         let chord_sag = 1.0 - (std::f64::consts::PI / 24.0).cos();
+        let outside = 1.0 + 0.71 * set.texel_size;
         let (points, normals) = set.to_points();
         assert!(points.len() > 10_000);
         for (p, n) in points.iter().zip(&normals) {
             let r = glam::DVec3::from_array(*p).length();
-            assert!(r <= 1.0 + 1e-6 && r >= 1.0 - chord_sag - 1e-6, "radius {r}");
+            assert!(
+                r <= outside + 1e-9 && r >= 1.0 - chord_sag - 1e-6,
+                "radius {r}"
+            );
             let radial = glam::DVec3::from_array(*p).normalize();
             assert!(radial.dot(glam::Vec3::from_array(*n).as_dvec3()) > 0.95);
         }

@@ -38,6 +38,12 @@ pub const NEUTRAL_COLOR: [u8; 4] = [200, 200, 200, 255];
 
 /// Draws `faces` into the box's maps; where faces overlap in projection the highest wins, as a
 /// ray coming down the box's z would see it.
+///
+/// Coverage is conservative: a texel whose square touches a face but whose centre lies outside
+/// every face gets that face's plane extrapolated to its centre. Texels whose centre is covered
+/// always win over such extrapolated ones. Without this, patches meeting at a sharp crease
+/// (where the overlap ring cannot reach, its faces pointing down) leave a crack of up to a texel
+/// that rays fall through.
 pub fn rasterize(
     mesh: &Mesh,
     geo: &MeshGeometry,
@@ -48,6 +54,8 @@ pub fn rasterize(
     let (w, h) = (bx.width as usize, bx.height as usize);
     let texel = DVec2::new(bx.extent.x / w as f64, bx.extent.y / h as f64);
     let mut depth = vec![f64::NEG_INFINITY; w * h];
+    // 0 = empty, 1 = covered by extrapolation, 2 = centre covered.
+    let mut class = vec![0u8; w * h];
     let mut normal_map = vec![[0i8; 4]; w * h];
     let mut color_map = vec![[0u8; 4]; w * h];
     let to_local = |p: DVec3| {
@@ -65,14 +73,18 @@ pub fn rasterize(
         let [a, b, c] = tri.map(|v| to_local(mesh.positions[v as usize]));
         let area = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
         if area.abs() < 1e-300 {
-            continue; // edge-on in this frame: covers no texel centre
+            continue; // edge-on in this frame: covers no area
         }
+        let sign = area.signum();
+        // Half the texel square's extent along each edge's normal: the conservative margin.
+        let margin = |p: DVec3, q: DVec3| 0.5 * ((q.x - p.x).abs() + (q.y - p.y).abs());
+        let (ma, mb, mc) = (margin(b, c), margin(c, a), margin(a, b));
         let lo = a.min(b).min(c);
         let hi = a.max(b).max(c);
-        let i0 = ((lo.x - 0.5).ceil().max(0.0)) as usize;
-        let j0 = ((lo.y - 0.5).ceil().max(0.0)) as usize;
-        let i1 = ((hi.x - 0.5).floor().min(w as f64 - 1.0)).max(-1.0);
-        let j1 = ((hi.y - 0.5).floor().min(h as f64 - 1.0)).max(-1.0);
+        let i0 = (lo.x - 1.0).floor().max(0.0) as usize;
+        let j0 = (lo.y - 1.0).floor().max(0.0) as usize;
+        let i1 = (hi.x.ceil()).min(w as f64 - 1.0);
+        let j1 = (hi.y.ceil()).min(h as f64 - 1.0);
         if i1 < 0.0 || j1 < 0.0 {
             continue;
         }
@@ -89,19 +101,27 @@ pub fn rasterize(
             let py = j as f64 + 0.5;
             for i in i0..=i1 {
                 let px = i as f64 + 0.5;
-                let wa = (b.x - px) * (c.y - py) - (b.y - py) * (c.x - px);
-                let wb = (c.x - px) * (a.y - py) - (c.y - py) * (a.x - px);
-                let wc = (a.x - px) * (b.y - py) - (a.y - py) * (b.x - px);
-                if wa * area.signum() < eps || wb * area.signum() < eps || wc * area.signum() < eps
-                {
+                let wa = ((b.x - px) * (c.y - py) - (b.y - py) * (c.x - px)) * sign;
+                let wb = ((c.x - px) * (a.y - py) - (c.y - py) * (a.x - px)) * sign;
+                let wc = ((a.x - px) * (b.y - py) - (a.y - py) * (b.x - px)) * sign;
+                // The texel square overlaps the triangle iff no separating axis exists among the
+                // three edge normals and the two box axes (so at most half a texel diagonal out).
+                let overlaps_box =
+                    px + 0.5 >= lo.x && px - 0.5 <= hi.x && py + 0.5 >= lo.y && py - 0.5 <= hi.y;
+                let here = if wa >= eps && wb >= eps && wc >= eps {
+                    2
+                } else if overlaps_box && wa >= -ma && wb >= -mb && wc >= -mc {
+                    1
+                } else {
                     continue;
-                }
-                let (la, lb, lc) = (wa * inv, wb * inv, wc * inv);
+                };
+                let (la, lb, lc) = (wa * sign * inv, wb * sign * inv, wc * sign * inv);
                 let z = la * a.z + lb * b.z + lc * c.z;
                 let t = j * w + i;
-                if z <= depth[t] {
+                if here < class[t] || (here == class[t] && z <= depth[t]) {
                     continue;
                 }
+                class[t] = here;
                 depth[t] = z;
                 let n = (vn[0] * la + vn[1] * lb + vn[2] * lc).normalize_or_zero();
                 normal_map[t] = encode_snorm8(to_patch_dir(n).normalize_or(DVec3::Z));

@@ -1,0 +1,584 @@
+"""Benchmark of rendering: geometry textures vs. the original mesh (the paper's Figure 9).
+
+The Geometry Textures paper argues that ray casting geometry textures costs in proportion to
+the pixels the model covers, so it beats rasterizing the dense mesh only below some screen
+coverage. This script measures, in one run and on one wgpu adapter:
+
+* **headline (512x512)**: the Stanford bunny from five views at 1.7 x its diagonal; per view
+  the geometry-texture frame (wall and GPU ms), the original mesh rasterized by the same
+  renderer, and trimesh + embree ray casting of the same pixel rays, with accuracy against
+  the latter (hit-mask IoU, |depth difference| / diagonal, normal angle, NaN count);
+* **coverage sweep (1024x1024)**: an oblique view with the camera distance spaced
+  geometrically so that the covered pixels go from ~50 to (almost) the whole frame; per
+  distance the same three timings and accuracy figures;
+* the same sweep for a denser mesh (the bunny after two Loop subdivisions, ~1.1 M faces) to
+  show how the crossover moves with the mesh's size.
+
+Timings are medians of ``--repeats`` renders after one warm-up (trimesh: median of 3). Each
+timing block first waits (up to ``--wait-idle`` s) for other processes to leave the CPU and
+records the CPU seconds they used during the block, so contaminated numbers can be spotted.
+
+Results: ``bench/results/render.json`` and ``bench/results/render_coverage.png``.
+
+Run from the repository root::
+
+    python bench/render.py            # full: 12 distances, bunny + dense bunny (~10 min)
+    python bench/render.py --quick    # 6 distances, bunny only (~2 min)
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import gc
+import json
+import os
+import platform
+import subprocess
+import time
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+from tqdm import tqdm
+
+import geomtex as gt
+from geomtex import reference
+
+REPO = Path(__file__).resolve().parents[1]
+MESH_DIR = REPO.parent / "shared" / "meshes"
+BUNNY = MESH_DIR / "stanford-bunny.obj"
+
+HEADLINE_SIZE = 512
+SWEEP_SIZE = 1024
+YFOV_DEG = 40.0
+HEADLINE_DISTANCE = 1.7  # x diagonal
+# Five views of the headline table: (name, direction from the model's centre to the eye, up).
+VIEWS = (
+    ("front", (0.0, 0.0, 1.0), (0.0, 1.0, 0.0)),
+    ("top", (0.0, 1.0, 0.001), (0.0, 0.0, -1.0)),
+    ("side", (1.0, 0.0, 0.0), (0.0, 1.0, 0.0)),
+    ("oblique", (1.0, 0.8, 1.0), (0.0, 1.0, 0.0)),
+    ("below", (0.3, -1.0, 0.2), (0.0, 1.0, 0.0)),
+)
+SWEEP_DIRECTION = (1.0, 0.8, 1.0)
+# Camera distances of the sweep, in diagonals from the model's centre: at 0.3 the bunny
+# overflows the 1024^2 frame (~83% of it covered), at 100 it covers ~50 pixels.
+SWEEP_NEAR, SWEEP_FAR = 0.3, 100.0
+SWEEP_STEPS_FULL, SWEEP_STEPS_QUICK = 12, 6
+TRIMESH_REPEATS = 3
+# The paper's statement: rendering geometry textures was faster than the mesh only below
+# 800x600 pixels of screen coverage (2007 hardware).
+PAPER_CROSSOVER_PX = 800 * 600
+
+
+# --------------------------------------------------------------------------- machine
+
+
+def _git(*args: str) -> str | None:
+    try:
+        out = subprocess.run(["git", *args], cwd=REPO, capture_output=True, text=True, check=True)
+    except (OSError, subprocess.CalledProcessError):
+        return None
+    return out.stdout.strip()
+
+
+def _version(name: str) -> str | None:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version(name)
+    except PackageNotFoundError:
+        return None
+
+
+def machine_info(renderer: gt.Renderer) -> dict[str, Any]:
+    cpu = platform.processor()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    status = _git("status", "--porcelain")
+    return {
+        "date": datetime.datetime.now().isoformat(timespec="seconds"),
+        "platform": platform.platform(),
+        "cpu": cpu,
+        "cpu_count": os.cpu_count(),
+        "adapter": dict(renderer.adapter_info),
+        "python": platform.python_version(),
+        "geomtex": gt.__version__,
+        "git": _git("rev-parse", "--short", "HEAD"),
+        "git_dirty": bool(status) if status is not None else None,
+        "versions": {n: _version(n) for n in ("numpy", "trimesh", "embreex", "pymeshlab", "matplotlib")},
+    }
+
+
+class ForeignCpu:
+    """CPU seconds used by *other* processes between ``start`` and ``stop``.
+
+    Total busy time from /proc/stat minus this process's own CPU time (which includes the
+    software rasterizer's worker threads). Zero where /proc/stat cannot be read.
+    """
+
+    def __init__(self) -> None:
+        self._t0 = self._busy0 = self._own0 = 0.0
+
+    @staticmethod
+    def _busy() -> float | None:
+        try:
+            fields = Path("/proc/stat").read_text().split("\n", 1)[0].split()[1:]
+        except OSError:
+            return None
+        ticks = [int(x) for x in fields]
+        idle = ticks[3] + (ticks[4] if len(ticks) > 4 else 0)  # idle + iowait
+        return (sum(ticks[:8]) - idle) / os.sysconf("SC_CLK_TCK")
+
+    @staticmethod
+    def _own() -> float:
+        t = os.times()
+        return t.user + t.system
+
+    def start(self) -> None:
+        self._t0, self._busy0, self._own0 = time.perf_counter(), self._busy() or 0.0, self._own()
+
+    def stop(self) -> dict[str, float]:
+        busy = self._busy()
+        wall = time.perf_counter() - self._t0
+        if busy is None:
+            return {"wall_s": wall, "foreign_cpu_s": 0.0}
+        foreign = max(0.0, (busy - self._busy0) - (self._own() - self._own0))
+        return {"wall_s": wall, "foreign_cpu_s": foreign}
+
+
+def wait_idle(max_wait: float, threshold: float = 0.15, window: float = 1.0) -> float:
+    """Waits until other processes use less than ``threshold`` of one core over ``window``
+    seconds, at most ``max_wait`` seconds; returns the seconds waited."""
+    if max_wait <= 0:
+        return 0.0
+    t0 = time.perf_counter()
+    probe = ForeignCpu()
+    while True:
+        probe.start()
+        time.sleep(window)
+        if probe.stop()["foreign_cpu_s"] < threshold * window:
+            break
+        if time.perf_counter() - t0 > max_wait:
+            tqdm.write(f"  (machine still busy after {max_wait:.0f} s; measuring anyway)")
+            break
+    return time.perf_counter() - t0
+
+
+# --------------------------------------------------------------------------- measurements
+
+
+def camera(centre: np.ndarray, direction: tuple[float, ...], distance: float,
+           up: tuple[float, ...] = (0.0, 1.0, 0.0)) -> gt.Camera:
+    d = np.asarray(direction, dtype=np.float64)
+    d /= np.linalg.norm(d)
+    return gt.Camera.look_at(tuple(centre + d * distance), tuple(centre), up=up, yfov_deg=YFOV_DEG)
+
+
+def time_render(renderer: gt.Renderer, obj: Any, cam: gt.Camera, repeats: int) -> tuple[Any, dict]:
+    """One warm-up render, then ``repeats`` timed ones; medians of wall and GPU ms."""
+    renderer.render(obj, cam)
+    walls, gpus, cpus = [], [], []
+    frame = None
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        frame = renderer.render(obj, cam)
+        walls.append(1000.0 * (time.perf_counter() - t0))
+        stats = frame.stats
+        gpus.append(stats["gpu_ms"])
+        cpus.append(stats["cpu_ms"])
+    gpu_ok = [g for g in gpus if g is not None]
+    stats = dict(frame.stats)
+    return frame, {
+        "wall_ms": float(np.median(walls)),
+        "gpu_ms": float(np.median(gpu_ok)) if gpu_ok else None,
+        "cpu_ms": float(np.median(cpus)),
+        "wall_ms_runs": walls,
+        "gpu_ms_runs": gpus,
+        "patches_drawn": stats.get("patches_drawn"),
+        "meshes_drawn": stats.get("meshes_drawn"),
+        "near": stats.get("near"),
+    }
+
+
+def time_trimesh(mesh: gt.Mesh, cam: gt.Camera, size: int, repeats: int) -> tuple[dict, dict]:
+    """``reference.raycast`` (trimesh + embree; includes building embree's BVH every call)."""
+    walls, ref = [], None
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        ref = reference.raycast(mesh, cam, size, size)
+        walls.append(1000.0 * (time.perf_counter() - t0))
+    return ref, {"wall_ms": float(np.median(walls)), "wall_ms_runs": walls}
+
+
+def accuracy(frame: Any, ref: dict, diag: float, normals: bool = False) -> dict[str, Any]:
+    depth = np.asarray(frame.depth)
+    hit = np.isfinite(depth)
+    ref_hit = np.asarray(ref["hit"])
+    both = hit & ref_hit
+    union = hit | ref_hit
+    out: dict[str, Any] = {
+        "covered_px": int(hit.sum()),
+        "ref_px": int(ref_hit.sum()),
+        "both_px": int(both.sum()),
+        "only_frame_px": int((hit & ~ref_hit).sum()),
+        "only_ref_px": int((ref_hit & ~hit).sum()),
+        "iou": float(both.sum() / union.sum()) if union.any() else float("nan"),
+        "nan_depth": int(np.isnan(depth).sum()),
+    }
+    if both.any():
+        dz = np.abs(depth[both].astype(np.float64) - np.asarray(ref["depth"])[both]) / diag
+        out.update(depth_median=float(np.median(dz)), depth_p99=float(np.percentile(dz, 99)),
+                   depth_max=float(dz.max()))
+    else:
+        out.update(depth_median=float("nan"), depth_p99=float("nan"), depth_max=float("nan"))
+    if normals:
+        n0 = np.asarray(frame.normal)[both].astype(np.float64)
+        n1 = np.asarray(ref["normal"])[both].astype(np.float64)
+        cos = np.sum(n0 * n1, axis=1) / np.maximum(
+            np.linalg.norm(n0, axis=1) * np.linalg.norm(n1, axis=1), 1e-30)
+        ang = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+        out["normal_deg_median"] = float(np.median(ang)) if len(ang) else float("nan")
+        out["normal_deg_p99"] = float(np.percentile(ang, 99)) if len(ang) else float("nan")
+        out["nan_normal"] = int(np.isnan(np.asarray(frame.normal)).any(axis=-1).sum())
+    return out
+
+
+def headline(mesh: gt.Mesh, gts: Any, repeats: int, idle: float) -> list[dict[str, Any]]:
+    lo, hi = (np.asarray(b, dtype=np.float64) for b in mesh.bounds)
+    centre, diag = (lo + hi) / 2, float(mesh.diagonal)
+    renderer = gt.Renderer(HEADLINE_SIZE, HEADLINE_SIZE)
+    records = []
+    for name, direction, up in tqdm(VIEWS, desc=f"headline {HEADLINE_SIZE}^2", unit="view"):
+        cam = camera(centre, direction, HEADLINE_DISTANCE * diag, up)
+        waited = wait_idle(idle)
+        probe = ForeignCpu()
+        probe.start()
+        frame, t_gt = time_render(renderer, gts, cam, repeats)
+        _, t_mesh = time_render(renderer, mesh, cam, repeats)
+        ref, t_tm = time_trimesh(mesh, cam, HEADLINE_SIZE, TRIMESH_REPEATS)
+        records.append({
+            "view": name, "direction": direction, "up": up,
+            "distance_diag": HEADLINE_DISTANCE, "size": HEADLINE_SIZE,
+            "geomtex": t_gt, "mesh_raster": t_mesh, "trimesh": t_tm,
+            "trimesh_over_geomtex": t_tm["wall_ms"] / t_gt["wall_ms"],
+            "accuracy": accuracy(frame, ref, diag, normals=True),
+            "load": {**probe.stop(), "waited_s": waited},
+        })
+    del renderer
+    gc.collect()
+    return records
+
+
+def sweep(label: str, mesh: gt.Mesh, gts: Any, renderer: gt.Renderer, distances: np.ndarray,
+          trimesh_at: set[int], repeats: int, idle: float) -> list[dict[str, Any]]:
+    lo, hi = (np.asarray(b, dtype=np.float64) for b in mesh.bounds)
+    centre, diag = (lo + hi) / 2, float(mesh.diagonal)
+    size = renderer.width
+    records = []
+    for i, k in enumerate(tqdm(distances, desc=f"sweep {label} {size}^2", unit="dist")):
+        cam = camera(centre, SWEEP_DIRECTION, k * diag)
+        waited = wait_idle(idle)
+        probe = ForeignCpu()
+        probe.start()
+        frame, t_gt = time_render(renderer, gts, cam, repeats)
+        frame_mesh, t_mesh = time_render(renderer, mesh, cam, repeats)
+        rec: dict[str, Any] = {
+            "mesh": label, "distance_diag": float(k), "size": size,
+            "covered_px": int(np.isfinite(np.asarray(frame.depth)).sum()),
+            "covered_px_mesh_raster": int(np.isfinite(np.asarray(frame_mesh.depth)).sum()),
+            "nan_depth": int(np.isnan(np.asarray(frame.depth)).sum()),
+            "geomtex": t_gt, "mesh_raster": t_mesh, "trimesh": None,
+            "accuracy": None, "accuracy_mesh_raster": None,
+        }
+        if i in trimesh_at:
+            ref, t_tm = time_trimesh(mesh, cam, size, TRIMESH_REPEATS)
+            rec["trimesh"] = t_tm
+            rec["accuracy"] = accuracy(frame, ref, diag)
+            rec["accuracy_mesh_raster"] = accuracy(frame_mesh, ref, diag)
+            del ref
+        rec["load"] = {**probe.stop(), "waited_s": waited}
+        busy = rec["load"]["foreign_cpu_s"] / max(rec["load"]["wall_s"], 1e-9)
+        if busy > 0.1:
+            tqdm.write(f"  warning: other processes used {100 * busy:.0f}% of a core during "
+                       f"{label} at {k:.3g} x diag")
+        records.append(rec)
+        del frame, frame_mesh
+        gc.collect()
+    return records
+
+
+def crossovers(records: list[dict[str, Any]], key: str) -> list[dict[str, Any]]:
+    """Covered-pixel counts where geometry textures and mesh raster cost the same (``key``:
+    "gpu_ms" or "wall_ms"), interpolated linearly in log(pixels) vs. log(ms ratio)."""
+    pts = sorted((r["covered_px"], r["geomtex"][key], r["mesh_raster"][key]) for r in records
+                 if r["covered_px"] > 0 and r["geomtex"][key] and r["mesh_raster"][key])
+    out = []
+    for (x0, g0, m0), (x1, g1, m1) in zip(pts, pts[1:]):
+        d0, d1 = np.log(g0 / m0), np.log(g1 / m1)
+        if d0 == 0 or d0 * d1 < 0:
+            t = d0 / (d0 - d1)
+            lx = np.log(x0) + t * (np.log(x1) - np.log(x0))
+            lm = np.log(m0) + t * (np.log(m1) - np.log(m0))
+            out.append({
+                "covered_px": float(np.exp(lx)),
+                "ms": float(np.exp(lm)),
+                "geomtex_cheaper": "below" if d1 > d0 else "above",
+                "between_px": [int(x0), int(x1)],
+            })
+    return out
+
+
+# --------------------------------------------------------------------------- reporting
+
+
+def _table(header: tuple[str, ...], rows: list[tuple[str, ...]]) -> str:
+    widths = [max(len(h), *(len(row[i]) for row in rows)) if rows else len(h)
+              for i, h in enumerate(header)]
+    line = lambda cells: "  ".join(  # noqa: E731
+        c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(cells, widths)))
+    return "\n".join([line(header), line(["-" * w for w in widths])] + [line(r) for r in rows])
+
+
+def _ms(x: float | None) -> str:
+    if x is None:
+        return "-"
+    return f"{x:.1f}" if x < 100 else f"{x:.0f}"
+
+
+def headline_table(records: list[dict[str, Any]]) -> str:
+    header = ("view", "px", "geomtex ms (wall/gpu)", "mesh raster ms (wall/gpu)", "trimesh ms",
+              "trimesh/geomtex", "IoU", "|dz|/diag med", "|dz|/diag p99", "normal deg med", "NaN")
+    rows = []
+    for r in records:
+        a = r["accuracy"]
+        rows.append((
+            r["view"], f"{a['covered_px']:,}",
+            f"{_ms(r['geomtex']['wall_ms'])} / {_ms(r['geomtex']['gpu_ms'])}",
+            f"{_ms(r['mesh_raster']['wall_ms'])} / {_ms(r['mesh_raster']['gpu_ms'])}",
+            _ms(r["trimesh"]["wall_ms"]), f"{r['trimesh_over_geomtex']:.1f}x",
+            f"{a['iou']:.4f}", f"{a['depth_median']:.1e}", f"{a['depth_p99']:.1e}",
+            f"{a['normal_deg_median']:.2f}", str(a["nan_depth"]),
+        ))
+    return _table(header, rows)
+
+
+def sweep_table(records: list[dict[str, Any]]) -> str:
+    header = ("dist/diag", "covered px", "geomtex ms (wall/gpu)", "mesh raster ms (wall/gpu)",
+              "gpu ratio gt/mesh", "trimesh ms", "IoU", "|dz|/diag p99", "NaN", "busy %")
+    rows = []
+    for r in records:
+        a = r["accuracy"]
+        g, m = r["geomtex"], r["mesh_raster"]
+        ratio = g["gpu_ms"] / m["gpu_ms"] if g["gpu_ms"] and m["gpu_ms"] else float("nan")
+        busy = 100 * r["load"]["foreign_cpu_s"] / max(r["load"]["wall_s"], 1e-9)
+        rows.append((
+            f"{r['distance_diag']:.3g}", f"{r['covered_px']:,}",
+            f"{_ms(g['wall_ms'])} / {_ms(g['gpu_ms'])}", f"{_ms(m['wall_ms'])} / {_ms(m['gpu_ms'])}",
+            f"{ratio:.2f}", _ms(r["trimesh"]["wall_ms"]) if r["trimesh"] else "-",
+            f"{a['iou']:.4f}" if a else "-", f"{a['depth_p99']:.1e}" if a else "-",
+            str(r["nan_depth"]), f"{busy:.0f}",
+        ))
+    return _table(header, rows)
+
+
+def crossover_text(label: str, cross: dict[str, list[dict[str, Any]]]) -> list[str]:
+    lines = []
+    for key, found in cross.items():
+        if not found:
+            lines.append(f"{label} ({key}): no crossover in the measured range")
+        for c in found:
+            side = int(round(np.sqrt(c["covered_px"])))
+            lines.append(
+                f"{label} ({key}): geometry textures cheaper {c['geomtex_cheaper']} "
+                f"~{c['covered_px']:,.0f} covered px (~{side}^2, {c['ms']:.1f} ms; between "
+                f"{c['between_px'][0]:,} and {c['between_px'][1]:,} px)")
+    return lines
+
+
+def plot(sweeps: dict[str, dict[str, Any]], path: Path, size: int) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(11, 7))
+    styles = {  # mesh label -> (geomtex colour, mesh-raster colour, marker)
+        0: ("tab:blue", "tab:orange", "o"),
+        1: ("tab:green", "tab:red", "s"),
+    }
+    for i, (label, s) in enumerate(sweeps.items()):
+        recs = sorted(s["records"], key=lambda r: r["covered_px"])
+        faces = s["faces"]
+        c_gt, c_mesh, marker = styles[i % 2]
+        x = np.array([r["covered_px"] for r in recs], dtype=float)
+        for key, ls, what in (("gpu_ms", "-", "GPU"), ("wall_ms", "--", "wall")):
+            ax.plot(x, [r["geomtex"][key] for r in recs], ls, color=c_gt, marker=marker, ms=5,
+                    label=f"geometry textures, {label} ({what})")
+            ax.plot(x, [r["mesh_raster"][key] for r in recs], ls, color=c_mesh, marker=marker, ms=5,
+                    label=f"mesh raster, {label} {faces / 1e3:,.0f}k faces ({what})")
+        tm = [(r["covered_px"], r["trimesh"]["wall_ms"]) for r in recs if r["trimesh"]]
+        if tm:
+            ax.plot(*zip(*tm), ":", color="black" if i == 0 else "gray", marker=marker, ms=5,
+                    label=f"trimesh + embree, {label} (wall, incl. BVH build)")
+        for key in ("gpu_ms", "wall_ms"):
+            for c in s["crossovers"][key]:
+                ax.plot(c["covered_px"], c["ms"], marker="*", ms=16, color=c_mesh,
+                        markeredgecolor="black", zorder=5)
+                px = c["covered_px"]
+                text = f"{px:,.0f}" if px < 1e4 else f"{px / 1e3:,.0f}k"
+                gpu = key == "gpu_ms"
+                ax.annotate(
+                    f"crossover {label} ({'GPU' if gpu else 'wall'}):\n{text} px, {c['ms']:.0f} ms",
+                    (px, c["ms"]),
+                    xytext=(18, -42) if gpu else (-18, 30), textcoords="offset points",
+                    ha="left" if gpu else "right", fontsize=9,
+                    arrowprops={"arrowstyle": "-", "color": "0.3", "lw": 0.8},
+                    bbox={"boxstyle": "round,pad=0.2", "fc": "white", "ec": c_mesh, "alpha": 0.9})
+    ax.axvline(PAPER_CROSSOVER_PX, color="0.4", ls="-.", lw=1)
+    ax.text(PAPER_CROSSOVER_PX * 0.93, 0.02, "paper's crossover: 800x600 px", rotation=90,
+            ha="right", va="bottom",
+            fontsize=9, color="0.3", transform=ax.get_xaxis_transform())
+    ax.axvline(size * size, color="0.7", ls=":", lw=1)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel(f"covered pixels (of a {size}x{size} frame)")
+    ax.set_ylabel("ms per frame")
+    ax.set_title("Rendering cost vs. screen coverage (lavapipe, software Vulkan, 2 cores)\n"
+                 "solid: GPU timestamps of the render pass, dashed: wall time of render() incl. readback")
+    ax.grid(which="both", alpha=0.25)
+    ax.legend(fontsize=8, loc="upper left")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+# --------------------------------------------------------------------------- main
+
+
+def dense_bunny(path: Path, iterations: int) -> gt.Mesh:
+    import pymeshlab
+
+    ms = pymeshlab.MeshSet()
+    ms.load_new_mesh(str(path))
+    # threshold 0: subdivide every edge (the default skips edges shorter than 1% of the diagonal)
+    ms.meshing_surface_subdivision_loop(iterations=iterations, threshold=pymeshlab.PercentageValue(0.0))
+    m = ms.current_mesh()
+    return gt.Mesh(m.vertex_matrix(), m.face_matrix())
+
+
+def convert_timed(mesh: gt.Mesh) -> tuple[Any, float]:
+    t0 = time.perf_counter()
+    gts = gt.convert(mesh)
+    return gts, time.perf_counter() - t0
+
+
+def mesh_info(mesh: gt.Mesh, gts: Any, seconds: float) -> dict[str, Any]:
+    st = gts.stats
+    return {"faces": int(mesh.n_faces), "vertices": int(mesh.n_vertices),
+            "diagonal": float(mesh.diagonal), "convert_s": seconds,
+            "charts": st.get("charts"), "texels": st.get("texels"), "bytes": st.get("bytes"),
+            "texel_size_over_diag": st.get("texel_size", float("nan")) / float(mesh.diagonal)}
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--quick", action="store_true",
+                        help=f"{SWEEP_STEPS_QUICK} distances, trimesh at 4 of them, no dense mesh")
+    parser.add_argument("--no-dense", action="store_true", help="skip the subdivided bunny")
+    parser.add_argument("--subdivisions", type=int, default=2,
+                        help="Loop subdivisions of the dense bunny (2: ~1.1 M faces)")
+    parser.add_argument("--repeats", type=int, default=5, help="timed renders per measurement")
+    parser.add_argument("--wait-idle", type=float, default=60.0, metavar="S",
+                        help="before each measurement wait up to S s for other processes to go idle")
+    parser.add_argument("--out", type=Path, default=REPO / "bench" / "results", help="output folder")
+    args = parser.parse_args(argv)
+    if args.repeats < 1:
+        parser.error("--repeats must be at least 1")
+    if not BUNNY.is_file():
+        raise SystemExit(f"missing {BUNNY}")
+
+    steps = SWEEP_STEPS_QUICK if args.quick else SWEEP_STEPS_FULL
+    distances = np.geomspace(SWEEP_NEAR, SWEEP_FAR, steps)
+    trimesh_all = set(range(steps)) if not args.quick else set(np.linspace(0, steps - 1, 4).round().astype(int))
+    # trimesh on the dense mesh rebuilds a 1.1 M-face BVH per call: 4 distances only
+    trimesh_dense = set(np.linspace(0, steps - 1, 4).round().astype(int).tolist())
+    with_dense = not (args.quick or args.no_dense)
+
+    mesh = gt.load_mesh(str(BUNNY))
+    gts, seconds = convert_timed(mesh)
+    meshes = {"bunny": mesh_info(mesh, gts, seconds)}
+    print(f"bunny: {mesh.n_faces:,} faces, converted in {seconds:.2f} s")
+
+    head = headline(mesh, gts, args.repeats, args.wait_idle)
+    print(f"\nHeadline: bunny, {HEADLINE_SIZE}x{HEADLINE_SIZE}, camera at {HEADLINE_DISTANCE} x diagonal, "
+          f"yfov {YFOV_DEG:g} deg (median of {args.repeats} renders; trimesh median of {TRIMESH_REPEATS})")
+    print(headline_table(head))
+
+    renderer = gt.Renderer(SWEEP_SIZE, SWEEP_SIZE)
+    machine = machine_info(renderer)
+    print(f"\nadapter: {machine['adapter']}")
+    sweeps: dict[str, dict[str, Any]] = {}
+    recs = sweep("bunny", mesh, gts, renderer, distances, trimesh_all, args.repeats, args.wait_idle)
+    sweeps["bunny"] = {"faces": int(mesh.n_faces), "records": recs}
+    del gts
+    gc.collect()
+
+    if with_dense:
+        t0 = time.perf_counter()
+        dense = dense_bunny(BUNNY, args.subdivisions)
+        sub_s = time.perf_counter() - t0
+        print(f"\ndense bunny: {dense.n_faces:,} faces ({args.subdivisions} Loop subdivisions, "
+              f"{sub_s:.1f} s); converting ...")
+        dense_gts, seconds = convert_timed(dense)
+        meshes["bunny_dense"] = {**mesh_info(dense, dense_gts, seconds), "subdivisions": args.subdivisions,
+                                 "subdivide_s": sub_s}
+        print(f"converted in {seconds:.1f} s")
+        recs = sweep("dense", dense, dense_gts, renderer, distances, trimesh_dense, args.repeats,
+                     args.wait_idle)
+        sweeps["dense"] = {"faces": int(dense.n_faces), "records": recs}
+        del dense_gts, dense
+        gc.collect()
+
+    lines = []
+    for label, s in sweeps.items():
+        s["crossovers"] = {key: crossovers(s["records"], key) for key in ("gpu_ms", "wall_ms")}
+        print(f"\nSweep {label} ({s['faces']:,} faces), {SWEEP_SIZE}x{SWEEP_SIZE}, oblique "
+              f"{SWEEP_DIRECTION}, yfov {YFOV_DEG:g} deg; busy % = CPU used by other processes")
+        print(sweep_table(s["records"]))
+        lines += crossover_text(label, s["crossovers"])
+    print("\nCrossovers (geometry textures vs. mesh raster):")
+    print("\n".join("  " + ln for ln in lines))
+
+    args.out.mkdir(parents=True, exist_ok=True)
+    result = {
+        "machine": machine,
+        "settings": {
+            "quick": args.quick, "repeats": args.repeats, "trimesh_repeats": TRIMESH_REPEATS,
+            "warmup_renders": 1, "yfov_deg": YFOV_DEG, "headline_size": HEADLINE_SIZE,
+            "headline_distance_diag": HEADLINE_DISTANCE,
+            "views": [{"name": n, "direction": d, "up": u} for n, d, u in VIEWS],
+            "sweep_size": SWEEP_SIZE, "sweep_direction": SWEEP_DIRECTION,
+            "sweep_distances_diag": distances.tolist(), "wait_idle_s": args.wait_idle,
+            "render_settings": "defaults (steps_per_texel 0.5, min/max linear steps 2/1024, binary steps 8)",
+            "paper_crossover_px": PAPER_CROSSOVER_PX,
+        },
+        "meshes": meshes,
+        "headline": head,
+        "sweeps": sweeps,
+    }
+    json_path = args.out / "render.json"
+    json_path.write_text(json.dumps(result, indent=2) + "\n")
+    png_path = args.out / "render_coverage.png"
+    plot(sweeps, png_path, SWEEP_SIZE)
+    print(f"\nwrote {json_path} and {png_path}")
+
+
+if __name__ == "__main__":
+    main()
