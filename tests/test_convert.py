@@ -118,15 +118,20 @@ def test_min_area_frames_waste_no_more_than_pca(bunny: Converted) -> None:
 
 
 def test_far_from_origin_keeps_detail(bunny: Converted) -> None:
-    """The same bunny placed at 1e6: texel points still on the surface to 1e-5 of the diagonal."""
+    """The same bunny placed at 1e6: the same texel points, shifted, to 1e-7 of the diagonal."""
+    from scipy.spatial import cKDTree
+
     offset = np.array([1e6, -2e6, 5e5])
     moved = gt.Mesh(bunny.mesh.vertices + offset, bunny.mesh.faces)
     gts = gt.convert(moved)
     assert gts.stats["charts"] == bunny.gts.stats["charts"]
     points, _ = gts.to_points()
-    pick = np.random.default_rng(2).choice(len(points), 3000, replace=False)
-    d = reference.points_to_mesh(points[pick] - offset, bunny.mesh)
-    assert np.sqrt(np.mean(d**2)) / bunny.mesh.diagonal < 1e-5
+    # Rounding at 1e6 may flip a texel centre lying exactly on an edge; nothing more.
+    assert abs(len(points) - len(bunny.points)) <= 1e-5 * len(bunny.points)
+    d, _ = cKDTree(bunny.points).query(points - offset)
+    assert np.percentile(d, 99) / bunny.mesh.diagonal < 1e-7
+    assert np.percentile(d, 99.99) / bunny.mesh.diagonal < 1e-6  # one 16-bit height code at most
+    assert d.max() / bunny.mesh.diagonal < 1e-3  # a flipped texel is still on the surface
 
 
 def test_conversion_is_deterministic(bunny: Converted) -> None:

@@ -40,8 +40,9 @@ pub const NEUTRAL_COLOR: [u8; 4] = [200, 200, 200, 255];
 /// ray coming down the box's z would see it.
 ///
 /// Coverage is conservative: a texel whose square touches a face but whose centre lies outside
-/// every face gets that face's plane extrapolated to its centre. Texels whose centre is covered
-/// always win over such extrapolated ones. Without this, patches meeting at a sharp crease
+/// every face takes the values of the face's nearest point (a flat lip at most half a texel
+/// diagonal wide, never an extrapolated plane, which a steep face would send far off). Texels
+/// whose centre is covered always win over such lips. Without this, patches meeting at a sharp crease
 /// (where the overlap ring cannot reach, its faces pointing down) leave a crack of up to a texel
 /// that rays fall through.
 pub fn rasterize(
@@ -115,7 +116,14 @@ pub fn rasterize(
                 } else {
                     continue;
                 };
-                let (la, lb, lc) = (wa * sign * inv, wb * sign * inv, wc * sign * inv);
+                let (la, lb, lc) = if here == 2 {
+                    (wa * sign * inv, wb * sign * inv, wc * sign * inv)
+                } else {
+                    nearest_on_triangle(
+                        DVec2::new(px, py),
+                        [a.truncate(), b.truncate(), c.truncate()],
+                    )
+                };
                 let z = la * a.z + lb * b.z + lc * c.z;
                 let t = j * w + i;
                 if here < class[t] || (here == class[t] && z <= depth[t]) {
@@ -151,6 +159,25 @@ pub fn rasterize(
         normals: normal_map,
         colors: color_map,
     }
+}
+
+/// Barycentric coordinates of the point of triangle `t` nearest to `p` (p outside it): the
+/// nearest point on one of its edges.
+fn nearest_on_triangle(p: DVec2, t: [DVec2; 3]) -> (f64, f64, f64) {
+    let mut best = (f64::INFINITY, (1.0, 0.0, 0.0));
+    for k in 0..3 {
+        let (a, b) = (t[k], t[(k + 1) % 3]);
+        let ab = b - a;
+        let s = ((p - a).dot(ab) / ab.length_squared().max(f64::MIN_POSITIVE)).clamp(0.0, 1.0);
+        let d = (a + ab * s - p).length_squared();
+        if d < best.0 {
+            let mut l = [0.0; 3];
+            l[k] = 1.0 - s;
+            l[(k + 1) % 3] = s;
+            best = (d, (l[0], l[1], l[2]));
+        }
+    }
+    best.1
 }
 
 /// Fills normal and color of empty texels from their filled 8-neighbours, `iterations` texels

@@ -365,7 +365,13 @@ pub fn partition(
     };
     let want = want.min(set.len());
     let scaled = |k: usize| compactness * k as f64 / total_area;
-    let mut solver = Solver::new(set, initial_seeds(set, want.min(8)), 0.0);
+    // An exact count starts from a few spread seeds; an error target from one chart per
+    // connected component, so a flat part stays a single chart.
+    let first = match target {
+        ChartTarget::Count(_) => want.min(8),
+        ChartTarget::MeanError { .. } => 1,
+    };
+    let mut solver = Solver::new(set, initial_seeds(set, first), 0.0);
     solver.compactness = scaled(solver.proxies.len());
     solver.lloyd(3);
     loop {
@@ -376,7 +382,9 @@ pub fn partition(
             break;
         }
         // Grow by about a quarter per round: few rounds, little overshoot of an error target.
-        let add = (want.min(cap) - count).min((count / 4).max(1));
+        // (doubling while there are few charts).
+        let grow = if count < 8 { count } else { count / 4 };
+        let add = (want.min(cap) - count).min(grow.max(1));
         let mut order: Vec<usize> = (0..count).filter(|&i| regions[i].2 > 1).collect();
         if order.is_empty() {
             break;
