@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Idempotent set-up on a fresh Debian machine that has Rust (cargo) and Python >= 3.11:
-# a virtualenv in .venv, the Python packages named in pyproject.toml, and a release build of the
-# extension installed into the venv. Sourced by demo.sh and test.sh; safe to run again (fast).
+# a Vulkan driver (Mesa's lavapipe, if none is installed), a virtualenv in .venv, the Python
+# packages named in pyproject.toml, and a release build of the extension installed into the venv. Sourced by demo.sh and test.sh; safe to run again (fast).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
@@ -15,6 +15,18 @@ command -v cargo >/dev/null 2>&1 || {
   echo "setup: cargo not found; install Rust first: curl https://sh.rustup.rs -sSf | sh" >&2; exit 1; }
 "$PY" -c 'import sys; sys.exit(sys.version_info < (3, 11))' || {
   echo "setup: $PY is older than Python 3.11" >&2; exit 1; }
+
+# A Vulkan driver for the renderer: Mesa's lavapipe (software) where no other is installed.
+if ! ls /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json >/dev/null 2>&1 \
+   || ! ldconfig -p 2>/dev/null | grep -q libvulkan.so.1; then
+  if command -v apt-get >/dev/null 2>&1; then
+    as_root apt-get update -qq
+    as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
+      mesa-vulkan-drivers libvulkan1 >/dev/null
+  else
+    echo "setup: no Vulkan driver found; install Mesa's lavapipe (mesa-vulkan-drivers)" >&2
+  fi
+fi
 
 if [ ! -x .venv/bin/python ]; then
   if ! "$PY" -m venv .venv 2>/dev/null; then

@@ -8,7 +8,7 @@ from typing_extensions import disjoint_base
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["Mesh", "GeometryTextureSet", "convert", "load", "__version__"]
+__all__ = ["Mesh", "GeometryTextureSet", "convert", "load", "__version__", "Camera", "Scene", "Renderer", "Frame"]
 __version__: str
 
 @disjoint_base
@@ -66,3 +66,77 @@ def convert(
     progress: Callable[[str, float], bool | None] | None = None,
 ) -> GeometryTextureSet: ...
 def load(path: str | os.PathLike[str]) -> GeometryTextureSet: ...
+
+@final
+class Camera:
+    @staticmethod
+    def look_at(
+        eye: Any,
+        target: Any,
+        up: tuple[float, float, float] = (0.0, 1.0, 0.0),
+        yfov_deg: float = 45.0,
+        near: float | None = None,
+    ) -> Camera: ...
+    @staticmethod
+    def from_intrinsics(
+        K: npt.NDArray[np.float64],
+        world_from_camera: npt.NDArray[np.float64],
+        width: int,
+        height: int,
+        near: float | None = None,
+    ) -> Camera: ...
+    @staticmethod
+    def orthographic(
+        world_from_camera: npt.NDArray[np.float64], ymag: float, near: float | None = None
+    ) -> Camera: ...
+    @property
+    def world_from_camera(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def kind(self) -> str: ...
+    @property
+    def forward(self) -> list[float]: ...
+    def rays(
+        self, width: int, height: int
+    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+
+@final
+class Scene:
+    def __new__(cls) -> Scene: ...
+    def add(self, obj: Any, world_from_object: npt.NDArray[np.float64] | None = None) -> int: ...
+    def __len__(self) -> int: ...
+
+@final
+class Frame:
+    @property
+    def color(self) -> npt.NDArray[np.uint8]: ...
+    @property
+    def depth(self) -> npt.NDArray[np.float32]: ...
+    @property
+    def normal(self) -> npt.NDArray[np.float32]: ...
+    @property
+    def patch_id(self) -> npt.NDArray[np.int32]: ...
+    @property
+    def stats(self) -> dict[str, Any]: ...
+    def _repr_png_(self) -> bytes: ...
+    def save(self, path: str | os.PathLike[str]) -> None: ...
+
+@final
+class Renderer:
+    def __new__(cls, width: int, height: int) -> Renderer: ...
+    @property
+    def width(self) -> int: ...
+    @property
+    def height(self) -> int: ...
+    @property
+    def adapter_info(self) -> dict[str, str]: ...
+    def render(
+        self,
+        obj: Any,
+        camera: Camera,
+        *,
+        steps_per_texel: float = 0.5,
+        min_linear_steps: int = 2,
+        max_linear_steps: int = 1024,
+        binary_steps: int = 8,
+        background: tuple[int, int, int, int] = (255, 255, 255, 0),
+    ) -> Frame: ...

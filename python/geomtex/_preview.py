@@ -75,13 +75,49 @@ def height_mosaic(gts: Any, size: int = 512, tiles: int = 36) -> Image.Image:
     return out.convert("RGB")
 
 
+_renderers: dict[int, Any] = {}
+
+
+def ray_cast_view(gts: Any, size: int = 512, azimuth_deg: float = 30.0,
+                  elevation_deg: float = 20.0) -> tuple[Image.Image, Any] | None:
+    """The set ray cast on the GPU (one renderer kept per size), tinted by patch; None when no
+    GPU adapter (not even lavapipe) is available."""
+    from . import _core
+    from ._errors import DeviceError
+
+    try:
+        renderer = _renderers.get(size) or _renderers.setdefault(size, _core.Renderer(size, size))
+    except DeviceError:
+        return None
+    corners = np.array([[i & 1, (i >> 1) & 1, (i >> 2) & 1, 1] for i in range(8)], dtype=np.float64)
+    world = np.einsum("pij,cj->pci", gts.world_from_patch, corners)[..., :3].reshape(-1, 3)
+    lo, hi = world.min(axis=0), world.max(axis=0)
+    centre, diag = (lo + hi) / 2, float(np.linalg.norm(hi - lo))
+    right, up, forward = _view_axes(azimuth_deg, elevation_deg)
+    camera = _core.Camera.look_at(centre - forward * 1.2 * diag, centre, up=tuple(up), yfov_deg=40.0)
+    frame = renderer.render(gts, camera)
+    hit = frame.patch_id >= 0
+    shade = frame.color[..., :3].astype(np.float64) / 255.0
+    tint = 0.55 * _PALETTE[np.where(hit, frame.patch_id, 0) % len(_PALETTE)] + 0.45 * 230.0
+    rgb = np.where(hit[..., None], tint * shade, 255.0)
+    return Image.fromarray(rgb.astype(np.uint8)), frame
+
+
 def overview(gts: Any, size: int = 512, title: str | None = None) -> Image.Image:
+    """Left: the set ray cast on the GPU, tinted by patch (texel points splatted on the CPU if
+    there is no GPU adapter). Right: the largest height maps."""
     st = gts.stats
     caption = title or ""
     caption += (f"  {st['charts']} patches  {st['texels']:,} texels  "
                 f"{100 * st['empty_fraction']:.1f}% empty  {st['bytes'] / 1e6:.1f} MB")
     canvas = Image.new("RGB", (2 * size, size + 24), (255, 255, 255))
-    canvas.paste(splat(gts, size), (0, 24))
+    view = ray_cast_view(gts, size)
+    if view is None:
+        canvas.paste(splat(gts, size), (0, 24))
+        caption += "  (no GPU adapter: texel points splatted)"
+    else:
+        canvas.paste(view[0], (0, 24))
+        caption += f"  ray cast in {view[1].stats['cpu_ms']:.0f} ms"
     canvas.paste(height_mosaic(gts, size), (size, 24))
     ImageDraw.Draw(canvas).text((8, 6), caption.strip(), fill=(0, 0, 0))
     return canvas

@@ -46,7 +46,8 @@ pub struct PyCamera {
 impl PyCamera {
     /// Perspective camera at `eye` looking at `target`; `yfov_deg` is the vertical field of view.
     #[staticmethod]
-    #[pyo3(signature = (eye, target, up = (0.0, 1.0, 0.0), yfov_deg = 45.0, near = None))]
+    #[pyo3(signature = (eye, target, up = (0.0, 1.0, 0.0), yfov_deg = 45.0, near = None),
+        text_signature = "(eye, target, up=(0.0, 1.0, 0.0), yfov_deg=45.0, near=None)")]
     fn look_at(
         eye: [f64; 3],
         target: [f64; 3],
@@ -310,7 +311,9 @@ impl PyRenderer {
 
     /// Renders a Scene, a GeometryTextureSet or a Mesh seen by `camera`.
     #[pyo3(signature = (obj, camera, *, steps_per_texel = 0.5, min_linear_steps = 2,
-        max_linear_steps = 1024, binary_steps = 8, background = (255, 255, 255, 0)))]
+        max_linear_steps = 1024, binary_steps = 8, background = (255, 255, 255, 0)),
+        text_signature = "(self, /, obj, camera, *, steps_per_texel=0.5, min_linear_steps=2, \
+max_linear_steps=1024, binary_steps=8, background=(255, 255, 255, 0))")]
     #[allow(clippy::too_many_arguments)]
     fn render(
         &self,
