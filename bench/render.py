@@ -70,6 +70,8 @@ TRIMESH_REPEATS = 3
 # The paper's statement: rendering geometry textures was faster than the mesh only below
 # 800x600 pixels of screen coverage (2007 hardware).
 PAPER_CROSSOVER_PX = 800 * 600
+# Share of one core used by other processes above which a measurement is repeated / flagged.
+BUSY_FLAG = 0.1
 
 
 # --------------------------------------------------------------------------- machine
@@ -92,7 +94,16 @@ def _version(name: str) -> str | None:
         return None
 
 
-def machine_info(renderer: gt.Renderer) -> dict[str, Any]:
+def _build_time() -> str | None:
+    """Modification time of the loaded extension module (identifies the build in use)."""
+    try:
+        mtime = Path(gt._core.__file__).stat().st_mtime
+    except (AttributeError, OSError):
+        return None
+    return datetime.datetime.fromtimestamp(mtime).isoformat(timespec="seconds")
+
+
+def machine_info() -> dict[str, Any]:
     cpu = platform.processor()
     try:
         for line in Path("/proc/cpuinfo").read_text().splitlines():
@@ -107,11 +118,11 @@ def machine_info(renderer: gt.Renderer) -> dict[str, Any]:
         "platform": platform.platform(),
         "cpu": cpu,
         "cpu_count": os.cpu_count(),
-        "adapter": dict(renderer.adapter_info),
         "python": platform.python_version(),
         "geomtex": gt.__version__,
         "git": _git("rev-parse", "--short", "HEAD"),
         "git_dirty": bool(status) if status is not None else None,
+        "geomtex_build_time": _build_time(),
         "versions": {n: _version(n) for n in ("numpy", "trimesh", "embreex", "pymeshlab", "matplotlib")},
     }
 
@@ -174,11 +185,17 @@ def wait_idle(max_wait: float, threshold: float = 0.15, window: float = 1.0) -> 
 # --------------------------------------------------------------------------- measurements
 
 
-def camera(centre: np.ndarray, direction: tuple[float, ...], distance: float,
-           up: tuple[float, ...] = (0.0, 1.0, 0.0)) -> gt.Camera:
+Vec3 = tuple[float, float, float]
+
+
+def camera(centre: np.ndarray, direction: Vec3, distance: float,
+           up: Vec3 = (0.0, 1.0, 0.0)) -> gt.Camera:
     d = np.asarray(direction, dtype=np.float64)
     d /= np.linalg.norm(d)
-    return gt.Camera.look_at(tuple(centre + d * distance), tuple(centre), up=up, yfov_deg=YFOV_DEG)
+    eye = centre + d * distance
+    return gt.Camera.look_at((float(eye[0]), float(eye[1]), float(eye[2])),
+                             (float(centre[0]), float(centre[1]), float(centre[2])),
+                             up=up, yfov_deg=YFOV_DEG)
 
 
 def time_render(renderer: gt.Renderer, obj: Any, cam: gt.Camera, repeats: int) -> tuple[Any, dict]:
@@ -252,7 +269,7 @@ def accuracy(frame: Any, ref: dict, diag: float, normals: bool = False) -> dict[
 
 
 def measured(block: Callable[[], dict[str, Any]], idle: float, retries: int, what: str,
-             max_busy: float = 0.1) -> dict[str, Any]:
+             max_busy: float = BUSY_FLAG) -> dict[str, Any]:
     """Runs one measurement block on an idle machine: waits for other processes to go idle,
     runs ``block`` and, when others used more than ``max_busy`` of a core meanwhile, waits
     and runs it again (at most ``retries`` more times). The record gets a ``load`` entry."""
@@ -384,6 +401,11 @@ def headline_table(records: list[dict[str, Any]]) -> str:
     return _table(header, rows)
 
 
+def busy_fraction(rec: dict[str, Any]) -> float:
+    load = rec.get("load") or {}
+    return float(load.get("foreign_cpu_s", 0.0)) / max(float(load.get("wall_s", 0.0)), 1e-9)
+
+
 def sweep_table(records: list[dict[str, Any]]) -> str:
     header = ("dist/diag", "covered px", "geomtex ms (wall/gpu)", "mesh raster ms (wall/gpu)",
               "gpu ratio gt/mesh", "trimesh ms", "IoU", "|dz|/diag p99", "NaN", "busy %")
@@ -392,7 +414,7 @@ def sweep_table(records: list[dict[str, Any]]) -> str:
         a = r["accuracy"]
         g, m = r["geomtex"], r["mesh_raster"]
         ratio = g["gpu_ms"] / m["gpu_ms"] if g["gpu_ms"] and m["gpu_ms"] else float("nan")
-        busy = 100 * r["load"]["foreign_cpu_s"] / max(r["load"]["wall_s"], 1e-9)
+        busy = 100 * busy_fraction(r)
         rows.append((
             f"{r['distance_diag']:.3g}", f"{r['covered_px']:,}",
             f"{_ms(g['wall_ms'])} / {_ms(g['gpu_ms'])}", f"{_ms(m['wall_ms'])} / {_ms(m['gpu_ms'])}",
@@ -417,17 +439,22 @@ def crossover_text(label: str, cross: dict[str, list[dict[str, Any]]]) -> list[s
     return lines
 
 
+def _count(n: float) -> str:
+    return f"{n / 1e6:.2g}M" if n >= 1e6 else f"{n / 1e3:.0f}k"
+
+
 def plot(sweeps: dict[str, dict[str, Any]], path: Path, size: int) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(11, 7))
+    fig, ax = plt.subplots(figsize=(14, 7.5))
     styles = {  # mesh label -> (geomtex colour, mesh-raster colour, marker)
         0: ("tab:blue", "tab:orange", "o"),
         1: ("tab:green", "tab:red", "s"),
     }
+    any_flagged = False
     for i, (label, s) in enumerate(sweeps.items()):
         recs = sorted(s["records"], key=lambda r: r["covered_px"])
         faces = s["faces"]
@@ -437,7 +464,14 @@ def plot(sweeps: dict[str, dict[str, Any]], path: Path, size: int) -> None:
             ax.plot(x, [r["geomtex"][key] for r in recs], ls, color=c_gt, marker=marker, ms=5,
                     label=f"geometry textures, {label} ({what})")
             ax.plot(x, [r["mesh_raster"][key] for r in recs], ls, color=c_mesh, marker=marker, ms=5,
-                    label=f"mesh raster, {label} {faces / 1e3:,.0f}k faces ({what})")
+                    label=f"mesh raster, {label} {_count(faces)} faces ({what})")
+        flagged = [r for r in recs if busy_fraction(r) > BUSY_FLAG]
+        if flagged:
+            fx = [r["covered_px"] for r in flagged for _ in range(4)]
+            fy = [r[w][k] for r in flagged for w in ("geomtex", "mesh_raster") for k in ("gpu_ms", "wall_ms")]
+            ax.plot(fx, fy, "x", color="black", ms=9, mew=1.5, zorder=6, label=(
+                None if any_flagged else "measured while other processes used the CPU (see busy %)"))
+            any_flagged = True
         tm = [(r["covered_px"], r["trimesh"]["wall_ms"]) for r in recs if r["trimesh"]]
         if tm:
             ax.plot(*zip(*tm), ":", color="black" if i == 0 else "gray", marker=marker, ms=5,
@@ -465,10 +499,13 @@ def plot(sweeps: dict[str, dict[str, Any]], path: Path, size: int) -> None:
     ax.set_yscale("log")
     ax.set_xlabel(f"covered pixels (of a {size}x{size} frame)")
     ax.set_ylabel("ms per frame")
-    ax.set_title("Rendering cost vs. screen coverage (lavapipe, software Vulkan, 2 cores)\n"
+    ax.set_title("Rendering cost vs. screen coverage (Mesa lavapipe/llvmpipe software Vulkan, 2 CPU cores)\n"
                  "solid: GPU timestamps of the render pass, dashed: wall time of render() incl. readback")
     ax.grid(which="both", alpha=0.25)
-    ax.legend(fontsize=8, loc="upper left")
+    handles, labels = ax.get_legend_handles_labels()
+    order = sorted(range(len(labels)), key=lambda j: labels[j].startswith("measured while"))
+    ax.legend([handles[j] for j in order], [labels[j] for j in order], fontsize=8.5,
+              loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -528,6 +565,8 @@ def main(argv: list[str] | None = None) -> None:
     trimesh_dense = set(np.linspace(0, steps - 1, 4).round().astype(int).tolist())
     with_dense = not (args.quick or args.no_dense)
 
+    # Recorded at the start: the extension module in use is the one loaded now.
+    machine = machine_info()
     mesh = gt.load_mesh(str(BUNNY))
     gts, seconds = convert_timed(mesh)
     meshes = {"bunny": mesh_info(mesh, gts, seconds)}
@@ -539,7 +578,7 @@ def main(argv: list[str] | None = None) -> None:
     print(headline_table(head))
 
     renderer = gt.Renderer(SWEEP_SIZE, SWEEP_SIZE)
-    machine = machine_info(renderer)
+    machine["adapter"] = dict(renderer.adapter_info)
     print(f"\nadapter: {machine['adapter']}")
     sweeps: dict[str, dict[str, Any]] = {}
     recs = sweep("bunny", mesh, gts, renderer, distances, trimesh_all, args.repeats,
@@ -573,6 +612,12 @@ def main(argv: list[str] | None = None) -> None:
         lines += crossover_text(label, s["crossovers"])
     print("\nCrossovers (geometry textures vs. mesh raster):")
     print("\n".join("  " + ln for ln in lines))
+
+    machine["git_at_end"] = _git("rev-parse", "--short", "HEAD")
+    machine["geomtex_build_time_at_end"] = _build_time()
+    if machine["geomtex_build_time_at_end"] != machine["geomtex_build_time"]:
+        print("\nnote: geomtex was rebuilt during the run; the results are for the build loaded at "
+              f"the start ({machine['geomtex_build_time']}, git {machine['git']})")
 
     args.out.mkdir(parents=True, exist_ok=True)
     result = {

@@ -3,36 +3,16 @@
 //
 // Spaces: view (camera-relative, see camera_functions.wgsl) and patch-local, where the box is the
 // unit cube, x/y are texture u/v and z is height. Ray parameters t are shared by both spaces
-// (the map between them is affine). Heights are 16-bit integer codes: 0 = empty, else
-// h = (code - 1) / 65534. They are loaded exactly and interpolated here, so no filtering
-// feature is needed.
-
-struct Patch {
-    view_from_patch: mat4x4<f32>,
-    patch_from_view: mat4x4<f32>,
-    // Patch-local normal → world normal (inverse transpose of the linear part of world_from_patch
-    // without the box extents).
-    world_normal_from_patch: mat4x4<f32>,
-    // Texel origin of the patch in its atlas layer, and its size in texels.
-    atlas_origin: vec2<f32>,
-    size: vec2<f32>,
-    // x: atlas layer, y: patch id written to the id target.
-    ids: vec4<i32>,
-}
-
-struct Search {
-    // x: linear steps per texel crossed, y: least linear steps, z: most linear steps,
-    // w: binary steps.
-    steps: vec4<f32>,
-}
+// (the map between them is affine). The height-field search lives in heightfield_functions.wgsl.
 
 @group(0) @binding(0) var<uniform> camera: Camera;
 @group(0) @binding(1) var<uniform> search: Search;
 @group(1) @binding(0) var<storage, read> patches: array<Patch>;
-@group(1) @binding(1) var heights: texture_2d_array<u32>;
 @group(1) @binding(2) var normals: texture_2d_array<f32>;
 @group(1) @binding(3) var colors: texture_2d_array<f32>;
 @group(1) @binding(4) var linear_clamp: sampler;
+// Counting build: x = fetches, y = ray-cast fragments.
+@group(0) @binding(2) var<storage, read_write> counters: array<atomic<u32>, 2>;
 
 struct VsOut {
     @builtin(position) position: vec4<f32>,
@@ -54,42 +34,6 @@ fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) instance
     let local = CUBE[vertex];
     let view = patches[instance].view_from_patch * vec4<f32>(local, 1.0);
     return VsOut(camera.clip_from_view * view, instance);
-}
-
-// Height at patch-local (u, v): bilinear over the non-empty texels of the 2x2 footprint,
-// or < 0 when the nearest texel is empty (no surface there).
-fn height_at(p: Patch, uv: vec2<f32>) -> f32 {
-    let x = uv * p.size - 0.5;
-    let base = floor(x);
-    let f = x - base;
-    let hi = vec2<i32>(p.size) - 1;
-    let i0 = clamp(vec2<i32>(base), vec2<i32>(0), hi);
-    let i1 = clamp(vec2<i32>(base) + 1, vec2<i32>(0), hi);
-    let o = vec2<i32>(p.atlas_origin);
-    let layer = p.ids.x;
-    let q = vec4<f32>(vec4<u32>(
-        textureLoad(heights, o + vec2<i32>(i0.x, i0.y), layer, 0).x,
-        textureLoad(heights, o + vec2<i32>(i1.x, i0.y), layer, 0).x,
-        textureLoad(heights, o + vec2<i32>(i0.x, i1.y), layer, 0).x,
-        textureLoad(heights, o + vec2<i32>(i1.x, i1.y), layer, 0).x,
-    ));
-    let nearest = select(select(q.x, q.y, f.x >= 0.5), select(q.z, q.w, f.x >= 0.5), f.y >= 0.5);
-    if (nearest == 0.0) {
-        return -1.0;
-    }
-    let w = vec4<f32>((1.0 - f.x) * (1.0 - f.y), f.x * (1.0 - f.y), (1.0 - f.x) * f.y, f.x * f.y)
-        * vec4<f32>(q > vec4<f32>(0.0));
-    let code = dot(w, q) / max(w.x + w.y + w.z + w.w, 1e-12);
-    return (code - 1.0) / 65534.0;
-}
-
-// +1 above the surface, -1 on or below it, 0 where there is no surface.
-fn side(p: Patch, point: vec3<f32>) -> f32 {
-    let h = height_at(p, point.xy);
-    if (h < 0.0) {
-        return 0.0;
-    }
-    return select(-1.0, 1.0, point.z > h);
 }
 
 // 1 / d with rays parallel to an axis sent to a huge finite slope instead of dividing by zero.
@@ -125,34 +69,19 @@ fn fs_main(in: VsOut) -> FsOut {
         discard;
     }
 
-    // Linear search balanced by slant: about `steps.x` samples per texel the ray crosses.
-    let span = abs(d.xy * (t_end - t_start)) * p.size;
-    let n = u32(clamp(ceil(max(span.x, span.y) * search.steps.x), search.steps.y, search.steps.z));
-    var t_prev = t_start;
-    var s_prev = side(p, o + d * t_start);
-    var t_hit = -1.0;
-    var s_first = 0.0;
-    for (var i = 1u; i <= n; i += 1u) {
-        let t = mix(t_start, t_end, f32(i) / f32(n));
-        let s = side(p, o + d * t);
-        if (s != 0.0 && s_prev != 0.0 && s != s_prev) {
-            // Binary search between the last sample on the first side and this one.
-            var a = t_prev;
-            var b = t;
-            for (var k = 0u; k < u32(search.steps.w); k += 1u) {
-                let m = 0.5 * (a + b);
-                let sm = side(p, o + d * m);
-                if (sm == s_prev) {
-                    a = m;
-                } else {
-                    b = m;
-                }
-            }
-            t_hit = 0.5 * (a + b);
-            break;
-        }
-        t_prev = t;
-        s_prev = s;
+    // Search from the box entry: with the camera as origin, ray positions in texels would be
+    // differences of large f32 numbers (the camera may be thousands of texels away).
+    let entry = o + d * t_start;
+    var t_local: f32;
+    if (search.method.x == 1u) {
+        t_local = maxmip_hit(p, search, entry, d, 0.0, t_end - t_start);
+    } else {
+        t_local = linear_binary_hit(p, search, entry, d, 0.0, t_end - t_start);
+    }
+    let t_hit = select(-1.0, t_start + t_local, t_local >= 0.0);
+    if (COUNT_FETCHES) {
+        atomicAdd(&counters[0], fetches);
+        atomicAdd(&counters[1], 1u);
     }
     if (t_hit < 0.0) {
         discard;

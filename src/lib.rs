@@ -8,6 +8,7 @@ pub mod convert;
 pub mod error;
 pub mod format;
 pub mod gtex;
+pub mod heightfield;
 pub mod mesh;
 pub mod render;
 

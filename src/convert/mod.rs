@@ -347,7 +347,7 @@ pub fn convert(
                 };
             }
             let faces: Vec<u32> = c.faces.iter().chain(ring).copied().collect();
-            let m = raster::rasterize(mesh, &geo, &faces, bx, opts.normals);
+            let m = raster::rasterize(mesh, &geo, &faces, c.faces.len(), bx, opts.normals);
             let k = done.fetch_add(1, Ordering::Relaxed) + 1;
             if k % 16 == 0 && !progress("raster", k as f64 / n as f64) {
                 cancelled.store(true, Ordering::Relaxed);

@@ -39,16 +39,19 @@ pub const NEUTRAL_COLOR: [u8; 4] = [200, 200, 200, 255];
 /// Draws `faces` into the box's maps; where faces overlap in projection the highest wins, as a
 /// ray coming down the box's z would see it.
 ///
-/// Coverage is conservative: a texel whose square touches a face but whose centre lies outside
-/// every face takes the values of the face's nearest point (a flat lip at most half a texel
-/// diagonal wide, never an extrapolated plane, which a steep face would send far off). Texels
-/// whose centre is covered always win over such lips. Without this, patches meeting at a sharp crease
+/// Coverage is conservative for the first `chart_faces` faces (the chart's own): a texel whose
+/// square touches one but whose centre lies outside every face takes the values of the face's
+/// nearest point (a flat lip at most half a texel diagonal wide, never an extrapolated plane,
+/// which a steep face would send far off). Texels whose centre is covered always win over lips.
+/// The overlap-ring faces that follow get no lips: the neighbouring chart covers past them, and
+/// a lip on a ring face that is steep in this frame would stick out as a shelf. Without this, patches meeting at a sharp crease
 /// (where the overlap ring cannot reach, its faces pointing down) leave a crack of up to a texel
 /// that rays fall through.
 pub fn rasterize(
     mesh: &Mesh,
     geo: &MeshGeometry,
     faces: &[u32],
+    chart_faces: usize,
     bx: &PatchBox,
     normals: NormalSource,
 ) -> Maps {
@@ -69,7 +72,8 @@ pub fn rasterize(
     };
     let to_patch_dir =
         |n: DVec3| DVec3::new(n.dot(bx.axes[0]), n.dot(bx.axes[1]), n.dot(bx.axes[2]));
-    for &f in faces {
+    for (n, &f) in faces.iter().enumerate() {
+        let lips = n < chart_faces;
         let tri = mesh.faces[f as usize];
         let [a, b, c] = tri.map(|v| to_local(mesh.positions[v as usize]));
         let area = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
@@ -111,7 +115,7 @@ pub fn rasterize(
                     px + 0.5 >= lo.x && px - 0.5 <= hi.x && py + 0.5 >= lo.y && py - 0.5 <= hi.y;
                 let here = if wa >= eps && wb >= eps && wc >= eps {
                     2
-                } else if overlaps_box && wa >= -ma && wb >= -mb && wc >= -mc {
+                } else if lips && overlaps_box && wa >= -ma && wb >= -mb && wc >= -mc {
                     1
                 } else {
                     continue;
@@ -249,7 +253,7 @@ mod tests {
             width: 8,
             height: 4,
         };
-        let mut maps = rasterize(&m, &geo, &[0, 1], &bx, NormalSource::Flat);
+        let mut maps = rasterize(&m, &geo, &[0, 1], 2, &bx, NormalSource::Flat);
         for j in 0..4 {
             for i in 0..8 {
                 let q = maps.heights[j * 8 + i];
@@ -262,7 +266,7 @@ mod tests {
             }
         }
         // Only one face: the other half stays empty, then dilation fills its normals.
-        let mut half = rasterize(&m, &geo, &[0], &bx, NormalSource::Flat);
+        let mut half = rasterize(&m, &geo, &[0], 1, &bx, NormalSource::Flat);
         let empty = half.heights.iter().filter(|&&q| q == 0).count();
         assert!(empty > 0 && empty < 32);
         dilate(&mut half, 8, 4, 8);

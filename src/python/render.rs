@@ -9,7 +9,9 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 
 use super::{parameter_error, to_py_err, PyGeometryTextureSet, PyMesh};
-use crate::render::{Camera, Object, Projection, Renderer, Scene, SceneObject, SearchOptions};
+use crate::render::{
+    Camera, Method, Object, Projection, Renderer, Scene, SceneObject, SearchOptions,
+};
 
 fn mat4(a: Option<PyReadonlyArray2<'_, f64>>, what: &str) -> PyResult<DMat4> {
     let Some(a) = a else {
@@ -310,33 +312,70 @@ impl PyRenderer {
     }
 
     /// Renders a Scene, a GeometryTextureSet or a Mesh seen by `camera`.
-    #[pyo3(signature = (obj, camera, *, steps_per_texel = 0.5, min_linear_steps = 2,
-        max_linear_steps = 1024, binary_steps = 8, background = (255, 255, 255, 0)),
-        text_signature = "(self, /, obj, camera, *, steps_per_texel=0.5, min_linear_steps=2, \
-max_linear_steps=1024, binary_steps=8, background=(255, 255, 255, 0))")]
+    ///
+    /// `quality` picks measured settings ("fast", "balanced" (default) or "exact"); `method`
+    /// and the step keywords override them. `count_fetches` uses a counting build of the pipeline
+    /// and reports height fetches per ray-cast fragment in `frame.stats`.
+    #[pyo3(signature = (obj, camera, *, quality = None, method = None, steps_per_texel = None,
+        min_linear_steps = None, max_linear_steps = None, binary_steps = None,
+        max_traversal_steps = None, count_fetches = false, background = (255, 255, 255, 0)),
+        text_signature = "(self, /, obj, camera, *, quality=None, method=None, steps_per_texel=None, \
+min_linear_steps=None, max_linear_steps=None, binary_steps=None, max_traversal_steps=None, \
+count_fetches=False, background=(255, 255, 255, 0))")]
     #[allow(clippy::too_many_arguments)]
     fn render(
         &self,
         py: Python<'_>,
         obj: &Bound<'_, PyAny>,
         camera: &PyCamera,
-        steps_per_texel: f32,
-        min_linear_steps: u32,
-        max_linear_steps: u32,
-        binary_steps: u32,
+        quality: Option<&str>,
+        method: Option<&str>,
+        steps_per_texel: Option<f32>,
+        min_linear_steps: Option<u32>,
+        max_linear_steps: Option<u32>,
+        binary_steps: Option<u32>,
+        max_traversal_steps: Option<u32>,
+        count_fetches: bool,
         background: (u8, u8, u8, u8),
     ) -> PyResult<PyFrame> {
+        let mut search = match quality.unwrap_or("balanced") {
+            "fast" => SearchOptions {
+                steps_per_texel: 0.25,
+                binary_steps: 6,
+                ..Default::default()
+            },
+            "balanced" => SearchOptions::default(),
+            "exact" => SearchOptions {
+                method: Method::MaxMip,
+                ..Default::default()
+            },
+            other => {
+                return Err(parameter_error(format!(
+                    "quality must be 'fast', 'balanced' or 'exact', got {other:?}"
+                )))
+            }
+        };
+        match method {
+            None => {}
+            Some("linear_binary") => search.method = Method::LinearBinary,
+            Some("maxmip") => search.method = Method::MaxMip,
+            Some(other) => {
+                return Err(parameter_error(format!(
+                    "method must be 'linear_binary' or 'maxmip', got {other:?}"
+                )))
+            }
+        }
+        search.steps_per_texel = steps_per_texel.unwrap_or(search.steps_per_texel);
+        search.min_linear_steps = min_linear_steps.unwrap_or(search.min_linear_steps);
+        search.max_linear_steps = max_linear_steps.unwrap_or(search.max_linear_steps);
+        search.binary_steps = binary_steps.unwrap_or(search.binary_steps);
+        search.max_traversal_steps = max_traversal_steps.unwrap_or(search.max_traversal_steps);
+        search.count_fetches = count_fetches;
         let scene = match obj.cast::<PyScene>() {
             Ok(s) => s.borrow().inner.clone(),
             Err(_) => Scene {
                 objects: vec![scene_object(obj, DMat4::IDENTITY)?],
             },
-        };
-        let search = SearchOptions {
-            steps_per_texel,
-            min_linear_steps,
-            max_linear_steps,
-            binary_steps,
         };
         let cam = camera.inner;
         let frame = py
@@ -363,6 +402,22 @@ max_linear_steps=1024, binary_steps=8, background=(255, 255, 255, 0))")]
         stats.set_item("patches_drawn", frame.patches_drawn)?;
         stats.set_item("meshes_drawn", frame.meshes_drawn)?;
         stats.set_item("near", frame.near)?;
+        stats.set_item(
+            "method",
+            if search.method == Method::MaxMip {
+                "maxmip"
+            } else {
+                "linear_binary"
+            },
+        )?;
+        if let Some((fetches, fragments)) = frame.fetches {
+            stats.set_item("fetches", fetches)?;
+            stats.set_item("raycast_fragments", fragments)?;
+            stats.set_item(
+                "fetches_per_pixel",
+                fetches as f64 / fragments.max(1) as f64,
+            )?;
+        }
         Ok(PyFrame {
             color: Array3::from_shape_vec((h, w, 4), frame.color)
                 .unwrap()

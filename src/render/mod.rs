@@ -42,23 +42,40 @@ pub struct Scene {
     pub objects: Vec<SceneObject>,
 }
 
-/// The paper's search: a linear march then a binary refinement.
+/// How a ray finds its first hit in a height map.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Method {
+    /// The paper's search: a linear march balanced by slant, then bisection.
+    LinearBinary,
+    /// Exact: descend a max pyramid, skip what the ray passes above, solve each cell in closed form.
+    MaxMip,
+}
+
+/// Search settings of a render.
 #[derive(Clone, Copy, Debug)]
 pub struct SearchOptions {
+    pub method: Method,
     /// Linear samples per texel the ray crosses in the patch (the balance by slant).
     pub steps_per_texel: f32,
     pub min_linear_steps: u32,
     pub max_linear_steps: u32,
     pub binary_steps: u32,
+    /// Most node visits of the max-pyramid traversal per fragment.
+    pub max_traversal_steps: u32,
+    /// Count height-map fetches per fragment (a slower counting build of the pipeline).
+    pub count_fetches: bool,
 }
 
 impl Default for SearchOptions {
     fn default() -> Self {
         SearchOptions {
-            steps_per_texel: 1.0,
-            min_linear_steps: 4,
+            method: Method::LinearBinary,
+            steps_per_texel: 0.5,
+            min_linear_steps: 2,
             max_linear_steps: 1024,
-            binary_steps: 10,
+            binary_steps: 8,
+            max_traversal_steps: 4096,
+            count_fetches: false,
         }
     }
 }
@@ -70,13 +87,15 @@ impl SearchOptions {
             && self.min_linear_steps >= 1
             && self.max_linear_steps >= self.min_linear_steps
             && self.max_linear_steps <= 65536
-            && self.binary_steps <= 64;
+            && self.binary_steps <= 64
+            && (1..=1 << 20).contains(&self.max_traversal_steps);
         if ok {
             Ok(())
         } else {
             Err(GeomtexError::Parameter(format!(
                 "search options out of range: {self:?} (need steps_per_texel > 0, \
-                 1 <= min_linear_steps <= max_linear_steps <= 65536, binary_steps <= 64)"
+                 1 <= min_linear_steps <= max_linear_steps <= 65536, binary_steps <= 64, \
+                 1 <= max_traversal_steps <= 2^20)"
             )))
         }
     }
@@ -100,6 +119,8 @@ pub struct Frame {
     pub patches_drawn: usize,
     pub meshes_drawn: usize,
     pub near: f64,
+    /// With `count_fetches`: height-map and pyramid reads, and the fragments that ray cast.
+    pub fetches: Option<(u64, u64)>,
 }
 
 // GPU records: layouts mirror the WGSL structs (mat4 = 64 bytes, vec4 = 16).
@@ -116,6 +137,7 @@ struct CameraGpu {
 #[derive(Clone, Copy, Pod, Zeroable)]
 struct SearchGpu {
     steps: [f32; 4],
+    method: [u32; 4],
 }
 
 #[repr(C)]
@@ -127,6 +149,7 @@ struct PatchGpu {
     atlas_origin: [f32; 2],
     size: [f32; 2],
     ids: [i32; 4],
+    pyramid_at: [u32; 4],
 }
 
 #[repr(C)]
@@ -166,6 +189,10 @@ struct UploadedTextures {
     /// Per patch: (layer, x, y) of its first texel in the atlas.
     places: Vec<(u32, u32, u32)>,
     bind_textures: [wgpu::TextureView; 3],
+    /// Every patch's min-max pyramid (src/heightfield.rs); per patch its first value and level
+    /// count.
+    pyramid: wgpu::Buffer,
+    pyramid_at: Vec<[u32; 2]>,
 }
 
 struct UploadedMesh {
@@ -202,10 +229,13 @@ pub struct Renderer {
     textures_layout: wgpu::BindGroupLayout,
     mesh_layout: wgpu::BindGroupLayout,
     gtex_pipeline: wgpu::RenderPipeline,
+    gtex_counting_pipeline: wgpu::RenderPipeline,
     mesh_pipeline: wgpu::RenderPipeline,
     depth_copy_pipeline: wgpu::ComputePipeline,
     sampler: wgpu::Sampler,
     camera_buffer: wgpu::Buffer,
+    counters: wgpu::Buffer,
+    counters_readback: wgpu::Buffer,
     search_buffer: wgpu::Buffer,
     frame_group: wgpu::BindGroup,
     targets: Targets,
@@ -240,9 +270,23 @@ impl Renderer {
             count: None,
         };
         let vf = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
+        let storage = |binding, read_only| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::FRAGMENT,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
         let frame_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("frame"),
-            entries: &[uniform(0, vf), uniform(1, wgpu::ShaderStages::FRAGMENT)],
+            entries: &[
+                uniform(0, vf),
+                uniform(1, wgpu::ShaderStages::FRAGMENT),
+                storage(2, false),
+            ],
         });
         let texture_entry = |binding, filterable| wgpu::BindGroupLayoutEntry {
             binding,
@@ -285,6 +329,7 @@ impl Renderer {
                     ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
                     count: None,
                 },
+                storage(5, true),
             ],
         });
         let mesh_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -319,7 +364,8 @@ impl Renderer {
                              source: String,
                              layouts: &[Option<&wgpu::BindGroupLayout>],
                              buffers: &[Option<wgpu::VertexBufferLayout>],
-                             cull: Option<wgpu::Face>| {
+                             cull: Option<wgpu::Face>,
+                             constants: &[(&str, f64)]| {
             let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some(label),
                 source: wgpu::ShaderSource::Wgsl(source.into()),
@@ -349,7 +395,10 @@ impl Renderer {
                 fragment: Some(wgpu::FragmentState {
                     module: &module,
                     entry_point: Some("fs_main"),
-                    compilation_options: Default::default(),
+                    compilation_options: wgpu::PipelineCompilationOptions {
+                        constants,
+                        zero_initialize_workgroup_memory: true,
+                    },
                     targets: &targets_state,
                 }),
                 multiview_mask: None,
@@ -363,6 +412,16 @@ impl Renderer {
             &[Some(&frame_layout), Some(&textures_layout)],
             &[],
             Some(wgpu::Face::Front),
+            &[],
+        );
+        // The same shader with its fetch counter switched on.
+        let gtex_counting_pipeline = make_pipeline(
+            "gtex_raycast (counting fetches)",
+            shaders::gtex_raycast(),
+            &[Some(&frame_layout), Some(&textures_layout)],
+            &[],
+            Some(wgpu::Face::Front),
+            &[("COUNT_FETCHES", 1.0)],
         );
         let mesh_vertex_layout = wgpu::VertexBufferLayout {
             array_stride: std::mem::size_of::<MeshVertex>() as u64,
@@ -376,6 +435,7 @@ impl Renderer {
             &[Some(&frame_layout), Some(&mesh_layout)],
             &[Some(mesh_vertex_layout)],
             None,
+            &[],
         );
         let depth_copy_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("depth copy"),
@@ -441,6 +501,20 @@ impl Renderer {
         };
         let camera_buffer = buffer("camera", std::mem::size_of::<CameraGpu>() as u64);
         let search_buffer = buffer("search", std::mem::size_of::<SearchGpu>() as u64);
+        let counters = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("fetch counters"),
+            size: 8,
+            usage: wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_DST
+                | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let counters_readback = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("fetch counters readback"),
+            size: 8,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
         let frame_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("frame"),
             layout: &frame_layout,
@@ -453,6 +527,10 @@ impl Renderer {
                     binding: 1,
                     resource: search_buffer.as_entire_binding(),
                 },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: counters.as_entire_binding(),
+                },
             ],
         });
         let targets = Self::make_targets(&gpu, &depth_copy_layout, width, height);
@@ -461,11 +539,14 @@ impl Renderer {
             textures_layout,
             mesh_layout,
             gtex_pipeline,
+            gtex_counting_pipeline,
             mesh_pipeline,
             depth_copy_pipeline,
             sampler,
             camera_buffer,
             search_buffer,
+            counters,
+            counters_readback,
             frame_group,
             targets,
             textures: HashMap::new(),
@@ -684,12 +765,31 @@ impl Renderer {
             })
         };
         let bind_textures = [view(&textures[0]), view(&textures[1]), view(&textures[2])];
+        let mut values: Vec<u32> = Vec::new();
+        let mut pyramid_at = Vec::with_capacity(set.patches.len());
+        for p in &set.patches {
+            let levels = crate::heightfield::min_max_pyramid(p);
+            pyramid_at.push([values.len() as u32, levels.len() as u32]);
+            for (_, _, v) in &levels {
+                values.extend_from_slice(v);
+            }
+        }
+        let pyramid = self
+            .gpu
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("max pyramids"),
+                contents: bytemuck::cast_slice(&values),
+                usage: wgpu::BufferUsages::STORAGE,
+            });
         self.textures.insert(
             key,
             UploadedTextures {
                 set: Arc::downgrade(set),
                 places,
                 bind_textures,
+                pyramid,
+                pyramid_at,
             },
         );
         Ok(key)
@@ -855,8 +955,17 @@ impl Renderer {
                     search.max_linear_steps as f32,
                     search.binary_steps as f32,
                 ],
+                method: [
+                    (search.method == Method::MaxMip) as u32,
+                    search.max_traversal_steps,
+                    0,
+                    0,
+                ],
             }),
         );
+        if search.count_fetches {
+            queue.write_buffer(&self.counters, 0, &[0u8; 8]);
+        }
 
         // Per-object GPU records for this view.
         enum Draw {
@@ -893,6 +1002,7 @@ impl Renderer {
                                 atlas_origin: [x as f32, y as f32],
                                 size: [p.width as f32, p.height as f32],
                                 ids: [layer as i32, next_patch_id + i as i32, 0, 0],
+                                pyramid_at: [up.pyramid_at[i][0], up.pyramid_at[i][1], 0, 0],
                             }
                         })
                         .collect();
@@ -929,6 +1039,10 @@ impl Renderer {
                             wgpu::BindGroupEntry {
                                 binding: 4,
                                 resource: wgpu::BindingResource::Sampler(&self.sampler),
+                            },
+                            wgpu::BindGroupEntry {
+                                binding: 5,
+                                resource: up.pyramid.as_entire_binding(),
                             },
                         ],
                     });
@@ -1039,7 +1153,11 @@ impl Renderer {
                         pass.draw(0..u.count, 0..1);
                     }
                     Draw::Textures { group, instances } => {
-                        pass.set_pipeline(&self.gtex_pipeline);
+                        pass.set_pipeline(if search.count_fetches {
+                            &self.gtex_counting_pipeline
+                        } else {
+                            &self.gtex_pipeline
+                        });
                         pass.set_bind_group(1, group, &[]);
                         pass.draw(0..36, 0..*instances);
                     }
@@ -1083,6 +1201,9 @@ impl Renderer {
             );
         }
         encoder.copy_buffer_to_buffer(&t.depth_values, 0, &t.readback[3], 0, t.depth_values.size());
+        if search.count_fetches {
+            encoder.copy_buffer_to_buffer(&self.counters, 0, &self.counters_readback, 0, 8);
+        }
         if let Some((set, resolve, readback)) = &t.timestamps {
             encoder.resolve_query_set(set, 0..2, resolve, 0);
             encoder.copy_buffer_to_buffer(resolve, 0, readback, 0, 16);
@@ -1091,6 +1212,9 @@ impl Renderer {
 
         // Read everything back in one wait.
         let mut buffers: Vec<&wgpu::Buffer> = t.readback.iter().collect();
+        if search.count_fetches {
+            buffers.push(&self.counters_readback);
+        }
         if let Some((_, _, r)) = &t.timestamps {
             buffers.push(r);
         }
@@ -1125,6 +1249,12 @@ impl Renderer {
         let normal_half = unpad(read(&t.readback[1])?, 8);
         let ids = unpad(read(&t.readback[2])?, 4);
         let depth_raw = read(&t.readback[3])?;
+        let fetches = if search.count_fetches {
+            let c: Vec<u32> = bytemuck::cast_slice(&read(&self.counters_readback)?).to_vec();
+            Some((c[0] as u64, c[1] as u64))
+        } else {
+            None
+        };
         let gpu_ms = match &t.timestamps {
             Some((_, _, r)) => {
                 let ticks: Vec<u64> = bytemuck::cast_slice(&read(r)?).to_vec();
@@ -1158,6 +1288,7 @@ impl Renderer {
             patches_drawn,
             meshes_drawn,
             near: lens.near,
+            fetches,
         })
     }
 
@@ -1188,6 +1319,7 @@ fn guarded<T>(device: &wgpu::Device, work: impl FnOnce() -> Result<T>) -> Result
 }
 
 // The GPU records must match the WGSL struct layouts byte for byte.
-const _: () = assert!(std::mem::size_of::<PatchGpu>() == 224);
+const _: () = assert!(std::mem::size_of::<PatchGpu>() == 240);
+const _: () = assert!(std::mem::size_of::<SearchGpu>() == 32);
 const _: () = assert!(std::mem::size_of::<CameraGpu>() == 160);
 const _: () = assert!(std::mem::size_of::<MeshObjectGpu>() == 144);

@@ -2,12 +2,13 @@
 //! the shared camera functions followed by the pipeline's own file.
 
 pub const CAMERA_FUNCTIONS: &str = include_str!("../../shaders/camera_functions.wgsl");
+pub const HEIGHTFIELD_FUNCTIONS: &str = include_str!("../../shaders/heightfield_functions.wgsl");
 pub const GTEX_RAYCAST: &str = include_str!("../../shaders/gtex_raycast.wgsl");
 pub const MESH_RASTER: &str = include_str!("../../shaders/mesh_raster.wgsl");
 pub const DEPTH_COPY: &str = include_str!("../../shaders/depth_copy.wgsl");
 
 pub fn gtex_raycast() -> String {
-    format!("{CAMERA_FUNCTIONS}\n{GTEX_RAYCAST}")
+    format!("{CAMERA_FUNCTIONS}\n{HEIGHTFIELD_FUNCTIONS}\n{GTEX_RAYCAST}")
 }
 
 pub fn mesh_raster() -> String {

@@ -1,0 +1,286 @@
+// Height-field intersection, shared by the ray-casting pipelines: the surface rule of
+// src/heightfield.rs (its CPU twin is the reference the tests hold this code to), the paper's
+// linear + binary search, and an exact min-max-pyramid traversal.
+//
+// Space: patch-local (unit cube, heights h in [0, 1]) and, inside it, texel-centre coordinates
+// x = u W - 1/2 (texel i at x = i) or cell-grid coordinates g = x + 1 (pyramid level-0 cell c spans
+// g in [c, c + 1]). Heights are 16-bit codes: 0 = empty, else h = (code - 1) / 65534.
+
+struct Patch {
+    view_from_patch: mat4x4<f32>,
+    patch_from_view: mat4x4<f32>,
+    // Patch-local normal → world normal.
+    world_normal_from_patch: mat4x4<f32>,
+    // Texel origin of the patch in its atlas layer, and its size in texels.
+    atlas_origin: vec2<f32>,
+    size: vec2<f32>,
+    // x: atlas layer, y: patch id written to the id target.
+    ids: vec4<i32>,
+    // x: first pyramid value of this patch in `pyramid`, y: pyramid levels.
+    pyramid_at: vec4<u32>,
+}
+
+@group(1) @binding(1) var heights: texture_2d_array<u32>;
+@group(1) @binding(5) var<storage, read> pyramid: array<u32>;
+
+// Counting build (COUNT_FETCHES = true): height and pyramid reads of this fragment.
+override COUNT_FETCHES: bool = false;
+var<private> fetches: u32 = 0u;
+
+fn load_code(p: Patch, texel: vec2<i32>) -> f32 {
+    if (COUNT_FETCHES) {
+        fetches += 1u;
+    }
+    let hi = vec2<i32>(p.size) - 1;
+    let t = clamp(texel, vec2<i32>(0), hi);
+    return f32(textureLoad(heights, vec2<i32>(p.atlas_origin) + t, p.ids.x, 0).x);
+}
+
+fn decode(code: f32) -> f32 {
+    return (code - 1.0) / 65534.0;
+}
+
+// Corner codes of the cell with lower-left texel (i, j), empty ones replaced by the mean of the
+// others (all zero when the whole cell is empty).
+fn cell_codes(p: Patch, ij: vec2<i32>) -> vec4<f32> {
+    let q = vec4<f32>(
+        load_code(p, ij),
+        load_code(p, ij + vec2<i32>(1, 0)),
+        load_code(p, ij + vec2<i32>(0, 1)),
+        load_code(p, ij + vec2<i32>(1, 1)),
+    );
+    let filled = vec4<f32>(q > vec4<f32>(0.0));
+    let n = dot(filled, vec4<f32>(1.0));
+    let mean = dot(q, vec4<f32>(1.0)) / max(n, 1.0);
+    return select(vec4<f32>(mean), q, q > vec4<f32>(0.0));
+}
+
+// The corner of `q` nearest to the fraction f inside the cell.
+fn nearest_code(raw: vec4<f32>, f: vec2<f32>) -> f32 {
+    return select(select(raw.x, raw.y, f.x >= 0.5), select(raw.z, raw.w, f.x >= 0.5), f.y >= 0.5);
+}
+
+// Surface height at patch-local (u, v); < 0 where there is none.
+fn height_at(p: Patch, uv: vec2<f32>) -> f32 {
+    let x = uv * p.size - 0.5;
+    let base = floor(x);
+    let f = x - base;
+    let ij = vec2<i32>(base);
+    let raw = vec4<f32>(
+        load_code(p, ij),
+        load_code(p, ij + vec2<i32>(1, 0)),
+        load_code(p, ij + vec2<i32>(0, 1)),
+        load_code(p, ij + vec2<i32>(1, 1)),
+    );
+    if (nearest_code(raw, f) == 0.0) {
+        return -1.0;
+    }
+    let n = dot(vec4<f32>(raw > vec4<f32>(0.0)), vec4<f32>(1.0));
+    let q = select(vec4<f32>(dot(raw, vec4<f32>(1.0)) / n), raw, raw > vec4<f32>(0.0));
+    let code = mix(mix(q.x, q.y, f.x), mix(q.z, q.w, f.x), f.y);
+    return decode(code);
+}
+
+// +1 above the surface, -1 on or below it, 0 where there is no surface.
+fn side(p: Patch, point: vec3<f32>) -> f32 {
+    let h = height_at(p, point.xy);
+    if (h < 0.0) {
+        return 0.0;
+    }
+    return select(-1.0, 1.0, point.z > h);
+}
+
+struct Search {
+    // x: linear steps per texel crossed, y: least linear steps, z: most linear steps,
+    // w: binary steps.
+    steps: vec4<f32>,
+    // x: 0 = linear + binary, 1 = max pyramid; y: most traversal steps (max pyramid).
+    method: vec4<u32>,
+}
+
+// The paper's search: linear steps balanced by slant, then bisection. Returns t or -1.
+fn linear_binary_hit(p: Patch, search: Search, o: vec3<f32>, d: vec3<f32>, t_start: f32, t_end: f32) -> f32 {
+    let span = abs(d.xy * (t_end - t_start)) * p.size;
+    let n = u32(clamp(ceil(max(span.x, span.y) * search.steps.x), search.steps.y, search.steps.z));
+    var t_prev = t_start;
+    var s_prev = side(p, o + d * t_start);
+    for (var i = 1u; i <= n; i += 1u) {
+        let t = mix(t_start, t_end, f32(i) / f32(n));
+        let s = side(p, o + d * t);
+        if (s != 0.0 && s_prev != 0.0 && s != s_prev) {
+            var a = t_prev;
+            var b = t;
+            for (var k = 0u; k < u32(search.steps.w); k += 1u) {
+                let m = 0.5 * (a + b);
+                if (side(p, o + d * m) == s_prev) {
+                    a = m;
+                } else {
+                    b = m;
+                }
+            }
+            return 0.5 * (a + b);
+        }
+        t_prev = t;
+        s_prev = s;
+    }
+    return -1.0;
+}
+
+// Smallest root of a s^2 + b s + c in [0, len], or -1.
+fn first_root(a: f32, b: f32, c: f32, len: f32) -> f32 {
+    let scale = max(max(abs(a), abs(b)), abs(c));
+    if (scale == 0.0) {
+        return 0.0;
+    }
+    var r0 = -1.0;
+    var r1 = -1.0;
+    if (abs(a) <= 1e-7 * scale) {
+        if (b != 0.0) {
+            r0 = -c / b;
+        }
+    } else {
+        let disc = b * b - 4.0 * a * c;
+        if (disc < 0.0) {
+            return -1.0;
+        }
+        let q = -0.5 * (b + select(-1.0, 1.0, b >= 0.0) * sqrt(disc));
+        r0 = q / a;
+        if (q != 0.0) {
+            r1 = c / q;
+        }
+        // Both roots inside and a dip shallower than half a height code: the ray only grazes
+        // the surface (heights are known to half a code), as in src/heightfield.rs.
+        let both = r0 >= 0.0 && r0 <= len && r1 >= 0.0 && r1 <= len;
+        if (both && abs(c - b * b / (4.0 * a)) < 0.5 / 65534.0) {
+            return -1.0;
+        }
+    }
+    var best = -1.0;
+    if (r0 >= 0.0 && r0 <= len) {
+        best = r0;
+    }
+    if (r1 >= 0.0 && r1 <= len && (best < 0.0 || r1 < best)) {
+        best = r1;
+    }
+    return best;
+}
+
+// First crossing inside one level-0 cell for t in [ta, tb]: the cell is split at its half-texel
+// lines into pieces where the nearest texel is fixed; in each the height is a quadratic in t.
+fn cell_hit(p: Patch, o: vec3<f32>, d: vec3<f32>, cell: vec2<f32>, ta: f32, tb: f32) -> f32 {
+    let g0 = vec2<f32>(o.x * p.size.x + 0.5, o.y * p.size.y + 0.5);
+    let dg = d.xy * p.size;
+    let ij = vec2<i32>(cell) - 1;  // lower-left corner texel
+    let raw = vec4<f32>(
+        load_code(p, ij),
+        load_code(p, ij + vec2<i32>(1, 0)),
+        load_code(p, ij + vec2<i32>(0, 1)),
+        load_code(p, ij + vec2<i32>(1, 1)),
+    );
+    let n = dot(vec4<f32>(raw > vec4<f32>(0.0)), vec4<f32>(1.0));
+    if (n == 0.0) {
+        return -1.0;
+    }
+    let q = select(vec4<f32>(dot(raw, vec4<f32>(1.0)) / n), raw, raw > vec4<f32>(0.0));
+    let c00 = decode(q.x);
+    let e = decode(q.y) - c00;
+    let f = decode(q.z) - c00;
+    let g = decode(q.x) - decode(q.y) - decode(q.z) + decode(q.w);
+    // Piece boundaries: where the ray crosses the cell's half-texel lines.
+    let mid = cell + 0.5;
+    var cuts = vec2<f32>(tb, tb);
+    if (dg.x != 0.0) {
+        cuts.x = clamp((mid.x - g0.x) / dg.x, ta, tb);
+    }
+    if (dg.y != 0.0) {
+        cuts.y = clamp((mid.y - g0.y) / dg.y, ta, tb);
+    }
+    let bounds = array<f32, 4>(ta, min(cuts.x, cuts.y), max(cuts.x, cuts.y), tb);
+    for (var k = 0; k < 3; k += 1) {
+        let a = bounds[k];
+        let b = bounds[k + 1];
+        if (b <= a) {
+            continue;
+        }
+        // Fractions inside the cell at the piece start, as functions of s = t - a.
+        let fa = g0 + dg * a - cell;
+        let fm = g0 + dg * (0.5 * (a + b)) - cell;
+        if (nearest_code(raw, fm) == 0.0) {
+            continue;
+        }
+        let h2 = g * dg.x * dg.y;
+        let h1 = e * dg.x + f * dg.y + g * (fa.x * dg.y + fa.y * dg.x);
+        let h0 = c00 + e * fa.x + f * fa.y + g * fa.x * fa.y;
+        let z0 = o.z + d.z * a;
+        let s = first_root(-h2, d.z - h1, z0 - h0, b - a);
+        if (s >= 0.0) {
+            return a + s;
+        }
+    }
+    return -1.0;
+}
+
+// Exact first hit by descending the min-max pyramid: a node is skipped whole when the ray over it
+// stays above its highest surface or below its lowest (no crossing is possible); a level-0 cell
+// is solved in closed form. Node values pack the max code (high 16 bits) and min code (low).
+fn maxmip_hit(p: Patch, search: Search, o: vec3<f32>, d: vec3<f32>, t_start: f32, t_end: f32) -> f32 {
+    let levels = i32(p.pyramid_at.y);
+    // Offsets and row lengths of each level (level 0 is (W + 1) x (H + 1)).
+    var offset: array<u32, 16>;
+    var dims: array<vec2<u32>, 16>;
+    var size = vec2<u32>(p.size) + 1u;
+    var at = p.pyramid_at.x;
+    for (var l = 0; l < levels; l += 1) {
+        offset[l] = at;
+        dims[l] = size;
+        at += size.x * size.y;
+        size = (size + 1u) / 2u;
+    }
+    let g0 = vec2<f32>(o.x * p.size.x + 0.5, o.y * p.size.y + 0.5);
+    let dg = d.xy * p.size;
+    let along = select(vec2<f32>(0.0), normalize(dg), dot(dg, dg) > 0.0);
+    var level = levels - 1;
+    var t = t_start;
+    for (var step = 0u; step < search.method.y; step += 1u) {
+        if (t >= t_end) {
+            break;
+        }
+        let scale = f32(1 << u32(level));
+        // Probe a hair along the ray so a node boundary belongs to the node being entered.
+        let g = g0 + dg * t + along * 1e-3;
+        let node = clamp(floor(g / scale), vec2<f32>(0.0), vec2<f32>(dims[level] - 1u));
+        let lo = node * scale;
+        let hi = lo + scale;
+        var t_exit = t_end;
+        if (dg.x > 0.0) { t_exit = min(t_exit, (hi.x - g0.x) / dg.x); }
+        if (dg.x < 0.0) { t_exit = min(t_exit, (lo.x - g0.x) / dg.x); }
+        if (dg.y > 0.0) { t_exit = min(t_exit, (hi.y - g0.y) / dg.y); }
+        if (dg.y < 0.0) { t_exit = min(t_exit, (lo.y - g0.y) / dg.y); }
+        // Always make progress, even when rounding puts t on the node's far boundary.
+        t_exit = max(t_exit, t + 1e-6 * max(t_end, 1e-20));
+        if (COUNT_FETCHES) {
+            fetches += 1u;
+        }
+        let index = offset[level] + u32(node.y) * dims[level].x + u32(node.x);
+        let packed = pyramid[index];
+        let za = o.z + d.z * t;
+        let zb = o.z + d.z * t_exit;
+        if (packed == 0u || min(za, zb) > decode(f32(packed >> 16u))
+            || max(za, zb) < decode(f32(packed & 0xffffu))) {
+            t = t_exit;
+            level = min(level + 1, levels - 1);
+            continue;
+        }
+        if (level > 0) {
+            level -= 1;
+            continue;
+        }
+        let hit = cell_hit(p, o, d, node, t, t_exit);
+        if (hit >= 0.0) {
+            return hit;
+        }
+        t = t_exit;
+        level = min(level + 1, levels - 1);
+    }
+    return -1.0;
+}

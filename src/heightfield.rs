@@ -1,0 +1,351 @@
+//! The surface a patch's height map stands for, its exact first intersection with a ray (the CPU
+//! reference every GPU search is tested against), and the max pyramid that lets a ray skip what
+//! it cannot hit.
+//!
+//! Space: patch-local (the box is the unit cube, heights h in [0, 1]). Inside it we also use
+//! texel-centre coordinates x = u W - 1/2, y = v H - 1/2, where texel (i, j) sits at (i, j).
+//!
+//! The surface: where the texel nearest to (x, y) is empty there is none. Elsewhere the height is
+//! the bilinear blend of the four texels around (x, y) (indices clamped to the map, so the border
+//! half-texel is flat), an empty one standing in with the mean code of the cell's non-empty ones.
+//! Between half-texel lines the nearest texel and the four corners are fixed, so along a ray the
+//! height is a quadratic in t there and its first crossing is found in closed form. The shader
+//! (shaders/heightfield_functions.wgsl) implements the same rule.
+
+use glam::DVec3;
+
+use crate::gtex::{Patch, HEIGHT_MAX};
+
+/// Height code → patch-local height.
+#[inline]
+fn decode(code: f64) -> f64 {
+    (code - 1.0) / (HEIGHT_MAX - 1) as f64
+}
+
+/// Corner codes of the cell whose lower-left texel centre is (i, j) (indices clamped), with
+/// empty corners replaced by the mean of the others; None when all four are empty.
+fn cell_codes(p: &Patch, i: i64, j: i64) -> Option<[f64; 4]> {
+    let (w, h) = (p.width as i64, p.height as i64);
+    let at =
+        |x: i64, y: i64| p.heights[(y.clamp(0, h - 1) * w + x.clamp(0, w - 1)) as usize] as f64;
+    let q = [at(i, j), at(i + 1, j), at(i, j + 1), at(i + 1, j + 1)];
+    let filled: Vec<f64> = q.iter().copied().filter(|&c| c > 0.0).collect();
+    if filled.is_empty() {
+        return None;
+    }
+    let mean = filled.iter().sum::<f64>() / filled.len() as f64;
+    Some(q.map(|c| if c > 0.0 { c } else { mean }))
+}
+
+/// Whether the texel nearest to texel-centre coordinates (x, y) holds surface.
+fn nearest_filled(p: &Patch, x: f64, y: f64) -> bool {
+    let i = (x.round() as i64).clamp(0, p.width as i64 - 1);
+    let j = (y.round() as i64).clamp(0, p.height as i64 - 1);
+    p.heights[(j * p.width as i64 + i) as usize] > 0
+}
+
+/// Surface height at patch-local (u, v), or None where there is no surface.
+pub fn height_at(p: &Patch, u: f64, v: f64) -> Option<f64> {
+    let (x, y) = (u * p.width as f64 - 0.5, v * p.height as f64 - 0.5);
+    if !nearest_filled(p, x, y) {
+        return None;
+    }
+    let (i, j) = (x.floor(), y.floor());
+    let (fx, fy) = (x - i, y - j);
+    let q = cell_codes(p, i as i64, j as i64)?;
+    let code = q[0] * (1.0 - fx) * (1.0 - fy)
+        + q[1] * fx * (1.0 - fy)
+        + q[2] * (1.0 - fx) * fy
+        + q[3] * fx * fy;
+    Some(decode(code))
+}
+
+/// Heights are known to half a 16-bit code; a ray dipping less than that under the surface and
+/// coming back up (two close roots) only grazes it and is not a hit.
+pub const GRAZE: f64 = 0.5 / (HEIGHT_MAX - 1) as f64;
+
+/// Smallest root of a t^2 + b t + c in [lo, hi] where the ray really crosses, if any.
+fn first_root(a: f64, b: f64, c: f64, lo: f64, hi: f64) -> Option<f64> {
+    let scale = a.abs().max(b.abs()).max(c.abs());
+    if scale == 0.0 {
+        return Some(lo); // identically zero: the ray runs along the surface
+    }
+    let mut roots = [f64::NAN; 2];
+    if a.abs() <= 1e-14 * scale {
+        if b != 0.0 {
+            roots[0] = -c / b;
+        }
+    } else {
+        let disc = b * b - 4.0 * a * c;
+        if disc < 0.0 {
+            return None;
+        }
+        // Stable form: no cancellation between -b and the square root.
+        let qv = -0.5 * (b + b.signum() * disc.sqrt());
+        roots = [qv / a, if qv != 0.0 { c / qv } else { f64::NAN }];
+        // Both roots inside and the dip between them shallower than GRAZE: a graze.
+        let inside = roots
+            .iter()
+            .filter(|t| t.is_finite() && **t >= lo && **t <= hi)
+            .count();
+        if inside == 2 && (c - b * b / (4.0 * a)).abs() < GRAZE {
+            return None;
+        }
+    }
+    roots
+        .iter()
+        .copied()
+        .filter(|t| t.is_finite() && *t >= lo && *t <= hi)
+        .reduce(f64::min)
+}
+
+/// The exact first intersection of the ray o + t d (patch-local) with the patch's surface for t
+/// in [t0, t1] (clipped to the box), or None.
+pub fn first_hit(p: &Patch, o: DVec3, d: DVec3, t0: f64, t1: f64) -> Option<f64> {
+    let (w, h) = (p.width as f64, p.height as f64);
+    // Clip to the unit box.
+    let (mut lo, mut hi) = (t0, t1);
+    for k in 0..3 {
+        let (ok, dk) = (o[k], d[k]);
+        if dk.abs() < 1e-300 {
+            if !(0.0..=1.0).contains(&ok) {
+                return None;
+            }
+            continue;
+        }
+        let (a, b) = ((0.0 - ok) / dk, (1.0 - ok) / dk);
+        lo = lo.max(a.min(b));
+        hi = hi.min(a.max(b));
+    }
+    if !(hi > lo) {
+        return None;
+    }
+    // Texel-centre coordinates along the ray: x(t) = x0 + dx t.
+    let (x0, dx) = (o.x * w - 0.5, d.x * w);
+    let (y0, dy) = (o.y * h - 0.5, d.y * h);
+    // Walk the pieces between half-texel lines in x and y.
+    let next_line = |v0: f64, dv: f64, t: f64| -> f64 {
+        if dv.abs() < 1e-300 {
+            return f64::INFINITY;
+        }
+        let v = v0 + dv * t;
+        let step = 0.5;
+        let k = if dv > 0.0 {
+            (v / step).floor() + 1.0
+        } else {
+            (v / step).ceil() - 1.0
+        };
+        let tn = (k * step - v0) / dv;
+        // Guard against landing on the line we are on.
+        if tn <= t {
+            t + 1e-12 * (1.0 + t.abs())
+        } else {
+            tn
+        }
+    };
+    let mut t = lo;
+    let mut guard = 0;
+    while t < hi && guard < 1 << 22 {
+        guard += 1;
+        let t_next = next_line(x0, dx, t).min(next_line(y0, dy, t)).min(hi);
+        let tm = 0.5 * (t + t_next);
+        let (xm, ym) = (x0 + dx * tm, y0 + dy * tm);
+        if nearest_filled(p, xm, ym) {
+            let (i, j) = (xm.floor(), ym.floor());
+            if let Some(q) = cell_codes(p, i as i64, j as i64) {
+                // fx = ax + bx t, fy = ay + by t; code(t) = bilinear → quadratic in t.
+                let (ax, bx) = (x0 - i, dx);
+                let (ay, by) = (y0 - j, dy);
+                let (c00, c10, c01, c11) = (decode(q[0]), decode(q[1]), decode(q[2]), decode(q[3]));
+                // h = c00 + (c10-c00) fx + (c01-c00) fy + (c00-c10-c01+c11) fx fy
+                let (e, f, g) = (c10 - c00, c01 - c00, c00 - c10 - c01 + c11);
+                let h2 = g * bx * by;
+                let h1 = e * bx + f * by + g * (ax * by + ay * bx);
+                let h0 = c00 + e * ax + f * ay + g * ax * ay;
+                // z(t) - h(t) = 0
+                if let Some(r) = first_root(-h2, d.z - h1, o.z - h0, t, t_next) {
+                    return Some(r);
+                }
+            }
+        }
+        t = t_next;
+    }
+    None
+}
+
+/// Min-max pyramid over the cells between texel centres, for skipping what a ray cannot hit:
+/// a node is skipped when the ray over it stays above its highest or below its lowest surface.
+///
+/// Level 0 has (W + 1) x (H + 1) cells: cell (c, r) spans x in [c - 1, c], y in [r - 1, r]
+/// (texel-centre coordinates), so the clamped half-texel border has cells too. A value packs the
+/// largest non-empty code of the cell's four (clamped) corner texels in its high 16 bits and the
+/// smallest in its low 16 bits; 0 when all four are empty. Every further level combines 2 x 2
+/// nodes below it (max of maxes, min of non-empty mins), down to 1 x 1.
+pub fn min_max_pyramid(p: &Patch) -> Vec<(u32, u32, Vec<u32>)> {
+    let (w, h) = (p.width as i64, p.height as i64);
+    let at =
+        |x: i64, y: i64| p.heights[(y.clamp(0, h - 1) * w + x.clamp(0, w - 1)) as usize] as u32;
+    let pack = |codes: &mut dyn Iterator<Item = u32>| -> u32 {
+        let (mut hi, mut lo) = (0u32, u32::MAX);
+        for c in codes.filter(|&c| c > 0) {
+            hi = hi.max(c);
+            lo = lo.min(c);
+        }
+        if hi == 0 {
+            0
+        } else {
+            (hi << 16) | lo
+        }
+    };
+    let (cw, ch) = (w as u32 + 1, h as u32 + 1);
+    let mut base = Vec::with_capacity((cw * ch) as usize);
+    for r in 0..ch as i64 {
+        for c in 0..cw as i64 {
+            base.push(pack(
+                &mut [at(c - 1, r - 1), at(c, r - 1), at(c - 1, r), at(c, r)].into_iter(),
+            ));
+        }
+    }
+    let mut levels = vec![(cw, ch, base)];
+    while levels.last().is_some_and(|l| l.0 > 1 || l.1 > 1) {
+        let (pw, ph, prev) = levels.last().unwrap();
+        let (nw, nh) = (pw.div_ceil(2), ph.div_ceil(2));
+        let mut next = vec![0u32; (nw * nh) as usize];
+        for r in 0..nh {
+            for c in 0..nw {
+                let children = [(0, 0), (1, 0), (0, 1), (1, 1)]
+                    .into_iter()
+                    .map(|(dc, dr)| (2 * c + dc, 2 * r + dr))
+                    .filter(|&(x, y)| x < *pw && y < *ph)
+                    .map(|(x, y)| prev[(y * pw + x) as usize])
+                    .filter(|&v| v > 0);
+                next[(r * nw + c) as usize] =
+                    pack(&mut children.flat_map(|v| [v >> 16, v & 0xffff]));
+            }
+        }
+        levels.push((nw, nh, next));
+    }
+    levels
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gtex::encode_height;
+
+    fn patch(w: u32, h: u32, f: impl Fn(u32, u32) -> Option<f64>) -> Patch {
+        let heights = (0..h)
+            .flat_map(|j| (0..w).map(move |i| (i, j)))
+            .map(|(i, j)| f(i, j).map_or(0, encode_height))
+            .collect();
+        Patch {
+            origin: DVec3::ZERO,
+            axes: [DVec3::X, DVec3::Y, DVec3::Z],
+            extent: DVec3::ONE,
+            width: w,
+            height: h,
+            heights,
+            normals: vec![[0, 0, 127, 0]; (w * h) as usize],
+            colors: vec![[0; 4]; (w * h) as usize],
+            faces: vec![],
+            ring_faces: vec![],
+        }
+    }
+
+    #[test]
+    fn height_is_bilinear_between_texel_centres() {
+        // h = 0.25 + 0.5 * (i / 7): linear in x, so bilinear reproduces it exactly.
+        let p = patch(8, 4, |i, _| Some(0.25 + 0.5 * i as f64 / 7.0));
+        for u in [0.1, 0.33, 0.5, 0.77] {
+            let x = (u * 8.0 - 0.5f64).clamp(0.0, 7.0);
+            let want = 0.25 + 0.5 * x / 7.0;
+            assert!((height_at(&p, u, 0.5).unwrap() - want).abs() < 1e-4);
+        }
+    }
+
+    #[test]
+    fn exact_hit_agrees_with_dense_sampling() {
+        let p = patch(16, 16, |i, j| {
+            Some(0.3 + 0.4 * ((i as f64 * 0.7).sin() * (j as f64 * 0.5).cos()).abs())
+        });
+        let mut rng = 12345u64;
+        let mut next = || {
+            rng ^= rng << 13;
+            rng ^= rng >> 7;
+            rng ^= rng << 17;
+            (rng % 1_000_000) as f64 / 1e6
+        };
+        for _ in 0..200 {
+            let o = DVec3::new(next(), next(), 1.0);
+            let d = DVec3::new(next() - 0.5, next() - 0.5, -0.2 - next());
+            let got = first_hit(&p, o, d, 0.0, 10.0);
+            // Dense march as an independent check.
+            let mut prev_above = true;
+            let mut want = None;
+            let n = 200_000;
+            for k in 0..=n {
+                let t = 10.0 * k as f64 / n as f64;
+                let q = o + d * t;
+                if !(0.0..=1.0).contains(&q.x)
+                    || !(0.0..=1.0).contains(&q.y)
+                    || !(0.0..=1.0).contains(&q.z)
+                {
+                    continue;
+                }
+                let Some(hh) = height_at(&p, q.x, q.y) else {
+                    continue;
+                };
+                let above = q.z > hh;
+                if prev_above && !above {
+                    want = Some(t);
+                    break;
+                }
+                prev_above = above;
+            }
+            match (got, want) {
+                (Some(a), Some(b)) => assert!((a - b).abs() < 1e-3, "{a} vs {b}"),
+                (None, None) => {}
+                other => panic!("{other:?} for o={o:?} d={d:?}"),
+            }
+        }
+    }
+
+    #[test]
+    fn pyramid_bounds_every_cell() {
+        let p = patch(13, 7, |i, j| {
+            if (i + j) % 5 == 0 {
+                None
+            } else {
+                Some(((i * 7 + j * 3) % 11) as f64 / 11.0 + 0.01)
+            }
+        });
+        let levels = min_max_pyramid(&p);
+        assert_eq!((levels[0].0, levels[0].1), (14, 8));
+        assert_eq!((levels.last().unwrap().0, levels.last().unwrap().1), (1, 1));
+        let top = levels.last().unwrap().2[0];
+        assert_eq!(top >> 16, *p.heights.iter().max().unwrap() as u32);
+        assert_eq!(
+            top & 0xffff,
+            *p.heights.iter().filter(|&&c| c > 0).min().unwrap() as u32
+        );
+        // Every surface height in a level-0 cell lies within that cell's [min, max].
+        let mut checked = 0;
+        for k in 0..2000 {
+            let (u, v) = (
+                (k % 50) as f64 / 50.0 + 0.003,
+                (k / 50) as f64 / 40.0 + 0.004,
+            );
+            if let Some(hh) = height_at(&p, u, v) {
+                let (x, y) = (u * 13.0 - 0.5, v * 7.0 - 0.5);
+                let (c, r) = ((x.floor() + 1.0) as u32, (y.floor() + 1.0) as u32);
+                let cell = levels[0].2[(r * 14 + c) as usize];
+                assert!(
+                    hh <= decode((cell >> 16) as f64) + 1e-12
+                        && hh >= decode((cell & 0xffff) as f64) - 1e-12
+                );
+                checked += 1;
+            }
+        }
+        assert!(checked > 1000);
+    }
+}
