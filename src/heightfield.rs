@@ -173,6 +173,29 @@ pub fn first_hit(p: &Patch, o: DVec3, d: DVec3, t0: f64, t1: f64) -> Option<f64>
     None
 }
 
+/// The nearest exact hit of each world ray (origin, unit direction) over all patches of a set:
+/// (distance along the ray, patch index), or (inf, -1). The CPU reference for the GPU searches.
+pub fn first_hits(set: &crate::gtex::GeometryTextureSet, rays: &[(DVec3, DVec3)]) -> Vec<(f64, i32)> {
+    use rayon::prelude::*;
+    rays.par_iter()
+        .map(|&(origin, dir)| {
+            let mut best = (f64::INFINITY, -1);
+            for (k, p) in set.patches.iter().enumerate() {
+                // Patch-local ray; t keeps its meaning (world distance) since the map is affine.
+                let rel = origin - p.origin;
+                let o = DVec3::new(rel.dot(p.axes[0]) / p.extent.x, rel.dot(p.axes[1]) / p.extent.y, rel.dot(p.axes[2]) / p.extent.z);
+                let d = DVec3::new(dir.dot(p.axes[0]) / p.extent.x, dir.dot(p.axes[1]) / p.extent.y, dir.dot(p.axes[2]) / p.extent.z);
+                if let Some(t) = first_hit(p, o, d, 0.0, best.0) {
+                    if t < best.0 {
+                        best = (t, k as i32);
+                    }
+                }
+            }
+            best
+        })
+        .collect()
+}
+
 /// Min-max pyramid over the cells between texel centres, for skipping what a ray cannot hit:
 /// a node is skipped when the ray over it stays above its highest or below its lowest surface.
 ///

@@ -333,6 +333,37 @@ impl PyGeometryTextureSet {
         )
     }
 
+    /// Exact first hits of world rays on the set's surface, computed on the CPU in f64 (the
+    /// reference the GPU searches are tested against): ((N,) float64 distances along the rays,
+    /// +inf on a miss; (N,) int32 patch indices, -1 on a miss). Directions must be unit vectors.
+    fn first_hits<'py>(
+        &self,
+        py: Python<'py>,
+        origins: PyReadonlyArray2<'py, f64>,
+        directions: PyReadonlyArray2<'py, f64>,
+    ) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<i32>>)> {
+        if origins.shape()[1] != 3 || directions.shape() != origins.shape() {
+            return Err(parameter_error(format!(
+                "origins and directions must both be (N, 3); got {:?} and {:?}",
+                origins.shape(),
+                directions.shape()
+            )));
+        }
+        let (o, d) = (origins.as_array(), directions.as_array());
+        let rays: Vec<(glam::DVec3, glam::DVec3)> = (0..o.nrows())
+            .map(|i| {
+                (
+                    glam::DVec3::new(o[[i, 0]], o[[i, 1]], o[[i, 2]]),
+                    glam::DVec3::new(d[[i, 0]], d[[i, 1]], d[[i, 2]]),
+                )
+            })
+            .collect();
+        let inner = self.inner.clone();
+        let hits = py.detach(move || crate::heightfield::first_hits(&inner, &rays));
+        let (t, k): (Vec<f64>, Vec<i32>) = hits.into_iter().unzip();
+        Ok((Array1::from_vec(t).into_pyarray(py), Array1::from_vec(k).into_pyarray(py)))
+    }
+
     /// Writes a .gtex file atomically (no half file is ever left behind).
     fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
         let inner = self.inner.clone();

@@ -1,0 +1,114 @@
+"""The exact (max-pyramid) ray caster against the CPU reference of the same height-map surface
+(f64, closed-form per cell: GeometryTextureSet.first_hits), on thin features and on the bunny."""
+
+from __future__ import annotations
+
+import struct
+import zlib
+
+import numpy as np
+import pytest
+
+import geomtex as gt
+from conftest import Converted
+
+
+def write_gtex(path, heights: np.ndarray, origin, axes, extent) -> None:
+    """A one-patch .gtex written from the documented layout (src/format.rs), not by geomtex."""
+    h, w = heights.shape
+    payload = struct.pack("<d", 1.0) + struct.pack("<I", 0) + struct.pack("<I", 0) + struct.pack("<I", 1)
+    payload += struct.pack("<3d", *origin) + b"".join(struct.pack("<3d", *a) for a in axes)
+    payload += struct.pack("<3d", *extent) + struct.pack("<4I", w, h, 0, 0)
+    payload += heights.astype("<u2").tobytes()
+    payload += np.tile(np.array([0, 0, 127, 0], np.int8), h * w).tobytes()
+    payload += np.full(h * w * 4, 200, np.uint8).tobytes()
+    header = b"GTEX\r\n\x1a\n" + struct.pack("<IIQII", 1, 0, len(payload), zlib.crc32(payload), 0)
+    path.write_bytes(header + payload)
+
+
+@pytest.fixture(scope="module")
+def thin(tmp_path_factory) -> gt.GeometryTextureSet:
+    """A 64 x 64 map: a low floor, one-texel walls every 8 columns and single-texel spikes."""
+    codes = np.full((64, 64), 2000, np.uint16)
+    codes[:, 4::8] = 50000  # walls, one texel thick, across the view
+    codes[2::9, 2::11] = 65535  # spikes
+    path = tmp_path_factory.mktemp("thin") / "thin.gtex"
+    write_gtex(path, codes, origin=(0, 0, 0), axes=[(1, 0, 0), (0, 1, 0), (0, 0, 1)], extent=(1.0, 1.0, 0.2))
+    return gt.load(path)
+
+
+def reference_depth(gts, cam, size):
+    o, d = cam.rays(size, size)
+    t, k = gts.first_hits(o.reshape(-1, 3), d.reshape(-1, 3))
+    depth = t * (d.reshape(-1, 3) @ np.asarray(cam.forward))
+    return depth.reshape(size, size), k.reshape(size, size)
+
+
+@pytest.mark.parametrize("elevation_deg", [4.0, 12.0])
+def test_maxmip_is_exact_on_thin_features(thin, elevation_deg) -> None:
+    size = 192
+    r = gt.Renderer(size, size)
+    el = np.radians(elevation_deg)
+    # Looking across the walls (along +x) from low above the floor.
+    eye = np.array([-0.6, 0.5, 0.05 + 1.2 * np.tan(el)])
+    cam = gt.Camera.look_at(eye, [1.0, 0.5, 0.05], up=(0, 0, 1), yfov_deg=30)
+    ref, _ = reference_depth(thin, cam, size)
+    hit = np.isfinite(ref)
+    assert hit.sum() > 2000
+    exact = r.render(thin, cam, method="maxmip")
+    # Every pixel the reference hits is hit, and nothing else; depth to 1e-4 of the patch height.
+    assert np.array_equal(np.isfinite(exact.depth), hit)
+    assert np.abs(exact.depth[hit] - ref[hit]).max() <= 1e-4 * 0.2
+    # The paper's search with 16 linear steps steps over walls and spikes.
+    coarse = r.render(thin, cam, method="linear_binary", steps_per_texel=1e-6,
+                      min_linear_steps=16, max_linear_steps=16, binary_steps=8)
+    wrong = ~np.isfinite(coarse.depth[hit]) | (np.abs(coarse.depth[hit] - ref[hit]) > 1e-3)
+    assert wrong.mean() > 0.01, wrong.mean()
+
+
+def test_maxmip_matches_the_cpu_reference_on_the_bunny(bunny: Converted) -> None:
+    size = 160
+    r = gt.Renderer(size, size)
+    lo, hi = bunny.mesh.bounds
+    centre, diag = (lo + hi) / 2, bunny.mesh.diagonal
+    for direction in [(1, 0.8, 1), (0.05, 1, 0.02), (-1, -0.3, 0.2)]:
+        d = np.asarray(direction, float) / np.linalg.norm(direction)
+        cam = gt.Camera.look_at(centre + d * 1.2 * diag, centre, yfov_deg=40)
+        ref, patch = reference_depth(bunny.gts, cam, size)
+        f = r.render(bunny.gts, cam, quality="exact", count_fetches=True)
+        hit = np.isfinite(ref)
+        assert (np.isfinite(f.depth) != hit).sum() <= 0.001 * hit.sum()
+        both = hit & np.isfinite(f.depth)
+        err = np.abs(f.depth[both] - ref[both]) / diag
+        assert np.percentile(err, 99.9) < 1e-5 and err.max() < 1e-3, (direction, err.max())
+        assert f.stats["method"] == "maxmip" and f.stats["fetches_per_pixel"] > 0
+
+
+def test_fetch_counts_follow_the_work(bunny: Converted) -> None:
+    """More linear steps per texel cost proportionally more fetches; the exact method fewer."""
+    r = gt.Renderer(128, 128)
+    lo, hi = bunny.mesh.bounds
+    centre = (lo + hi) / 2
+    cam = gt.Camera.look_at(centre + np.array([1, 0.8, 1.0]) * bunny.mesh.diagonal, centre, yfov_deg=40)
+    fetches = {}
+    for name, kw in {"s1": dict(steps_per_texel=1.0), "s4": dict(steps_per_texel=4.0), "exact": dict(quality="exact")}.items():
+        f = r.render(bunny.gts, cam, count_fetches=True, **kw)
+        fetches[name] = f.stats["fetches_per_pixel"]
+        assert f.stats["raycast_fragments"] > 0
+        plain = r.render(bunny.gts, cam, **kw)
+        assert np.array_equal(plain.depth, f.depth)  # counting does not change the image
+    assert 2.5 < fetches["s4"] / fetches["s1"] < 4.5, fetches
+    assert fetches["exact"] < fetches["s1"], fetches
+
+
+def test_bad_search_keywords(bunny: Converted) -> None:
+    r = gt.Renderer(16, 16)
+    cam = gt.Camera.look_at([0, 0, 1], [0, 0, 0])
+    with pytest.raises(gt.ParameterError, match="quality must be"):
+        r.render(bunny.gts, cam, quality="ultra")
+    with pytest.raises(gt.ParameterError, match="method must be"):
+        r.render(bunny.gts, cam, method="sphere_tracing")
+    with pytest.raises(gt.ParameterError, match="max_traversal_steps"):
+        r.render(bunny.gts, cam, max_traversal_steps=0)
+    with pytest.raises(gt.ParameterError, match="origins and directions"):
+        bunny.gts.first_hits(np.zeros((3, 3)), np.zeros((2, 3)))
