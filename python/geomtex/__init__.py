@@ -49,6 +49,12 @@ __all__ = [
 
 ProgressCallback = Callable[[str, float], "bool | None"]
 
+# Share of a typical conversion's time per stage (measured on the bunny), for the progress bar.
+_STAGE_SPAN = {
+    "geometry": (0, 2), "partition": (2, 75), "repair": (75, 77), "overlap": (77, 79),
+    "frame": (79, 80), "raster": (80, 96), "dilate": (96, 99), "done": (100, 100),
+}
+
 
 def _number(name: str, value: Any, kind: type) -> Any:
     if isinstance(value, bool) or not isinstance(value, (int, float) if kind is float else int):
@@ -106,8 +112,9 @@ def convert(
         bar = tqdm(total=100, desc="geomtex", unit="%", leave=False)
 
         def callback(stage: str, fraction: float) -> None:
+            start, end = _STAGE_SPAN.get(stage, (bar.n, bar.n))
             bar.set_description(f"geomtex {stage}")
-            bar.n = round(100 * fraction) if stage in ("raster", "done") else bar.n
+            bar.n = round(start + (end - start) * fraction)
             bar.refresh()
     elif callable(progress):
         callback = progress

@@ -76,14 +76,10 @@ def raycast(mesh: Any, camera: Any, width: int, height: int) -> dict[str, npt.ND
     depth = np.full(len(o), np.inf)
     normal = np.zeros((len(o), 3))
     triangle = np.full(len(o), -1, dtype=np.int64)
+    # z-depth: the hit's distance from the ray's origin along the camera's forward axis (the
+    # origin is the eye for perspective cameras and lies on the camera plane for orthographic).
     forward = np.asarray(camera.forward)
-    depth[ray_index] = (locations + centre - o[ray_index]) @ forward + (o[ray_index] - o[ray_index]) @ forward
-    if camera.kind != "orthographic":
-        eye = np.asarray(camera.world_from_camera)[:3, 3]
-        depth[ray_index] = (locations + centre - eye) @ forward
-    else:
-        plane = np.asarray(camera.world_from_camera)[:3, 3]
-        depth[ray_index] = (locations + centre - plane) @ forward
+    depth[ray_index] = (locations + centre - o[ray_index]) @ forward
     normal[ray_index] = tm.face_normals[tri_index]
     triangle[ray_index] = tri_index
     shape = (height, width)

@@ -1291,12 +1291,6 @@ impl Renderer {
             fetches,
         })
     }
-
-    /// The reference rays of this renderer's image (for tests and the Python reference).
-    pub fn lens_for(&self, camera: &Camera, z_min: f64, z_max: f64) -> Result<Lens> {
-        let (w, h) = self.size();
-        camera.lens(w, h, z_min, z_max)
-    }
 }
 
 /// Runs `work` inside validation and out-of-memory error scopes and turns what they catch into
