@@ -1,5 +1,5 @@
 // Height-field intersection, shared by the ray-casting pipelines: the surface rule of
-// src/heightfield.rs (its CPU twin is the reference the tests hold this code to), the paper's
+// src/heightfield.rs (bilinear in cells whose four texels all hold surface) (its CPU twin is the reference the tests hold this code to), the paper's
 // linear + binary search, and an exact min-max-pyramid traversal.
 //
 // Space: patch-local (unit cube, heights h in [0, 1]) and, inside it, texel-centre coordinates
@@ -40,45 +40,27 @@ fn decode(code: f32) -> f32 {
     return (code - 1.0) / 65534.0;
 }
 
-// Corner codes of the cell with lower-left texel (i, j), empty ones replaced by the mean of the
-// others (all zero when the whole cell is empty).
-fn cell_codes(p: Patch, ij: vec2<i32>) -> vec4<f32> {
-    let q = vec4<f32>(
+// The four corner codes of the cell with lower-left texel ij (indices clamped).
+fn corner_codes(p: Patch, ij: vec2<i32>) -> vec4<f32> {
+    return vec4<f32>(
         load_code(p, ij),
         load_code(p, ij + vec2<i32>(1, 0)),
         load_code(p, ij + vec2<i32>(0, 1)),
         load_code(p, ij + vec2<i32>(1, 1)),
     );
-    let filled = vec4<f32>(q > vec4<f32>(0.0));
-    let n = dot(filled, vec4<f32>(1.0));
-    let mean = dot(q, vec4<f32>(1.0)) / max(n, 1.0);
-    return select(vec4<f32>(mean), q, q > vec4<f32>(0.0));
 }
 
-// The corner of `q` nearest to the fraction f inside the cell.
-fn nearest_code(raw: vec4<f32>, f: vec2<f32>) -> f32 {
-    return select(select(raw.x, raw.y, f.x >= 0.5), select(raw.z, raw.w, f.x >= 0.5), f.y >= 0.5);
-}
-
-// Surface height at patch-local (u, v); < 0 where there is none.
+// Surface height at patch-local (u, v): bilinear where all four texels around hold surface;
+// < 0 where there is none.
 fn height_at(p: Patch, uv: vec2<f32>) -> f32 {
     let x = uv * p.size - 0.5;
     let base = floor(x);
     let f = x - base;
-    let ij = vec2<i32>(base);
-    let raw = vec4<f32>(
-        load_code(p, ij),
-        load_code(p, ij + vec2<i32>(1, 0)),
-        load_code(p, ij + vec2<i32>(0, 1)),
-        load_code(p, ij + vec2<i32>(1, 1)),
-    );
-    if (nearest_code(raw, f) == 0.0) {
+    let q = corner_codes(p, vec2<i32>(base));
+    if (any(q == vec4<f32>(0.0))) {
         return -1.0;
     }
-    let n = dot(vec4<f32>(raw > vec4<f32>(0.0)), vec4<f32>(1.0));
-    let q = select(vec4<f32>(dot(raw, vec4<f32>(1.0)) / n), raw, raw > vec4<f32>(0.0));
-    let code = mix(mix(q.x, q.y, f.x), mix(q.z, q.w, f.x), f.y);
-    return decode(code);
+    return decode(mix(mix(q.x, q.y, f.x), mix(q.z, q.w, f.x), f.y));
 }
 
 // +1 above the surface, -1 on or below it, 0 where there is no surface.
@@ -165,59 +147,26 @@ fn first_root(a: f32, b: f32, c: f32, len: f32) -> f32 {
     return best;
 }
 
-// First crossing inside one level-0 cell for t in [ta, tb]: the cell is split at its half-texel
-// lines into pieces where the nearest texel is fixed; in each the height is a quadratic in t.
+// First crossing inside one level-0 cell for t in [ta, tb]: the height along the ray is a
+// quadratic in t there.
 fn cell_hit(p: Patch, o: vec3<f32>, d: vec3<f32>, cell: vec2<f32>, ta: f32, tb: f32) -> f32 {
     let g0 = vec2<f32>(o.x * p.size.x + 0.5, o.y * p.size.y + 0.5);
     let dg = d.xy * p.size;
-    let ij = vec2<i32>(cell) - 1;  // lower-left corner texel
-    let raw = vec4<f32>(
-        load_code(p, ij),
-        load_code(p, ij + vec2<i32>(1, 0)),
-        load_code(p, ij + vec2<i32>(0, 1)),
-        load_code(p, ij + vec2<i32>(1, 1)),
-    );
-    let n = dot(vec4<f32>(raw > vec4<f32>(0.0)), vec4<f32>(1.0));
-    if (n == 0.0) {
+    let q = corner_codes(p, vec2<i32>(cell) - 1);
+    if (any(q == vec4<f32>(0.0))) {
         return -1.0;
     }
-    let q = select(vec4<f32>(dot(raw, vec4<f32>(1.0)) / n), raw, raw > vec4<f32>(0.0));
     let c00 = decode(q.x);
     let e = decode(q.y) - c00;
     let f = decode(q.z) - c00;
     let g = decode(q.x) - decode(q.y) - decode(q.z) + decode(q.w);
-    // Piece boundaries: where the ray crosses the cell's half-texel lines.
-    let mid = cell + 0.5;
-    var cuts = vec2<f32>(tb, tb);
-    if (dg.x != 0.0) {
-        cuts.x = clamp((mid.x - g0.x) / dg.x, ta, tb);
-    }
-    if (dg.y != 0.0) {
-        cuts.y = clamp((mid.y - g0.y) / dg.y, ta, tb);
-    }
-    let bounds = array<f32, 4>(ta, min(cuts.x, cuts.y), max(cuts.x, cuts.y), tb);
-    for (var k = 0; k < 3; k += 1) {
-        let a = bounds[k];
-        let b = bounds[k + 1];
-        if (b <= a) {
-            continue;
-        }
-        // Fractions inside the cell at the piece start, as functions of s = t - a.
-        let fa = g0 + dg * a - cell;
-        let fm = g0 + dg * (0.5 * (a + b)) - cell;
-        if (nearest_code(raw, fm) == 0.0) {
-            continue;
-        }
-        let h2 = g * dg.x * dg.y;
-        let h1 = e * dg.x + f * dg.y + g * (fa.x * dg.y + fa.y * dg.x);
-        let h0 = c00 + e * fa.x + f * fa.y + g * fa.x * fa.y;
-        let z0 = o.z + d.z * a;
-        let s = first_root(-h2, d.z - h1, z0 - h0, b - a);
-        if (s >= 0.0) {
-            return a + s;
-        }
-    }
-    return -1.0;
+    // Fractions inside the cell at ta, as functions of s = t - ta.
+    let fa = g0 + dg * ta - cell;
+    let h2 = g * dg.x * dg.y;
+    let h1 = e * dg.x + f * dg.y + g * (fa.x * dg.y + fa.y * dg.x);
+    let h0 = c00 + e * fa.x + f * fa.y + g * fa.x * fa.y;
+    let s = first_root(-h2, d.z - h1, o.z + d.z * ta - h0, tb - ta);
+    return select(-1.0, ta + s, s >= 0.0);
 }
 
 // Exact first hit by descending the min-max pyramid: a node is skipped whole when the ray over it

@@ -5,11 +5,11 @@
 //! Space: patch-local (the box is the unit cube, heights h in [0, 1]). Inside it we also use
 //! texel-centre coordinates x = u W - 1/2, y = v H - 1/2, where texel (i, j) sits at (i, j).
 //!
-//! The surface: where the texel nearest to (x, y) is empty there is none. Elsewhere the height is
-//! the bilinear blend of the four texels around (x, y) (indices clamped to the map, so the border
-//! half-texel is flat), an empty one standing in with the mean code of the cell's non-empty ones.
-//! Between half-texel lines the nearest texel and the four corners are fixed, so along a ray the
-//! height is a quadratic in t there and its first crossing is found in closed form. The shader
+//! The surface: the bilinear blend of the four texels around (x, y) (indices clamped to the map,
+//! so the border half-texel is flat), where all four hold surface; none elsewhere. Inside a cell
+//! the height along a ray is a quadratic in t, so its first crossing is found in closed form.
+//! (A cell with an empty corner would need a made-up height there; conversion's overlap rings and
+//! conservative coverage make neighbouring patches overlap by more than that cell.) The shader
 //! (shaders/heightfield_functions.wgsl) implements the same rule.
 
 use glam::DVec3;
@@ -22,34 +22,19 @@ fn decode(code: f64) -> f64 {
     (code - 1.0) / (HEIGHT_MAX - 1) as f64
 }
 
-/// Corner codes of the cell whose lower-left texel centre is (i, j) (indices clamped), with
-/// empty corners replaced by the mean of the others; None when all four are empty.
+/// Corner codes of the cell whose lower-left texel centre is (i, j) (indices clamped); None
+/// unless all four hold surface.
 fn cell_codes(p: &Patch, i: i64, j: i64) -> Option<[f64; 4]> {
     let (w, h) = (p.width as i64, p.height as i64);
     let at =
         |x: i64, y: i64| p.heights[(y.clamp(0, h - 1) * w + x.clamp(0, w - 1)) as usize] as f64;
     let q = [at(i, j), at(i + 1, j), at(i, j + 1), at(i + 1, j + 1)];
-    let filled: Vec<f64> = q.iter().copied().filter(|&c| c > 0.0).collect();
-    if filled.is_empty() {
-        return None;
-    }
-    let mean = filled.iter().sum::<f64>() / filled.len() as f64;
-    Some(q.map(|c| if c > 0.0 { c } else { mean }))
-}
-
-/// Whether the texel nearest to texel-centre coordinates (x, y) holds surface.
-fn nearest_filled(p: &Patch, x: f64, y: f64) -> bool {
-    let i = (x.round() as i64).clamp(0, p.width as i64 - 1);
-    let j = (y.round() as i64).clamp(0, p.height as i64 - 1);
-    p.heights[(j * p.width as i64 + i) as usize] > 0
+    q.iter().all(|&c| c > 0.0).then_some(q)
 }
 
 /// Surface height at patch-local (u, v), or None where there is no surface.
 pub fn height_at(p: &Patch, u: f64, v: f64) -> Option<f64> {
     let (x, y) = (u * p.width as f64 - 0.5, v * p.height as f64 - 0.5);
-    if !nearest_filled(p, x, y) {
-        return None;
-    }
     let (i, j) = (x.floor(), y.floor());
     let (fx, fy) = (x - i, y - j);
     let q = cell_codes(p, i as i64, j as i64)?;
@@ -123,13 +108,13 @@ pub fn first_hit(p: &Patch, o: DVec3, d: DVec3, t0: f64, t1: f64) -> Option<f64>
     // Texel-centre coordinates along the ray: x(t) = x0 + dx t.
     let (x0, dx) = (o.x * w - 0.5, d.x * w);
     let (y0, dy) = (o.y * h - 0.5, d.y * h);
-    // Walk the pieces between half-texel lines in x and y.
+    // Walk the cells: pieces between texel-centre lines in x and y.
     let next_line = |v0: f64, dv: f64, t: f64| -> f64 {
         if dv.abs() < 1e-300 {
             return f64::INFINITY;
         }
         let v = v0 + dv * t;
-        let step = 0.5;
+        let step = 1.0;
         let k = if dv > 0.0 {
             (v / step).floor() + 1.0
         } else {
@@ -150,7 +135,7 @@ pub fn first_hit(p: &Patch, o: DVec3, d: DVec3, t0: f64, t1: f64) -> Option<f64>
         let t_next = next_line(x0, dx, t).min(next_line(y0, dy, t)).min(hi);
         let tm = 0.5 * (t + t_next);
         let (xm, ym) = (x0 + dx * tm, y0 + dy * tm);
-        if nearest_filled(p, xm, ym) {
+        {
             let (i, j) = (xm.floor(), ym.floor());
             if let Some(q) = cell_codes(p, i as i64, j as i64) {
                 // fx = ax + bx t, fy = ay + by t; code(t) = bilinear → quadratic in t.
@@ -175,7 +160,10 @@ pub fn first_hit(p: &Patch, o: DVec3, d: DVec3, t0: f64, t1: f64) -> Option<f64>
 
 /// The nearest exact hit of each world ray (origin, unit direction) over all patches of a set:
 /// (distance along the ray, patch index), or (inf, -1). The CPU reference for the GPU searches.
-pub fn first_hits(set: &crate::gtex::GeometryTextureSet, rays: &[(DVec3, DVec3)]) -> Vec<(f64, i32)> {
+pub fn first_hits(
+    set: &crate::gtex::GeometryTextureSet,
+    rays: &[(DVec3, DVec3)],
+) -> Vec<(f64, i32)> {
     use rayon::prelude::*;
     rays.par_iter()
         .map(|&(origin, dir)| {
@@ -183,8 +171,16 @@ pub fn first_hits(set: &crate::gtex::GeometryTextureSet, rays: &[(DVec3, DVec3)]
             for (k, p) in set.patches.iter().enumerate() {
                 // Patch-local ray; t keeps its meaning (world distance) since the map is affine.
                 let rel = origin - p.origin;
-                let o = DVec3::new(rel.dot(p.axes[0]) / p.extent.x, rel.dot(p.axes[1]) / p.extent.y, rel.dot(p.axes[2]) / p.extent.z);
-                let d = DVec3::new(dir.dot(p.axes[0]) / p.extent.x, dir.dot(p.axes[1]) / p.extent.y, dir.dot(p.axes[2]) / p.extent.z);
+                let o = DVec3::new(
+                    rel.dot(p.axes[0]) / p.extent.x,
+                    rel.dot(p.axes[1]) / p.extent.y,
+                    rel.dot(p.axes[2]) / p.extent.z,
+                );
+                let d = DVec3::new(
+                    dir.dot(p.axes[0]) / p.extent.x,
+                    dir.dot(p.axes[1]) / p.extent.y,
+                    dir.dot(p.axes[2]) / p.extent.z,
+                );
                 if let Some(t) = first_hit(p, o, d, 0.0, best.0) {
                     if t < best.0 {
                         best = (t, k as i32);
@@ -201,9 +197,9 @@ pub fn first_hits(set: &crate::gtex::GeometryTextureSet, rays: &[(DVec3, DVec3)]
 ///
 /// Level 0 has (W + 1) x (H + 1) cells: cell (c, r) spans x in [c - 1, c], y in [r - 1, r]
 /// (texel-centre coordinates), so the clamped half-texel border has cells too. A value packs the
-/// largest non-empty code of the cell's four (clamped) corner texels in its high 16 bits and the
-/// smallest in its low 16 bits; 0 when all four are empty. Every further level combines 2 x 2
-/// nodes below it (max of maxes, min of non-empty mins), down to 1 x 1.
+/// largest code of the cell's four (clamped) corner texels in its high 16 bits and the smallest
+/// in its low 16 bits; 0 when a corner is empty (no surface in the cell). Every further level
+/// combines 2 x 2 nodes below it (max of maxes, min of the non-empty nodes' mins), down to 1 x 1.
 pub fn min_max_pyramid(p: &Patch) -> Vec<(u32, u32, Vec<u32>)> {
     let (w, h) = (p.width as i64, p.height as i64);
     let at =
@@ -224,9 +220,13 @@ pub fn min_max_pyramid(p: &Patch) -> Vec<(u32, u32, Vec<u32>)> {
     let mut base = Vec::with_capacity((cw * ch) as usize);
     for r in 0..ch as i64 {
         for c in 0..cw as i64 {
-            base.push(pack(
-                &mut [at(c - 1, r - 1), at(c, r - 1), at(c - 1, r), at(c, r)].into_iter(),
-            ));
+            let corners = [at(c - 1, r - 1), at(c, r - 1), at(c - 1, r), at(c, r)];
+            let full = corners.iter().all(|&q| q > 0);
+            base.push(if full {
+                pack(&mut corners.into_iter())
+            } else {
+                0
+            });
         }
     }
     let mut levels = vec![(cw, ch, base)];
@@ -336,7 +336,7 @@ mod tests {
     #[test]
     fn pyramid_bounds_every_cell() {
         let p = patch(13, 7, |i, j| {
-            if (i + j) % 5 == 0 {
+            if (i * 3 + j * 5) % 17 == 0 {
                 None
             } else {
                 Some(((i * 7 + j * 3) % 11) as f64 / 11.0 + 0.01)

@@ -361,7 +361,10 @@ impl PyGeometryTextureSet {
         let inner = self.inner.clone();
         let hits = py.detach(move || crate::heightfield::first_hits(&inner, &rays));
         let (t, k): (Vec<f64>, Vec<i32>) = hits.into_iter().unzip();
-        Ok((Array1::from_vec(t).into_pyarray(py), Array1::from_vec(k).into_pyarray(py)))
+        Ok((
+            Array1::from_vec(t).into_pyarray(py),
+            Array1::from_vec(k).into_pyarray(py),
+        ))
     }
 
     /// Writes a .gtex file atomically (no half file is ever left behind).
