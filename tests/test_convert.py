@@ -128,9 +128,10 @@ def test_far_from_origin_keeps_detail(bunny: Converted) -> None:
     rng = np.random.default_rng(3)
     points, _ = gts.to_points()
     d = reference.points_to_mesh(points[rng.choice(len(points), 5000, replace=False)] - offset, bunny.mesh)
-    d0 = reference.points_to_mesh(bunny.points[rng.choice(len(bunny.points), 5000, replace=False)], bunny.mesh)
-    rms, rms0 = np.sqrt(np.mean(d**2)) / diag, np.sqrt(np.mean(d0**2)) / diag
-    assert rms <= 2 * rms0 + 1e-7, (rms, rms0)
+    rms = np.sqrt(np.mean(d**2)) / diag
+    # f32 anywhere on the way would cost ~1e6 * 6e-8 = 0.06 world units here (~0.2 of the
+    # diagonal); the f64 core stays at the origin's level (1e-7 to 1e-6, set by border lips).
+    assert rms <= 1e-5, rms
     assert d.max() <= 0.75 * gts.texel_size  # the conservative-coverage lip bound, as at the origin
     assert abs(len(points) / len(bunny.points) - 1) < 0.15
     assert gts.stats["folding_charts"] == 0
