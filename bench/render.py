@@ -346,11 +346,12 @@ def sweep(label: str, mesh: gt.Mesh, gts: Any, renderer: gt.Renderer, distances:
     return records
 
 
-def crossovers(records: list[dict[str, Any]], key: str) -> list[dict[str, Any]]:
-    """Covered-pixel counts where geometry textures and mesh raster cost the same (``key``:
-    "gpu_ms" or "wall_ms"), interpolated linearly in log(pixels) vs. log(ms ratio)."""
-    pts = sorted((r["covered_px"], r["geomtex"][key], r["mesh_raster"][key]) for r in records
-                 if r["covered_px"] > 0 and r["geomtex"][key] and r["mesh_raster"][key])
+def crossovers(records: list[dict[str, Any]], key: str, other: str = "mesh_raster") -> list[dict[str, Any]]:
+    """Covered-pixel counts where geometry textures and ``other`` ("mesh_raster" or "trimesh")
+    cost the same (``key``: "gpu_ms" or "wall_ms"), interpolated linearly in log(pixels) vs.
+    log(ms); ``ms`` is the interpolated cost there."""
+    pts = sorted((r["covered_px"], r["geomtex"][key], r[other][key]) for r in records
+                 if r["covered_px"] > 0 and r.get(other) and r["geomtex"].get(key) and r[other].get(key))
     out = []
     for (x0, g0, m0), (x1, g1, m1) in zip(pts, pts[1:]):
         d0, d1 = np.log(g0 / m0), np.log(g1 / m1)
@@ -365,6 +366,14 @@ def crossovers(records: list[dict[str, Any]], key: str) -> list[dict[str, Any]]:
                 "between_px": [int(x0), int(x1)],
             })
     return out
+
+
+def all_crossovers(records: list[dict[str, Any]]) -> dict[str, list[dict[str, Any]]]:
+    return {
+        "mesh_raster_gpu_ms": crossovers(records, "gpu_ms"),
+        "mesh_raster_wall_ms": crossovers(records, "wall_ms"),
+        "trimesh_wall_ms": crossovers(records, "wall_ms", "trimesh"),
+    }
 
 
 # --------------------------------------------------------------------------- reporting
@@ -427,13 +436,15 @@ def sweep_table(records: list[dict[str, Any]]) -> str:
 
 def crossover_text(label: str, cross: dict[str, list[dict[str, Any]]]) -> list[str]:
     lines = []
-    for key, found in cross.items():
+    for name, found in cross.items():
+        other, key = ("trimesh", "wall") if name.startswith("trimesh") else ("mesh raster", name.split("_")[2])
+        what = f"{label}, vs. {other} ({key})"
         if not found:
-            lines.append(f"{label} ({key}): no crossover in the measured range")
+            lines.append(f"{what}: no crossover in the measured range")
         for c in found:
             side = int(round(np.sqrt(c["covered_px"])))
             lines.append(
-                f"{label} ({key}): geometry textures cheaper {c['geomtex_cheaper']} "
+                f"{what}: geometry textures cheaper {c['geomtex_cheaper']} "
                 f"~{c['covered_px']:,.0f} covered px (~{side}^2, {c['ms']:.1f} ms; between "
                 f"{c['between_px'][0]:,} and {c['between_px'][1]:,} px)")
     return lines
@@ -476,8 +487,15 @@ def plot(sweeps: dict[str, dict[str, Any]], path: Path, size: int) -> None:
         if tm:
             ax.plot(*zip(*tm), ":", color="black" if i == 0 else "gray", marker=marker, ms=5,
                     label=f"trimesh + embree, {label} (wall, incl. BVH build)")
+        for c in s["crossovers"]["trimesh_wall_ms"]:
+            ax.plot(c["covered_px"], c["ms"], marker="*", ms=13, color="white",
+                    markeredgecolor="black", zorder=5)
+            ax.annotate(f"geomtex = trimesh ({label}, wall):\n{c['covered_px'] / 1e3:,.0f}k px",
+                        (c["covered_px"], c["ms"]), xytext=(-20, 22), textcoords="offset points",
+                        ha="right", fontsize=8.5, arrowprops={"arrowstyle": "-", "color": "0.3", "lw": 0.8},
+                        bbox={"boxstyle": "round,pad=0.2", "fc": "white", "ec": "0.3", "alpha": 0.9})
         for key in ("gpu_ms", "wall_ms"):
-            for c in s["crossovers"][key]:
+            for c in s["crossovers"][f"mesh_raster_{key}"]:
                 ax.plot(c["covered_px"], c["ms"], marker="*", ms=16, color=c_mesh,
                         markeredgecolor="black", zorder=5)
                 px = c["covered_px"]
@@ -552,7 +570,13 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--retries", type=int, default=2,
                         help="measure again (up to this many times) when other processes were busy")
     parser.add_argument("--out", type=Path, default=REPO / "bench" / "results", help="output folder")
+    parser.add_argument("--replot", type=Path, metavar="JSON",
+                        help="measure nothing: reprint the tables and redo crossovers and plot from "
+                             "a render.json written earlier")
     args = parser.parse_args(argv)
+    if args.replot:
+        report(json.loads(args.replot.read_text()), args.out)
+        return
     if args.repeats < 1:
         parser.error("--repeats must be at least 1")
     if not BUNNY.is_file():
@@ -603,23 +627,8 @@ def main(argv: list[str] | None = None) -> None:
         del dense_gts, dense
         gc.collect()
 
-    lines = []
-    for label, s in sweeps.items():
-        s["crossovers"] = {key: crossovers(s["records"], key) for key in ("gpu_ms", "wall_ms")}
-        print(f"\nSweep {label} ({s['faces']:,} faces), {SWEEP_SIZE}x{SWEEP_SIZE}, oblique "
-              f"{SWEEP_DIRECTION}, yfov {YFOV_DEG:g} deg; busy % = CPU used by other processes")
-        print(sweep_table(s["records"]))
-        lines += crossover_text(label, s["crossovers"])
-    print("\nCrossovers (geometry textures vs. mesh raster):")
-    print("\n".join("  " + ln for ln in lines))
-
     machine["git_at_end"] = _git("rev-parse", "--short", "HEAD")
     machine["geomtex_build_time_at_end"] = _build_time()
-    if machine["geomtex_build_time_at_end"] != machine["geomtex_build_time"]:
-        print("\nnote: geomtex was rebuilt during the run; the results are for the build loaded at "
-              f"the start ({machine['geomtex_build_time']}, git {machine['git']})")
-
-    args.out.mkdir(parents=True, exist_ok=True)
     result = {
         "machine": machine,
         "settings": {
@@ -629,7 +638,7 @@ def main(argv: list[str] | None = None) -> None:
             "views": [{"name": n, "direction": d, "up": u} for n, d, u in VIEWS],
             "sweep_size": SWEEP_SIZE, "sweep_direction": SWEEP_DIRECTION,
             "sweep_distances_diag": distances.tolist(), "wait_idle_s": args.wait_idle,
-            "retries": args.retries,
+            "retries": args.retries, "busy_flag": BUSY_FLAG,
             "render_settings": "defaults (steps_per_texel 0.5, min/max linear steps 2/1024, binary steps 8)",
             "paper_crossover_px": PAPER_CROSSOVER_PX,
         },
@@ -637,12 +646,36 @@ def main(argv: list[str] | None = None) -> None:
         "headline": head,
         "sweeps": sweeps,
     }
-    json_path = args.out / "render.json"
-    json_path.write_text(json.dumps(result, indent=2) + "\n")
-    png_path = args.out / "render_coverage.png"
-    plot(sweeps, png_path, SWEEP_SIZE)
-    print(f"\nwrote {json_path} and {png_path}")
+    report(result, args.out, headline_printed=True)
 
+
+def report(result: dict[str, Any], out: Path, headline_printed: bool = False) -> None:
+    """Prints the tables and crossovers, writes render.json and render_coverage.png."""
+    settings, machine, sweeps = result["settings"], result["machine"], result["sweeps"]
+    if not headline_printed:
+        print(f"Headline: bunny, {settings['headline_size']}^2, camera at "
+              f"{settings['headline_distance_diag']} x diagonal")
+        print(headline_table(result["headline"]))
+    lines = []
+    for label, s in sweeps.items():
+        s["crossovers"] = all_crossovers(s["records"])
+        print(f"\nSweep {label} ({s['faces']:,} faces), {settings['sweep_size']}^2, direction "
+              f"{tuple(settings['sweep_direction'])}, yfov {settings['yfov_deg']:g} deg; "
+              "busy % = CPU used by other processes")
+        print(sweep_table(s["records"]))
+        lines += crossover_text(label, s["crossovers"])
+    print("\nCrossovers:")
+    print("\n".join("  " + ln for ln in lines))
+    if machine.get("geomtex_build_time_at_end") != machine.get("geomtex_build_time"):
+        print("\nnote: geomtex was rebuilt during the run; the results are for the build loaded at "
+              f"the start ({machine['geomtex_build_time']}, git {machine['git']})")
+
+    out.mkdir(parents=True, exist_ok=True)
+    json_path = out / "render.json"
+    json_path.write_text(json.dumps(result, indent=2) + "\n")
+    png_path = out / "render_coverage.png"
+    plot(sweeps, png_path, settings["sweep_size"])
+    print(f"\nwrote {json_path} and {png_path}")
 
 if __name__ == "__main__":
     main()
