@@ -25,11 +25,9 @@ Run from the repository root::
 from __future__ import annotations
 
 import argparse
-import datetime
 import gc
 import json
-import os
-import platform
+import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -40,6 +38,10 @@ import trimesh
 from tqdm import tqdm
 
 import geomtex as gt
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from render import _version  # noqa: E402
+from render import machine_info as common_machine_info  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 MESH_DIR = REPO.parent / "shared" / "meshes"
@@ -78,50 +80,11 @@ def find_meshes(names: list[str] | None) -> list[Path]:
 
 
 def machine_info() -> dict[str, Any]:
-    import xatlas
-
-    cpu = platform.processor()
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    return {
-        "date": datetime.datetime.now().isoformat(timespec="seconds"),
-        "platform": platform.platform(),
-        "cpu": cpu,
-        "cpu_count": os.cpu_count(),
-        "python": platform.python_version(),
-        "geomtex": gt.__version__,
-        "geomtex_git": _git_revision(),
-        "trimesh": trimesh.__version__,
-        "xatlas": getattr(xatlas, "__version__", _dist_version("xatlas")),
-        "numpy": np.__version__,
-        "max_resolution": MAX_RESOLUTION,
-    }
-
-
-def _git_revision() -> str | None:
-    """The repository's commit, with ``-dirty`` when the working tree has changes."""
-    import subprocess
-
-    try:
-        out = subprocess.run(["git", "describe", "--always", "--dirty"], cwd=REPO,
-                             capture_output=True, text=True, check=True)
-    except (OSError, subprocess.CalledProcessError):
-        return None
-    return out.stdout.strip() or None
-
-
-def _dist_version(name: str) -> str | None:
-    from importlib.metadata import PackageNotFoundError, version
-
-    try:
-        return version(name)
-    except PackageNotFoundError:
-        return None
+    """The machine and versions (shared with the other benchmarks), plus xatlas and our settings."""
+    info = common_machine_info()
+    info["versions"]["xatlas"] = _version("xatlas")
+    info["max_resolution"] = MAX_RESOLUTION
+    return info
 
 
 # --------------------------------------------------------------------------- measurements
