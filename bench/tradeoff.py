@@ -373,8 +373,9 @@ def plot(records: list[dict[str, Any]], path: Path, grazing_view: str) -> None:
             pts.append((x, y, r))
             if r["method"] == "maxmip":
                 ax.scatter(x, y, marker="*", s=420, color="crimson", edgecolor="black", zorder=6)
-                ax.annotate("maxmip (exact)", (x, y), xytext=(10, 10), textcoords="offset points",
-                            fontsize=10, color="crimson", weight="bold")
+                ax.annotate("maxmip (exact)", (x, y), xytext=(4, -16), textcoords="offset points",
+                            fontsize=10, color="crimson", weight="bold", va="top",
+                            bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.8})
             else:
                 ax.scatter(x, y, marker=marker[r["binary_steps"]], s=70, color=colour[r["steps_per_texel"]],
                            edgecolor="black", linewidth=0.5, zorder=4)
@@ -392,6 +393,8 @@ def plot(records: list[dict[str, Any]], path: Path, grazing_view: str) -> None:
         ax.step(fx + [xmax], fy + [fy[-1]], where="post", color="0.35", ls="--", lw=1.2, zorder=3)
         ax.set_xscale("log")
         ax.set_yscale("log")
+        lo, hi = min(p[1] for p in pts), max(p[1] for p in pts)
+        ax.set_ylim(lo / max(1.6, (hi / lo) ** 0.1), hi * 1.25)  # room for the label under maxmip
         plain_log_ticks(ax.xaxis)
         ax.set_xlabel(xlabel)
         ax.set_ylabel(ylabel)
