@@ -108,19 +108,18 @@ pub fn first_hit(p: &Patch, o: DVec3, d: DVec3, t0: f64, t1: f64) -> Option<f64>
     // Texel-centre coordinates along the ray: x(t) = x0 + dx t.
     let (x0, dx) = (o.x * w - 0.5, d.x * w);
     let (y0, dy) = (o.y * h - 0.5, d.y * h);
-    // Walk the cells: pieces between texel-centre lines in x and y.
+    // Walk the cells: the stretches between texel-centre lines in x and y.
     let next_line = |v0: f64, dv: f64, t: f64| -> f64 {
         if dv.abs() < 1e-300 {
             return f64::INFINITY;
         }
         let v = v0 + dv * t;
-        let step = 1.0;
         let k = if dv > 0.0 {
-            (v / step).floor() + 1.0
+            v.floor() + 1.0
         } else {
-            (v / step).ceil() - 1.0
+            v.ceil() - 1.0
         };
-        let tn = (k * step - v0) / dv;
+        let tn = (k - v0) / dv;
         // Guard against landing on the line we are on.
         if tn <= t {
             t + 1e-12 * (1.0 + t.abs())
@@ -135,22 +134,20 @@ pub fn first_hit(p: &Patch, o: DVec3, d: DVec3, t0: f64, t1: f64) -> Option<f64>
         let t_next = next_line(x0, dx, t).min(next_line(y0, dy, t)).min(hi);
         let tm = 0.5 * (t + t_next);
         let (xm, ym) = (x0 + dx * tm, y0 + dy * tm);
-        {
-            let (i, j) = (xm.floor(), ym.floor());
-            if let Some(q) = cell_codes(p, i as i64, j as i64) {
-                // fx = ax + bx t, fy = ay + by t; code(t) = bilinear → quadratic in t.
-                let (ax, bx) = (x0 - i, dx);
-                let (ay, by) = (y0 - j, dy);
-                let (c00, c10, c01, c11) = (decode(q[0]), decode(q[1]), decode(q[2]), decode(q[3]));
-                // h = c00 + (c10-c00) fx + (c01-c00) fy + (c00-c10-c01+c11) fx fy
-                let (e, f, g) = (c10 - c00, c01 - c00, c00 - c10 - c01 + c11);
-                let h2 = g * bx * by;
-                let h1 = e * bx + f * by + g * (ax * by + ay * bx);
-                let h0 = c00 + e * ax + f * ay + g * ax * ay;
-                // z(t) - h(t) = 0
-                if let Some(r) = first_root(-h2, d.z - h1, o.z - h0, t, t_next) {
-                    return Some(r);
-                }
+        let (i, j) = (xm.floor(), ym.floor());
+        if let Some(q) = cell_codes(p, i as i64, j as i64) {
+            // fx = ax + bx t, fy = ay + by t; code(t) = bilinear → quadratic in t.
+            let (ax, bx) = (x0 - i, dx);
+            let (ay, by) = (y0 - j, dy);
+            let (c00, c10, c01, c11) = (decode(q[0]), decode(q[1]), decode(q[2]), decode(q[3]));
+            // h = c00 + (c10-c00) fx + (c01-c00) fy + (c00-c10-c01+c11) fx fy
+            let (e, f, g) = (c10 - c00, c01 - c00, c00 - c10 - c01 + c11);
+            let h2 = g * bx * by;
+            let h1 = e * bx + f * by + g * (ax * by + ay * bx);
+            let h0 = c00 + e * ax + f * ay + g * ax * ay;
+            // z(t) - h(t) = 0
+            if let Some(r) = first_root(-h2, d.z - h1, o.z - h0, t, t_next) {
+                return Some(r);
             }
         }
         t = t_next;
