@@ -13,6 +13,9 @@ The depth is also compared with the exact first hits of the *stored* surface
 (``gts.first_hits``, f64 on the CPU): that isolates the search's own error from the error of the
 height-map representation, which the trimesh comparison includes.
 
+Every (mesh, R) is converted twice, with 16-bit and with 8-bit heights (``--bits``), and the
+whole plan is rendered for both: the records carry ``height_bits`` and the maps' ``bytes``.
+
 Settings: ``linear_binary`` with ``steps_per_texel`` x ``binary_steps`` (the full grid; with
 ``--thin`` only 8 bisections off R = 256), the ``fast`` preset, and ``maxmip`` (the ``exact``
 preset; ``balanced`` is the grid point 0.5 / 8, rendered through the preset). The references are
@@ -22,12 +25,9 @@ Results: ``bench/results/tradeoff.json`` and ``bench/results/tradeoff.png`` (Par
 
 Run from the repository root::
 
-    python bench/tradeoff.py          # 2 meshes x 3 views x 4 R x 17 settings (~6 min)
-    python bench/tradeoff.py --quick  # oblique + grazing views, presets only off R=256, 1 timed render (~1 min)
-    python bench/tradeoff.py --thin   # all views, but only 8 bisections off R=256 (~3 min)
-
-Only 16-bit heights exist in geomtex so far; the 8-bit comparison the issue asks for is recorded
-as not available in the JSON.
+    python bench/tradeoff.py          # 2 meshes x 3 views x 4 R x 2 bits x 17 settings (~12 min)
+    python bench/tradeoff.py --quick  # oblique + grazing views, presets only off R=256, 1 timed render (~2 min)
+    python bench/tradeoff.py --thin   # all views, but only 8 bisections off R=256 (~6 min)
 """
 
 from __future__ import annotations
@@ -220,8 +220,8 @@ def select(records: list[dict[str, Any]], **kv: Any) -> list[dict[str, Any]]:
 
 
 def headline_figure(records: list[dict[str, Any]], mesh: str = "stanford-bunny", resolution: int = GRID_R,
-                    view: str = "oblique") -> dict[str, Any] | None:
-    group = select(records, mesh=mesh, R=resolution, view=view)
+                    view: str = "oblique", bits: int = 16) -> dict[str, Any] | None:
+    group = select(records, mesh=mesh, R=resolution, view=view, height_bits=bits)
     mm = [r for r in group if r["method"] == "maxmip"]
     lin = [r for r in group if r["method"] == "linear_binary"]
     if not mm or not lin:
@@ -233,7 +233,7 @@ def headline_figure(records: list[dict[str, Any]], mesh: str = "stanford-bunny",
     cheapest = min(matching, key=lambda r: r["fetches_per_pixel"]) if matching else None
     ratio = m["fetches_per_pixel"] / best["fetches_per_pixel"]
     return {
-        "mesh": mesh, "R": resolution, "view": view,
+        "mesh": mesh, "R": resolution, "view": view, "height_bits": bits,
         "best_linear": {k: best[k] for k in ("setting", "steps_per_texel", "binary_steps", "depth_p99",
                                              "depth_median", "fetches_per_pixel", "gpu_ms", "wall_ms",
                                              "surface_p99", "surface_off_px")},
@@ -249,6 +249,23 @@ def headline_figure(records: list[dict[str, Any]], mesh: str = "stanford-bunny",
     }
 
 
+def bits_summary(records: list[dict[str, Any]], meshes_info: dict[str, Any]) -> list[dict[str, Any]]:
+    """Per (mesh, R, view): the exact search's depth error with 16- and with 8-bit heights, the
+    8-bit rounding bound (half a code step of the tallest patch) and the bytes ratio."""
+    out = []
+    for r16 in select(records, method="maxmip", height_bits=16):
+        r8 = select(records, method="maxmip", height_bits=8, mesh=r16["mesh"], R=r16["R"], view=r16["view"])
+        if not r8:
+            continue
+        info = meshes_info[r16["mesh"]]["resolutions"][r16["R"]]
+        out.append({"mesh": r16["mesh"], "R": r16["R"], "view": r16["view"],
+                    "p99_16": r16["depth_p99"], "p99_8": r8[0]["depth_p99"],
+                    "median_16": r16["depth_median"], "median_8": r8[0]["depth_median"],
+                    "rounding_8": info[8]["max_quantization_error_over_diag"],
+                    "bytes_ratio": r8[0]["bytes"] / r16["bytes"]})
+    return out
+
+
 def collapses(records: list[dict[str, Any]], off_fraction: float = 0.01) -> list[dict[str, Any]]:
     """Settings where the search lands on the wrong layer: more than ``off_fraction`` of the
     pixels end more than one texel (in depth) from the stored surface's first crossing."""
@@ -259,9 +276,11 @@ def collapses(records: list[dict[str, Any]], off_fraction: float = 0.01) -> list
         frac = r["surface_off_px"] / max(r["surface_px"], 1)
         if frac <= off_fraction:
             continue
-        m = select(records, mesh=r["mesh"], R=r["R"], view=r["view"], method="maxmip")
+        m = select(records, mesh=r["mesh"], R=r["R"], view=r["view"], height_bits=r["height_bits"],
+                   method="maxmip")
         m = m[0] if m else None
-        out.append({"mesh": r["mesh"], "R": r["R"], "view": r["view"], "setting": r["setting"],
+        out.append({"mesh": r["mesh"], "R": r["R"], "view": r["view"], "height_bits": r["height_bits"],
+                    "setting": r["setting"],
                     "off_fraction": frac, "depth_p99": r["depth_p99"], "surface_p99": r["surface_p99"],
                     "depth_median": r["depth_median"], "iou": r["iou"],
                     "maxmip_depth_p99": m["depth_p99"] if m else None,
@@ -305,7 +324,7 @@ def disagreement(renderer: gt.Renderer, gts: Any, cam: gt.Camera, best: dict[str
 def _table(header: tuple[str, ...], rows: list[tuple[str, ...]]) -> str:
     widths = [max(len(str(c)) for c in col) for col in zip(header, *rows)]
     line = lambda cells: "  ".join(  # noqa: E731
-        c.ljust(w) if i < 4 else c.rjust(w) for i, (c, w) in enumerate(zip(cells, widths)))
+        c.ljust(w) if i < 5 else c.rjust(w) for i, (c, w) in enumerate(zip(cells, widths)))
     return "\n".join([line(header), line(tuple("-" * w for w in widths))] + [line(r) for r in rows])
 
 
@@ -314,11 +333,11 @@ def label(r: dict[str, Any]) -> str:
 
 
 def records_table(records: list[dict[str, Any]]) -> str:
-    header = ("mesh", "R", "view", "setting", "p99 |dz|/diag", "median", "normal deg", "IoU",
+    header = ("mesh", "R", "bits", "view", "setting", "p99 |dz|/diag", "median", "normal deg", "IoU",
               "srf p99", "srf off px", "fetch/px", "wall ms", "gpu ms", "MB", "busy")
     rows = []
     for r in records:
-        rows.append((r["mesh"], str(r["R"]), r["view"], label(r), f"{r['depth_p99']:.2e}",
+        rows.append((r["mesh"], str(r["R"]), str(r["height_bits"]), r["view"], label(r), f"{r['depth_p99']:.2e}",
                      f"{r['depth_median']:.2e}", f"{r['normal_deg_median']:.2f}", f"{r['iou']:.4f}",
                      f"{r['surface_p99']:.1e}", str(r["surface_off_px"] + r["surface_hit_mismatch_px"]),
                      f"{r['fetches_per_pixel']:.1f}", f"{r['wall_ms']:.0f}",
@@ -330,12 +349,14 @@ def records_table(records: list[dict[str, Any]]) -> str:
 def preset_rows(records: list[dict[str, Any]], mesh: str = "stanford-bunny", resolution: int = GRID_R,
                 view: str = "oblique") -> list[dict[str, Any]]:
     out = []
-    for p in ("fast", "balanced", "exact"):
-        rs = [r for r in select(records, mesh=mesh, R=resolution, view=view) if r["preset"] == p]
-        if rs:
-            out.append({"preset": p, **{k: rs[0][k] for k in (
-                "setting", "depth_p99", "depth_median", "normal_deg_median", "iou",
-                "fetches_per_pixel", "wall_ms", "gpu_ms")}})
+    for bits in (16, 8):
+        for p in ("fast", "balanced", "exact"):
+            rs = [r for r in select(records, mesh=mesh, R=resolution, view=view, height_bits=bits)
+                  if r["preset"] == p]
+            if rs:
+                out.append({"preset": p, "height_bits": bits, **{k: rs[0][k] for k in (
+                    "setting", "depth_p99", "depth_median", "normal_deg_median", "iou",
+                    "fetches_per_pixel", "wall_ms", "gpu_ms", "bytes")}})
     return out
 
 
@@ -403,7 +424,7 @@ def plot(records: list[dict[str, Any]], path: Path, grazing_view: str) -> None:
         ax.grid(which="minor", alpha=0.1)
 
     fig, axes = plt.subplots(2, 3, figsize=(20, 12))
-    bunny = select(records, mesh="stanford-bunny", R=GRID_R)
+    bunny = select(records, mesh="stanford-bunny", R=GRID_R, height_bits=16)
     obl = select(bunny, view="oblique")
     fetch_label = "fetches per ray-cast pixel (height + pyramid reads)"
     scatter(axes[0, 0], obl, "fetches_per_pixel", fetch_label,
@@ -416,21 +437,22 @@ def plot(records: list[dict[str, Any]], path: Path, grazing_view: str) -> None:
             ykey="surface_p99", ylabel="p99 |Δdepth| / diagonal vs. stored surface")
     scatter(axes[1, 0], select(bunny, view=grazing_view), "fetches_per_pixel", fetch_label,
             f"(d) bunny, {GRID_R}² maps, {grazing_view} view (10° above horizontal)")
-    scatter(axes[1, 1], select(records, mesh="fandisk", R=GRID_R, view="oblique"), "fetches_per_pixel",
+    scatter(axes[1, 1], select(records, mesh="fandisk", R=GRID_R, view="oblique", height_bits=16), "fetches_per_pixel",
             fetch_label, f"(e) fandisk (CAD, flat normals), {GRID_R}² maps, oblique view")
 
     # (f) resolution: error vs. bytes for the presets
     ax = axes[1, 2]
     pcol = {"fast": "tab:blue", "balanced": "tab:green", "exact": "crimson"}
     for mesh, ls, mk, offset in (("stanford-bunny", "-", "o", (6, 6)), ("fandisk", "--", "s", (6, -14))):
-        for p in ("fast", "balanced", "exact"):
-            rs = sorted((r for r in select(records, mesh=mesh, view="oblique") if r["preset"] == p),
-                        key=lambda r: r["R"])
-            if not rs:
+        for p, bits in [(p, b) for b in (16, 8) for p in ("fast", "balanced", "exact")]:
+            rs = sorted((r for r in select(records, mesh=mesh, view="oblique", height_bits=bits)
+                         if r["preset"] == p), key=lambda r: r["R"])
+            if not rs or (bits == 8 and p != "exact"):
                 continue
-            ax.plot([r["bytes"] / 1e6 for r in rs], [r["depth_p99"] for r in rs], ls, marker=mk,
-                    color=pcol[p], ms=7, label=f"{mesh} {p}")
-            if p == "exact":
+            ax.plot([r["bytes"] / 1e6 for r in rs], [r["depth_p99"] for r in rs],
+                    ls if bits == 16 else ":", marker=mk, color=pcol[p], ms=7,
+                    mfc=pcol[p] if bits == 16 else "white", label=f"{mesh} {p}, {bits}-bit")
+            if p == "exact" and bits == 16:
                 for r in rs:
                     ax.annotate(f"R={r['R']}", (r["bytes"] / 1e6, r["depth_p99"]), xytext=offset,
                                 textcoords="offset points", fontsize=8.5, color="crimson",
@@ -438,10 +460,10 @@ def plot(records: list[dict[str, Any]], path: Path, grazing_view: str) -> None:
     ax.set_xscale("log")
     ax.set_yscale("log")
     plain_log_ticks(ax.xaxis)
-    ax.set_xlabel("map size (MB, gts.stats['bytes'], 16-bit heights)")
+    ax.set_xlabel("map size (MB, gts.stats['bytes'])")
     ax.set_ylabel(trimesh_label)
-    ax.set_title("(f) map resolution R ∈ {64, 128, 256, 512}: presets, oblique view\n"
-                 "solid: bunny, dashed: fandisk", fontsize=11)
+    ax.set_title("(f) map resolution R ∈ {64, 128, 256, 512} and height bits: presets, oblique view\n"
+                 "solid: bunny, dashed: fandisk, dotted + hollow: exact with 8-bit heights", fontsize=11)
     ax.grid(which="major", alpha=0.3)
     ax.grid(which="minor", alpha=0.1)
     ax.legend(fontsize=8.5, ncol=2, loc="upper right")
@@ -455,7 +477,7 @@ def plot(records: list[dict[str, Any]], path: Path, grazing_view: str) -> None:
                 Line2D([], [], ls="--", color="0.35", label="Pareto front")]
     axes[0, 0].legend(handles=handles, fontsize=8.5, loc="upper right", title="linear_binary",
                       title_fontsize=9)
-    fig.suptitle("geomtex ray casting: speed vs. accuracy (512² frames, camera at 1.7 × diagonal, yfov 40°, "
+    fig.suptitle("geomtex ray casting: speed vs. accuracy ((a)-(e): 16-bit heights; 512² frames, camera at 1.7 × diagonal, yfov 40°, "
                  "Mesa lavapipe on 2 CPU cores)", fontsize=14)
     fig.tight_layout(rect=(0, 0, 1, 0.97))
     fig.savefig(path, dpi=90)
@@ -473,6 +495,8 @@ def main(argv: list[str] | None = None) -> None:
                         help="off R=256 only 8 bisections per steps_per_texel (plus the presets)")
     parser.add_argument("--meshes", nargs="+", default=list(MESHES), choices=list(MESHES))
     parser.add_argument("--resolutions", nargs="+", type=int, default=list(RESOLUTIONS))
+    parser.add_argument("--bits", nargs="+", type=int, default=[16, 8], choices=[16, 8],
+                        help="height bits to convert with")
     parser.add_argument("--repeats", type=int, default=None, help="timed renders per setting (default 3, quick 1)")
     parser.add_argument("--wait-idle", type=float, default=20.0, metavar="S",
                         help="when other processes were busy during a timing, wait up to S s and re-time once")
@@ -497,7 +521,7 @@ def main(argv: list[str] | None = None) -> None:
 
     plan = {R: settings_for(R, args.quick, args.thin) for R in args.resolutions}
     diagnosis: dict[str, Any] | None = None
-    total = len(args.meshes) * len(views) * sum(len(s) for s in plan.values())
+    total = len(args.meshes) * len(views) * len(args.bits) * sum(len(s) for s in plan.values())
     bar = tqdm(total=total, desc="tradeoff", unit="setting")
     records: list[dict[str, Any]] = []
     meshes_info: dict[str, Any] = {}
@@ -519,31 +543,33 @@ def main(argv: list[str] | None = None) -> None:
                                   "convert": conv_kw, "reference_s": time.perf_counter() - t0,
                                   "reference_hit_px": {v: int(r["hit"].sum()) for v, r in refs.items()},
                                   "resolutions": {}}
-        for R in args.resolutions:
+        for R, bits in [(R, b) for R in args.resolutions for b in args.bits]:
             t0 = time.perf_counter()
-            gts = gt.convert(mesh, max_resolution=R, **conv_kw)
+            gts = gt.convert(mesh, max_resolution=R, height_bits=bits, **conv_kw)
             conv_s = time.perf_counter() - t0
             st = gts.stats
-            meshes_info[mesh_name]["resolutions"][R] = {
+            meshes_info[mesh_name]["resolutions"].setdefault(R, {})[bits] = {
                 "convert_s": conv_s, "bytes": int(st["bytes"]), "texels": int(st["texels"]),
-                "charts": int(st["charts"]), "texel_size_over_diag": float(st["texel_size"]) / diag}
+                "charts": int(st["charts"]), "texel_size_over_diag": float(st["texel_size"]) / diag,
+                "max_quantization_error_over_diag": float(st["max_quantization_error"]) / diag}
             # warm-up: upload and pipeline creation of both builds and both methods
             for kw in ({"quality": "fast"}, {"method": "maxmip"}):
                 for cf in (False, True):
                     renderer.render(gts, cams["oblique"], count_fetches=cf, **kw)
             if R == GRID_R:
-                preset_checks[mesh_name] = check_presets(renderer, gts, cams["oblique"])
+                preset_checks[f"{mesh_name} {bits}-bit"] = check_presets(renderer, gts, cams["oblique"])
             for v, cam in cams.items():
                 exact = stored_surface(gts, cam)
                 for s in plan[R]:
-                    bar.set_postfix_str(f"{mesh_name} R={R} {v} {s['name']}")
+                    bar.set_postfix_str(f"{mesh_name} R={R} {bits}-bit {v} {s['name']}")
                     m = measure(renderer, gts, cam, s, refs[v], exact, diag, repeats, args.wait_idle)
-                    records.append({"mesh": mesh_name, "R": R, "view": v, "setting": s["name"],
+                    records.append({"mesh": mesh_name, "R": R, "height_bits": bits, "view": v,
+                                    "setting": s["name"],
                                     **{k: s[k] for k in ("method", "preset", "steps_per_texel",
                                                          "binary_steps")},
                                     "bytes": int(st["bytes"]), **m})
                     bar.update()
-                if (mesh_name, R, v) == ("stanford-bunny", GRID_R, "oblique"):
+                if (mesh_name, R, bits, v) == ("stanford-bunny", GRID_R, 16, "oblique"):
                     fig = headline_figure(records)
                     if fig:
                         best = next(x for x in plan[R] if x["name"] == fig["best_linear"]["setting"])
@@ -560,12 +586,22 @@ def main(argv: list[str] | None = None) -> None:
     presets = preset_rows(records)
     if presets:
         print(f"\nPresets, bunny, R={GRID_R}, oblique view:")
-        print(_table(("preset", "setting", "", "", "p99", "median", "normal deg", "IoU", "fetch/px",
-                      "wall ms", "gpu ms"),
-                     [(p["preset"], p["setting"], "", "", f"{p['depth_p99']:.2e}", f"{p['depth_median']:.2e}",
-                       f"{p['normal_deg_median']:.2f}", f"{p['iou']:.4f}", f"{p['fetches_per_pixel']:.1f}",
-                       f"{p['wall_ms']:.0f}", "-" if p["gpu_ms"] is None else f"{p['gpu_ms']:.0f}")
+        print(_table(("preset", "setting", "bits", "", "", "p99", "median", "normal deg", "IoU", "fetch/px",
+                      "wall ms", "gpu ms", "MB"),
+                     [(p["preset"], p["setting"], str(p["height_bits"]), "", "", f"{p['depth_p99']:.2e}",
+                       f"{p['depth_median']:.2e}", f"{p['normal_deg_median']:.2f}", f"{p['iou']:.4f}",
+                       f"{p['fetches_per_pixel']:.1f}", f"{p['wall_ms']:.0f}",
+                       "-" if p["gpu_ms"] is None else f"{p['gpu_ms']:.0f}", f"{p['bytes'] / 1e6:.1f}")
                       for p in presets]))
+
+    bits_rows = bits_summary(records, meshes_info)
+    if bits_rows:
+        print("\n8- vs 16-bit heights, exact search (maxmip): depth error vs. trimesh / diagonal")
+        print(_table(("mesh", "R", "view", "", "", "p99 16-bit", "p99 8-bit", "median 16", "median 8",
+                      "max rounding 8-bit", "bytes 8/16"),
+                     [(b["mesh"], str(b["R"]), b["view"], "", "", f"{b['p99_16']:.2e}", f"{b['p99_8']:.2e}",
+                       f"{b['median_16']:.2e}", f"{b['median_8']:.2e}", f"{b['rounding_8']:.2e}",
+                       f"{b['bytes_ratio']:.2f}") for b in bits_rows]))
 
     figure = headline_figure(records)
     if figure:
@@ -633,13 +669,13 @@ def main(argv: list[str] | None = None) -> None:
             "surface_off_px: pixels more than one texel off in depth, surface_hit_mismatch_px: hit vs. miss "
             "disagreements",
             "thin": "off R=256 only 8 bisections (plus presets)",
-            "height_bits": {"16": "measured (the only format geomtex has)",
-                            "8": "not available yet: geomtex has no 8-bit height option, so 8 vs 16 bits "
-                                 "is not measured"},
+            "height_bits": args.bits,
         },
         "meshes": meshes_info,
         "presets_bunny_oblique": presets,
         "maxmip_vs_best_linear": figure,
+        "maxmip_vs_best_linear_8bit": headline_figure(records, bits=8),
+        "height_bits_exact": bits_rows,
         "collapses": col,
         "records": records,
     }

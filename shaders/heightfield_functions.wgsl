@@ -4,7 +4,8 @@
 //
 // Space: patch-local (unit cube, heights h in [0, 1]) and, inside it, texel-centre coordinates
 // x = u W - 1/2 (texel i at x = i) or cell-grid coordinates g = x + 1 (pyramid level-0 cell c spans
-// g in [c, c + 1]). Heights are 16-bit codes: 0 = empty, else h = (code - 1) / 65534.
+// g in [c, c + 1]). Heights are 8- or 16-bit codes: 0 = empty, else h = (code - 1) / (code_max - 1),
+// code_max (255 or 65535) per patch.
 
 struct Patch {
     view_from_patch: mat4x4<f32>,
@@ -16,7 +17,8 @@ struct Patch {
     size: vec2<f32>,
     // x: atlas layer, y: patch id written to the id target.
     ids: vec4<i32>,
-    // x: first pyramid value of this patch in `pyramid`, y: pyramid levels.
+    // x: first pyramid value of this patch in `pyramid`, y: pyramid levels, z: the largest
+    // height code (255 or 65535).
     pyramid_at: vec4<u32>,
 }
 
@@ -36,8 +38,8 @@ fn load_code(p: Patch, texel: vec2<i32>) -> f32 {
     return f32(textureLoad(heights, vec2<i32>(p.atlas_origin) + t, p.ids.x, 0).x);
 }
 
-fn decode(code: f32) -> f32 {
-    return (code - 1.0) / 65534.0;
+fn decode(p: Patch, code: f32) -> f32 {
+    return (code - 1.0) / (f32(p.pyramid_at.z) - 1.0);
 }
 
 // The four corner codes of the cell with lower-left texel ij (indices clamped).
@@ -60,7 +62,7 @@ fn height_at(p: Patch, uv: vec2<f32>) -> f32 {
     if (any(q == vec4<f32>(0.0))) {
         return -1.0;
     }
-    return decode(mix(mix(q.x, q.y, f.x), mix(q.z, q.w, f.x), f.y));
+    return decode(p, mix(mix(q.x, q.y, f.x), mix(q.z, q.w, f.x), f.y));
 }
 
 // +1 above the surface, -1 on or below it, 0 where there is no surface.
@@ -108,8 +110,9 @@ fn linear_binary_hit(p: Patch, search: Search, o: vec3<f32>, d: vec3<f32>, t_sta
     return -1.0;
 }
 
-// Smallest root of a s^2 + b s + c in [0, len], or -1.
-fn first_root(a: f32, b: f32, c: f32, len: f32) -> f32 {
+// Smallest root of a s^2 + b s + c in [0, len], or -1; a dip shallower than `graze` between two
+// roots is no crossing.
+fn first_root(a: f32, b: f32, c: f32, len: f32, graze: f32) -> f32 {
     let scale = max(max(abs(a), abs(b)), abs(c));
     if (scale == 0.0) {
         return 0.0;
@@ -133,7 +136,7 @@ fn first_root(a: f32, b: f32, c: f32, len: f32) -> f32 {
         // Both roots inside and a dip shallower than half a height code: the ray only grazes
         // the surface (heights are known to half a code), as in src/heightfield.rs.
         let both = r0 >= 0.0 && r0 <= len && r1 >= 0.0 && r1 <= len;
-        if (both && abs(c - b * b / (4.0 * a)) < 0.5 / 65534.0) {
+        if (both && abs(c - b * b / (4.0 * a)) < graze) {
             return -1.0;
         }
     }
@@ -156,16 +159,17 @@ fn cell_hit(p: Patch, o: vec3<f32>, d: vec3<f32>, cell: vec2<f32>, ta: f32, tb: 
     if (any(q == vec4<f32>(0.0))) {
         return -1.0;
     }
-    let c00 = decode(q.x);
-    let e = decode(q.y) - c00;
-    let f = decode(q.z) - c00;
-    let g = decode(q.x) - decode(q.y) - decode(q.z) + decode(q.w);
+    let c00 = decode(p, q.x);
+    let e = decode(p, q.y) - c00;
+    let f = decode(p, q.z) - c00;
+    let g = decode(p, q.x) - decode(p, q.y) - decode(p, q.z) + decode(p, q.w);
     // Fractions inside the cell at ta, as functions of s = t - ta.
     let fa = g0 + dg * ta - cell;
     let h2 = g * dg.x * dg.y;
     let h1 = e * dg.x + f * dg.y + g * (fa.x * dg.y + fa.y * dg.x);
     let h0 = c00 + e * fa.x + f * fa.y + g * fa.x * fa.y;
-    let s = first_root(-h2, d.z - h1, o.z + d.z * ta - h0, tb - ta);
+    let graze = 0.5 / (f32(p.pyramid_at.z) - 1.0);
+    let s = first_root(-h2, d.z - h1, o.z + d.z * ta - h0, tb - ta, graze);
     return select(-1.0, ta + s, s >= 0.0);
 }
 
@@ -214,8 +218,8 @@ fn maxmip_hit(p: Patch, search: Search, o: vec3<f32>, d: vec3<f32>, t_start: f32
         let packed = pyramid[index];
         let za = o.z + d.z * t;
         let zb = o.z + d.z * t_exit;
-        if (packed == 0u || min(za, zb) > decode(f32(packed >> 16u))
-            || max(za, zb) < decode(f32(packed & 0xffffu))) {
+        if (packed == 0u || min(za, zb) > decode(p, f32(packed >> 16u))
+            || max(za, zb) < decode(p, f32(packed & 0xffffu))) {
             t = t_exit;
             level = min(level + 1, levels - 1);
             continue;

@@ -1,14 +1,16 @@
-//! The .gtex file format, version 1. Little-endian throughout.
+//! The .gtex file format, version 2 (version 1 is still read). Little-endian throughout.
 //!
 //! ```text
 //! header (32 bytes): magic b"GTEX\r\n\x1a\n" | version u32 | reserved u32 | payload length u64 |
 //!                    CRC-32 of the payload u32 | reserved u32
 //! payload: texel_size f64 | stats: count u32, then (name: len u16 + UTF-8, value f64) |
 //!          seconds: same | patch count u32 | each patch:
-//!          origin 3 f64 | axes 9 f64 | extent 3 f64 | width u32 | height u32 | faces u32 |
-//!          ring faces u32 | face ids u32[] | ring face ids u32[] | heights u16[w*h] |
-//!          normals i8[w*h*4] | colors u8[w*h*4]
+//!          origin 3 f64 | axes 9 f64 | extent 3 f64 | width u32 | height u32 |
+//!          height bits u32 (8 or 16) | faces u32 | ring faces u32 | face ids u32[] |
+//!          ring face ids u32[] | heights u8[w*h] or u16[w*h] | normals i8[w*h*4] |
+//!          colors u8[w*h*4]
 //! ```
+//! Version 1 is the same without the height-bits field: every patch has 16-bit heights.
 //! Written by hand (not serde/bincode) so the layout is fixed, documented and readable from any
 //! language; the magic catches text-mode mangling the way PNG's does.
 
@@ -17,7 +19,7 @@ use glam::DVec3;
 use crate::gtex::{GeometryTextureSet, Patch, Stats};
 
 pub const MAGIC: &[u8; 8] = b"GTEX\r\n\x1a\n";
-pub const VERSION: u32 = 1;
+pub const VERSION: u32 = 2;
 const HEADER: usize = 32;
 
 fn put_f64s(out: &mut Vec<u8>, v: &[f64]) {
@@ -51,6 +53,7 @@ pub fn encode(set: &GeometryTextureSet) -> Vec<u8> {
         for n in [
             patch.width,
             patch.height,
+            patch.height_bits as u32,
             patch.faces.len() as u32,
             patch.ring_faces.len() as u32,
         ] {
@@ -59,8 +62,12 @@ pub fn encode(set: &GeometryTextureSet) -> Vec<u8> {
         for f in patch.faces.iter().chain(&patch.ring_faces) {
             p.extend_from_slice(&f.to_le_bytes());
         }
-        for q in &patch.heights {
-            p.extend_from_slice(&q.to_le_bytes());
+        if patch.height_bits == 8 {
+            p.extend(patch.heights.iter().map(|&q| q.min(255) as u8));
+        } else {
+            for q in &patch.heights {
+                p.extend_from_slice(&q.to_le_bytes());
+            }
         }
         p.extend_from_slice(bytemuck::cast_slice(&patch.normals));
         p.extend_from_slice(bytemuck::cast_slice(&patch.colors));
@@ -129,9 +136,9 @@ pub fn decode(bytes: &[u8]) -> Result<GeometryTextureSet, String> {
         return Err("not a .gtex file (bad magic number or shorter than its header)".into());
     }
     let version = u32::from_le_bytes(bytes[8..12].try_into().unwrap());
-    if version != VERSION {
+    if !(1..=VERSION).contains(&version) {
         return Err(format!(
-            "file format version {version}; this geomtex reads version {VERSION}"
+            "file format version {version}; this geomtex reads versions 1 to {VERSION}"
         ));
     }
     let len = u64::from_le_bytes(bytes[16..24].try_into().unwrap());
@@ -163,6 +170,14 @@ pub fn decode(bytes: &[u8]) -> Result<GeometryTextureSet, String> {
         let axes = [r.vec3(&what)?, r.vec3(&what)?, r.vec3(&what)?];
         let extent = r.vec3(&what)?;
         let (w, h) = (r.u32(&what)?, r.u32(&what)?);
+        let height_bits = if version >= 2 {
+            match r.u32(&what)? {
+                b @ (8 | 16) => b as u8,
+                b => return Err(format!("{what}: height bits must be 8 or 16, found {b}")),
+            }
+        } else {
+            16
+        };
         let (nf, nr) = (r.u32(&what)? as usize, r.u32(&what)? as usize);
         let texels = w as usize * h as usize;
         let ids = r.take((nf + nr) * 4, &format!("{what} face ids"))?;
@@ -170,11 +185,16 @@ pub fn decode(bytes: &[u8]) -> Result<GeometryTextureSet, String> {
             .chunks_exact(4)
             .map(|c| u32::from_le_bytes(c.try_into().unwrap()))
             .collect();
-        let heights = r
-            .take(texels * 2, &format!("{what} heights"))?
-            .chunks_exact(2)
-            .map(|c| u16::from_le_bytes([c[0], c[1]]))
-            .collect();
+        let code_bytes = height_bits as usize / 8;
+        let heights = r.take(texels * code_bytes, &format!("{what} heights"))?;
+        let heights = if code_bytes == 1 {
+            heights.iter().map(|&q| q as u16).collect()
+        } else {
+            heights
+                .chunks_exact(2)
+                .map(|c| u16::from_le_bytes([c[0], c[1]]))
+                .collect()
+        };
         let normals =
             bytemuck::cast_slice::<u8, [i8; 4]>(r.take(texels * 4, &format!("{what} normals"))?)
                 .to_vec();
@@ -187,6 +207,7 @@ pub fn decode(bytes: &[u8]) -> Result<GeometryTextureSet, String> {
             extent,
             width: w,
             height: h,
+            height_bits,
             heights,
             normals,
             colors,
@@ -218,6 +239,7 @@ mod tests {
             extent: DVec3::new(2.0, 3.0, 0.25),
             width: 2,
             height: 3,
+            height_bits: 16,
             heights: vec![0, 1, 2, 65535, 7, 0],
             normals: vec![[0, 0, 127, 0]; 6],
             colors: vec![[1, 2, 3, 255]; 6],
@@ -236,8 +258,36 @@ mod tests {
 
     #[test]
     fn round_trip_is_exact() {
-        let s = sample();
+        let mut s = sample();
         assert_eq!(decode(&encode(&s)).unwrap(), s);
+        // A second patch with 8-bit heights: one byte per texel.
+        let mut p8 = s.patches[0].clone();
+        p8.height_bits = 8;
+        p8.heights = vec![0, 1, 2, 255, 7, 0];
+        s.patches.push(p8);
+        let b = encode(&s);
+        assert_eq!(decode(&b).unwrap(), s);
+        let mut two16 = sample();
+        two16.patches.push(two16.patches[0].clone());
+        let patch16 = encode(&two16).len() - encode(&sample()).len();
+        assert_eq!(b.len(), encode(&sample()).len() + patch16 - 6);
+    }
+
+    #[test]
+    fn version_1_files_read_as_16_bit() {
+        let s = sample();
+        let v2 = encode(&s);
+        // Version 1: no height-bits field after width and height.
+        // texel size, stats and seconds (count + one entry each), patch count, 15 f64, w, h.
+        let at = HEADER + 8 + (4 + 2 + 6 + 8) * 2 + 4 + 15 * 8 + 2 * 4;
+        let mut payload = v2[HEADER..at].to_vec();
+        payload.extend_from_slice(&v2[at + 4..]);
+        let mut v1 = v2[..HEADER].to_vec();
+        v1[8..12].copy_from_slice(&1u32.to_le_bytes());
+        v1[16..24].copy_from_slice(&(payload.len() as u64).to_le_bytes());
+        v1[24..28].copy_from_slice(&crc32fast::hash(&payload).to_le_bytes());
+        v1.extend_from_slice(&payload);
+        assert_eq!(decode(&v1).unwrap(), s);
     }
 
     #[test]

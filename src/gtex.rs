@@ -6,8 +6,9 @@
 //!   world = origin + axes[0] * (u * extent.x) + axes[1] * (v * extent.y) + axes[2] * (h * extent.z).
 //!
 //! Texel (i, j) (column i along u, row j along v) covers u in [i/w, (i+1)/w] and is sampled at its
-//! centre. Maps are row-major with row 0 at v = 0. Heights are 16-bit: 0 = empty, 1..=65535 map
-//! linearly to h in [0, 1]. Normals are patch-local unit vectors as signed bytes (x, y, z, 0).
+//! centre. Maps are row-major with row 0 at v = 0. Heights are codes of a patch's `height_bits`
+//! (8 or 16): 0 = empty, 1..=code_max map linearly to h in [0, 1]. Normals are patch-local unit
+//! vectors as signed bytes (x, y, z, 0).
 
 use std::io::Write;
 use std::path::Path;
@@ -16,8 +17,14 @@ use glam::{DMat4, DVec3, DVec4};
 
 use crate::error::{GeomtexError, Result};
 
-/// Largest 16-bit height code; code 0 means "no surface".
-pub const HEIGHT_MAX: u16 = u16::MAX;
+/// Bits per height code a patch may use.
+pub const HEIGHT_BITS: [u8; 2] = [8, 16];
+
+/// Largest height code of `bits`-bit heights (code 0 means "no surface").
+#[inline]
+pub fn code_max(bits: u8) -> u16 {
+    ((1u32 << bits) - 1) as u16
+}
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Patch {
@@ -28,6 +35,8 @@ pub struct Patch {
     pub extent: DVec3,
     pub width: u32,
     pub height: u32,
+    /// 8 or 16: the range of the codes in `heights` (kept in u16 either way in memory).
+    pub height_bits: u8,
     pub heights: Vec<u16>,
     pub normals: Vec<[i8; 4]>,
     pub colors: Vec<[u8; 4]>,
@@ -54,8 +63,24 @@ impl Patch {
         DVec3::new(
             (i as f64 + 0.5) / self.width as f64,
             (j as f64 + 0.5) / self.height as f64,
-            decode_height(q),
+            self.decode_height(q as f64),
         )
+    }
+
+    #[inline]
+    pub fn code_max(&self) -> u16 {
+        code_max(self.height_bits)
+    }
+
+    /// Height code (or a blend of codes) → patch-local height.
+    #[inline]
+    pub fn decode_height(&self, code: f64) -> f64 {
+        (code - 1.0) / (self.code_max() - 1) as f64
+    }
+
+    /// Largest error of a quantized height, in world units: half a code step.
+    pub fn quantization_error(&self) -> f64 {
+        0.5 * self.extent.z / (self.code_max() - 1) as f64
     }
 
     #[inline]
@@ -74,21 +99,16 @@ impl Patch {
         self.heights.iter().filter(|&&q| q == 0).count()
     }
 
-    /// Bytes the maps take: 16-bit height + RGBA8 normal + RGBA8 color per texel.
+    /// Bytes the maps take: an 8- or 16-bit height + RGBA8 normal + RGBA8 color per texel.
     pub fn map_bytes(&self) -> usize {
-        self.texels() * (2 + 4 + 4)
+        self.texels() * (self.height_bits as usize / 8 + 4 + 4)
     }
 }
 
-/// Height in [0, 1] to its 16-bit code in [1, 65535].
+/// Height in [0, 1] to its `bits`-bit code in [1, code_max(bits)].
 #[inline]
-pub fn encode_height(h: f64) -> u16 {
-    1 + (h.clamp(0.0, 1.0) * (HEIGHT_MAX - 1) as f64).round() as u16
-}
-
-#[inline]
-pub fn decode_height(q: u16) -> f64 {
-    (q.max(1) - 1) as f64 / (HEIGHT_MAX - 1) as f64
+pub fn encode_height(h: f64, bits: u8) -> u16 {
+    1 + (h.clamp(0.0, 1.0) * (code_max(bits) - 1) as f64).round() as u16
 }
 
 #[inline]

@@ -14,13 +14,7 @@
 
 use glam::DVec3;
 
-use crate::gtex::{Patch, HEIGHT_MAX};
-
-/// Height code → patch-local height.
-#[inline]
-fn decode(code: f64) -> f64 {
-    (code - 1.0) / (HEIGHT_MAX - 1) as f64
-}
+use crate::gtex::Patch;
 
 /// Corner codes of the cell whose lower-left texel centre is (i, j) (indices clamped); None
 /// unless all four hold surface.
@@ -42,15 +36,18 @@ pub fn height_at(p: &Patch, u: f64, v: f64) -> Option<f64> {
         + q[1] * fx * (1.0 - fy)
         + q[2] * (1.0 - fx) * fy
         + q[3] * fx * fy;
-    Some(decode(code))
+    Some(p.decode_height(code))
 }
 
-/// Heights are known to half a 16-bit code; a ray dipping less than that under the surface and
-/// coming back up (two close roots) only grazes it and is not a hit.
-pub const GRAZE: f64 = 0.5 / (HEIGHT_MAX - 1) as f64;
+/// Heights are known to half a code; a ray dipping less than that under the surface and coming
+/// back up (two close roots) only grazes it and is not a hit. Patch-local height units.
+pub fn graze(p: &Patch) -> f64 {
+    0.5 / (p.code_max() - 1) as f64
+}
 
-/// Smallest root of a t^2 + b t + c in [lo, hi] where the ray really crosses, if any.
-fn first_root(a: f64, b: f64, c: f64, lo: f64, hi: f64) -> Option<f64> {
+/// Smallest root of a t^2 + b t + c in [lo, hi] where the ray really crosses, if any; a dip
+/// shallower than `graze` between two roots is no crossing.
+fn first_root(a: f64, b: f64, c: f64, lo: f64, hi: f64, graze: f64) -> Option<f64> {
     let scale = a.abs().max(b.abs()).max(c.abs());
     if scale == 0.0 {
         return Some(lo); // identically zero: the ray runs along the surface
@@ -68,12 +65,12 @@ fn first_root(a: f64, b: f64, c: f64, lo: f64, hi: f64) -> Option<f64> {
         // Stable form: no cancellation between -b and the square root.
         let qv = -0.5 * (b + b.signum() * disc.sqrt());
         roots = [qv / a, if qv != 0.0 { c / qv } else { f64::NAN }];
-        // Both roots inside and the dip between them shallower than GRAZE: a graze.
+        // Both roots inside and the dip between them shallower than `graze`: a graze.
         let inside = roots
             .iter()
             .filter(|t| t.is_finite() && **t >= lo && **t <= hi)
             .count();
-        if inside == 2 && (c - b * b / (4.0 * a)).abs() < GRAZE {
+        if inside == 2 && (c - b * b / (4.0 * a)).abs() < graze {
             return None;
         }
     }
@@ -127,6 +124,7 @@ pub fn first_hit(p: &Patch, o: DVec3, d: DVec3, t0: f64, t1: f64) -> Option<f64>
             tn
         }
     };
+    let graze = graze(p);
     let mut t = lo;
     let mut guard = 0;
     while t < hi && guard < 1 << 22 {
@@ -139,14 +137,14 @@ pub fn first_hit(p: &Patch, o: DVec3, d: DVec3, t0: f64, t1: f64) -> Option<f64>
             // fx = ax + bx t, fy = ay + by t; code(t) = bilinear → quadratic in t.
             let (ax, bx) = (x0 - i, dx);
             let (ay, by) = (y0 - j, dy);
-            let (c00, c10, c01, c11) = (decode(q[0]), decode(q[1]), decode(q[2]), decode(q[3]));
+            let [c00, c10, c01, c11] = q.map(|c| p.decode_height(c));
             // h = c00 + (c10-c00) fx + (c01-c00) fy + (c00-c10-c01+c11) fx fy
             let (e, f, g) = (c10 - c00, c01 - c00, c00 - c10 - c01 + c11);
             let h2 = g * bx * by;
             let h1 = e * bx + f * by + g * (ax * by + ay * bx);
             let h0 = c00 + e * ax + f * ay + g * ax * ay;
             // z(t) - h(t) = 0
-            if let Some(r) = first_root(-h2, d.z - h1, o.z - h0, t, t_next) {
+            if let Some(r) = first_root(-h2, d.z - h1, o.z - h0, t, t_next, graze) {
                 return Some(r);
             }
         }
@@ -254,9 +252,13 @@ mod tests {
     use crate::gtex::encode_height;
 
     fn patch(w: u32, h: u32, f: impl Fn(u32, u32) -> Option<f64>) -> Patch {
+        patch_bits(w, h, 16, f)
+    }
+
+    fn patch_bits(w: u32, h: u32, bits: u8, f: impl Fn(u32, u32) -> Option<f64>) -> Patch {
         let heights = (0..h)
             .flat_map(|j| (0..w).map(move |i| (i, j)))
-            .map(|(i, j)| f(i, j).map_or(0, encode_height))
+            .map(|(i, j)| f(i, j).map_or(0, |v| encode_height(v, bits)))
             .collect();
         Patch {
             origin: DVec3::ZERO,
@@ -264,6 +266,7 @@ mod tests {
             extent: DVec3::ONE,
             width: w,
             height: h,
+            height_bits: bits,
             heights,
             normals: vec![[0, 0, 127, 0]; (w * h) as usize],
             colors: vec![[0; 4]; (w * h) as usize],
@@ -285,7 +288,13 @@ mod tests {
 
     #[test]
     fn exact_hit_agrees_with_dense_sampling() {
-        let p = patch(16, 16, |i, j| {
+        for bits in [8, 16] {
+            exact_hit_agrees_with_dense_sampling_of(bits);
+        }
+    }
+
+    fn exact_hit_agrees_with_dense_sampling_of(bits: u8) {
+        let p = patch_bits(16, 16, bits, |i, j| {
             Some(0.3 + 0.4 * ((i as f64 * 0.7).sin() * (j as f64 * 0.5).cos()).abs())
         });
         let mut rng = 12345u64;
@@ -332,7 +341,13 @@ mod tests {
 
     #[test]
     fn pyramid_bounds_every_cell() {
-        let p = patch(13, 7, |i, j| {
+        for bits in [8, 16] {
+            pyramid_bounds_every_cell_of(bits);
+        }
+    }
+
+    fn pyramid_bounds_every_cell_of(bits: u8) {
+        let p = patch_bits(13, 7, bits, |i, j| {
             if (i * 3 + j * 5) % 17 == 0 {
                 None
             } else {
@@ -360,8 +375,8 @@ mod tests {
                 let (c, r) = ((x.floor() + 1.0) as u32, (y.floor() + 1.0) as u32);
                 let cell = levels[0].2[(r * 14 + c) as usize];
                 assert!(
-                    hh <= decode((cell >> 16) as f64) + 1e-12
-                        && hh >= decode((cell & 0xffff) as f64) - 1e-12
+                    hh <= p.decode_height((cell >> 16) as f64) + 1e-12
+                        && hh >= p.decode_height((cell & 0xffff) as f64) - 1e-12
                 );
                 checked += 1;
             }

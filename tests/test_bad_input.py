@@ -96,6 +96,8 @@ def test_all_degenerate_mesh_is_an_error() -> None:
         (dict(dilation=1000), r"dilation must be at most 64"),
         (dict(frame="diagonal"), r"frame must be 'min_area' or 'pca'"),
         (dict(normals="bumpy"), r"normals must be 'smooth' or 'flat'"),
+        (dict(height_bits=12), r"height_bits must be 8 or 16, got 12"),
+        (dict(height_bits=8.0), r"height_bits must be an integer"),
         (dict(progress="yes"), r"progress must be"),
     ],
 )

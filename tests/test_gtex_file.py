@@ -16,24 +16,34 @@ def sheet() -> Converted:
     return converted("open_sheet")
 
 
-def test_round_trip_is_bit_exact(sheet: Converted, tmp_path) -> None:
+@pytest.mark.parametrize("bits", [16, 8])
+def test_round_trip_is_bit_exact(sheet: Converted, tmp_path, bits: int) -> None:
+    gts = sheet.gts if bits == 16 else gt.convert(sheet.mesh, height_bits=8)
     path = tmp_path / "sheet.gtex"
-    sheet.gts.save(path)
+    gts.save(path)
     back = gt.load(path)
-    assert len(back) == len(sheet.gts)
-    assert back.texel_size == sheet.gts.texel_size
-    assert back.stats == sheet.gts.stats
-    assert np.array_equal(back.world_from_patch, sheet.gts.world_from_patch)
+    assert len(back) == len(gts)
+    assert back.texel_size == gts.texel_size
+    assert back.stats == gts.stats
+    assert np.array_equal(back.world_from_patch, gts.world_from_patch)
     for i in range(len(back)):
-        a, b = back.patch(i), sheet.gts.patch(i)
+        a, b = back.patch(i), gts.patch(i)
         assert a.keys() == b.keys()
+        assert a["height_bits"] == bits and a["height"].dtype == (np.uint8 if bits == 8 else np.uint16)
         for key in a:
-            assert a[key].dtype == b[key].dtype and np.array_equal(a[key], b[key]), (i, key)
+            x, y = np.asarray(a[key]), np.asarray(b[key])
+            assert x.dtype == y.dtype and np.array_equal(x, y), (i, key)
     pts, nrm = back.to_points()
-    assert np.array_equal(pts, sheet.points) and np.array_equal(nrm, sheet.normals)
+    assert np.array_equal(pts, gts.to_points()[0]) and np.array_equal(nrm, gts.to_points()[1])
     # Saving what was loaded writes the same bytes.
     back.save(tmp_path / "again.gtex")
     assert (tmp_path / "again.gtex").read_bytes() == path.read_bytes()
+    if bits == 8:
+        # One byte less per texel than the 16-bit file, in the maps and in stats["bytes"].
+        sheet.gts.save(tmp_path / "wide.gtex")
+        texels = gts.stats["texels"]
+        assert (tmp_path / "wide.gtex").stat().st_size - path.stat().st_size == pytest.approx(texels, abs=64)
+        assert gts.stats["bytes"] == 9 * texels and sheet.gts.stats["bytes"] == 10 * texels
 
 
 def test_every_corruption_is_a_format_error(sheet: Converted, tmp_path) -> None:

@@ -13,28 +13,38 @@ import geomtex as gt
 from conftest import Converted
 
 
-def write_gtex(path, heights: np.ndarray, origin, axes, extent) -> None:
-    """A one-patch .gtex written from the documented layout (src/format.rs), not by geomtex."""
+def write_gtex(path, heights: np.ndarray, origin, axes, extent, bits: int = 16) -> None:
+    """A one-patch .gtex written from the documented layout (src/format.rs), not by geomtex:
+    version 1 for 16-bit heights (no height-bits field), version 2 for 8-bit ones."""
     h, w = heights.shape
     payload = struct.pack("<d", 1.0) + struct.pack("<I", 0) + struct.pack("<I", 0) + struct.pack("<I", 1)
     payload += struct.pack("<3d", *origin) + b"".join(struct.pack("<3d", *a) for a in axes)
-    payload += struct.pack("<3d", *extent) + struct.pack("<4I", w, h, 0, 0)
-    payload += heights.astype("<u2").tobytes()
+    payload += struct.pack("<3d", *extent) + struct.pack("<2I", w, h)
+    if bits == 16:
+        payload += struct.pack("<2I", 0, 0) + heights.astype("<u2").tobytes()
+    else:
+        payload += struct.pack("<3I", 8, 0, 0) + heights.astype(np.uint8).tobytes()
     payload += np.tile(np.array([0, 0, 127, 0], np.int8), h * w).tobytes()
     payload += np.full(h * w * 4, 200, np.uint8).tobytes()
-    header = b"GTEX\r\n\x1a\n" + struct.pack("<IIQII", 1, 0, len(payload), zlib.crc32(payload), 0)
+    version = 1 if bits == 16 else 2
+    header = b"GTEX\r\n\x1a\n" + struct.pack("<IIQII", version, 0, len(payload), zlib.crc32(payload), 0)
     path.write_bytes(header + payload)
 
 
-@pytest.fixture(scope="module")
-def thin(tmp_path_factory) -> gt.GeometryTextureSet:
+@pytest.fixture(scope="module", params=[16, 8], ids=["16bit", "8bit"])
+def thin(tmp_path_factory, request) -> gt.GeometryTextureSet:
     """A 64 x 64 map: a low floor, one-texel walls every 8 columns and single-texel spikes."""
-    codes = np.full((64, 64), 2000, np.uint16)
-    codes[:, 4::8] = 50000  # walls, one texel thick, across the view
-    codes[2::9, 2::11] = 65535  # spikes
+    top = 2 ** request.param - 1
+    codes = np.full((64, 64), round(0.03 * top), np.uint16)
+    codes[:, 4::8] = round(0.76 * top)  # walls, one texel thick, across the view
+    codes[2::9, 2::11] = top  # spikes
     path = tmp_path_factory.mktemp("thin") / "thin.gtex"
-    write_gtex(path, codes, origin=(0, 0, 0), axes=[(1, 0, 0), (0, 1, 0), (0, 0, 1)], extent=(1.0, 1.0, 0.2))
-    return gt.load(path)
+    write_gtex(path, codes, origin=(0, 0, 0), axes=[(1, 0, 0), (0, 1, 0), (0, 0, 1)], extent=(1.0, 1.0, 0.2),
+               bits=request.param)
+    gts = gt.load(path)
+    assert gts.patch(0)["height_bits"] == request.param
+    assert np.array_equal(gts.patch(0)["height"], codes)
+    return gts
 
 
 def reference_depth(gts, cam, size):

@@ -95,6 +95,33 @@ def test_bunny_five_views_match_trimesh(bunny: Converted, r512: gt.Renderer) -> 
         assert mf["p99"] <= 1e-2, (name, mf)
 
 
+def test_8_bit_heights_cost_only_their_rounding(bunny: Converted, r512: gt.Renderer) -> None:
+    """8-bit heights: the same charts with 9 bytes a texel instead of 10; every texel point moves by
+    at most the stated rounding, and depth against trimesh worsens by no more than that rounding
+    while staying within the renderer issue's bounds, with either search."""
+    narrow = gt.convert(bunny.mesh, height_bits=8)
+    diag = bunny.mesh.diagonal
+    q8, q16 = narrow.stats["max_quantization_error"], bunny.gts.stats["max_quantization_error"]
+    # Half a code step of the tallest box (box height = length of world_from_patch's z column).
+    heights8 = np.linalg.norm(narrow.world_from_patch[:, :3, 2], axis=1)
+    assert q8 == pytest.approx(0.5 * heights8.max() / 254, rel=1e-9)
+    assert narrow.stats["bytes"] / bunny.gts.stats["bytes"] == pytest.approx(0.9)
+    points, _ = narrow.to_points()
+    assert points.shape == bunny.points.shape
+    assert np.abs(points - bunny.points).max() <= (q8 + q16) * (1 + 1e-9)
+    tm = bunny.mesh.to_trimesh()
+    for name in ["oblique", "below"]:
+        cam = orbit(bunny.mesh, *BUNNY_VIEWS[name])
+        ref = reference.raycast(tm, cam, 512, 512)
+        wide = compare(r512.render(bunny.gts, cam), ref, diag)
+        for quality in ["balanced", "exact"]:
+            m = compare(r512.render(narrow, cam, quality=quality), ref, diag)
+            assert m["nan"] == 0 and m["iou"] >= 0.99, (name, quality, m)
+            assert m["median"] <= wide["median"] + q8 / diag, (name, quality, m, wide)
+            assert m["p99"] <= wide["p99"] + q8 / diag, (name, quality, m, wide)
+            assert m["median"] <= 1e-3 and m["p99"] <= 1e-2, (name, quality, m)
+
+
 FOUR_VIEWS = {
     "top": ((0, 0, 1), (0, 1, 0)),
     "profile": ((1, 0, 0), (0, 0, 1)),

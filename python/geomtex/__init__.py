@@ -76,6 +76,7 @@ def convert(
     dilation: int = 2,
     frame: Literal["min_area", "pca"] = "min_area",
     normals: Literal["smooth", "flat"] = "smooth",
+    height_bits: Literal[8, 16] = 16,
     progress: bool | ProgressCallback | None = None,
 ) -> GeometryTextureSet:
     """Converts a mesh into geometry textures.
@@ -89,6 +90,9 @@ def convert(
     dilation: texels of normal/color dilation into empty space.
     frame: in-plane axes from the minimum-area rectangle (default) or 2D PCA (the paper's).
     normals: interpolated vertex normals (``"smooth"``) or face normals (``"flat"``).
+    height_bits: 16 (default) or 8. Eight bits halve the height maps' bytes (a texel then takes
+        9 bytes instead of 10) and round each height to 1/254 of its patch's height range;
+        ``stats["max_quantization_error"]`` gives the worst rounding in world units.
     progress: True for a tqdm bar, or ``callback(stage, fraction)``; returning False cancels.
 
     The work runs in Rust on all cores with the GIL released.
@@ -98,7 +102,8 @@ def convert(
     _number("chart_error", chart_error, float)
     _number("compactness", compactness, float)
     for name, v in [("max_charts", max_charts), ("lloyd_iterations", lloyd_iterations),
-                    ("overlap_rings", overlap_rings), ("dilation", dilation)]:
+                    ("overlap_rings", overlap_rings), ("dilation", dilation),
+                    ("height_bits", height_bits)]:
         _number(name, v, int)
     if charts is not None:
         _number("charts", charts, int)
@@ -136,6 +141,7 @@ def convert(
             dilation=dilation,
             frame=frame,
             normals=normals,
+            height_bits=height_bits,
             progress=callback,
         )
     finally:
@@ -144,7 +150,7 @@ def convert(
 
 
 def load(path: str | os.PathLike[str]) -> GeometryTextureSet:
-    """Reads a .gtex file. Raises FormatError for anything that is not an intact version-1 file."""
+    """Reads a .gtex file. Raises FormatError for anything that is not an intact .gtex file (version 1 or 2)."""
     p = os.fspath(path)
     if not os.path.exists(p):
         raise FileError(f"no such file: {p}")

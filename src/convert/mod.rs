@@ -48,6 +48,9 @@ pub struct ConvertOptions {
     pub dilation: usize,
     pub in_plane: InPlane,
     pub normals: NormalSource,
+    /// Bits per height code, 8 or 16: 8 halves the height map's bytes and rounds heights to
+    /// 1/254 of each patch's height range.
+    pub height_bits: u8,
 }
 
 impl Default for ConvertOptions {
@@ -64,6 +67,7 @@ impl Default for ConvertOptions {
             dilation: 2,
             in_plane: InPlane::MinAreaRect,
             normals: NormalSource::Smooth,
+            height_bits: 16,
         }
     }
 }
@@ -112,6 +116,12 @@ impl ConvertOptions {
             return bad(format!(
                 "dilation must be at most 64, got {}",
                 self.dilation
+            ));
+        }
+        if !crate::gtex::HEIGHT_BITS.contains(&self.height_bits) {
+            return bad(format!(
+                "height_bits must be 8 or 16, got {}",
+                self.height_bits
             ));
         }
         if self.lloyd_iterations > 1000 {
@@ -315,7 +325,12 @@ pub fn convert(
             // turn patch-local z into huge numbers that f32 on the GPU cannot resolve. A margin
             // above and below the surface keeps a ray entering through the box's top or bottom
             // strictly off the surface, so its first sample knows which side it is on.
-            let thickness = size.z.max(texel) + 0.04 * texel;
+            // The margin is also at least one height code step, so rounding never puts the
+            // surface on the box's top or bottom (8-bit codes would, with 0.02 texel alone).
+            let base = size.z.max(texel);
+            let code_max = crate::gtex::code_max(opts.height_bits) as f64;
+            let margin = (0.02 * texel).max(base / (code_max - 3.0));
+            let thickness = base + 2.0 * margin;
             let pad_z = (thickness - size.z) * 0.5;
             let corner = DVec3::new(lo.x - pad_x, lo.y - pad_y, lo.z - pad_z);
             PatchBox {
@@ -324,6 +339,7 @@ pub fn convert(
                 extent: DVec3::new(w as f64 * texel, h as f64 * texel, thickness),
                 width: w,
                 height: h,
+                height_bits: opts.height_bits,
             }
         })
         .collect();
@@ -377,6 +393,7 @@ pub fn convert(
             extent: bx.extent,
             width: bx.width,
             height: bx.height,
+            height_bits: bx.height_bits,
             heights: m.heights,
             normals: m.normals,
             colors: m.colors,
@@ -429,6 +446,14 @@ pub fn convert(
         ("empty_texels", empty as f64),
         ("empty_fraction", empty as f64 / texels.max(1) as f64),
         ("bytes", set.map_bytes() as f64),
+        ("height_bits", opts.height_bits as f64),
+        (
+            "max_quantization_error",
+            set.patches
+                .iter()
+                .map(Patch::quantization_error)
+                .fold(0.0, f64::max),
+        ),
         ("texel_size", texel),
         ("diagonal", geo.diagonal),
     ] {
@@ -517,6 +542,36 @@ mod tests {
             assert!(radial.dot(glam::Vec3::from_array(*n).as_dvec3()) > 0.95);
         }
         assert_eq!(set.stats.get("folding_charts"), Some(0.0));
+    }
+
+    #[test]
+    fn heights_never_round_onto_the_box_faces() {
+        // A flat square seen from above and a sphere: with either code width the surface keeps
+        // at least one code step from the top and bottom of every box (a ray entering there must
+        // start strictly off the surface).
+        let square = Mesh::from_flat(
+            &[0., 0., 0., 1., 0., 0., 1., 1., 0., 0., 1., 0.],
+            &[0, 1, 2, 0, 2, 3],
+            None,
+        )
+        .unwrap();
+        for mesh in [square, uv_sphere(12, 24)] {
+            for bits in crate::gtex::HEIGHT_BITS {
+                let opts = ConvertOptions {
+                    height_bits: bits,
+                    ..Default::default()
+                };
+                let set = convert(&mesh, &opts, &|_, _| true).unwrap();
+                for p in &set.patches {
+                    let filled = p.heights.iter().filter(|&&q| q > 0);
+                    assert!(
+                        filled.clone().all(|&q| q >= 2 && q < p.code_max()),
+                        "{bits} bits"
+                    );
+                    assert_eq!(p.height_bits, bits);
+                }
+            }
+        }
     }
 
     #[test]

@@ -2,7 +2,8 @@
 //! normal/color maps into empty texels.
 //!
 //! Space: patch-local with x/y measured in texels (texel (i, j) has its centre at (i+0.5, j+0.5))
-//! and z in world units above the box floor; heights are stored as 16-bit codes of z / extent.z.
+//! and z in world units above the box floor; heights are stored as 8- or 16-bit codes of
+//! z / extent.z.
 
 use glam::{DVec2, DVec3};
 
@@ -17,6 +18,8 @@ pub struct PatchBox {
     pub extent: DVec3,
     pub width: u32,
     pub height: u32,
+    /// Bits per height code (8 or 16).
+    pub height_bits: u8,
 }
 
 /// Which normal goes into the normal map.
@@ -154,7 +157,7 @@ pub fn rasterize(
             if z == f64::NEG_INFINITY {
                 0
             } else {
-                encode_height(z / bx.extent.z)
+                encode_height(z / bx.extent.z, bx.height_bits)
             }
         })
         .collect();
@@ -252,6 +255,7 @@ mod tests {
             extent: DVec3::new(4.0, 2.0, 1.0),
             width: 8,
             height: 4,
+            height_bits: 16,
         };
         let mut maps = rasterize(&m, &geo, &[0, 1], 2, &bx, NormalSource::Flat);
         for j in 0..4 {
@@ -260,7 +264,7 @@ mod tests {
                 let x = (i as f64 + 0.5) * 0.5;
                 let want = 0.25 * x;
                 assert!(
-                    (crate::gtex::decode_height(q) - want).abs() < 1e-4,
+                    ((q - 1) as f64 / 65534.0 - want).abs() < 1e-4,
                     "texel {i},{j}"
                 );
             }

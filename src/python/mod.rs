@@ -252,7 +252,8 @@ impl PyGeometryTextureSet {
         Array1::from_vec(out).into_pyarray(py)
     }
 
-    /// One patch's maps and frame as numpy arrays: height (H, W) uint16 (0 = empty), normal
+    /// One patch's maps and frame as numpy arrays: height (H, W) codes, uint16 or uint8 as
+    /// `height_bits` says (0 = empty, else h = (code - 1) / (2**height_bits - 2)), normal
     /// (H, W, 4) int8 (patch-local xyz/127), color (H, W, 4) uint8, world_from_patch (4, 4),
     /// origin (3,), axes (3, 3) (rows x, y, z), extent (3,), faces and ring_faces (uint32).
     fn patch<'py>(&self, py: Python<'py>, index: isize) -> PyResult<Bound<'py, PyDict>> {
@@ -266,12 +267,23 @@ impl PyGeometryTextureSet {
         let p = &self.inner.patches[i as usize];
         let (h, w) = (p.height as usize, p.width as usize);
         let d = PyDict::new(py);
-        d.set_item(
-            "height",
-            Array2::from_shape_vec((h, w), p.heights.clone())
-                .unwrap()
-                .into_pyarray(py),
-        )?;
+        if p.height_bits == 8 {
+            let codes: Vec<u8> = p.heights.iter().map(|&q| q as u8).collect();
+            d.set_item(
+                "height",
+                Array2::from_shape_vec((h, w), codes)
+                    .unwrap()
+                    .into_pyarray(py),
+            )?;
+        } else {
+            d.set_item(
+                "height",
+                Array2::from_shape_vec((h, w), p.heights.clone())
+                    .unwrap()
+                    .into_pyarray(py),
+            )?;
+        }
+        d.set_item("height_bits", p.height_bits)?;
         let normals: Vec<i8> = p.normals.iter().flatten().copied().collect();
         d.set_item(
             "normal",
@@ -408,7 +420,7 @@ fn load(py: Python<'_>, path: PathBuf) -> PyResult<PyGeometryTextureSet> {
 #[pyfunction]
 #[pyo3(signature = (mesh, *, max_resolution = 256, texel_size = None, charts = None,
     chart_error = 0.1, max_charts = 4096, compactness = 1.0, lloyd_iterations = 6, overlap_rings = 1,
-    dilation = 2, frame = "min_area", normals = "smooth", progress = None))]
+    dilation = 2, frame = "min_area", normals = "smooth", height_bits = 16, progress = None))]
 #[allow(clippy::too_many_arguments)]
 fn convert(
     py: Python<'_>,
@@ -424,6 +436,7 @@ fn convert(
     dilation: i64,
     frame: &str,
     normals: &str,
+    height_bits: i64,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<PyGeometryTextureSet> {
     let nonneg = |name: &str, v: i64| -> PyResult<usize> {
@@ -458,6 +471,14 @@ fn convert(
             other => {
                 return Err(parameter_error(format!(
                     "normals must be 'smooth' or 'flat', got {other:?}"
+                )))
+            }
+        },
+        height_bits: match height_bits {
+            8 | 16 => height_bits as u8,
+            other => {
+                return Err(parameter_error(format!(
+                    "height_bits must be 8 or 16, got {other}"
                 )))
             }
         },

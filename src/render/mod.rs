@@ -724,8 +724,16 @@ impl Renderer {
                 view_formats: &[],
             })
         };
+        // One byte per height texel when every patch has 8-bit codes; the shader reads either
+        // format as u32 and decodes with each patch's own largest code.
+        let narrow = set.patches.iter().all(|p| p.height_bits == 8);
+        let (height_format, height_bytes) = if narrow {
+            (wgpu::TextureFormat::R8Uint, 1)
+        } else {
+            (wgpu::TextureFormat::R16Uint, 2)
+        };
         let textures = [
-            make("heights", wgpu::TextureFormat::R16Uint),
+            make("heights", height_format),
             make("normals", wgpu::TextureFormat::Rgba8Snorm),
             make("colors", wgpu::TextureFormat::Rgba8Unorm),
         ];
@@ -735,8 +743,15 @@ impl Renderer {
                 height: p.height,
                 depth_or_array_layers: 1,
             };
+            let narrow_codes: Vec<u8>;
+            let height_plane: &[u8] = if narrow {
+                narrow_codes = p.heights.iter().map(|&q| q as u8).collect();
+                &narrow_codes
+            } else {
+                bytemuck::cast_slice(&p.heights)
+            };
             let planes: [(&[u8], u32); 3] = [
-                (bytemuck::cast_slice(&p.heights), 2),
+                (height_plane, height_bytes),
                 (bytemuck::cast_slice(&p.normals), 4),
                 (bytemuck::cast_slice(&p.colors), 4),
             ];
@@ -1002,7 +1017,12 @@ impl Renderer {
                                 atlas_origin: [x as f32, y as f32],
                                 size: [p.width as f32, p.height as f32],
                                 ids: [layer as i32, next_patch_id + i as i32, 0, 0],
-                                pyramid_at: [up.pyramid_at[i][0], up.pyramid_at[i][1], 0, 0],
+                                pyramid_at: [
+                                    up.pyramid_at[i][0],
+                                    up.pyramid_at[i][1],
+                                    p.code_max() as u32,
+                                    0,
+                                ],
                             }
                         })
                         .collect();
