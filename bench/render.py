@@ -236,35 +236,11 @@ def time_trimesh(mesh: gt.Mesh, cam: gt.Camera, size: int, repeats: int) -> tupl
 
 
 def accuracy(frame: Any, ref: dict, diag: float, normals: bool = False) -> dict[str, Any]:
-    depth = np.asarray(frame.depth)
-    hit = np.isfinite(depth)
-    ref_hit = np.asarray(ref["hit"])
-    both = hit & ref_hit
-    union = hit | ref_hit
-    out: dict[str, Any] = {
-        "covered_px": int(hit.sum()),
-        "ref_px": int(ref_hit.sum()),
-        "both_px": int(both.sum()),
-        "only_frame_px": int((hit & ~ref_hit).sum()),
-        "only_ref_px": int((ref_hit & ~hit).sum()),
-        "iou": float(both.sum() / union.sum()) if union.any() else float("nan"),
-        "nan_depth": int(np.isnan(depth).sum()),
-    }
-    if both.any():
-        dz = np.abs(depth[both].astype(np.float64) - np.asarray(ref["depth"])[both]) / diag
-        out.update(depth_median=float(np.median(dz)), depth_p99=float(np.percentile(dz, 99)),
-                   depth_max=float(dz.max()))
-    else:
-        out.update(depth_median=float("nan"), depth_p99=float("nan"), depth_max=float("nan"))
-    if normals:
-        n0 = np.asarray(frame.normal)[both].astype(np.float64)
-        n1 = np.asarray(ref["normal"])[both].astype(np.float64)
-        cos = np.sum(n0 * n1, axis=1) / np.maximum(
-            np.linalg.norm(n0, axis=1) * np.linalg.norm(n1, axis=1), 1e-30)
-        ang = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
-        out["normal_deg_median"] = float(np.median(ang)) if len(ang) else float("nan")
-        out["normal_deg_p99"] = float(np.percentile(ang, 99)) if len(ang) else float("nan")
-        out["nan_normal"] = int(np.isnan(np.asarray(frame.normal)).any(axis=-1).sum())
+    """geomtex.reference.compare; the normal figures only when ``normals``."""
+    out = reference.compare(frame, ref, diag)
+    if not normals:
+        for k in ("normal_deg_median", "normal_deg_p99", "nan_normal"):
+            out.pop(k)
     return out
 
 

@@ -640,7 +640,7 @@ def main(argv: list[str] | None = None) -> None:
           f"of the stored surface ({len(col)}; maxmip: "
           f"{sum(r['surface_off_px'] for r in records if r['method'] == 'maxmip')} px in all records):")
     for c in col:
-        print(f"  {c['mesh']} R={c['R']} {c['view']} {c['setting']}: {100 * c['off_fraction']:.1f}% off, "
+        print(f"  {c['mesh']} R={c['R']} {c['height_bits']}-bit {c['view']} {c['setting']}: {100 * c['off_fraction']:.1f}% off, "
               f"p99 {c['depth_p99']:.2e} (maxmip {c['maxmip_depth_p99']:.2e}), IoU {c['iou']:.4f} "
               f"(maxmip {c['maxmip_iou']:.4f}), {c['fetches_per_pixel']:.0f} fetches/px")
     mismatch = [r for r in records if not r["count_frame_matches"]]

@@ -89,3 +89,42 @@ def raycast(mesh: Any, camera: Any, width: int, height: int) -> dict[str, npt.ND
         "hit": np.isfinite(depth).reshape(shape),
         "triangle": triangle.reshape(shape),
     }
+
+
+def compare(frame: Any, ref: dict[str, npt.NDArray[Any]], diagonal: float,
+            ref_normal: npt.NDArray[Any] | None = None) -> dict[str, Any]:
+    """How a rendered frame agrees with a reference ray cast (``raycast``'s dict).
+
+    Depth differences are taken on pixels both hit and divided by ``diagonal``: ``depth_median``,
+    ``depth_p99``, ``depth_max``. ``iou`` is the hit masks' intersection over union;
+    ``normal_deg_median``/``_p99`` the angle between the frame's normals and ``ref_normal``
+    (default: the reference's face normals). ``nan_depth``/``nan_normal`` count NaN pixels.
+    """
+    depth = np.asarray(frame.depth)
+    hit = np.isfinite(depth)
+    ref_hit = np.asarray(ref["hit"])
+    both = hit & ref_hit
+    union = hit | ref_hit
+    out: dict[str, Any] = {
+        "covered_px": int(hit.sum()),
+        "ref_px": int(ref_hit.sum()),
+        "both_px": int(both.sum()),
+        "only_frame_px": int((hit & ~ref_hit).sum()),
+        "only_ref_px": int((ref_hit & ~hit).sum()),
+        "iou": float(both.sum() / union.sum()) if union.any() else float("nan"),
+        "nan_depth": int(np.isnan(depth).sum()),
+    }
+    if both.any():
+        dz = np.abs(depth[both].astype(np.float64) - np.asarray(ref["depth"])[both]) / diagonal
+        out.update(depth_median=float(np.median(dz)), depth_p99=float(np.percentile(dz, 99)),
+                   depth_max=float(dz.max()))
+    else:
+        out.update(depth_median=float("nan"), depth_p99=float("nan"), depth_max=float("nan"))
+    n0 = np.asarray(frame.normal)[both].astype(np.float64)
+    n1 = np.asarray(ref["normal"] if ref_normal is None else ref_normal)[both].astype(np.float64)
+    cos = np.sum(n0 * n1, axis=1) / np.maximum(np.linalg.norm(n0, axis=1) * np.linalg.norm(n1, axis=1), 1e-30)
+    ang = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+    out["normal_deg_median"] = float(np.median(ang)) if len(ang) else float("nan")
+    out["normal_deg_p99"] = float(np.percentile(ang, 99)) if len(ang) else float("nan")
+    out["nan_normal"] = int(np.isnan(np.asarray(frame.normal)).any(axis=-1).sum())
+    return out
