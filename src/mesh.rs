@@ -150,6 +150,19 @@ impl Csr {
     }
 }
 
+/// Edges (between welded vertices, over non-degenerate faces) by how many faces share them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct EdgeCounts {
+    /// Used by one face: an open scan's rim or a hole's.
+    pub boundary: usize,
+    /// Used by more than two faces.
+    pub nonmanifold: usize,
+    /// Shared by two faces that disagree on orientation (both walk it the same way).
+    pub inconsistent: usize,
+}
+
+const AGREE_BIT: u32 = 1 << 31;
+
 /// Per-face and per-vertex quantities every conversion stage reads.
 pub struct MeshGeometry {
     /// Unit face normals (zero for degenerate faces).
@@ -158,11 +171,21 @@ pub struct MeshGeometry {
     pub centroids: Vec<DVec3>,
     /// Faces with (near) zero area or a repeated vertex: no normal, left out of every chart.
     pub degenerate: Vec<bool>,
-    /// Area-weighted unit vertex normals.
+    /// Area-weighted unit vertex normals (shared by vertices at the same position).
     pub vertex_normals: Vec<DVec3>,
+    /// Per vertex, the lowest index of a vertex at exactly the same position: adjacency is
+    /// geometric, so an unwelded triangle soup (STL-style, or a scan split at UV seams) has the
+    /// same neighbours as its welded twin.
+    pub weld: Vec<u32>,
+    /// Vertices that repeat an earlier vertex's position.
+    pub duplicate_vertices: usize,
     /// Faces sharing an edge (all of them on a non-manifold edge).
     pub face_neighbors: Csr,
-    /// Faces around each vertex.
+    /// Edges by how many faces share them, for the conversion report.
+    pub edge_counts: EdgeCounts,
+    /// Faces across each manifold edge, with `AGREE_BIT` set where the two are wound alike.
+    manifold_neighbors: Csr,
+    /// Faces around each vertex (indexed by vertex; welded vertices list the same faces).
     pub vertex_faces: Csr,
     pub diagonal: f64,
 }
@@ -172,6 +195,22 @@ impl MeshGeometry {
         let nf = mesh.faces.len();
         let nv = mesh.positions.len();
         let diagonal = mesh.diagonal();
+        // Weld by exact position: sort vertex indices by their coordinates' bits.
+        let mut order: Vec<u32> = (0..nv as u32).collect();
+        let key = |v: u32| {
+            mesh.positions[v as usize]
+                .to_array()
+                .map(|x| (x + 0.0).to_bits())
+        };
+        order.sort_unstable_by_key(|&v| (key(v), v));
+        let mut weld: Vec<u32> = (0..nv as u32).collect();
+        let mut duplicate_vertices = 0;
+        for k in 1..order.len() {
+            if key(order[k]) == key(order[k - 1]) {
+                weld[order[k] as usize] = weld[order[k - 1] as usize];
+                duplicate_vertices += 1;
+            }
+        }
         // Relative to the model size so a micrometre part and a 1e6-offset scan behave alike.
         let area_eps = (diagonal * 1e-10).powi(2);
         let mut face_normals = vec![DVec3::ZERO; nf];
@@ -192,31 +231,46 @@ impl MeshGeometry {
             face_areas[f] = twice_area * 0.5;
             face_normals[f] = cross / twice_area;
             for &v in t {
-                vertex_normals[v as usize] += cross; // area weighting: |cross| = 2 area
+                vertex_normals[weld[v as usize] as usize] += cross; // |cross| = 2 area
             }
         }
-        for n in vertex_normals.iter_mut() {
-            *n = n.normalize_or_zero();
+        for v in 0..nv {
+            vertex_normals[v] = vertex_normals[weld[v] as usize].normalize_or_zero();
         }
 
-        // Edge adjacency by sorting (min, max, face) keys: O(M log M), no hash map.
-        let mut edges: Vec<(u32, u32, u32)> = Vec::with_capacity(nf * 3);
+        // Edge adjacency by sorting (min, max, face, direction) keys: O(M log M), no hash map.
+        let mut edges: Vec<(u32, u32, u32, bool)> = Vec::with_capacity(nf * 3);
         for (f, t) in mesh.faces.iter().enumerate() {
             if degenerate[f] {
                 continue;
             }
             for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                edges.push((a.min(b), a.max(b), f as u32));
+                let (a, b) = (weld[t[k] as usize], weld[t[(k + 1) % 3] as usize]);
+                edges.push((a.min(b), a.max(b), f as u32, a < b));
             }
         }
         edges.sort_unstable();
         let mut pairs = Vec::with_capacity(edges.len() * 2);
+        let mut edge_counts = EdgeCounts::default();
+        // Across each manifold edge: (face, other face | AGREE_BIT if the two agree on orientation).
+        let mut manifold = Vec::with_capacity(edges.len());
         let mut i = 0;
         while i < edges.len() {
             let mut j = i + 1;
             while j < edges.len() && edges[j].0 == edges[i].0 && edges[j].1 == edges[i].1 {
                 j += 1;
+            }
+            match j - i {
+                1 => edge_counts.boundary += 1,
+                // Two faces agreeing on orientation walk their shared edge in opposite directions.
+                2 => {
+                    let agree = edges[i].3 != edges[i + 1].3;
+                    edge_counts.inconsistent += usize::from(!agree);
+                    let bit = if agree { AGREE_BIT } else { 0 };
+                    manifold.push((edges[i].2, edges[i + 1].2 | bit));
+                    manifold.push((edges[i + 1].2, edges[i].2 | bit));
+                }
+                _ => edge_counts.nonmanifold += 1,
             }
             for p in i..j {
                 for q in i..j {
@@ -230,16 +284,27 @@ impl MeshGeometry {
         pairs.sort_unstable();
         pairs.dedup();
         let face_neighbors = Csr::from_pairs(nf, &pairs);
+        let manifold_neighbors = Csr::from_pairs(nf, &manifold);
 
         let mut vf = Vec::with_capacity(nf * 3);
         for (f, t) in mesh.faces.iter().enumerate() {
             if !degenerate[f] {
                 for &v in t {
-                    vf.push((v, f as u32));
+                    vf.push((weld[v as usize], f as u32));
                 }
             }
         }
-        let vertex_faces = Csr::from_pairs(nv, &vf);
+        vf.sort_unstable();
+        vf.dedup();
+        let welded_faces = Csr::from_pairs(nv, &vf);
+        // Every vertex lists its weld group's faces.
+        let mut all = Vec::with_capacity(vf.len() + duplicate_vertices * 6);
+        for v in 0..nv {
+            for &f in welded_faces.row(weld[v] as usize) {
+                all.push((v as u32, f));
+            }
+        }
+        let vertex_faces = Csr::from_pairs(nv, &all);
 
         MeshGeometry {
             face_normals,
@@ -247,10 +312,58 @@ impl MeshGeometry {
             centroids,
             degenerate,
             vertex_normals,
+            weld,
+            duplicate_vertices,
             face_neighbors,
+            edge_counts,
+            manifold_neighbors,
             vertex_faces,
             diagonal,
         }
+    }
+
+    /// Which faces to flip so that faces sharing a manifold edge agree on orientation (a scan
+    /// exported with some triangles reversed). Each edge-connected piece keeps the winding of the
+    /// larger part of its area, so a consistently wound mesh is never touched. Written here
+    /// because it needs this adjacency; a non-orientable piece keeps its first assignment.
+    pub fn winding_flips(&self) -> Vec<bool> {
+        let nf = self.degenerate.len();
+        let mut flip = vec![false; nf];
+        let mut seen = vec![false; nf];
+        let mut stack = Vec::new();
+        let mut piece = Vec::new();
+        for start in 0..nf {
+            if seen[start] || self.degenerate[start] {
+                continue;
+            }
+            seen[start] = true;
+            stack.push(start as u32);
+            piece.clear();
+            while let Some(f) = stack.pop() {
+                piece.push(f);
+                for &item in self.manifold_neighbors.row(f as usize) {
+                    let g = (item & !AGREE_BIT) as usize;
+                    if !seen[g] {
+                        seen[g] = true;
+                        flip[g] = flip[f as usize] ^ (item & AGREE_BIT == 0);
+                        stack.push(g as u32);
+                    }
+                }
+            }
+            let area = |want: bool| -> f64 {
+                piece
+                    .iter()
+                    .filter(|&&f| flip[f as usize] == want)
+                    .map(|&f| self.face_areas[f as usize])
+                    .sum()
+            };
+            if area(true) > area(false) {
+                for &f in &piece {
+                    flip[f as usize] = !flip[f as usize];
+                }
+            }
+        }
+        flip
     }
 }
 
@@ -265,6 +378,66 @@ mod tests {
             None,
         )
         .unwrap()
+    }
+
+    /// A 4x4 grid of unit squares at z = 0, each split into two triangles, wound up (+z).
+    fn grid() -> Mesh {
+        let mut positions = Vec::new();
+        for y in 0..5 {
+            for x in 0..5 {
+                positions.extend([x as f64, y as f64, 0.0]);
+            }
+        }
+        let mut faces = Vec::new();
+        for y in 0..4 {
+            for x in 0..4 {
+                let i = y * 5 + x;
+                faces.extend([i, i + 1, i + 6, i, i + 6, i + 5]);
+            }
+        }
+        Mesh::from_flat(&positions, &faces, None).unwrap()
+    }
+
+    #[test]
+    fn edge_counts_and_winding_repair() {
+        let mut mesh = grid();
+        let clean = MeshGeometry::new(&mesh);
+        // The rim is 16 unit edges.
+        assert_eq!(
+            clean.edge_counts,
+            EdgeCounts {
+                boundary: 16,
+                nonmanifold: 0,
+                inconsistent: 0
+            }
+        );
+        assert!(clean.winding_flips().iter().all(|&f| !f));
+        // Reverse three faces: they are the minority of the area, so exactly they flip back.
+        for f in [0, 7, 20] {
+            mesh.faces[f].swap(1, 2);
+        }
+        let geo = MeshGeometry::new(&mesh);
+        assert_eq!(geo.edge_counts.inconsistent, 2 + 3 + 3); // face 0 has a rim edge
+        let flips = geo.winding_flips();
+        let flipped: Vec<usize> = (0..flips.len()).filter(|&f| flips[f]).collect();
+        assert_eq!(flipped, vec![0, 7, 20]);
+        // A fin on an interior edge makes it non-manifold; a soup copy welds back to the same counts.
+        mesh.positions.push(DVec3::new(1.5, 1.5, 1.0));
+        mesh.faces.push([6, 12, 25]);
+        assert_eq!(MeshGeometry::new(&mesh).edge_counts.nonmanifold, 1);
+        let soup = Mesh {
+            positions: grid()
+                .faces
+                .iter()
+                .flatten()
+                .map(|&v| grid().positions[v as usize])
+                .collect(),
+            faces: (0..32).map(|f| [3 * f, 3 * f + 1, 3 * f + 2]).collect(),
+            colors: None,
+        };
+        let welded = MeshGeometry::new(&soup);
+        assert_eq!(welded.duplicate_vertices, 96 - 25);
+        assert_eq!(welded.edge_counts, clean.edge_counts);
     }
 
     #[test]

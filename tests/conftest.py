@@ -3,12 +3,22 @@ each converted once per session."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, settings
 
 import geomtex as gt
+
+# Property tests: CI (CI set, as .ci/run does) replays a fixed, derandomized set of examples;
+# locally each run draws new ones. GEOMTEX_HYPOTHESIS=ci|dev|thorough picks a profile by name.
+_PROPERTY = dict(deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+settings.register_profile("ci", max_examples=10, derandomize=True, database=None, print_blob=True, **_PROPERTY)
+settings.register_profile("dev", max_examples=10, **_PROPERTY)
+settings.register_profile("thorough", max_examples=200, **_PROPERTY)
+settings.load_profile(os.environ.get("GEOMTEX_HYPOTHESIS", "ci" if os.environ.get("CI") else "dev"))
 
 SHARED_MESHES = Path(__file__).resolve().parents[2] / "shared" / "meshes"
 SHARED_NAMES = ["stanford-bunny", "fandisk", "rocker-arm", "spot", "homer", "teapot"]

@@ -180,7 +180,28 @@ pub fn convert(
     let mut stats = Stats::default();
 
     report(progress, "geometry", 0.0)?;
-    let geo = MeshGeometry::new(mesh);
+    let mut geo = MeshGeometry::new(mesh);
+    let inconsistent_edges = geo.edge_counts.inconsistent;
+    // Charts are grown from face normals, so reversed triangles would split them into thousands
+    // of slivers: wind every face like its neighbours first (face indices stay the same).
+    let flips = geo.winding_flips();
+    let flipped_faces = flips.iter().filter(|&&f| f).count();
+    let oriented;
+    let mesh = if flipped_faces > 0 {
+        oriented = Mesh {
+            faces: mesh
+                .faces
+                .iter()
+                .zip(&flips)
+                .map(|(&[a, b, c], &flip)| if flip { [a, c, b] } else { [a, b, c] })
+                .collect(),
+            ..mesh.clone()
+        };
+        geo = MeshGeometry::new(&oriented);
+        &oriented
+    } else {
+        mesh
+    };
     let active: Vec<u32> = (0..mesh.faces.len() as u32)
         .filter(|&f| !geo.degenerate[f as usize])
         .collect();
@@ -426,6 +447,11 @@ pub fn convert(
         ("faces", mesh.faces.len() as f64),
         ("vertices", mesh.positions.len() as f64),
         ("degenerate_faces", (mesh.faces.len() - active.len()) as f64),
+        ("duplicate_vertices", geo.duplicate_vertices as f64),
+        ("boundary_edges", geo.edge_counts.boundary as f64),
+        ("nonmanifold_edges", geo.edge_counts.nonmanifold as f64),
+        ("inconsistent_edges", inconsistent_edges as f64),
+        ("flipped_faces", flipped_faces as f64),
         ("charts", set.patches.len() as f64),
         ("vsa_charts", initial_charts as f64),
         ("vsa_mean_error", vsa_mean_error),

@@ -789,6 +789,17 @@ impl Renderer {
                 values.extend_from_slice(v);
             }
         }
+        let pyramid_bytes = values.len() as u64 * 4;
+        let binding_limit = u64::from(limits.max_storage_buffer_binding_size);
+        if pyramid_bytes > binding_limit {
+            return Err(GeomtexError::Device(format!(
+                "the set's {} texels need {:.0} MiB of max pyramids; this adapter binds at most \
+                 {:.0} MiB (convert with a smaller max_resolution or fewer charts)",
+                set.texels(),
+                pyramid_bytes as f64 / 1048576.0,
+                binding_limit as f64 / 1048576.0
+            )));
+        }
         let pyramid = self
             .gpu
             .device

@@ -1,0 +1,223 @@
+"""Numerical stability at the extremes: models far from the origin, micrometre and kilometre
+scales, cameras inside the model, rays grazing a surface, and damaged meshes (triangle soup,
+reversed faces, holes, fins, slivers), each rendered and checked against
+trimesh ray casting of the same transformed mesh (geomtex.reference, which intersects on a
+centred, normalized copy so that embree's float32 is not the limit).
+
+The property tests draw their cases with hypothesis: a fixed, bounded set in CI (profile "ci",
+derandomized), fresh random ones locally (profile "dev"); see conftest.py.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import assume, given
+from hypothesis import strategies as st
+
+import geomtex as gt
+from geomtex import reference
+from geomtex.testing import add_fins, add_slivers, flat_grid, flip_faces, punch_holes, similar, soup
+from conftest import Converted, converted
+
+# The renderer issue's bounds, as fractions of the bounding-box diagonal.
+MEDIAN, P99, IOU = 1e-3, 1e-2, 0.99
+
+
+def look_from(mesh: gt.Mesh, direction, distance: float = 1.7, yfov: float = 40.0) -> gt.Camera:  # type: ignore[no-untyped-def]
+    """A camera on a ray from the bounding-box centre, ``distance`` diagonals away, looking back."""
+    lo, hi = mesh.bounds
+    centre = (lo + hi) / 2
+    d = np.asarray(direction, float)
+    d /= np.linalg.norm(d)
+    up = (0.0, 0.0, 1.0) if abs(d[2]) < 0.9 else (0.0, 1.0, 0.0)
+    return gt.Camera.look_at(centre + d * distance * mesh.diagonal, centre, up=up, yfov_deg=yfov)
+
+
+def agreement(r: gt.Renderer, gts: gt.GeometryTextureSet, mesh: gt.Mesh, cam: gt.Camera, **kw) -> dict:  # type: ignore[no-untyped-def]
+    w, h = r.width, r.height
+    frame = r.render(gts, cam, **kw)
+    m = reference.compare(frame, reference.raycast(mesh, cam, w, h), mesh.diagonal)
+    m["nan"] = m["nan_depth"] + m["nan_normal"]
+    return m
+
+
+def within(m: dict, median: float = MEDIAN, p99: float = P99, iou: float = IOU) -> bool:
+    return m["nan"] == 0 and m["iou"] >= iou and m["depth_median"] <= median and m["depth_p99"] <= p99
+
+
+@pytest.fixture(scope="module")
+def r512() -> gt.Renderer:
+    return gt.Renderer(512, 512)
+
+
+@pytest.fixture(scope="module")
+def r160() -> gt.Renderer:
+    return gt.Renderer(160, 160)
+
+
+# ----------------------------------------------------------------------------- the issue's cases
+
+
+@pytest.mark.parametrize("scale, offset", [(1.0, 1e6), (1e-4, 0.0), (1e4, 0.0)],
+                         ids=["translated_1e6", "scaled_1e-4", "scaled_1e4"])
+def test_bunny_far_away_tiny_and_huge(bunny: Converted, r512: gt.Renderer, scale: float, offset: float) -> None:
+    """The issue asks for IoU >= 0.97, median <= 0.2% and p99 <= 2%; we hold the renderer issue's
+    tighter bounds, and the figures must match the untransformed bunny's (offsets and scales cost
+    nothing)."""
+    mesh = similar(bunny.mesh, scale, [offset, -offset, 0.5 * offset])
+    gts = gt.convert(mesh)
+    for direction in [(1, 0.8, 1), (0.3, -1, 0.2)]:
+        for quality in ["balanced", "exact"]:
+            m = agreement(r512, gts, mesh, look_from(mesh, direction), quality=quality)
+            base = agreement(r512, bunny.gts, bunny.mesh, look_from(bunny.mesh, direction), quality=quality)
+            assert within(m), (direction, quality, m)
+            assert m["depth_p99"] <= 1.5 * base["depth_p99"] + 1e-6, (direction, quality, m, base)
+            assert abs(m["iou"] - base["iou"]) <= 2e-3, (direction, quality, m, base)
+
+
+@pytest.mark.parametrize("azimuth_deg", [0.0, 35.0])
+def test_terrain_seen_half_a_degree_above_its_plane(r512: gt.Renderer, azimuth_deg: float) -> None:
+    terrain = converted("fractal_terrain")
+    e, a = np.radians(0.5), np.radians(azimuth_deg)
+    cam = look_from(terrain.mesh, (np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), np.sin(e)))
+    for quality in ["balanced", "exact"]:
+        m = agreement(r512, terrain.gts, terrain.mesh, cam, quality=quality)
+        assert within(m), (quality, m)
+
+
+# ----------------------------------------------------------------------------- properties
+
+
+@given(
+    log_scale=st.floats(-6.0, 6.0),
+    offset=st.tuples(*[st.floats(-1e7, 1e7)] * 3),
+    direction=st.tuples(*[st.floats(-1.0, 1.0)] * 3),
+    quality=st.sampled_from(["balanced", "exact"]),
+)
+def test_any_scale_and_offset(r160: gt.Renderer, log_scale: float, offset, direction, quality: str) -> None:  # type: ignore[no-untyped-def]
+    d = np.asarray(direction)
+    assume(np.linalg.norm(d) > 0.1)
+    torus = converted("torus").mesh
+    mesh = similar(torus, 10.0 ** log_scale, offset)
+    m = agreement(r160, gt.convert(mesh), mesh, look_from(mesh, d), quality=quality)
+    assert within(m, iou=0.98), m
+
+
+@given(
+    pick=st.integers(0, 10**6),
+    uvh=st.tuples(*[st.floats(0.0, 1.0)] * 3),
+    direction=st.tuples(*[st.floats(-1.0, 1.0)] * 3),
+    quality=st.sampled_from(["balanced", "exact"]),
+)
+def test_camera_inside_a_patch_box(r160: gt.Renderer, pick: int, uvh, direction, quality: str) -> None:  # type: ignore[no-untyped-def]
+    """The eye anywhere inside a patch's box (often inside the torus's tube, or just off a
+    surface), looking anywhere. An eye a few texels from a surface sees that surface's silhouette
+    as a whole line of pixels, where a sub-texel difference between the height map and the
+    triangles decides hit or miss; so p99 is taken with a one-pixel tolerance there
+    (reference.compare's depth_p99_1px), and hit masks may differ only within a pixel of each
+    other when the view holds so few pixels that IoU is all edge."""
+    d = np.asarray(direction)
+    assume(np.linalg.norm(d) > 0.1)
+    torus = converted("torus")
+    eye = (torus.gts.world_from_patch[pick % len(torus.gts)] @ np.array([*uvh, 1.0]))[:3]
+    up = (0.0, 0.0, 1.0) if abs(d[2]) < 0.9 * np.linalg.norm(d) else (0.0, 1.0, 0.0)
+    cam = gt.Camera.look_at(eye, eye + d, up=up, yfov_deg=60)
+    m = agreement(r160, torus.gts, torus.mesh, cam, quality=quality)
+    assert m["nan"] == 0, m
+    if m["ref_px"] + m["covered_px"] > 200:
+        assert m["iou"] >= 0.97 or m["mask_far_px"] == 0, m
+        assert m["depth_median"] <= MEDIAN and m["depth_p99_1px"] <= P99, m
+
+
+@given(
+    elevation_deg=st.floats(0.1, 10.0),
+    azimuth_deg=st.floats(0.0, 360.0),
+    eye_xy=st.tuples(st.floats(0.3, 0.7), st.floats(0.3, 0.7)),
+    mesh_name=st.sampled_from(["flat", "open_sheet"]),
+    quality=st.sampled_from(["balanced", "exact"]),
+)
+def test_grazing_rays(r160: gt.Renderer, elevation_deg: float, azimuth_deg: float, eye_xy, mesh_name: str,
+                      quality: str) -> None:  # type: ignore[no-untyped-def]
+    """Rays 0.1° to 10° above a chart's plane, from an eye over the middle of a flat chart (zero
+    height range) or of the wavy sheet. The sheet's rim, seen edge-on, is a silhouette whose
+    position the maps know to half a texel (conservative coverage), so p99 is taken with a
+    one-pixel tolerance (reference.compare's depth_p99_1px), and hit masks may differ only within
+    a pixel of each other."""
+    if mesh_name == "flat":
+        mesh = flat_grid()
+        gts = gt.convert(mesh)
+        assert len(gts) == 1
+    else:
+        c = converted("open_sheet")
+        mesh, gts = c.mesh, c.gts
+    lo, hi = mesh.bounds
+    e, a = np.radians(elevation_deg), np.radians(azimuth_deg)
+    forward = np.array([np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), -np.sin(e)])
+    eye = np.array([lo[0] + eye_xy[0] * (hi[0] - lo[0]), lo[1] + eye_xy[1] * (hi[1] - lo[1]),
+                    hi[2] + 0.02 * mesh.diagonal])
+    cam = gt.Camera.look_at(eye, eye + forward, up=(0, 0, 1), yfov_deg=30)
+    m = agreement(r160, gts, mesh, cam, quality=quality)
+    assert m["nan"] == 0, m
+    assume(m["ref_px"] >= 1000)
+    # A few thousand pixels of a surface seen edge-on are mostly silhouette (at 0.125° the sheet's
+    # side rims give 3% of the pixels), so the bound is on where masks differ: never more than one
+    # pixel from the reference's mask; IoU ≥ 0.95 is only a floor.
+    assert m["iou"] >= 0.95 and m["mask_far_px"] == 0, m
+    assert m["depth_median"] <= MEDIAN and m["depth_p99_1px"] <= P99, m
+
+
+# ----------------------------------------------------------------------------- damaged meshes
+
+
+def check_renders(gts: gt.GeometryTextureSet, mesh: gt.Mesh, r: gt.Renderer) -> None:
+    for direction in [(1, 0.8, 1), (-0.3, -1, -0.4)]:
+        m = agreement(r, gts, mesh, look_from(mesh, direction), quality="balanced")
+        assert within(m), (direction, m)
+
+
+def test_triangle_soup_converts_like_its_welded_mesh(bunny: Converted, r160: gt.Renderer) -> None:
+    """STL-style soup: vertices are welded by position, so the charts are the welded mesh's."""
+    mesh = soup(bunny.mesh)
+    gts = gt.convert(mesh)
+    used = len(np.unique(np.asarray(bunny.mesh.faces)))
+    assert gts.stats["duplicate_vertices"] == 3 * len(mesh.faces) - used
+    for key in ["charts", "texels", "boundary_edges"]:
+        assert gts.stats[key] == bunny.gts.stats[key], key
+    check_renders(gts, mesh, r160)
+
+
+def test_reversed_faces_are_rewound(bunny: Converted, r160: gt.Renderer) -> None:
+    """10% of the faces wound the other way: each connected piece is rewound to its majority, so
+    exactly the reversed faces are flipped back and the charts are the clean mesh's."""
+    mesh, reversed_faces = flip_faces(bunny.mesh, 0.10, seed=1)
+    gts = gt.convert(mesh)
+    assert gts.stats["inconsistent_edges"] > len(reversed_faces)
+    assert gts.stats["flipped_faces"] == len(reversed_faces)
+    assert gts.stats["charts"] == bunny.gts.stats["charts"]
+    check_renders(gts, mesh, r160)
+
+
+def test_holes_in_a_scan(bunny: Converted, r160: gt.Renderer) -> None:
+    mesh = punch_holes(bunny.mesh, 0.05, holes=40, seed=2)
+    gts = gt.convert(mesh)
+    assert gts.stats["boundary_edges"] > bunny.gts.stats["boundary_edges"] + 40 * 6
+    check_renders(gts, mesh, r160)
+
+
+def test_non_manifold_fins(bunny: Converted, r160: gt.Renderer) -> None:
+    """200 triangles standing on existing edges, so three faces share each of those edges."""
+    mesh = add_fins(bunny.mesh, 200, height=0.01, seed=3)
+    gts = gt.convert(mesh)
+    assert 0.9 * 200 <= gts.stats["nonmanifold_edges"] <= 200
+    check_renders(gts, mesh, r160)
+
+
+def test_slivers_and_zero_area_faces(bunny: Converted, r160: gt.Renderer) -> None:
+    """20% of the faces split into a 1e-9 needle and a near-copy (T-junctions on their
+    neighbours), plus 100 faces with a repeated vertex, reported and left out of every patch."""
+    mesh = add_slivers(bunny.mesh, 0.20, zero_area=100, seed=4)
+    gts = gt.convert(mesh)
+    assert gts.stats["degenerate_faces"] == 100
+    assert np.all(gts.face_patch()[-100:] == -1) and np.all(gts.face_patch()[:-100] >= 0)
+    check_renders(gts, mesh, r160)
