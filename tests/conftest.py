@@ -11,6 +11,7 @@ import pytest
 from hypothesis import HealthCheck, settings
 
 import geomtex as gt
+from geomtex.testing import height_field
 
 # Property tests: CI (CI set, as .ci/run does) replays a fixed, derandomized set of examples;
 # locally each run draws new ones. GEOMTEX_HYPOTHESIS=ci|dev|thorough picks a profile by name.
@@ -48,14 +49,8 @@ def _pymeshlab_mesh(make) -> gt.Mesh:  # type: ignore[no-untyped-def]
 
 def wavy_sheet(n: int = 60) -> gt.Mesh:
     """An open height-field sheet z = 0.15 sin(3x) cos(2y) over [-1, 1]^2."""
-    xs = np.linspace(-1, 1, n + 1)
-    x, y = np.meshgrid(xs, xs)
-    z = 0.15 * np.sin(3 * x) * np.cos(2 * y)
-    v = np.column_stack([x.ravel(), y.ravel(), z.ravel()])
-    i = np.arange(n)[None, :] + (n + 1) * np.arange(n)[:, None]
-    q = np.stack([i, i + 1, i + n + 2, i + n + 1], -1).reshape(-1, 4)
-    f = np.concatenate([q[:, [0, 1, 2]], q[:, [0, 2, 3]]])
-    return gt.Mesh(v, f)
+    x = np.linspace(-1, 1, n + 1)
+    return height_field(x, x, lambda u, v: 0.15 * np.sin(3 * u) * np.cos(2 * v))
 
 
 GENERATED = {

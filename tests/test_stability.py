@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 
 import geomtex as gt
 from geomtex import reference
-from geomtex.testing import add_fins, add_slivers, flat_grid, flip_faces, punch_holes, similar, soup
+from geomtex.testing import add_fins, add_slivers, flat_grid, flip_faces, height_field, punch_holes, similar, soup
 from conftest import Converted, converted
 
 # The renderer issue's bounds, as fractions of the bounding-box diagonal.
@@ -221,3 +221,19 @@ def test_slivers_and_zero_area_faces(bunny: Converted, r160: gt.Renderer) -> Non
     assert gts.stats["degenerate_faces"] == 100
     assert np.all(gts.face_patch()[-100:] == -1) and np.all(gts.face_patch()[:-100] >= 0)
     check_renders(gts, mesh, r160)
+
+
+# ----------------------------------------------------------------------------- height precision
+
+
+@pytest.mark.parametrize("amplitude, kept_at_16", [(0.15, 0), (0.6, 0), (1.5, 1)])
+def test_8_bit_heights_round_within_half_a_texel(amplitude: float, kept_at_16: int) -> None:
+    """One chart over z = a sin 3x cos 2y on [-1, 1]^2 (256 texels across): at a = 1.5 the chart
+    stands ~1.7 of its width tall, where 8-bit codes would step 1.6 texels, so it keeps 16 bits."""
+    x = np.linspace(-1, 1, 61)
+    sheet = height_field(x, x, lambda u, v: amplitude * np.sin(3 * u) * np.cos(2 * v))
+    gts = gt.convert(sheet, charts=1, height_bits=8)
+    assert gts.stats["patches_kept_at_16_bits"] == kept_at_16
+    assert gts.stats["max_quantization_error"] <= 0.5 * gts.stats["texel_size"]
+    assert gts.patch(0)["height"].dtype == (np.uint16 if kept_at_16 else np.uint8)
+

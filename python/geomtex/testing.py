@@ -8,12 +8,14 @@ and the random ones take a seed so a failure can be replayed. geomtex's own test
 
 from __future__ import annotations
 
+from typing import Callable
+
 import numpy as np
 import numpy.typing as npt
 
 from ._mesh import Mesh
 
-__all__ = ["similar", "soup", "flip_faces", "punch_holes", "add_fins", "add_slivers", "flat_grid", "subdivided"]
+__all__ = ["similar", "soup", "flip_faces", "punch_holes", "add_fins", "add_slivers", "height_field", "flat_grid", "subdivided"]
 
 
 def _arrays(mesh: Mesh) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]:
@@ -83,14 +85,23 @@ def add_slivers(mesh: Mesh, fraction: float, zero_area: int = 0, seed: int = 0) 
     return Mesh(np.vstack([v, points]), faces)
 
 
+def height_field(x: npt.ArrayLike, y: npt.ArrayLike,
+                 z: Callable[[npt.NDArray[np.float64], npt.NDArray[np.float64]], npt.ArrayLike]) -> Mesh:
+    """The surface z(x, y) over the grid x × y (1-D coordinate arrays), two triangles per cell,
+    wound so that the normals point up (+z)."""
+    gx, gy = np.meshgrid(np.asarray(x, np.float64), np.asarray(y, np.float64))
+    gz = np.broadcast_to(np.asarray(z(gx, gy), np.float64), gx.shape)
+    nx, ny = gx.shape[1] - 1, gx.shape[0] - 1
+    i = (np.arange(nx)[None, :] + (nx + 1) * np.arange(ny)[:, None]).ravel()
+    quads = np.stack([i, i + 1, i + nx + 2, i + nx + 1], axis=-1)
+    return Mesh(np.column_stack([gx.ravel(), gy.ravel(), gz.ravel()]),
+                np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]]))
+
+
 def flat_grid(n: int = 16) -> Mesh:
     """The unit square at z = 0 as an n x n grid of triangle pairs: a chart with no height range."""
     xs = np.linspace(0.0, 1.0, n + 1)
-    x, y = np.meshgrid(xs, xs)
-    v = np.column_stack([x.ravel(), y.ravel(), np.zeros(x.size)])
-    i = np.arange(n)[None, :] + (n + 1) * np.arange(n)[:, None]
-    q = np.stack([i, i + 1, i + n + 2, i + n + 1], -1).reshape(-1, 4)
-    return Mesh(v, np.concatenate([q[:, [0, 1, 2]], q[:, [0, 2, 3]]]))
+    return height_field(xs, xs, lambda x, y: 0.0)
 
 
 def subdivided(mesh: Mesh, min_faces: int) -> Mesh:

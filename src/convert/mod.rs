@@ -349,9 +349,21 @@ pub fn convert(
             // The margin is also at least one height code step, so rounding never puts the
             // surface on the box's top or bottom (8-bit codes would, with 0.02 texel alone).
             let base = size.z.max(texel);
-            let code_max = crate::gtex::code_max(opts.height_bits) as f64;
-            let margin = (0.02 * texel).max(base / (code_max - 3.0));
-            let thickness = base + 2.0 * margin;
+            let thickness = |bits: u8| {
+                let code_max = crate::gtex::code_max(bits) as f64;
+                base + 2.0 * (0.02 * texel).max(base / (code_max - 3.0))
+            };
+            // 8-bit codes only where their rounding (half a code step) stays within half a texel,
+            // so the height map is never coarser across than along: a chart standing more than
+            // ~250 texels tall keeps 16 bits.
+            let height_bits = if opts.height_bits == 8
+                && thickness(8) / (crate::gtex::code_max(8) - 1) as f64 > texel
+            {
+                16
+            } else {
+                opts.height_bits
+            };
+            let thickness = thickness(height_bits);
             let pad_z = (thickness - size.z) * 0.5;
             let corner = DVec3::new(lo.x - pad_x, lo.y - pad_y, lo.z - pad_z);
             PatchBox {
@@ -360,7 +372,7 @@ pub fn convert(
                 extent: DVec3::new(w as f64 * texel, h as f64 * texel, thickness),
                 width: w,
                 height: h,
-                height_bits: opts.height_bits,
+                height_bits,
             }
         })
         .collect();
@@ -473,6 +485,13 @@ pub fn convert(
         ("empty_fraction", empty as f64 / texels.max(1) as f64),
         ("bytes", set.map_bytes() as f64),
         ("height_bits", opts.height_bits as f64),
+        (
+            "patches_kept_at_16_bits",
+            set.patches
+                .iter()
+                .filter(|p| p.height_bits > opts.height_bits)
+                .count() as f64,
+        ),
         (
             "max_quantization_error",
             set.patches
