@@ -6,12 +6,11 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-import numpy as np
 import pytest
 from hypothesis import HealthCheck, settings
 
 import geomtex as gt
-from geomtex.testing import height_field
+from geomtex.testing import GENERATED
 
 # Property tests: CI (CI set, as .ci/run does) replays a fixed, derandomized set of examples;
 # locally each run draws new ones. GEOMTEX_HYPOTHESIS=ci|dev|thorough picks a profile by name.
@@ -36,30 +35,6 @@ def pymeshlab_bunny_path() -> Path:
     import pymeshlab
 
     return Path(pymeshlab.__file__).parent / "tests" / "sample_meshes" / "bunny.obj"
-
-
-def _pymeshlab_mesh(make) -> gt.Mesh:  # type: ignore[no-untyped-def]
-    import pymeshlab
-
-    ms = pymeshlab.MeshSet()
-    make(ms)
-    m = ms.current_mesh()
-    return gt.Mesh(m.vertex_matrix(), m.face_matrix())
-
-
-def wavy_sheet(n: int = 60) -> gt.Mesh:
-    """An open height-field sheet z = 0.15 sin(3x) cos(2y) over [-1, 1]^2."""
-    x = np.linspace(-1, 1, n + 1)
-    return height_field(x, x, lambda u, v: 0.15 * np.sin(3 * u) * np.cos(2 * v))
-
-
-GENERATED = {
-    "sphere": lambda: _pymeshlab_mesh(lambda ms: ms.create_sphere(subdiv=4)),
-    "torus": lambda: _pymeshlab_mesh(lambda ms: ms.create_torus(hradius=1.0, vradius=0.3, hsubdiv=96, vsubdiv=32)),
-    "fractal_terrain": lambda: _pymeshlab_mesh(lambda ms: ms.create_fractal_terrain(steps=7, maxheight=0.3, seed=3)),
-    "single_triangle": lambda: gt.Mesh([[0, 0, 0], [1, 0, 0], [0.2, 0.9, 0.1]], [[0, 1, 2]]),
-    "open_sheet": wavy_sheet,
-}
 
 
 class Converted:

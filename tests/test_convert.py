@@ -176,7 +176,7 @@ def test_vertex_colors_reach_the_color_maps() -> None:
 
 
 def wavy_sheet_colored() -> gt.Mesh:
-    from conftest import wavy_sheet
+    from geomtex.testing import wavy_sheet
 
     s = wavy_sheet(40)
     v = s.vertices

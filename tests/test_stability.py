@@ -17,29 +17,14 @@ from hypothesis import strategies as st
 
 import geomtex as gt
 from geomtex import reference
-from geomtex.testing import add_fins, add_slivers, flat_grid, flip_faces, height_field, punch_holes, similar, soup
+from geomtex.testing import add_fins, add_slivers, flat_grid, flip_faces, height_field, look_from, punch_holes, similar, soup
 from conftest import Converted, converted
 
 # The renderer issue's bounds, as fractions of the bounding-box diagonal.
 MEDIAN, P99, IOU = 1e-3, 1e-2, 0.99
 
 
-def look_from(mesh: gt.Mesh, direction, distance: float = 1.7, yfov: float = 40.0) -> gt.Camera:  # type: ignore[no-untyped-def]
-    """A camera on a ray from the bounding-box centre, ``distance`` diagonals away, looking back."""
-    lo, hi = mesh.bounds
-    centre = (lo + hi) / 2
-    d = np.asarray(direction, float)
-    d /= np.linalg.norm(d)
-    up = (0.0, 0.0, 1.0) if abs(d[2]) < 0.9 else (0.0, 1.0, 0.0)
-    return gt.Camera.look_at(centre + d * distance * mesh.diagonal, centre, up=up, yfov_deg=yfov)
-
-
-def agreement(r: gt.Renderer, gts: gt.GeometryTextureSet, mesh: gt.Mesh, cam: gt.Camera, **kw) -> dict:  # type: ignore[no-untyped-def]
-    w, h = r.width, r.height
-    frame = r.render(gts, cam, **kw)
-    m = reference.compare(frame, reference.raycast(mesh, cam, w, h), mesh.diagonal)
-    m["nan"] = m["nan_depth"] + m["nan_normal"]
-    return m
+agreement = reference.agreement
 
 
 def within(m: dict, median: float = MEDIAN, p99: float = P99, iou: float = IOU) -> bool:

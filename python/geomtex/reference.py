@@ -158,3 +158,12 @@ def compare(frame: Any, ref: dict[str, npt.NDArray[Any]], diagonal: float,
     out["normal_deg_p99"] = float(np.percentile(ang, 99)) if len(ang) else float("nan")
     out["nan_normal"] = int(np.isnan(np.asarray(frame.normal)).any(axis=-1).sum())
     return out
+
+
+def agreement(renderer: Any, gts: Any, mesh: Any, camera: Any, **render_options: Any) -> dict[str, float]:
+    """Renders ``gts`` and compares it (``compare``) with trimesh's ray cast of ``mesh`` seen by
+    the same camera at the renderer's size; ``nan`` counts NaN depths and normals together."""
+    frame = renderer.render(gts, camera, **render_options)
+    m = compare(frame, raycast(mesh, camera, renderer.width, renderer.height), diagonal(mesh))
+    m["nan"] = m["nan_depth"] + m["nan_normal"]
+    return m

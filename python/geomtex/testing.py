@@ -8,14 +8,15 @@ and the random ones take a seed so a failure can be replayed. geomtex's own test
 
 from __future__ import annotations
 
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 import numpy.typing as npt
 
+from ._core import Camera
 from ._mesh import Mesh
 
-__all__ = ["similar", "soup", "flip_faces", "punch_holes", "add_fins", "add_slivers", "height_field", "flat_grid", "subdivided"]
+__all__ = ["similar", "look_from", "soup", "flip_faces", "punch_holes", "add_fins", "add_slivers", "height_field", "flat_grid", "wavy_sheet", "GENERATED", "subdivided"]
 
 
 def _arrays(mesh: Mesh) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]:
@@ -26,6 +27,17 @@ def similar(mesh: Mesh, scale: float = 1.0, offset: npt.ArrayLike = (0.0, 0.0, 0
     """The mesh scaled about the origin, then translated (float64 throughout)."""
     v, f = _arrays(mesh)
     return Mesh(v * scale + np.asarray(offset, np.float64), f)
+
+
+def look_from(mesh: Mesh, direction: npt.ArrayLike, distance: float = 1.7, yfov_deg: float = 40.0) -> Camera:
+    """A camera ``distance`` diagonals from the bounding-box centre along ``direction``, looking
+    back at the centre (+z up unless the view is near vertical)."""
+    lo, hi = (np.asarray(b, np.float64) for b in mesh.bounds)
+    centre = (lo + hi) / 2
+    d = np.asarray(direction, np.float64)
+    d = d / np.linalg.norm(d)
+    up = (0.0, 0.0, 1.0) if abs(d[2]) < 0.9 else (0.0, 1.0, 0.0)
+    return Camera.look_at(centre + d * distance * mesh.diagonal, centre, up=up, yfov_deg=yfov_deg)
 
 
 def soup(mesh: Mesh) -> Mesh:
@@ -102,6 +114,31 @@ def flat_grid(n: int = 16) -> Mesh:
     """The unit square at z = 0 as an n x n grid of triangle pairs: a chart with no height range."""
     xs = np.linspace(0.0, 1.0, n + 1)
     return height_field(xs, xs, lambda x, y: 0.0)
+
+
+def wavy_sheet(n: int = 60) -> Mesh:
+    """An open height-field sheet z = 0.15 sin(3x) cos(2y) over [-1, 1]^2, n x n cells."""
+    x = np.linspace(-1, 1, n + 1)
+    return height_field(x, x, lambda u, v: 0.15 * np.sin(3 * u) * np.cos(2 * v))
+
+
+def _pymeshlab(make: Callable[[Any], None]) -> Mesh:
+    import pymeshlab
+
+    ms = pymeshlab.MeshSet()
+    make(ms)
+    m = ms.current_mesh()
+    return Mesh(m.vertex_matrix(), m.face_matrix())
+
+
+GENERATED: dict[str, Callable[[], Mesh]] = {
+    "sphere": lambda: _pymeshlab(lambda ms: ms.create_sphere(subdiv=4)),
+    "torus": lambda: _pymeshlab(lambda ms: ms.create_torus(hradius=1.0, vradius=0.3, hsubdiv=96, vsubdiv=32)),
+    "fractal_terrain": lambda: _pymeshlab(lambda ms: ms.create_fractal_terrain(steps=7, maxheight=0.3, seed=3)),
+    "single_triangle": lambda: Mesh([[0, 0, 0], [1, 0, 0], [0.2, 0.9, 0.1]], [[0, 1, 2]]),
+    "open_sheet": wavy_sheet,
+}
+"""Generated meshes by name (pymeshlab's generators and analytic surfaces), built on call."""
 
 
 def subdivided(mesh: Mesh, min_faces: int) -> Mesh:

@@ -275,14 +275,19 @@ impl<'a> Solver<'a> {
     /// Per chart: total error and the worst face.
     fn region_errors(&self) -> Vec<(f64, u32, u32)> {
         let mut out = vec![(0.0, NONE, 0u32); self.proxies.len()];
-        let mut worst = vec![-1.0f64; self.proxies.len()];
+        // Worst by error, then (on flat regions, where every face ties) by distance from the
+        // chart's centre, so a new seed never lands on the chart's own seed.
+        let mut worst = vec![(-1.0f64, -1.0f64); self.proxies.len()];
         for (f, &l) in self.labels.iter().enumerate() {
             let e = self.set.error(f, self.proxies[l as usize]);
+            let d = (self.set.centroids[f] - self.centres[l as usize]).length_squared();
             let r = &mut out[l as usize];
             r.0 += e;
             r.2 += 1;
-            if e > worst[l as usize] {
-                worst[l as usize] = e;
+            let w = &mut worst[l as usize];
+            let tie = (e - w.0).abs() <= 1e-12 * self.set.areas[f];
+            if (e > w.0 && !tie) || (tie && d > w.1) {
+                *w = (e, d);
                 r.1 = f as u32;
             }
         }
@@ -311,11 +316,21 @@ fn initial_seeds(set: &FaceSet, k: usize) -> Vec<u32> {
             *s = f as u32;
         }
     }
+    // Farthest points by normal and position together (positions over the extent), so that
+    // seeds spread over orientations first: L2,1 charts are about normals, and seeds on one
+    // flat side of a box would stay there.
+    let (lo, hi) = set.centroids.iter().fold(
+        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+        |(lo, hi), c| (lo.min(*c), hi.max(*c)),
+    );
+    let inv_extent2 = 1.0 / (hi - lo).length_squared().max(f64::MIN_POSITIVE);
     let mut dist: Vec<f64> = vec![f64::INFINITY; set.len()];
     let update = |dist: &mut Vec<f64>, s: u32| {
-        let c = set.centroids[s as usize];
+        let (c, n) = (set.centroids[s as usize], set.normals[s as usize]);
         for (f, d) in dist.iter_mut().enumerate() {
-            *d = d.min((set.centroids[f] - c).length_squared());
+            let far = (set.normals[f] - n).length_squared()
+                + (set.centroids[f] - c).length_squared() * inv_extent2;
+            *d = d.min(far);
         }
     };
     for &s in &seeds {
@@ -395,6 +410,9 @@ pub fn partition(
         }
         solver.compactness = scaled(solver.proxies.len());
         solver.lloyd(2);
+        if solver.proxies.len() <= count {
+            break; // every new chart was absorbed; the next round would do the same
+        }
     }
     solver.lloyd(lloyd_iterations);
     solver.into_partition()
