@@ -1,16 +1,18 @@
-//! The .gtex file format, version 2 (version 1 is still read). Little-endian throughout.
+//! The .gtex file format, version 3 (versions 1 and 2 are still read). Little-endian throughout.
 //!
 //! ```text
 //! header (32 bytes): magic b"GTEX\r\n\x1a\n" | version u32 | reserved u32 | payload length u64 |
 //!                    CRC-32 of the payload u32 | reserved u32
 //! payload: texel_size f64 | stats: count u32, then (name: len u16 + UTF-8, value f64) |
-//!          seconds: same | patch count u32 | each patch:
+//!          seconds: same | per-patch stats: count u32, then (name: len u16 + UTF-8, n u32,
+//!          f64[n]) | patch count u32 | each patch:
 //!          origin 3 f64 | axes 9 f64 | extent 3 f64 | width u32 | height u32 |
 //!          height bits u32 (8 or 16) | faces u32 | ring faces u32 | face ids u32[] |
 //!          ring face ids u32[] | heights u8[w*h] or u16[w*h] | normals i8[w*h*4] |
 //!          colors u8[w*h*4]
 //! ```
-//! Version 1 is the same without the height-bits field: every patch has 16-bit heights.
+//! Version 2 is the same without the per-patch stats; version 1 also lacks the height-bits field
+//! (every patch has 16-bit heights).
 //! Written by hand (not serde/bincode) so the layout is fixed, documented and readable from any
 //! language; the magic catches text-mode mangling the way PNG's does.
 
@@ -19,7 +21,7 @@ use glam::DVec3;
 use crate::gtex::{GeometryTextureSet, Patch, Stats};
 
 pub const MAGIC: &[u8; 8] = b"GTEX\r\n\x1a\n";
-pub const VERSION: u32 = 2;
+pub const VERSION: u32 = 3;
 const HEADER: usize = 32;
 
 fn put_f64s(out: &mut Vec<u8>, v: &[f64]) {
@@ -28,12 +30,16 @@ fn put_f64s(out: &mut Vec<u8>, v: &[f64]) {
     }
 }
 
+fn put_name(out: &mut Vec<u8>, name: &str) {
+    let b = name.as_bytes();
+    out.extend_from_slice(&(b.len().min(u16::MAX as usize) as u16).to_le_bytes());
+    out.extend_from_slice(&b[..b.len().min(u16::MAX as usize)]);
+}
+
 fn put_named(out: &mut Vec<u8>, list: &[(String, f64)]) {
     out.extend_from_slice(&(list.len() as u32).to_le_bytes());
     for (name, v) in list {
-        let b = name.as_bytes();
-        out.extend_from_slice(&(b.len().min(u16::MAX as usize) as u16).to_le_bytes());
-        out.extend_from_slice(&b[..b.len().min(u16::MAX as usize)]);
+        put_name(out, name);
         out.extend_from_slice(&v.to_le_bytes());
     }
 }
@@ -43,6 +49,12 @@ pub fn encode(set: &GeometryTextureSet) -> Vec<u8> {
     put_f64s(&mut p, &[set.texel_size]);
     put_named(&mut p, &set.stats.values);
     put_named(&mut p, &set.stats.seconds);
+    p.extend_from_slice(&(set.stats.per_patch.len() as u32).to_le_bytes());
+    for (name, values) in &set.stats.per_patch {
+        put_name(&mut p, name);
+        p.extend_from_slice(&(values.len() as u32).to_le_bytes());
+        put_f64s(&mut p, values);
+    }
     p.extend_from_slice(&(set.patches.len() as u32).to_le_bytes());
     for patch in &set.patches {
         put_f64s(&mut p, &patch.origin.to_array());
@@ -118,14 +130,33 @@ impl<'a> Reader<'a> {
             self.f64(what)?,
         ))
     }
+    fn name(&mut self, what: &str) -> Result<String, String> {
+        let len = self.u16(what)? as usize;
+        String::from_utf8(self.take(len, what)?.to_vec())
+            .map_err(|_| format!("{what}: a name is not UTF-8"))
+    }
     fn named(&mut self, what: &str) -> Result<Vec<(String, f64)>, String> {
         let n = self.u32(what)? as usize;
         let mut out = Vec::with_capacity(n.min(4096));
         for _ in 0..n {
-            let len = self.u16(what)? as usize;
-            let name = String::from_utf8(self.take(len, what)?.to_vec())
-                .map_err(|_| format!("{what}: a name is not UTF-8"))?;
+            let name = self.name(what)?;
             out.push((name, self.f64(what)?));
+        }
+        Ok(out)
+    }
+    fn named_arrays(&mut self, what: &str) -> Result<Vec<(String, Vec<f64>)>, String> {
+        let n = self.u32(what)? as usize;
+        let mut out = Vec::with_capacity(n.min(4096));
+        for _ in 0..n {
+            let name = self.name(what)?;
+            let len = self.u32(what)? as usize;
+            // Checked before allocating, so a corrupt count cannot ask for terabytes.
+            let bytes = self.take(len.saturating_mul(8), what)?;
+            let values = bytes
+                .chunks_exact(8)
+                .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
+                .collect();
+            out.push((name, values));
         }
         Ok(out)
     }
@@ -161,6 +192,11 @@ pub fn decode(bytes: &[u8]) -> Result<GeometryTextureSet, String> {
     let stats = Stats {
         values: r.named("stats")?,
         seconds: r.named("stage seconds")?,
+        per_patch: if version >= 3 {
+            r.named_arrays("per-patch stats")?
+        } else {
+            Vec::new()
+        },
     };
     let n = r.u32("patch count")? as usize;
     let mut patches = Vec::with_capacity(n.min(1 << 16));
@@ -271,18 +307,25 @@ mod tests {
         two16.patches.push(two16.patches[0].clone());
         let patch16 = encode(&two16).len() - encode(&sample()).len();
         assert_eq!(b.len(), encode(&sample()).len() + patch16 - 6);
+        // Per-patch stats travel too.
+        s.stats.per_patch = vec![("patch_error".into(), vec![1e-5, 2.5e-6])];
+        assert_eq!(decode(&encode(&s)).unwrap(), s);
     }
 
     #[test]
     fn version_1_files_read_as_16_bit() {
         let s = sample();
-        let v2 = encode(&s);
-        // Version 1: no height-bits field after width and height.
+        let v3 = encode(&s);
+        assert!(s.stats.per_patch.is_empty());
+        // Version 1: no per-patch stats (an empty list: its count u32) after the seconds and no
+        // height-bits field after width and height.
         // texel size, stats and seconds (count + one entry each), patch count, 15 f64, w, h.
-        let at = HEADER + 8 + (4 + 2 + 6 + 8) * 2 + 4 + 15 * 8 + 2 * 4;
-        let mut payload = v2[HEADER..at].to_vec();
-        payload.extend_from_slice(&v2[at + 4..]);
-        let mut v1 = v2[..HEADER].to_vec();
+        let stats_end = HEADER + 8 + (4 + 2 + 6 + 8) * 2;
+        let at = stats_end + 4 + 4 + 15 * 8 + 2 * 4;
+        let mut payload = v3[HEADER..stats_end].to_vec();
+        payload.extend_from_slice(&v3[stats_end + 4..at]);
+        payload.extend_from_slice(&v3[at + 4..]);
+        let mut v1 = v3[..HEADER].to_vec();
         v1[8..12].copy_from_slice(&1u32.to_le_bytes());
         v1[16..24].copy_from_slice(&(payload.len() as u64).to_le_bytes());
         v1[24..28].copy_from_slice(&crc32fast::hash(&payload).to_le_bytes());

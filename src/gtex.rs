@@ -122,12 +122,13 @@ pub fn decode_snorm8(n: [i8; 4]) -> DVec3 {
     DVec3::new(n[0] as f64, n[1] as f64, n[2] as f64) / 127.0
 }
 
-/// Named figures of a conversion: counts in `values`, per-stage wall-clock seconds in `seconds`.
-/// Kept as ordered name/value lists so the file format and the Python dict need no schema.
+/// Named figures of a conversion: counts in `values`, per-stage wall-clock seconds in `seconds`,
+/// one value per patch in `per_patch`. Ordered name/value lists, so the file format and the Python dict need no schema.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Stats {
     pub values: Vec<(String, f64)>,
     pub seconds: Vec<(String, f64)>,
+    pub per_patch: Vec<(String, Vec<f64>)>,
 }
 
 impl Stats {

@@ -89,7 +89,8 @@ def test_bunny_five_views_match_trimesh(bunny: Converted, r512: gt.Renderer) -> 
 def test_8_bit_heights_cost_only_their_rounding(bunny: Converted, r512: gt.Renderer) -> None:
     """8-bit heights: the same charts with 9 bytes a texel instead of 10; every texel point moves by
     at most the stated rounding, and depth against trimesh worsens by no more than that rounding
-    while staying within the renderer issue's bounds, with either search."""
+    (median) or twice it (p99: a height offset δ moves depth along a ray by δ / cos θ, and the
+    worst pixels see the surface obliquely, θ up to 60°), within the renderer issue's bounds."""
     narrow = gt.convert(bunny.mesh, height_bits=8)
     diag = bunny.mesh.diagonal
     q8, q16 = narrow.stats["max_quantization_error"], bunny.gts.stats["max_quantization_error"]
@@ -109,7 +110,7 @@ def test_8_bit_heights_cost_only_their_rounding(bunny: Converted, r512: gt.Rende
             m = compare(r512.render(narrow, cam, quality=quality), ref, diag)
             assert m["nan"] == 0 and m["iou"] >= 0.99, (name, quality, m)
             assert m["depth_median"] <= wide["depth_median"] + q8 / diag, (name, quality, m, wide)
-            assert m["depth_p99"] <= wide["depth_p99"] + q8 / diag, (name, quality, m, wide)
+            assert m["depth_p99"] <= wide["depth_p99"] + 2 * q8 / diag, (name, quality, m, wide)
             assert m["depth_median"] <= 1e-3 and m["depth_p99"] <= 1e-2, (name, quality, m)
 
 

@@ -3,6 +3,7 @@
 //!
 //! Space: world (the mesh's coordinates, f64) in, patch boxes in world out.
 
+pub mod error;
 pub mod frame;
 pub mod overlap;
 pub mod raster;
@@ -164,6 +165,58 @@ fn report(progress: Progress, stage: &str, fraction: f64) -> Result<()> {
 struct Chart {
     faces: Vec<u32>,
     z: DVec3,
+}
+
+/// Charts sample their surface at most this often to measure reconstruction error.
+const ERROR_SAMPLES_PER_CHART: usize = 20_000;
+/// Reconstruction error is this quantile of the vertical gaps: the maximum would be set by
+/// the few samples at creases and rims, where a bilinear map of any resolution rounds corners.
+const ERROR_QUANTILE: f64 = 0.99;
+
+/// The box of a chart (its frame: axes, reference point, local bounds) at texel size `texel`.
+fn patch_box(
+    frame: &([DVec3; 3], DVec3, DVec3, DVec3),
+    texel: f64,
+    opts: &ConvertOptions,
+) -> PatchBox {
+    let (axes, reference, lo, hi) = frame;
+    let size = *hi - *lo;
+    let res = |s: f64| ((s / texel).ceil() as u32).clamp(2, opts.max_resolution.max(2));
+    let (w, h) = (res(size.x), res(size.y));
+    // Centre the chart in its whole-texel box.
+    let pad_x = (w as f64 * texel - size.x) * 0.5;
+    let pad_y = (h as f64 * texel - size.y) * 0.5;
+    // At least a texel thick, flat charts centred: a box of (near) zero height would
+    // turn patch-local z into huge numbers that f32 on the GPU cannot resolve. A margin
+    // above and below the surface keeps a ray entering through the box's top or bottom
+    // strictly off the surface, so its first sample knows which side it is on.
+    // The margin is also at least one height code step, so rounding never puts the
+    // surface on the box's top or bottom (8-bit codes would, with 0.02 texel alone).
+    let base = size.z.max(texel);
+    let thickness = |bits: u8| {
+        let code_max = crate::gtex::code_max(bits) as f64;
+        base + 2.0 * (0.02 * texel).max(base / (code_max - 3.0))
+    };
+    // 8-bit codes only where their rounding (half a code step) stays within half a texel,
+    // so the height map is never coarser across than along: a chart standing more than
+    // ~250 texels tall keeps 16 bits.
+    let height_bits =
+        if opts.height_bits == 8 && thickness(8) / (crate::gtex::code_max(8) - 1) as f64 > texel {
+            16
+        } else {
+            opts.height_bits
+        };
+    let thickness = thickness(height_bits);
+    let pad_z = (thickness - size.z) * 0.5;
+    let corner = DVec3::new(lo.x - pad_x, lo.y - pad_y, lo.z - pad_z);
+    PatchBox {
+        origin: *reference + axes[0] * corner.x + axes[1] * corner.y + axes[2] * corner.z,
+        axes: *axes,
+        extent: DVec3::new(w as f64 * texel, h as f64 * texel, thickness),
+        width: w,
+        height: h,
+        height_bits,
+    }
 }
 
 pub fn convert(
@@ -333,80 +386,56 @@ pub fn convert(
     if texel <= 0.0 {
         texel = geo.diagonal.max(f64::MIN_POSITIVE) * 1e-6; // every chart is a point
     }
-    let boxes: Vec<PatchBox> = frames
-        .iter()
-        .map(|(axes, reference, lo, hi)| {
-            let size = *hi - *lo;
-            let res = |s: f64| ((s / texel).ceil() as u32).clamp(2, opts.max_resolution.max(2));
-            let (w, h) = (res(size.x), res(size.y));
-            // Centre the chart in its whole-texel box.
-            let pad_x = (w as f64 * texel - size.x) * 0.5;
-            let pad_y = (h as f64 * texel - size.y) * 0.5;
-            // At least a texel thick, flat charts centred: a box of (near) zero height would
-            // turn patch-local z into huge numbers that f32 on the GPU cannot resolve. A margin
-            // above and below the surface keeps a ray entering through the box's top or bottom
-            // strictly off the surface, so its first sample knows which side it is on.
-            // The margin is also at least one height code step, so rounding never puts the
-            // surface on the box's top or bottom (8-bit codes would, with 0.02 texel alone).
-            let base = size.z.max(texel);
-            let thickness = |bits: u8| {
-                let code_max = crate::gtex::code_max(bits) as f64;
-                base + 2.0 * (0.02 * texel).max(base / (code_max - 3.0))
-            };
-            // 8-bit codes only where their rounding (half a code step) stays within half a texel,
-            // so the height map is never coarser across than along: a chart standing more than
-            // ~250 texels tall keeps 16 bits.
-            let height_bits = if opts.height_bits == 8
-                && thickness(8) / (crate::gtex::code_max(8) - 1) as f64 > texel
-            {
-                16
-            } else {
-                opts.height_bits
-            };
-            let thickness = thickness(height_bits);
-            let pad_z = (thickness - size.z) * 0.5;
-            let corner = DVec3::new(lo.x - pad_x, lo.y - pad_y, lo.z - pad_z);
-            PatchBox {
-                origin: *reference + axes[0] * corner.x + axes[1] * corner.y + axes[2] * corner.z,
-                axes: *axes,
-                extent: DVec3::new(w as f64 * texel, h as f64 * texel, thickness),
-                width: w,
-                height: h,
-                height_bits,
-            }
-        })
-        .collect();
     timer.lap("frame");
 
-    // Raster.
+    // Raster, and each chart's reconstruction error against points sampled on its triangles.
     report(progress, "raster", 0.0)?;
     let done = AtomicUsize::new(0);
     let cancelled = AtomicBool::new(false);
     let n = charts.len();
-    let mut maps: Vec<raster::Maps> = charts
+    let rastered: Vec<(PatchBox, raster::Maps, Vec<f64>)> = charts
         .par_iter()
         .zip(&rings)
-        .zip(&boxes)
-        .map(|((c, (ring, _)), bx)| {
+        .zip(&frames)
+        .map(|((c, (ring, _)), fr)| {
             if cancelled.load(Ordering::Relaxed) {
-                return raster::Maps {
-                    heights: vec![],
-                    normals: vec![],
-                    colors: vec![],
-                };
+                return (patch_box(fr, texel, opts), raster::Maps::default(), vec![]);
             }
             let faces: Vec<u32> = c.faces.iter().chain(ring).copied().collect();
-            let m = raster::rasterize(mesh, &geo, &faces, c.faces.len(), bx, opts.normals);
+            // Samples about a texel apart (fewer on large charts, see the cap).
+            let samples = error::surface_samples(mesh, &c.faces, texel, ERROR_SAMPLES_PER_CHART);
+            let bx = patch_box(fr, texel, opts);
+            let m = raster::rasterize(mesh, &geo, &faces, c.faces.len(), &bx, opts.normals);
+            let gaps = error::gaps(&bx.with_heights(m.heights.clone()), &samples);
+            let out = (bx, m, gaps);
             let k = done.fetch_add(1, Ordering::Relaxed) + 1;
             if k % 16 == 0 && !progress("raster", k as f64 / n as f64) {
                 cancelled.store(true, Ordering::Relaxed);
             }
-            m
+            out
         })
         .collect();
     if cancelled.load(Ordering::Relaxed) {
         return Err(GeomtexError::Cancelled("raster".into()));
     }
+    let (boxes, mut maps, mut gaps): (Vec<PatchBox>, Vec<raster::Maps>, Vec<Vec<f64>>) =
+        rastered.into_iter().fold(
+            (Vec::new(), Vec::new(), Vec::new()),
+            |(mut b, mut m, mut g), (bx, mx, gx)| {
+                b.push(bx);
+                m.push(mx);
+                g.push(gx);
+                (b, m, g)
+            },
+        );
+    let chart_errors: Vec<f64> = gaps
+        .iter_mut()
+        .map(|g| error::quantile(g, ERROR_QUANTILE))
+        .collect();
+    let mut all_gaps: Vec<f64> = gaps.into_iter().flatten().collect();
+    let reconstruction_max = all_gaps.iter().copied().fold(0.0, f64::max);
+    let reconstruction_p99 = error::quantile(&mut all_gaps, ERROR_QUANTILE);
+    drop(all_gaps);
     timer.lap("raster");
 
     report(progress, "dilate", 0.0)?;
@@ -449,11 +478,25 @@ pub fn convert(
                 .count()
         })
         .sum();
+    let texel = patches
+        .iter()
+        .map(|p| p.extent.x / p.width as f64)
+        .fold(0.0, f64::max);
     let mut set = GeometryTextureSet {
         patches,
         texel_size: texel,
         stats: Stats::default(),
     };
+    stats.per_patch = vec![
+        ("patch_error".into(), chart_errors),
+        (
+            "patch_resolution".into(),
+            set.patches
+                .iter()
+                .map(|p| p.width.max(p.height) as f64)
+                .collect(),
+        ),
+    ];
     let (texels, empty) = (set.texels(), set.empty_texels());
     for (name, v) in [
         ("faces", mesh.faces.len() as f64),
@@ -500,6 +543,8 @@ pub fn convert(
                 .fold(0.0, f64::max),
         ),
         ("texel_size", texel),
+        ("reconstruction_error_p99", reconstruction_p99),
+        ("reconstruction_error_max", reconstruction_max),
         ("diagonal", geo.diagonal),
     ] {
         stats.set(name, v);

@@ -184,7 +184,15 @@ pub struct PyGeometryTextureSet {
 }
 
 /// Stats that are fractions or lengths; every other stat is a count and comes out as int.
-const FLOAT_STATS: &[&str] = &["empty_fraction", "texel_size", "diagonal", "vsa_mean_error"];
+const FLOAT_STATS: &[&str] = &[
+    "empty_fraction",
+    "texel_size",
+    "diagonal",
+    "vsa_mean_error",
+    "reconstruction_error_p99",
+    "reconstruction_error_max",
+    "max_quantization_error",
+];
 
 #[pymethods]
 impl PyGeometryTextureSet {
@@ -209,6 +217,9 @@ impl PyGeometryTextureSet {
             s.set_item(name, *v)?;
         }
         d.set_item("seconds", s)?;
+        for (name, v) in &self.inner.stats.per_patch {
+            d.set_item(name, PyArray1::from_slice(py, v))?;
+        }
         Ok(d)
     }
 
