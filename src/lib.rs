@@ -7,6 +7,7 @@
 pub mod convert;
 pub mod error;
 pub mod format;
+pub mod grids;
 pub mod gtex;
 pub mod heightfield;
 pub mod mesh;

@@ -1,6 +1,7 @@
 """Type stubs for the Rust extension module geomtex._core."""
 
 import os
+from collections.abc import Sequence
 from typing import Any, Callable, final
 
 from typing_extensions import disjoint_base
@@ -36,6 +37,17 @@ class Mesh:
 
 @final
 class GeometryTextureSet:
+    @staticmethod
+    def from_heightmaps(
+        grids: npt.ArrayLike | Sequence[npt.ArrayLike],
+        extent: Sequence[float] | Sequence[Sequence[float]] | npt.ArrayLike,
+        *,
+        properties: npt.ArrayLike | Sequence[npt.ArrayLike] | None = None,
+        cmap: str = "viridis",
+        property_range: tuple[float, float] | None = None,
+        max_resolution: int = 256,
+        height_bits: int = 16,
+    ) -> GeometryTextureSet: ...
     def __len__(self) -> int: ...
     @property
     def stats(self) -> dict[str, Any]: ...

@@ -8,6 +8,7 @@ and the random ones take a seed so a failure can be replayed. geomtex's own test
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any, Callable
 
 import numpy as np
@@ -16,7 +17,7 @@ import numpy.typing as npt
 from ._core import Camera
 from ._mesh import Mesh
 
-__all__ = ["similar", "look_from", "soup", "flip_faces", "punch_holes", "add_fins", "add_slivers", "height_field", "flat_grid", "wavy_sheet", "GENERATED", "subdivided"]
+__all__ = ["similar", "look_from", "soup", "flip_faces", "punch_holes", "add_fins", "add_slivers", "height_field", "grid_mesh", "horizon_stack", "flat_grid", "wavy_sheet", "GENERATED", "subdivided"]
 
 
 def _arrays(mesh: Mesh) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]:
@@ -108,6 +109,35 @@ def height_field(x: npt.ArrayLike, y: npt.ArrayLike,
     quads = np.stack([i, i + 1, i + nx + 2, i + nx + 1], axis=-1)
     return Mesh(np.column_stack([gx.ravel(), gy.ravel(), gz.ravel()]),
                 np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]]))
+
+
+def grid_mesh(z: npt.ArrayLike, extent: Sequence[float]) -> Mesh:
+    """A (rows, columns) height grid over ``extent = (x0, x1, y0, y1)`` as triangles, two per
+    cell whose four corners are finite (NaN = no data), unused vertices dropped: the mesh a
+    geologist's software would make of a horizon, for checking ``from_heightmaps`` against."""
+    z = np.asarray(z, np.float64)
+    rows, cols = z.shape
+    x0, x1, y0, y1 = (float(v) for v in extent)
+    mesh = height_field(np.linspace(x0, x1, cols), np.linspace(y0, y1, rows), lambda x, y: np.nan_to_num(z))
+    v, f = _arrays(mesh)
+    # height_field lists every cell's first triangle, then every cell's second, cells row-major.
+    full = np.isfinite(z)
+    cell = (full[:-1, :-1] & full[:-1, 1:] & full[1:, :-1] & full[1:, 1:]).ravel()
+    f = f[np.concatenate([cell, cell])]
+    used, f = np.unique(f, return_inverse=True)
+    return Mesh(v[used], f.reshape(-1, 3))
+
+
+def horizon_stack(rows: int = 300, cols: int = 400) -> list[npt.NDArray[np.float64]]:
+    """Three synthetic geological horizons as (rows, columns) height grids, 40 and 50 units
+    apart, folded by two sine waves each, the middle one with a block of missing data (NaN) over
+    2/15 of its rows and a fifth of its columns. Sample spacing 10 units suits them."""
+    y, x = np.mgrid[0:rows, 0:cols].astype(np.float64)
+    out = [depth + amp * np.sin(x / 37.0 + k) * np.cos(y / 23.0) + 0.3 * amp * np.sin(x / 9.0 + y / 13.0)
+           for k, (depth, amp) in enumerate([(-100.0, 8.0), (-140.0, 10.0), (-190.0, 6.0)])]
+    r0, c0 = rows // 3, cols * 3 // 8
+    out[1][r0:r0 + rows * 2 // 15, c0:c0 + cols // 5] = np.nan
+    return out
 
 
 def flat_grid(n: int = 16) -> Mesh:

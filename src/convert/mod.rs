@@ -173,6 +173,31 @@ const ERROR_SAMPLES_PER_CHART: usize = 20_000;
 /// the few samples at creases and rims, where a bilinear map of any resolution rounds corners.
 const ERROR_QUANTILE: f64 = 0.99;
 
+/// A box's thickness and height bits for a surface spanning `height` at texel size `texel`.
+///
+/// At least a texel thick, flat surfaces centred: a box of (near) zero height would turn
+/// patch-local z into huge numbers that f32 on the GPU cannot resolve. A margin above and below
+/// the surface keeps a ray entering through the box's top or bottom strictly off the surface, so
+/// its first sample knows which side it is on. The margin is also at least one height code step,
+/// so rounding never puts the surface on the box's top or bottom (8-bit codes would, with 0.02
+/// texel alone). 8-bit codes only where their rounding (half a code step) stays within half a
+/// texel, so the map is never coarser across than along: a surface more than ~250 texels tall
+/// keeps 16 bits.
+pub(crate) fn vertical_extent(height: f64, texel: f64, requested_bits: u8) -> (f64, u8) {
+    let base = height.max(texel);
+    let thickness = |bits: u8| {
+        let code_max = crate::gtex::code_max(bits) as f64;
+        base + 2.0 * (0.02 * texel).max(base / (code_max - 3.0))
+    };
+    let bits =
+        if requested_bits == 8 && thickness(8) / (crate::gtex::code_max(8) - 1) as f64 > texel {
+            16
+        } else {
+            requested_bits
+        };
+    (thickness(bits), bits)
+}
+
 /// The box of a chart (its frame: axes, reference point, local bounds) at texel size `texel`.
 fn patch_box(
     frame: &([DVec3; 3], DVec3, DVec3, DVec3),
@@ -186,27 +211,7 @@ fn patch_box(
     // Centre the chart in its whole-texel box.
     let pad_x = (w as f64 * texel - size.x) * 0.5;
     let pad_y = (h as f64 * texel - size.y) * 0.5;
-    // At least a texel thick, flat charts centred: a box of (near) zero height would
-    // turn patch-local z into huge numbers that f32 on the GPU cannot resolve. A margin
-    // above and below the surface keeps a ray entering through the box's top or bottom
-    // strictly off the surface, so its first sample knows which side it is on.
-    // The margin is also at least one height code step, so rounding never puts the
-    // surface on the box's top or bottom (8-bit codes would, with 0.02 texel alone).
-    let base = size.z.max(texel);
-    let thickness = |bits: u8| {
-        let code_max = crate::gtex::code_max(bits) as f64;
-        base + 2.0 * (0.02 * texel).max(base / (code_max - 3.0))
-    };
-    // 8-bit codes only where their rounding (half a code step) stays within half a texel,
-    // so the height map is never coarser across than along: a chart standing more than
-    // ~250 texels tall keeps 16 bits.
-    let height_bits =
-        if opts.height_bits == 8 && thickness(8) / (crate::gtex::code_max(8) - 1) as f64 > texel {
-            16
-        } else {
-            opts.height_bits
-        };
-    let thickness = thickness(height_bits);
+    let (thickness, height_bits) = vertical_extent(size.z, texel, opts.height_bits);
     let pad_z = (thickness - size.z) * 0.5;
     let corner = DVec3::new(lo.x - pad_x, lo.y - pad_y, lo.z - pad_z);
     PatchBox {

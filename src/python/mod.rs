@@ -396,6 +396,63 @@ impl PyGeometryTextureSet {
         py.detach(move || inner.save(&path)).map_err(to_py_err)
     }
 
+    /// Builds a set straight from regular height grids (see geomtex._grids for the arguments,
+    /// which it checks and colors before the grids are tiled here with the GIL released).
+    #[staticmethod]
+    #[pyo3(signature = (grids, extent, *, properties = None, cmap = "viridis",
+        property_range = None, max_resolution = 256, height_bits = 16))]
+    #[allow(clippy::too_many_arguments)]
+    fn from_heightmaps(
+        py: Python<'_>,
+        grids: &Bound<'_, PyAny>,
+        extent: &Bound<'_, PyAny>,
+        properties: Option<&Bound<'_, PyAny>>,
+        cmap: &str,
+        property_range: Option<&Bound<'_, PyAny>>,
+        max_resolution: i64,
+        height_bits: i64,
+    ) -> PyResult<Self> {
+        type Prepared<'py> = (
+            PyReadonlyArray2<'py, f64>,
+            (f64, f64, f64, f64),
+            Option<numpy::PyReadonlyArray3<'py, u8>>,
+        );
+        let prepared: Vec<Prepared> = py
+            .import("geomtex._grids")?
+            .call_method1("prepare", (grids, extent, properties, cmap, property_range))?
+            .extract()?;
+        let grids: Vec<crate::grids::HeightGrid> = prepared
+            .iter()
+            .map(|(z, (x0, y0, dx, dy), colors)| {
+                let shape = z.shape();
+                crate::grids::HeightGrid {
+                    width: shape[1],
+                    height: shape[0],
+                    origin: glam::DVec2::new(*x0, *y0),
+                    spacing: glam::DVec2::new(*dx, *dy),
+                    z: z.as_array().iter().copied().collect(),
+                    colors: colors.as_ref().map(|c| {
+                        c.as_array()
+                            .as_standard_layout()
+                            .as_slice()
+                            .unwrap()
+                            .chunks_exact(4)
+                            .map(|q| [q[0], q[1], q[2], q[3]])
+                            .collect()
+                    }),
+                }
+            })
+            .collect();
+        let tile = u32::try_from(max_resolution).unwrap_or(0);
+        let bits = u8::try_from(height_bits).unwrap_or(0);
+        let set = py
+            .detach(move || crate::grids::from_grids(&grids, tile, bits))
+            .map_err(to_py_err)?;
+        Ok(PyGeometryTextureSet {
+            inner: Arc::new(set),
+        })
+    }
+
     fn _repr_png_<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyBytes>> {
         let png = slf
             .py()

@@ -1,0 +1,304 @@
+//! Geometry textures straight from regular height grids (geological horizons, terrain): no mesh,
+//! no partition; each grid is cut into tiles that fit one patch.
+//!
+//! Space: world. Grid sample (column i, row j) lies at (x0 + i dx, y0 + j dy, z[j][i]); NaN
+//! means no data. Each sample becomes a texel centre, so the patch surface (bilinear in cells
+//! whose four texels hold surface, src/heightfield.rs) passes through every sample and matches
+//! the grid's two-triangles-per-cell surface to within the cell's bilinear twist. Neighbouring
+//! tiles share their border row or column of samples, so their surfaces meet without a crack.
+
+use glam::{DVec2, DVec3};
+
+use crate::convert::vertical_extent;
+use crate::error::{GeomtexError, Result};
+use crate::gtex::{encode_height, encode_snorm8, GeometryTextureSet, Patch, Stats};
+
+/// One regular grid of heights with optional RGBA8 colors (row-major, `width` samples a row).
+pub struct HeightGrid {
+    pub width: usize,
+    pub height: usize,
+    pub origin: DVec2,
+    pub spacing: DVec2,
+    pub z: Vec<f64>,
+    pub colors: Option<Vec<[u8; 4]>>,
+}
+
+impl HeightGrid {
+    fn validate(&self, k: usize) -> Result<()> {
+        let bad = |m: String| Err(GeomtexError::Parameter(format!("grid {k}: {m}")));
+        if self.width < 2 || self.height < 2 {
+            return bad(format!(
+                "needs at least 2 x 2 samples, got {} x {}",
+                self.height, self.width
+            ));
+        }
+        if self.z.len() != self.width * self.height {
+            return bad(format!(
+                "{} heights for {} x {} samples",
+                self.z.len(),
+                self.height,
+                self.width
+            ));
+        }
+        if !(self.origin.is_finite()
+            && self.spacing.is_finite()
+            && self.spacing.min_element() > 0.0)
+        {
+            return bad(format!(
+                "extent must be finite with x0 < x1 and y0 < y1 (origin {}, spacing {})",
+                self.origin, self.spacing
+            ));
+        }
+        if let Some(t) = self.z.iter().position(|z| z.is_infinite()) {
+            return bad(format!(
+                "height at row {}, column {} is infinite (use NaN for no data)",
+                t / self.width,
+                t % self.width
+            ));
+        }
+        if self.z.iter().all(|z| z.is_nan()) {
+            return bad("every height is NaN: nothing to convert".into());
+        }
+        if let Some(c) = &self.colors {
+            if c.len() != self.z.len() {
+                return bad(format!("{} colors for {} samples", c.len(), self.z.len()));
+            }
+        }
+        Ok(())
+    }
+
+    fn at(&self, i: usize, j: usize) -> f64 {
+        self.z[j * self.width + i]
+    }
+
+    /// Unit normal from central differences (one-sided at edges and next to missing data).
+    fn normal(&self, i: usize, j: usize) -> DVec3 {
+        let slope = |a: (usize, usize), b: (usize, usize), step: f64| {
+            let (za, zb) = (self.at(a.0, a.1), self.at(b.0, b.1));
+            ((zb - za) / step).is_finite().then_some((zb - za) / step)
+        };
+        let (w, h) = (self.width, self.height);
+        let dx = [
+            (i > 0 && i + 1 < w).then(|| slope((i - 1, j), (i + 1, j), 2.0 * self.spacing.x)),
+            (i + 1 < w).then(|| slope((i, j), (i + 1, j), self.spacing.x)),
+            (i > 0).then(|| slope((i - 1, j), (i, j), self.spacing.x)),
+        ]
+        .into_iter()
+        .flatten()
+        .flatten()
+        .next()
+        .unwrap_or(0.0);
+        let dy = [
+            (j > 0 && j + 1 < h).then(|| slope((i, j - 1), (i, j + 1), 2.0 * self.spacing.y)),
+            (j + 1 < h).then(|| slope((i, j), (i, j + 1), self.spacing.y)),
+            (j > 0).then(|| slope((i, j - 1), (i, j), self.spacing.y)),
+        ]
+        .into_iter()
+        .flatten()
+        .flatten()
+        .next()
+        .unwrap_or(0.0);
+        DVec3::new(-dx, -dy, 1.0).normalize()
+    }
+}
+
+/// Tile starts along one axis of `n` samples for tiles of at most `tile` samples sharing their
+/// border sample; a last tile of one sample would add nothing, so it is never made.
+fn tile_starts(n: usize, tile: usize) -> Vec<usize> {
+    (0..)
+        .map(|k| k * (tile - 1))
+        .take_while(|&s| s + 1 < n)
+        .collect()
+}
+
+/// Builds a set from grids, cut into tiles of at most `tile` x `tile` samples.
+pub fn from_grids(grids: &[HeightGrid], tile: u32, height_bits: u8) -> Result<GeometryTextureSet> {
+    if grids.is_empty() {
+        return Err(GeomtexError::Parameter("no grids given".into()));
+    }
+    if !(2..=16384).contains(&tile) {
+        return Err(GeomtexError::Parameter(format!(
+            "max_resolution must be in [2, 16384], got {tile}"
+        )));
+    }
+    if !crate::gtex::HEIGHT_BITS.contains(&height_bits) {
+        return Err(GeomtexError::Parameter(format!(
+            "height_bits must be 8 or 16, got {height_bits}"
+        )));
+    }
+    for (k, g) in grids.iter().enumerate() {
+        g.validate(k)?;
+    }
+    let tile = tile as usize;
+    let mut patches = Vec::new();
+    let mut per_patch_grid = Vec::new();
+    for (k, g) in grids.iter().enumerate() {
+        for &j0 in &tile_starts(g.height, tile) {
+            for &i0 in &tile_starts(g.width, tile) {
+                let (tw, th) = (tile.min(g.width - i0), tile.min(g.height - j0));
+                let samples = (j0..j0 + th).flat_map(|j| (i0..i0 + tw).map(move |i| (i, j)));
+                let (lo, hi) = samples
+                    .clone()
+                    .map(|(i, j)| g.at(i, j))
+                    .filter(|z| !z.is_nan())
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), z| {
+                        (lo.min(z), hi.max(z))
+                    });
+                if lo > hi {
+                    continue; // no data in this tile
+                }
+                let texel = g.spacing.min_element();
+                let (thickness, bits) = vertical_extent(hi - lo, texel, height_bits);
+                let origin = DVec3::new(
+                    g.origin.x + (i0 as f64 - 0.5) * g.spacing.x,
+                    g.origin.y + (j0 as f64 - 0.5) * g.spacing.y,
+                    lo - 0.5 * (thickness - (hi - lo)),
+                );
+                let mut p = Patch {
+                    origin,
+                    axes: [DVec3::X, DVec3::Y, DVec3::Z],
+                    extent: DVec3::new(tw as f64 * g.spacing.x, th as f64 * g.spacing.y, thickness),
+                    width: tw as u32,
+                    height: th as u32,
+                    height_bits: bits,
+                    heights: Vec::with_capacity(tw * th),
+                    normals: Vec::with_capacity(tw * th),
+                    colors: Vec::with_capacity(tw * th),
+                    faces: vec![],
+                    ring_faces: vec![],
+                };
+                for (i, j) in samples {
+                    let z = g.at(i, j);
+                    let filled = !z.is_nan();
+                    p.heights.push(if filled {
+                        encode_height((z - origin.z) / thickness, bits)
+                    } else {
+                        0
+                    });
+                    p.normals.push(if filled {
+                        encode_snorm8(g.normal(i, j))
+                    } else {
+                        [0, 0, 127, 0]
+                    });
+                    p.colors.push(match &g.colors {
+                        Some(c) => c[j * g.width + i],
+                        None => crate::convert::raster::NEUTRAL_COLOR,
+                    });
+                }
+                patches.push(p);
+                per_patch_grid.push(k as f64);
+            }
+        }
+    }
+    let mut set = GeometryTextureSet {
+        texel_size: grids
+            .iter()
+            .map(|g| g.spacing.max_element())
+            .fold(0.0, f64::max),
+        patches,
+        stats: Stats::default(),
+    };
+    let samples: usize = grids.iter().map(|g| g.z.len()).sum();
+    let missing: usize = grids
+        .iter()
+        .map(|g| g.z.iter().filter(|z| z.is_nan()).count())
+        .sum();
+    for (name, v) in [
+        ("grids", grids.len() as f64),
+        ("samples", samples as f64),
+        ("missing_samples", missing as f64),
+        ("charts", set.patches.len() as f64),
+        ("texels", set.texels() as f64),
+        ("empty_texels", set.empty_texels() as f64),
+        ("bytes", set.map_bytes() as f64),
+        ("height_bits", height_bits as f64),
+        (
+            "max_quantization_error",
+            set.patches
+                .iter()
+                .map(Patch::quantization_error)
+                .fold(0.0, f64::max),
+        ),
+        ("texel_size", set.texel_size),
+    ] {
+        set.stats.set(name, v);
+    }
+    set.stats.per_patch = vec![("patch_grid".into(), per_patch_grid)];
+    Ok(set)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::heightfield::height_at;
+
+    fn grid(w: usize, h: usize, f: impl Fn(f64, f64) -> f64) -> HeightGrid {
+        let (origin, spacing) = (DVec2::new(10.0, -5.0), DVec2::new(0.5, 0.25));
+        let z = (0..h)
+            .flat_map(|j| (0..w).map(move |i| (i, j)))
+            .map(|(i, j)| {
+                f(
+                    origin.x + i as f64 * spacing.x,
+                    origin.y + j as f64 * spacing.y,
+                )
+            })
+            .collect();
+        HeightGrid {
+            width: w,
+            height: h,
+            origin,
+            spacing,
+            z,
+            colors: None,
+        }
+    }
+
+    #[test]
+    fn tiles_share_borders_and_pass_through_every_sample() {
+        assert_eq!(tile_starts(10, 4), vec![0, 3, 6]);
+        assert_eq!(tile_starts(7, 4), vec![0, 3]);
+        let mut g = grid(23, 17, |x, y| (0.3 * x).sin() + 0.2 * y);
+        g.z[5 * 23 + 7] = f64::NAN;
+        let set = from_grids(&[g], 8, 16).unwrap();
+        assert_eq!(set.patches.len(), 4 * 3);
+        let g = grid(23, 17, |x, y| (0.3 * x).sin() + 0.2 * y);
+        // Every sample is on the surface of every tile that holds it (to the 16-bit rounding).
+        for j in 0..17 {
+            for i in 0..23 {
+                let (x, y) = (10.0 + i as f64 * 0.5, -5.0 + j as f64 * 0.25);
+                let mut seen = 0;
+                for p in &set.patches {
+                    let (u, v) = ((x - p.origin.x) / p.extent.x, (y - p.origin.y) / p.extent.y);
+                    if (0.0..=1.0).contains(&u) && (0.0..=1.0).contains(&v) {
+                        if let Some(h) = height_at(p, u, v) {
+                            let z = p.origin.z + h * p.extent.z;
+                            assert!((z - g.at(i, j)).abs() <= 2.0 * p.quantization_error());
+                            seen += 1;
+                        }
+                    }
+                }
+                // The missing sample's four cells are empty; every other sample has a surface.
+                let near_hole = (6..=8).contains(&i) && (4..=6).contains(&j);
+                assert!(seen >= 1 || near_hole, "sample {i},{j}");
+            }
+        }
+    }
+
+    #[test]
+    fn bad_grids_are_errors_with_their_place() {
+        let mut g = grid(4, 3, |_, _| 0.0);
+        g.z[5] = f64::INFINITY;
+        let e = from_grids(&[grid(4, 3, |_, _| 0.0), g], 256, 16)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("grid 1") && e.contains("row 1, column 1"), "{e}");
+        let mut g = grid(4, 3, |_, _| f64::NAN);
+        assert!(from_grids(&[g], 256, 16)
+            .unwrap_err()
+            .to_string()
+            .contains("NaN"));
+        g = grid(1, 3, |_, _| 0.0);
+        assert!(from_grids(&[g], 256, 16).is_err());
+        assert!(from_grids(&[], 256, 16).is_err());
+    }
+}
