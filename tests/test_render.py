@@ -289,7 +289,8 @@ def test_frame_arrays_and_pictures(r256: gt.Renderer, tmp_path) -> None:
     assert np.all(f.patch_id[miss] == -1) and np.all(f.patch_id[~miss] >= 0)
     assert np.all(f.normal[miss] == 0) and np.allclose(np.linalg.norm(f.normal[~miss], axis=1), 1, atol=2e-3)
     assert np.all(f.color[miss][:, 3] == 0) and np.all(f.color[~miss][:, 3] == 255)
-    assert f.stats["patches_drawn"] == len(torus.gts) and f.stats["cpu_ms"] > 0
+    assert f.stats["patches_drawn"] == len(torus.gts) and f.stats["patches_culled"] == 0
+    assert f.stats["cpu_ms"] > 0
     img = Image.open(io.BytesIO(f._repr_png_()))
     assert img.size == (256, 256)
     f.save(tmp_path / "t.png")
@@ -358,3 +359,21 @@ def test_unknown_adapter_name_is_a_device_error() -> None:
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
     assert "DeviceError: no adapter's name contains \"no-such-gpu-anywhere\"" in out.stdout, out.stderr
     assert "available:" in out.stdout
+
+
+def test_patches_outside_the_view_are_culled_and_nothing_visible_is(bunny: Converted, r256: gt.Renderer) -> None:
+    """A close-up of one part of the bunny: most patch boxes lie outside the frustum and are
+    skipped before drawing; the image still matches trimesh (a culled visible patch would leave
+    a hole), and the camera turned away draws nothing at all."""
+    lo, hi = bunny.mesh.bounds
+    target = lo + np.array([0.3, 0.6, 0.5]) * (hi - lo)
+    cam = gt.Camera.look_at(target + np.array([0.0, 0.0, 0.25]) * bunny.mesh.diagonal, target, yfov_deg=30)
+    f = r256.render(bunny.gts, cam)
+    assert f.stats["patches_culled"] >= len(bunny.gts) // 2
+    assert f.stats["patches_drawn"] + f.stats["patches_culled"] == len(bunny.gts)
+    m = reference.compare(f, reference.raycast(bunny.mesh, cam, 256, 256), bunny.mesh.diagonal)
+    assert m["iou"] >= 0.99 and m["depth_p99"] <= 1e-2, m
+    away = gt.Camera.look_at(target + np.array([0.0, 0.0, 0.25]) * bunny.mesh.diagonal,
+                             target + np.array([0.0, 0.0, 1.0]) * bunny.mesh.diagonal, yfov_deg=30)
+    g = r256.render(bunny.gts, away)
+    assert g.stats["patches_culled"] == len(bunny.gts) and not np.isfinite(g.depth).any()

@@ -400,6 +400,7 @@ count_fetches=False, background=(255, 255, 255, 0))")]
         stats.set_item("gpu_ms", frame.gpu_ms)?;
         stats.set_item("cpu_ms", frame.cpu_ms)?;
         stats.set_item("patches_drawn", frame.patches_drawn)?;
+        stats.set_item("patches_culled", frame.patches_culled)?;
         stats.set_item("meshes_drawn", frame.meshes_drawn)?;
         stats.set_item("near", frame.near)?;
         stats.set_item(
@@ -486,7 +487,7 @@ impl PyFrame {
         self.patch_id.clone_ref(py)
     }
 
-    /// gpu_ms (GPU timestamps, None where unsupported), cpu_ms (the whole call), patches_drawn,
+    /// gpu_ms (GPU timestamps, None where unsupported), cpu_ms (the whole call), patches_drawn, patches_culled (boxes outside the view),
     /// meshes_drawn, near.
     #[getter]
     fn stats(&self, py: Python<'_>) -> Py<PyDict> {

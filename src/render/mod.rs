@@ -117,6 +117,8 @@ pub struct Frame {
     pub gpu_ms: Option<f64>,
     pub cpu_ms: f64,
     pub patches_drawn: usize,
+    /// Patches whose box lies wholly outside the view frustum, skipped before drawing.
+    pub patches_culled: usize,
     pub meshes_drawn: usize,
     pub near: f64,
     /// With `count_fetches`: height-map and pyramid reads, and the fragments that ray cast.
@@ -1006,7 +1008,7 @@ impl Renderer {
         }
         let mut draws = Vec::with_capacity(scene.objects.len());
         let (mut next_patch_id, mut mesh_index) = (0i32, 0i32);
-        let (mut patches_drawn, mut meshes_drawn) = (0usize, 0usize);
+        let (mut patches_drawn, mut meshes_drawn, mut patches_culled) = (0usize, 0usize, 0usize);
         for (o, &key) in scene.objects.iter().zip(&keys) {
             let view_from_object = view_from_world * o.world_from_object;
             let object_linear = DMat3::from_mat4(o.world_from_object);
@@ -1018,6 +1020,13 @@ impl Renderer {
                         .iter()
                         .zip(&up.places)
                         .enumerate()
+                        .filter(|(_, (p, _))| {
+                            let clip_from_patch =
+                                lens.clip_from_view * view_from_object * p.world_from_patch();
+                            let visible = in_frustum(&clip_from_patch, !lens.orthographic);
+                            patches_culled += usize::from(!visible);
+                            visible
+                        })
                         .map(|(i, (p, &(layer, x, y)))| {
                             let view_from_patch = view_from_object * p.world_from_patch();
                             let axes = DMat3::from_cols(p.axes[0], p.axes[1], p.axes[2]);
@@ -1317,6 +1326,7 @@ impl Renderer {
             gpu_ms,
             cpu_ms: start.elapsed().as_secs_f64() * 1e3,
             patches_drawn,
+            patches_culled,
             meshes_drawn,
             near: lens.near,
             fetches,
@@ -1348,3 +1358,24 @@ const _: () = assert!(std::mem::size_of::<PatchGpu>() == 240);
 const _: () = assert!(std::mem::size_of::<SearchGpu>() == 32);
 const _: () = assert!(std::mem::size_of::<CameraGpu>() == 160);
 const _: () = assert!(std::mem::size_of::<MeshObjectGpu>() == 144);
+
+/// Whether a box (the unit cube under `clip_from_box`) may reach the view: false only when all
+/// eight corners lie outside one side of the frustum (left, right, bottom, top, or, for a
+/// perspective camera, behind the eye). Conservative: a box across a corner of the frustum is
+/// kept; the ray caster then draws nothing for it.
+fn in_frustum(clip_from_box: &DMat4, perspective: bool) -> bool {
+    let corners: Vec<glam::DVec4> = (0..8)
+        .map(|k| {
+            let c = DVec3::new((k & 1) as f64, ((k >> 1) & 1) as f64, ((k >> 2) & 1) as f64);
+            *clip_from_box * c.extend(1.0)
+        })
+        .collect();
+    let outside = |test: &dyn Fn(&glam::DVec4) -> bool| corners.iter().all(test);
+    // A relative slack so rounding never culls a box that touches the frustum.
+    let slack = |c: &glam::DVec4| c.w.abs() * 1e-9;
+    !(outside(&|c| c.x > c.w + slack(c))
+        || outside(&|c| c.x < -c.w - slack(c))
+        || outside(&|c| c.y > c.w + slack(c))
+        || outside(&|c| c.y < -c.w - slack(c))
+        || (perspective && outside(&|c| c.w <= 0.0)))
+}
