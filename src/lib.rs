@@ -6,6 +6,7 @@
 
 pub mod convert;
 pub mod error;
+pub mod filters;
 pub mod format;
 pub mod grids;
 pub mod gtex;

@@ -396,6 +396,42 @@ impl PyGeometryTextureSet {
         py.detach(move || inner.save(&path)).map_err(to_py_err)
     }
 
+    /// A copy with every height map filtered: "gaussian" (low-pass) or "high_pass" (unsharp
+    /// masking, h + gain (h - gaussian h)); `sigma` in world units; normals rebuilt.
+    #[pyo3(signature = (kind, sigma, *, gain = 1.0))]
+    fn filtered(&self, py: Python<'_>, kind: &str, sigma: f64, gain: f64) -> PyResult<Self> {
+        let filter = match kind {
+            "gaussian" => crate::filters::MapFilter::Gaussian,
+            "high_pass" => crate::filters::MapFilter::HighPass { gain },
+            other => {
+                return Err(parameter_error(format!(
+                    "kind must be 'gaussian' or 'high_pass', got {other:?}"
+                )))
+            }
+        };
+        let inner = self.inner.clone();
+        let set = py
+            .detach(move || crate::filters::filtered(&inner, filter, sigma))
+            .map_err(to_py_err)?;
+        Ok(PyGeometryTextureSet {
+            inner: Arc::new(set),
+        })
+    }
+
+    /// Gaps (world units, float64) between neighbouring patches at points along their charts'
+    /// shared edges of `mesh` (the mesh the set was converted from).
+    fn seam_gaps<'py>(
+        &self,
+        py: Python<'py>,
+        mesh: &Bound<'py, PyMesh>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let (inner, m) = (self.inner.clone(), mesh.get().inner.clone());
+        let gaps = py
+            .detach(move || crate::filters::seam_gaps(&inner, &m))
+            .map_err(to_py_err)?;
+        Ok(gaps.into_pyarray(py))
+    }
+
     /// Builds a set straight from regular height grids (see geomtex._grids for the arguments,
     /// which it checks and colors before the grids are tiled here with the GIL released).
     #[staticmethod]

@@ -1,0 +1,299 @@
+//! Filters on a set's surface (reshaping a model, as the Geometry Textures paper does with its
+//! Gaussian and high-pass examples), and the seam gap they may open between patches.
+//!
+//! The paper filtered each height map on its own and saw seams open at 8 texels: two patches
+//! that share a border smooth it along different height axes. Here the filter runs once in
+//! world space over the texel points of all patches together (a Gaussian-weighted average of
+//! the neighbours' offsets along each point's normal), so the same place gets the same
+//! displacement whichever patch it is stored in; each displacement then goes back into its
+//! patch as a height change (divided by the cosine between the normal and the patch's z axis).
+//! Normal maps are rebuilt from the new heights by central differences.
+//!
+//! Space: world for the filter (points, normals, sigma), patch-local for the maps.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::convert::vertical_extent;
+use crate::error::{GeomtexError, Result};
+use crate::gtex::{decode_snorm8, encode_height, encode_snorm8, GeometryTextureSet, Patch};
+use crate::heightfield::height_at;
+use crate::mesh::{Mesh, MeshGeometry};
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum MapFilter {
+    /// Gaussian low-pass: smooths.
+    Gaussian,
+    /// Unsharp masking, h + gain (h - gaussian(h)): exaggerates detail finer than sigma.
+    HighPass { gain: f64 },
+}
+
+/// Offsets along the normal that a Gaussian of `sigma` (world units) would move each texel
+/// point by: the weighted mean of (q - p)·n over neighbours q within 3 sigma facing the same way.
+/// Neighbours come from a uniform grid of 3-sigma cells (sorted keys, no hash map needed).
+fn normal_offsets(points: &[DVec3], normals: &[DVec3], sigma: f64) -> Vec<f64> {
+    let r = 3.0 * sigma;
+    let cell = |p: DVec3| (p / r).floor().as_i64vec3().to_array();
+    let mut order: Vec<u32> = (0..points.len() as u32).collect();
+    order.sort_unstable_by_key(|&k| cell(points[k as usize]));
+    let keys: Vec<[i64; 3]> = order.iter().map(|&k| cell(points[k as usize])).collect();
+    let range = |key: [i64; 3]| {
+        let lo = keys.partition_point(|k| *k < key);
+        let hi = keys.partition_point(|k| *k <= key);
+        lo..hi
+    };
+    // Runs of equal keys are the occupied cells; each gathers its 27 neighbours' points once.
+    let mut starts: Vec<usize> = (0..keys.len())
+        .filter(|&i| i == 0 || keys[i] != keys[i - 1])
+        .collect();
+    starts.push(keys.len());
+    let per_cell: Vec<Vec<(u32, f64)>> = starts
+        .par_windows(2)
+        .map(|w| {
+            let c = keys[w[0]];
+            let mut near: Vec<u32> = Vec::new();
+            for dz in -1..=1 {
+                for dy in -1..=1 {
+                    for dx in -1..=1 {
+                        near.extend_from_slice(&order[range([c[0] + dx, c[1] + dy, c[2] + dz])]);
+                    }
+                }
+            }
+            order[w[0]..w[1]]
+                .iter()
+                .map(|&k| {
+                    let (p, n) = (points[k as usize], normals[k as usize]);
+                    let (mut num, mut den) = (0.0, 0.0);
+                    for &q in &near {
+                        let d = points[q as usize] - p;
+                        let d2 = d.length_squared();
+                        if d2 <= r * r && normals[q as usize].dot(n) > 0.5 {
+                            let w = (-d2 / (2.0 * sigma * sigma)).exp();
+                            num += w * d.dot(n);
+                            den += w;
+                        }
+                    }
+                    (k, if den > 0.0 { num / den } else { 0.0 })
+                })
+                .collect()
+        })
+        .collect();
+    let mut out = vec![0.0; points.len()];
+    for (k, d) in per_cell.into_iter().flatten() {
+        out[k as usize] = d;
+    }
+    out
+}
+
+/// The set with its surface filtered (`sigma` in world units): every patch's heights moved by
+/// the world-space filter, boxes refitted to the new height range, normals rebuilt; colors and
+/// faces kept.
+pub fn filtered(
+    set: &GeometryTextureSet,
+    filter: MapFilter,
+    sigma: f64,
+) -> Result<GeometryTextureSet> {
+    if !(sigma.is_finite() && sigma > 0.0) {
+        return Err(GeomtexError::Parameter(format!(
+            "sigma must be a positive finite length (world units), got {sigma}"
+        )));
+    }
+    let gain = match filter {
+        MapFilter::Gaussian => -1.0,
+        MapFilter::HighPass { gain } => {
+            if !(gain.is_finite() && gain > 0.0 && gain <= 100.0) {
+                return Err(GeomtexError::Parameter(format!(
+                    "gain must be in (0, 100], got {gain}"
+                )));
+            }
+            gain
+        }
+    };
+    // Every filled texel as a world point with its world normal.
+    let mut points = Vec::new();
+    let mut normals = Vec::new();
+    let mut slots = Vec::new();
+    for (k, p) in set.patches.iter().enumerate() {
+        for j in 0..p.height {
+            for i in 0..p.width {
+                let t = (j * p.width + i) as usize;
+                if p.heights[t] == 0 {
+                    continue;
+                }
+                let nl = decode_snorm8(p.normals[t]).normalize_or(DVec3::Z);
+                points.push(p.local_to_world(p.texel_local(i, j, p.heights[t])));
+                normals.push(p.axes[0] * nl.x + p.axes[1] * nl.y + p.axes[2] * nl.z);
+                slots.push((k as u32, t as u32, nl.z));
+            }
+        }
+    }
+    // Gaussian: move each point onto its neighbours' average (offset d); high-pass: away from it.
+    let offsets = normal_offsets(&points, &normals, sigma);
+    let mut moved: Vec<Vec<f64>> = set
+        .patches
+        .iter()
+        .map(|p| {
+            p.heights
+                .iter()
+                .map(|&q| p.decode_height(q as f64) * p.extent.z)
+                .collect()
+        })
+        .collect();
+    for ((&(k, t, cos), &d), _) in slots.iter().zip(&offsets).zip(&points) {
+        // Along the normal by -gain * d is along the patch's z by that over cos (kept >= 0.2
+        // so a point on a steep part cannot be thrown out of its patch).
+        moved[k as usize][t as usize] += -gain * d / cos.max(0.2);
+    }
+    let patches = set
+        .patches
+        .iter()
+        .zip(moved)
+        .map(|(p, z)| refit(p, &z))
+        .collect();
+    let mut out = GeometryTextureSet {
+        patches,
+        texel_size: set.texel_size,
+        stats: set.stats.clone(),
+    };
+    out.stats.set("filter_sigma", sigma);
+    out.stats.set("bytes", out.map_bytes() as f64);
+    Ok(out)
+}
+
+/// A patch with new heights `z` (world units above its box's bottom; only filled texels count):
+/// the box refitted to their range, heights re-encoded, normals rebuilt.
+fn refit(p: &Patch, new: &[f64]) -> Patch {
+    let (w, h) = (p.width as usize, p.height as usize);
+    let texel = (p.extent.x / w as f64, p.extent.y / h as f64);
+    let mask: Vec<bool> = p.heights.iter().map(|&q| q > 0).collect();
+    let filled = || new.iter().zip(&mask).filter(|(_, &m)| m).map(|(&v, _)| v);
+    let lo = filled().fold(f64::INFINITY, f64::min);
+    let hi = filled().fold(f64::NEG_INFINITY, f64::max);
+    let mut q = p.clone();
+    if lo > hi {
+        return q; // an empty patch stays empty
+    }
+    let (thickness, bits) = vertical_extent(hi - lo, texel.0.min(texel.1), p.height_bits);
+    let bottom = lo - 0.5 * (thickness - (hi - lo));
+    q.origin = p.origin + p.axes[2] * bottom;
+    q.extent.z = thickness;
+    q.height_bits = bits;
+    q.heights = new
+        .iter()
+        .zip(&mask)
+        .map(|(&v, &m)| {
+            if m {
+                encode_height((v - bottom) / thickness, bits)
+            } else {
+                0
+            }
+        })
+        .collect();
+    // Normals by central differences of the filtered heights (one-sided next to empty texels).
+    let at = |i: usize, j: usize| mask[j * w + i].then(|| new[j * w + i]);
+    for j in 0..h {
+        for i in 0..w {
+            if !mask[j * w + i] {
+                continue;
+            }
+            let slope = |a: Option<f64>, b: Option<f64>, c: f64, step: f64| match (a, b) {
+                (Some(a), Some(b)) => (b - a) / (2.0 * step),
+                (None, Some(b)) => (b - c) / step,
+                (Some(a), None) => (c - a) / step,
+                (None, None) => 0.0,
+            };
+            let c = new[j * w + i];
+            let left = if i > 0 { at(i - 1, j) } else { None };
+            let right = if i + 1 < w { at(i + 1, j) } else { None };
+            let down = if j > 0 { at(i, j - 1) } else { None };
+            let up = if j + 1 < h { at(i, j + 1) } else { None };
+            let n = DVec3::new(
+                -slope(left, right, c, texel.0),
+                -slope(down, up, c, texel.1),
+                1.0,
+            );
+            q.normals[j * w + i] = encode_snorm8(n.normalize());
+        }
+    }
+    q
+}
+
+/// The texel (column, row) holding patch-local (u, v).
+fn texel_at(p: &Patch, u: f64, v: f64) -> (usize, usize) {
+    let i = ((u * p.width as f64) as usize).min(p.width as usize - 1);
+    let j = ((v * p.height as f64) as usize).min(p.height as usize - 1);
+    (i, j)
+}
+
+/// Gaps between neighbouring patches along their charts' shared edges (world units): at points
+/// on each edge shared by faces of two different patches, the distance from the first patch's
+/// surface point to the second patch's surface (its tangent plane there), both ways. Points where either patch has no surface are skipped (none, on a clean conversion).
+pub fn seam_gaps(set: &GeometryTextureSet, mesh: &Mesh) -> Result<Vec<f64>> {
+    let mut owner = vec![u32::MAX; mesh.faces.len()];
+    for (k, p) in set.patches.iter().enumerate() {
+        for &f in &p.faces {
+            let slot = owner.get_mut(f as usize).ok_or_else(|| {
+                GeomtexError::Parameter(format!(
+                    "patch {k} lists face {f}, but the mesh has {} faces: not the mesh it was converted from",
+                    mesh.faces.len()
+                ))
+            })?;
+            *slot = k as u32;
+        }
+    }
+    let geo = MeshGeometry::new(mesh);
+    let surface_point = |p: &Patch, x: DVec3| -> Option<(f64, f64, f64)> {
+        let d = x - p.origin;
+        let (u, v) = (d.dot(p.axes[0]) / p.extent.x, d.dot(p.axes[1]) / p.extent.y);
+        ((0.0..=1.0).contains(&u) && (0.0..=1.0).contains(&v))
+            .then(|| height_at(p, u, v).map(|h| (u, v, h)))
+            .flatten()
+    };
+    let mut gaps = Vec::new();
+    for f in 0..mesh.faces.len() {
+        let a = owner[f];
+        if a == u32::MAX {
+            continue;
+        }
+        for &g in geo.face_neighbors.row(f) {
+            let b = owner[g as usize];
+            if b == u32::MAX || b == a || (g as usize) < f {
+                continue;
+            }
+            let tf = mesh.faces[f].map(|v| geo.weld[v as usize]);
+            let shared: Vec<u32> = mesh.faces[g as usize]
+                .iter()
+                .map(|&v| geo.weld[v as usize])
+                .filter(|v| tf.contains(v))
+                .collect();
+            if shared.len() < 2 {
+                continue;
+            }
+            let (e0, e1) = (
+                mesh.positions[shared[0] as usize],
+                mesh.positions[shared[1] as usize],
+            );
+            for t in [0.25, 0.5, 0.75] {
+                let x = e0.lerp(e1, t);
+                for (pa, pb) in [(a, b), (b, a)] {
+                    let (pa, pb) = (&set.patches[pa as usize], &set.patches[pb as usize]);
+                    let Some((u, v, h)) = surface_point(pa, x) else {
+                        continue;
+                    };
+                    let on_a = pa.local_to_world(DVec3::new(u, v, h));
+                    let Some((ub, vb, hb)) = surface_point(pb, on_a) else {
+                        continue;
+                    };
+                    let hb_of_a = (on_a - pb.origin).dot(pb.axes[2]) / pb.extent.z;
+                    // Vertical gap times the cosine of b's surface slope: the distance to b's
+                    // tangent plane (a vertical gap alone grows without bound on steep parts).
+                    let (i, j) = texel_at(pb, ub, vb);
+                    let n = decode_snorm8(pb.normals[j * pb.width as usize + i]);
+                    let slope_cos = n.normalize_or_zero().z.abs();
+                    gaps.push((hb - hb_of_a).abs() * pb.extent.z * slope_cos);
+                }
+            }
+        }
+    }
+    Ok(gaps)
+}
