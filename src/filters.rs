@@ -17,7 +17,7 @@ use rayon::prelude::*;
 use crate::convert::vertical_extent;
 use crate::error::{GeomtexError, Result};
 use crate::gtex::{decode_snorm8, encode_height, encode_snorm8, GeometryTextureSet, Patch};
-use crate::heightfield::height_at;
+use crate::heightfield::{grid_normal, height_at};
 use crate::mesh::{Mesh, MeshGeometry};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -193,26 +193,9 @@ fn refit(p: &Patch, new: &[f64]) -> Patch {
     let at = |i: usize, j: usize| mask[j * w + i].then(|| new[j * w + i]);
     for j in 0..h {
         for i in 0..w {
-            if !mask[j * w + i] {
-                continue;
+            if mask[j * w + i] {
+                q.normals[j * w + i] = encode_snorm8(grid_normal(at, (w, h), (i, j), texel));
             }
-            let slope = |a: Option<f64>, b: Option<f64>, c: f64, step: f64| match (a, b) {
-                (Some(a), Some(b)) => (b - a) / (2.0 * step),
-                (None, Some(b)) => (b - c) / step,
-                (Some(a), None) => (c - a) / step,
-                (None, None) => 0.0,
-            };
-            let c = new[j * w + i];
-            let left = if i > 0 { at(i - 1, j) } else { None };
-            let right = if i + 1 < w { at(i + 1, j) } else { None };
-            let down = if j > 0 { at(i, j - 1) } else { None };
-            let up = if j + 1 < h { at(i, j + 1) } else { None };
-            let n = DVec3::new(
-                -slope(left, right, c, texel.0),
-                -slope(down, up, c, texel.1),
-                1.0,
-            );
-            q.normals[j * w + i] = encode_snorm8(n.normalize());
         }
     }
     q

@@ -12,6 +12,7 @@ use glam::{DVec2, DVec3};
 use crate::convert::vertical_extent;
 use crate::error::{GeomtexError, Result};
 use crate::gtex::{encode_height, encode_snorm8, GeometryTextureSet, Patch, Stats};
+use crate::heightfield::grid_normal;
 
 /// One regular grid of heights with optional RGBA8 colors (row-major, `width` samples a row).
 pub struct HeightGrid {
@@ -73,32 +74,13 @@ impl HeightGrid {
 
     /// Unit normal from central differences (one-sided at edges and next to missing data).
     fn normal(&self, i: usize, j: usize) -> DVec3 {
-        let slope = |a: (usize, usize), b: (usize, usize), step: f64| {
-            let (za, zb) = (self.at(a.0, a.1), self.at(b.0, b.1));
-            ((zb - za) / step).is_finite().then_some((zb - za) / step)
-        };
-        let (w, h) = (self.width, self.height);
-        let dx = [
-            (i > 0 && i + 1 < w).then(|| slope((i - 1, j), (i + 1, j), 2.0 * self.spacing.x)),
-            (i + 1 < w).then(|| slope((i, j), (i + 1, j), self.spacing.x)),
-            (i > 0).then(|| slope((i - 1, j), (i, j), self.spacing.x)),
-        ]
-        .into_iter()
-        .flatten()
-        .flatten()
-        .next()
-        .unwrap_or(0.0);
-        let dy = [
-            (j > 0 && j + 1 < h).then(|| slope((i, j - 1), (i, j + 1), 2.0 * self.spacing.y)),
-            (j + 1 < h).then(|| slope((i, j), (i, j + 1), self.spacing.y)),
-            (j > 0).then(|| slope((i, j - 1), (i, j), self.spacing.y)),
-        ]
-        .into_iter()
-        .flatten()
-        .flatten()
-        .next()
-        .unwrap_or(0.0);
-        DVec3::new(-dx, -dy, 1.0).normalize()
+        let at = |i: usize, j: usize| Some(self.at(i, j)).filter(|z| !z.is_nan());
+        grid_normal(
+            at,
+            (self.width, self.height),
+            (i, j),
+            (self.spacing.x, self.spacing.y),
+        )
     }
 }
 

@@ -39,6 +39,29 @@ pub fn height_at(p: &Patch, u: f64, v: f64) -> Option<f64> {
     Some(p.decode_height(code))
 }
 
+/// Unit normal of a regular height grid at sample (i, j) from central differences, one-sided
+/// where a neighbour is missing (off the grid, or `at` gives None for no data). `at(i, j)` is
+/// the height at a sample; `step` the sample spacing along x and y, in the heights' units.
+pub fn grid_normal(
+    at: impl Fn(usize, usize) -> Option<f64>,
+    (w, h): (usize, usize),
+    (i, j): (usize, usize),
+    step: (f64, f64),
+) -> DVec3 {
+    let c = at(i, j);
+    let slope = |before: Option<f64>, after: Option<f64>, step: f64| match (before, after, c) {
+        (Some(a), Some(b), _) => (b - a) / (2.0 * step),
+        (None, Some(b), Some(c)) => (b - c) / step,
+        (Some(a), None, Some(c)) => (c - a) / step,
+        _ => 0.0,
+    };
+    let left = (i > 0).then(|| at(i - 1, j)).flatten();
+    let right = (i + 1 < w).then(|| at(i + 1, j)).flatten();
+    let down = (j > 0).then(|| at(i, j - 1)).flatten();
+    let up = (j + 1 < h).then(|| at(i, j + 1)).flatten();
+    DVec3::new(-slope(left, right, step.0), -slope(down, up, step.1), 1.0).normalize()
+}
+
 /// Heights are known to half a code; a ray dipping less than that under the surface and coming
 /// back up (two close roots) only grazes it and is not a hit. Patch-local height units.
 pub fn graze(p: &Patch) -> f64 {
