@@ -18,7 +18,7 @@ struct Patch {
     // x: atlas layer, y: patch id written to the id target.
     ids: vec4<i32>,
     // x: first pyramid value of this patch in `pyramid`, y: pyramid levels, z: the largest
-    // height code (255 or 65535).
+    // height code (255 or 65535), w: level-of-detail stop level (0 = exact).
     pyramid_at: vec4<u32>,
 }
 
@@ -150,21 +150,30 @@ fn first_root(a: f32, b: f32, c: f32, len: f32, graze: f32) -> f32 {
     return best;
 }
 
-// First crossing inside one level-0 cell for t in [ta, tb]: the height along the ray is a
-// quadratic in t there.
-fn cell_hit(p: Patch, o: vec3<f32>, d: vec3<f32>, cell: vec2<f32>, ta: f32, tb: f32) -> f32 {
+// First crossing inside one pyramid node for t in [ta, tb], on the bilinear surface through the
+// texels at the node's corners: at scale 1 (a level-0 cell) that is the exact surface; at scale
+// 2^L (level of detail) the map subsampled to every 2^L-th texel. The height along the ray is a
+// quadratic in t there. -2 when a corner texel is empty (no surface known at this scale).
+fn node_hit(p: Patch, o: vec3<f32>, d: vec3<f32>, node: vec2<f32>, scale: f32, ta: f32, tb: f32) -> f32 {
     let g0 = vec2<f32>(o.x * p.size.x + 0.5, o.y * p.size.y + 0.5);
-    let dg = d.xy * p.size;
-    let q = corner_codes(p, vec2<i32>(cell) - 1);
+    let dg = d.xy * p.size / scale;
+    let lo = vec2<i32>(node * scale) - 1;
+    let hi = vec2<i32>((node + 1.0) * scale) - 1;
+    let q = vec4<f32>(
+        load_code(p, lo),
+        load_code(p, vec2<i32>(hi.x, lo.y)),
+        load_code(p, vec2<i32>(lo.x, hi.y)),
+        load_code(p, hi),
+    );
     if (any(q == vec4<f32>(0.0))) {
-        return -1.0;
+        return -2.0;
     }
     let c00 = decode(p, q.x);
     let e = decode(p, q.y) - c00;
     let f = decode(p, q.z) - c00;
     let g = decode(p, q.x) - decode(p, q.y) - decode(p, q.z) + decode(p, q.w);
-    // Fractions inside the cell at ta, as functions of s = t - ta.
-    let fa = g0 + dg * ta - cell;
+    // Fractions inside the node at ta, as functions of s = t - ta.
+    let fa = (g0 / scale + dg * ta) - node;
     let h2 = g * dg.x * dg.y;
     let h1 = e * dg.x + f * dg.y + g * (fa.x * dg.y + fa.y * dg.x);
     let h0 = c00 + e * fa.x + f * fa.y + g * fa.x * fa.y;
@@ -178,6 +187,8 @@ fn cell_hit(p: Patch, o: vec3<f32>, d: vec3<f32>, cell: vec2<f32>, ta: f32, tb: 
 // is solved in closed form. Node values pack the max code (high 16 bits) and min code (low).
 fn maxmip_hit(p: Patch, search: Search, o: vec3<f32>, d: vec3<f32>, t_start: f32, t_end: f32) -> f32 {
     let levels = i32(p.pyramid_at.y);
+    // Level-of-detail stop level (0: exact, down to the bilinear cells).
+    var stop = i32(p.pyramid_at.w);
     // Offsets and row lengths of each level (level 0 is (W + 1) x (H + 1)).
     var offset: array<u32, 16>;
     var dims: array<vec2<u32>, 16>;
@@ -224,13 +235,21 @@ fn maxmip_hit(p: Patch, search: Search, o: vec3<f32>, d: vec3<f32>, t_start: f32
             level = min(level + 1, levels - 1);
             continue;
         }
-        if (level > 0) {
+        if (level > stop) {
             level -= 1;
             continue;
         }
-        let hit = cell_hit(p, o, d, node, t, t_exit);
+        // At the level-of-detail stop (a node about a pixel wide) the map subsampled to the
+        // node's corners stands in for the texels inside it; where a corner is empty (the
+        // chart's rim) the descent goes on to the exact cells.
+        let hit = node_hit(p, o, d, node, scale, t, t_exit);
         if (hit >= 0.0) {
             return hit;
+        }
+        if (hit < -1.5 && level > 0) {
+            level -= 1;
+            stop = 0;
+            continue;
         }
         t = t_exit;
         level = min(level + 1, levels - 1);

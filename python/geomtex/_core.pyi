@@ -160,5 +160,6 @@ class Renderer:
         binary_steps: int | None = None,
         max_traversal_steps: int | None = None,
         count_fetches: bool = False,
+        lod: bool = False,
         background: tuple[int, int, int, int] = (255, 255, 255, 0),
     ) -> Frame: ...

@@ -315,13 +315,15 @@ impl PyRenderer {
     ///
     /// `quality` picks measured settings ("fast", "balanced" (default) or "exact"); `method`
     /// and the step keywords override them. `count_fetches` uses a counting build of the pipeline
-    /// and reports height fetches per ray-cast fragment in `frame.stats`.
+    /// and reports height fetches per ray-cast fragment in `frame.stats`. `lod` (max-pyramid
+    /// search only) stops each patch's descent where its nodes are about a pixel.
     #[pyo3(signature = (obj, camera, *, quality = None, method = None, steps_per_texel = None,
         min_linear_steps = None, max_linear_steps = None, binary_steps = None,
-        max_traversal_steps = None, count_fetches = false, background = (255, 255, 255, 0)),
+        max_traversal_steps = None, count_fetches = false, lod = false,
+        background = (255, 255, 255, 0)),
         text_signature = "(self, /, obj, camera, *, quality=None, method=None, steps_per_texel=None, \
 min_linear_steps=None, max_linear_steps=None, binary_steps=None, max_traversal_steps=None, \
-count_fetches=False, background=(255, 255, 255, 0))")]
+count_fetches=False, lod=False, background=(255, 255, 255, 0))")]
     #[allow(clippy::too_many_arguments)]
     fn render(
         &self,
@@ -336,6 +338,7 @@ count_fetches=False, background=(255, 255, 255, 0))")]
         binary_steps: Option<u32>,
         max_traversal_steps: Option<u32>,
         count_fetches: bool,
+        lod: bool,
         background: (u8, u8, u8, u8),
     ) -> PyResult<PyFrame> {
         let mut search = match quality.unwrap_or("balanced") {
@@ -371,6 +374,7 @@ count_fetches=False, background=(255, 255, 255, 0))")]
         search.binary_steps = binary_steps.unwrap_or(search.binary_steps);
         search.max_traversal_steps = max_traversal_steps.unwrap_or(search.max_traversal_steps);
         search.count_fetches = count_fetches;
+        search.lod = lod;
         let scene = match obj.cast::<PyScene>() {
             Ok(s) => s.borrow().inner.clone(),
             Err(_) => Scene {

@@ -64,6 +64,10 @@ pub struct SearchOptions {
     pub max_traversal_steps: u32,
     /// Count height-map fetches per fragment (a slower counting build of the pipeline).
     pub count_fetches: bool,
+    /// Level of detail (max-pyramid search only): each patch's traversal stops at the pyramid
+    /// level whose nodes are about one pixel at the patch's nearest point, and hits the node's
+    /// mid height there instead of descending to the exact bilinear cell.
+    pub lod: bool,
 }
 
 impl Default for SearchOptions {
@@ -76,6 +80,7 @@ impl Default for SearchOptions {
             binary_steps: 8,
             max_traversal_steps: 4096,
             count_fetches: false,
+            lod: false,
         }
     }
 }
@@ -89,6 +94,11 @@ impl SearchOptions {
             && self.max_linear_steps <= 65536
             && self.binary_steps <= 64
             && (1..=1 << 20).contains(&self.max_traversal_steps);
+        if self.lod && self.method != Method::MaxMip {
+            return Err(GeomtexError::Parameter(
+                "lod needs the max-pyramid search (method='maxmip' or quality='exact')".into(),
+            ));
+        }
         if ok {
             Ok(())
         } else {
@@ -1041,7 +1051,11 @@ impl Renderer {
                                     up.pyramid_at[i][0],
                                     up.pyramid_at[i][1],
                                     p.code_max() as u32,
-                                    0,
+                                    if search.lod {
+                                        lod_level(&view_from_patch, p, &lens, up.pyramid_at[i][1])
+                                    } else {
+                                        0
+                                    },
                                 ],
                             }
                         })
@@ -1378,4 +1392,28 @@ fn in_frustum(clip_from_box: &DMat4, perspective: bool) -> bool {
         || outside(&|c| c.y > c.w + slack(c))
         || outside(&|c| c.y < -c.w - slack(c))
         || (perspective && outside(&|c| c.w <= 0.0)))
+}
+
+/// The pyramid level at which a patch's nodes are about one pixel: from its texel size and the
+/// pixel footprint at the nearest corner of its box (so no part of the patch gets coarser than
+/// a pixel; far parts of a long patch get finer than they need).
+fn lod_level(view_from_patch: &DMat4, p: &crate::gtex::Patch, lens: &Lens, levels: u32) -> u32 {
+    let nearest = (0..8)
+        .map(|k| {
+            let c = DVec3::new((k & 1) as f64, ((k >> 1) & 1) as f64, ((k >> 2) & 1) as f64);
+            -view_from_patch.transform_point3(c).z
+        })
+        .fold(f64::INFINITY, f64::min)
+        .max(lens.near);
+    let pixel = if lens.orthographic {
+        lens.ray[1].abs()
+    } else {
+        nearest * lens.ray[1].abs()
+    };
+    let texel = (p.extent.x / p.width as f64).min(p.extent.y / p.height as f64);
+    let texels_per_pixel = pixel / texel;
+    if !(texels_per_pixel >= 2.0) {
+        return 0;
+    }
+    (texels_per_pixel.log2().floor() as u32).min(levels.saturating_sub(1))
 }
