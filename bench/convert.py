@@ -102,7 +102,8 @@ def timed_convert(mesh: gt.Mesh, frame: str, repeats: int) -> tuple[gt.GeometryT
             best, best_wall = gts, wall
         del gts
         gc.collect()
-    stats = dict(best.stats)
+    # Per-patch arrays (patch_error, patch_resolution) as lists, so the record is plain JSON.
+    stats = {k: v.tolist() if hasattr(v, "tolist") else v for k, v in best.stats.items()}
     stats["seconds"] = dict(stats["seconds"])
     stats["wall_seconds"] = best_wall
     stats["wall_seconds_runs"] = walls
