@@ -34,6 +34,9 @@ def stats_table(gts: gt.GeometryTextureSet) -> str:
         ("texels", f"{st['texels']:,} ({100 * st['empty_fraction']:.1f}% empty)"),
         ("texel size", f"{st['texel_size']:.4g} ({st['texel_size'] / st['diagonal']:.2e} of the diagonal)"),
         ("map bytes", f"{st['bytes'] / 1e6:.2f} MB"),
+        ("reconstruction error", f"p99 {st['reconstruction_error_p99'] / st['diagonal']:.2e}, "
+                                 f"max {st['reconstruction_error_max'] / st['diagonal']:.2e} of the diagonal"),
+        ("mesh repairs", f"{st['duplicate_vertices']} duplicate vertices welded, {st['flipped_faces']} faces rewound"),
     ]
     rows += [(f"seconds: {k}", f"{v:.3f}") for k, v in st["seconds"].items()]
     width = max(len(r[0]) for r in rows)
