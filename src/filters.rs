@@ -114,17 +114,15 @@ pub fn filtered(
     let mut normals = Vec::new();
     let mut slots = Vec::new();
     for (k, p) in set.patches.iter().enumerate() {
-        for j in 0..p.height {
-            for i in 0..p.width {
-                let t = (j * p.width + i) as usize;
-                if p.heights[t] == 0 {
-                    continue;
-                }
-                let nl = decode_snorm8(p.normals[t]).normalize_or(DVec3::Z);
-                points.push(p.local_to_world(p.texel_local(i, j, p.heights[t])));
-                normals.push(p.axes[0] * nl.x + p.axes[1] * nl.y + p.axes[2] * nl.z);
-                slots.push((k as u32, t as u32, nl.z));
-            }
+        for (t, point, normal) in p.surface_texels() {
+            let normal = if normal == DVec3::ZERO {
+                p.axes[2]
+            } else {
+                normal
+            };
+            points.push(point);
+            normals.push(normal);
+            slots.push((k as u32, t as u32, normal.dot(p.axes[2])));
         }
     }
     // Gaussian: move each point onto its neighbours' average (offset d); high-pass: away from it.
@@ -139,7 +137,7 @@ pub fn filtered(
                 .collect()
         })
         .collect();
-    for ((&(k, t, cos), &d), _) in slots.iter().zip(&offsets).zip(&points) {
+    for (&(k, t, cos), &d) in slots.iter().zip(&offsets) {
         // Along the normal by -gain * d is along the patch's z by that over cos (kept >= 0.2
         // so a point on a steep part cannot be thrown out of its patch).
         moved[k as usize][t as usize] += -gain * d / cos.max(0.2);
@@ -226,10 +224,9 @@ pub fn seam_gaps(set: &GeometryTextureSet, mesh: &Mesh) -> Result<Vec<f64>> {
     }
     let geo = MeshGeometry::new(mesh);
     let surface_point = |p: &Patch, x: DVec3| -> Option<(f64, f64, f64)> {
-        let d = x - p.origin;
-        let (u, v) = (d.dot(p.axes[0]) / p.extent.x, d.dot(p.axes[1]) / p.extent.y);
-        ((0.0..=1.0).contains(&u) && (0.0..=1.0).contains(&v))
-            .then(|| height_at(p, u, v).map(|h| (u, v, h)))
+        let l = p.world_to_local(x);
+        ((0.0..=1.0).contains(&l.x) && (0.0..=1.0).contains(&l.y))
+            .then(|| height_at(p, l.x, l.y).map(|h| (l.x, l.y, h)))
             .flatten()
     };
     let mut gaps = Vec::new();
@@ -267,7 +264,7 @@ pub fn seam_gaps(set: &GeometryTextureSet, mesh: &Mesh) -> Result<Vec<f64>> {
                     let Some((ub, vb, hb)) = surface_point(pb, on_a) else {
                         continue;
                     };
-                    let hb_of_a = (on_a - pb.origin).dot(pb.axes[2]) / pb.extent.z;
+                    let hb_of_a = pb.world_to_local(on_a).z;
                     // Vertical gap times the cosine of b's surface slope: the distance to b's
                     // tangent plane (a vertical gap alone grows without bound on steep parts).
                     let (i, j) = texel_at(pb, ub, vb);

@@ -91,6 +91,33 @@ impl Patch {
             + self.axes[2] * (l.z * self.extent.z)
     }
 
+    /// Patch-local coordinates (the box is the unit cube) of a world point.
+    #[inline]
+    pub fn world_to_local(&self, x: DVec3) -> DVec3 {
+        let d = x - self.origin;
+        DVec3::new(
+            d.dot(self.axes[0]) / self.extent.x,
+            d.dot(self.axes[1]) / self.extent.y,
+            d.dot(self.axes[2]) / self.extent.z,
+        )
+    }
+
+    /// Every non-empty texel: (index in the maps, world point, world unit normal).
+    pub fn surface_texels(&self) -> impl Iterator<Item = (usize, DVec3, DVec3)> + '_ {
+        (0..self.height)
+            .flat_map(move |j| (0..self.width).map(move |i| (i, j)))
+            .filter_map(move |(i, j)| {
+                let t = (j * self.width + i) as usize;
+                let q = self.heights[t];
+                (q != 0).then(|| {
+                    let nl = decode_snorm8(self.normals[t]);
+                    let normal = (self.axes[0] * nl.x + self.axes[1] * nl.y + self.axes[2] * nl.z)
+                        .normalize_or_zero();
+                    (t, self.local_to_world(self.texel_local(i, j, q)), normal)
+                })
+            })
+    }
+
     pub fn texels(&self) -> usize {
         self.width as usize * self.height as usize
     }
@@ -155,25 +182,11 @@ pub struct GeometryTextureSet {
 impl GeometryTextureSet {
     /// Every non-empty texel as a world point (f64) and world unit normal (f32).
     pub fn to_points(&self) -> (Vec<[f64; 3]>, Vec<[f32; 3]>) {
-        let mut points = Vec::new();
-        let mut normals = Vec::new();
-        for p in &self.patches {
-            for j in 0..p.height {
-                for i in 0..p.width {
-                    let t = (j * p.width + i) as usize;
-                    let q = p.heights[t];
-                    if q == 0 {
-                        continue;
-                    }
-                    points.push(p.local_to_world(p.texel_local(i, j, q)).to_array());
-                    let nl = decode_snorm8(p.normals[t]);
-                    let nw = (p.axes[0] * nl.x + p.axes[1] * nl.y + p.axes[2] * nl.z)
-                        .normalize_or_zero();
-                    normals.push(nw.as_vec3().to_array());
-                }
-            }
-        }
-        (points, normals)
+        self.patches
+            .iter()
+            .flat_map(Patch::surface_texels)
+            .map(|(_, point, normal)| (point.to_array(), normal.as_vec3().to_array()))
+            .unzip()
     }
 
     pub fn texels(&self) -> usize {

@@ -188,12 +188,7 @@ pub fn first_hits(
             let mut best = (f64::INFINITY, -1);
             for (k, p) in set.patches.iter().enumerate() {
                 // Patch-local ray; t keeps its meaning (world distance) since the map is affine.
-                let rel = origin - p.origin;
-                let o = DVec3::new(
-                    rel.dot(p.axes[0]) / p.extent.x,
-                    rel.dot(p.axes[1]) / p.extent.y,
-                    rel.dot(p.axes[2]) / p.extent.z,
-                );
+                let o = p.world_to_local(origin);
                 let d = DVec3::new(
                     dir.dot(p.axes[0]) / p.extent.x,
                     dir.dot(p.axes[1]) / p.extent.y,

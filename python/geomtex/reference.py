@@ -95,15 +95,16 @@ def raycast(mesh: Any, camera: Any, width: int, height: int) -> dict[str, npt.ND
     }
 
 
+def _neighbours(a: npt.NDArray[Any], fill: Any) -> list[npt.NDArray[Any]]:
+    """The nine 3 x 3 shifts of ``a`` (pixels shifted in from outside take ``fill``)."""
+    padded = np.pad(a, 1, constant_values=fill)
+    h, w = a.shape
+    return [padded[dy:dy + h, dx:dx + w] for dy in range(3) for dx in range(3)]
+
+
 def _dilate(mask: npt.NDArray[np.bool_]) -> npt.NDArray[np.bool_]:
     """The mask grown by one pixel (3 x 3)."""
-    padded = np.pad(mask, 1)
-    h, w = mask.shape
-    out = np.zeros_like(mask)
-    for dy in range(3):
-        for dx in range(3):
-            out |= padded[dy:dy + h, dx:dx + w]
-    return out
+    return np.logical_or.reduce(_neighbours(mask, False))
 
 
 def compare(frame: Any, ref: dict[str, npt.NDArray[Any]], diagonal: float,
@@ -137,13 +138,10 @@ def compare(frame: Any, ref: dict[str, npt.NDArray[Any]], diagonal: float,
     }
     if both.any():
         dz = np.abs(depth[both].astype(np.float64) - np.asarray(ref["depth"])[both]) / diagonal
-        ref_depth = np.pad(np.asarray(ref["depth"], dtype=np.float64), 1, constant_values=np.inf)
-        h, w = depth.shape
         near = np.full(depth.shape, np.inf)
         with np.errstate(invalid="ignore"):  # inf - inf where both miss: those pixels are not used
-            for dy in range(3):
-                for dx in range(3):
-                    near = np.fmin(near, np.abs(depth - ref_depth[dy:dy + h, dx:dx + w]))
+            for shifted in _neighbours(np.asarray(ref["depth"], dtype=np.float64), np.inf):
+                near = np.fmin(near, np.abs(depth - shifted))
         dz1 = near[both] / diagonal
         out.update(depth_median=float(np.median(dz)), depth_p99=float(np.percentile(dz, 99)),
                    depth_max=float(dz.max()), depth_p99_1px=float(np.percentile(dz1, 99)))
@@ -163,7 +161,8 @@ def compare(frame: Any, ref: dict[str, npt.NDArray[Any]], diagonal: float,
 def agreement(renderer: Any, gts: Any, mesh: Any, camera: Any, **render_options: Any) -> dict[str, float]:
     """Renders ``gts`` and compares it (``compare``) with trimesh's ray cast of ``mesh`` seen by
     the same camera at the renderer's size; ``nan`` counts NaN depths and normals together."""
+    tm = _trimesh(mesh)  # built once for both the ray cast and the diagonal
     frame = renderer.render(gts, camera, **render_options)
-    m = compare(frame, raycast(mesh, camera, renderer.width, renderer.height), diagonal(mesh))
+    m = compare(frame, raycast(tm, camera, renderer.width, renderer.height), diagonal(tm))
     m["nan"] = m["nan_depth"] + m["nan_normal"]
     return m

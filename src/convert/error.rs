@@ -48,12 +48,7 @@ pub fn gaps(p: &Patch, samples: &[DVec3]) -> Vec<f64> {
     samples
         .iter()
         .filter_map(|&s| {
-            let d = s - p.origin;
-            let l = DVec3::new(
-                d.dot(p.axes[0]) / p.extent.x,
-                d.dot(p.axes[1]) / p.extent.y,
-                d.dot(p.axes[2]) / p.extent.z,
-            );
+            let l = p.world_to_local(s);
             if !(0.0..=1.0).contains(&l.x) || !(0.0..=1.0).contains(&l.y) {
                 return None;
             }

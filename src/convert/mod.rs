@@ -391,56 +391,35 @@ pub fn convert(
     if texel <= 0.0 {
         texel = geo.diagonal.max(f64::MIN_POSITIVE) * 1e-6; // every chart is a point
     }
+
+    let boxes: Vec<PatchBox> = frames.iter().map(|fr| patch_box(fr, texel, opts)).collect();
     timer.lap("frame");
 
-    // Raster, and each chart's reconstruction error against points sampled on its triangles.
+    // Raster.
     report(progress, "raster", 0.0)?;
     let done = AtomicUsize::new(0);
     let cancelled = AtomicBool::new(false);
     let n = charts.len();
-    let rastered: Vec<(PatchBox, raster::Maps, Vec<f64>)> = charts
+    let mut maps: Vec<raster::Maps> = charts
         .par_iter()
         .zip(&rings)
-        .zip(&frames)
-        .map(|((c, (ring, _)), fr)| {
+        .zip(&boxes)
+        .map(|((c, (ring, _)), bx)| {
             if cancelled.load(Ordering::Relaxed) {
-                return (patch_box(fr, texel, opts), raster::Maps::default(), vec![]);
+                return raster::Maps::default();
             }
             let faces: Vec<u32> = c.faces.iter().chain(ring).copied().collect();
-            // Samples about a texel apart (fewer on large charts, see the cap).
-            let samples = error::surface_samples(mesh, &c.faces, texel, ERROR_SAMPLES_PER_CHART);
-            let bx = patch_box(fr, texel, opts);
-            let m = raster::rasterize(mesh, &geo, &faces, c.faces.len(), &bx, opts.normals);
-            let gaps = error::gaps(&bx.with_heights(m.heights.clone()), &samples);
-            let out = (bx, m, gaps);
+            let m = raster::rasterize(mesh, &geo, &faces, c.faces.len(), bx, opts.normals);
             let k = done.fetch_add(1, Ordering::Relaxed) + 1;
             if k % 16 == 0 && !progress("raster", k as f64 / n as f64) {
                 cancelled.store(true, Ordering::Relaxed);
             }
-            out
+            m
         })
         .collect();
     if cancelled.load(Ordering::Relaxed) {
         return Err(GeomtexError::Cancelled("raster".into()));
     }
-    let (boxes, mut maps, mut gaps): (Vec<PatchBox>, Vec<raster::Maps>, Vec<Vec<f64>>) =
-        rastered.into_iter().fold(
-            (Vec::new(), Vec::new(), Vec::new()),
-            |(mut b, mut m, mut g), (bx, mx, gx)| {
-                b.push(bx);
-                m.push(mx);
-                g.push(gx);
-                (b, m, g)
-            },
-        );
-    let chart_errors: Vec<f64> = gaps
-        .iter_mut()
-        .map(|g| error::quantile(g, ERROR_QUANTILE))
-        .collect();
-    let mut all_gaps: Vec<f64> = gaps.into_iter().flatten().collect();
-    let reconstruction_max = all_gaps.iter().copied().fold(0.0, f64::max);
-    let reconstruction_p99 = error::quantile(&mut all_gaps, ERROR_QUANTILE);
-    drop(all_gaps);
     timer.lap("raster");
 
     report(progress, "dilate", 0.0)?;
@@ -469,6 +448,25 @@ pub fn convert(
         })
         .collect();
 
+    // Each patch's reconstruction error against points sampled on its own triangles, about a
+    // texel apart (fewer on large charts, see the cap).
+    let mut gaps: Vec<Vec<f64>> = patches
+        .par_iter()
+        .map(|p| {
+            let samples = error::surface_samples(mesh, &p.faces, texel, ERROR_SAMPLES_PER_CHART);
+            error::gaps(p, &samples)
+        })
+        .collect();
+    let patch_errors: Vec<f64> = gaps
+        .iter_mut()
+        .map(|g| error::quantile(g, ERROR_QUANTILE))
+        .collect();
+    let mut all_gaps: Vec<f64> = gaps.into_iter().flatten().collect();
+    let reconstruction_max = all_gaps.iter().copied().fold(0.0, f64::max);
+    let reconstruction_p99 = error::quantile(&mut all_gaps, ERROR_QUANTILE);
+    drop(all_gaps);
+    timer.lap("error");
+
     // Figures, recomputed from the output rather than carried along.
     let folding_after = patches
         .iter()
@@ -483,17 +481,13 @@ pub fn convert(
                 .count()
         })
         .sum();
-    let texel = patches
-        .iter()
-        .map(|p| p.extent.x / p.width as f64)
-        .fold(0.0, f64::max);
     let mut set = GeometryTextureSet {
         patches,
         texel_size: texel,
         stats: Stats::default(),
     };
     stats.per_patch = vec![
-        ("patch_error".into(), chart_errors),
+        ("patch_error".into(), patch_errors),
         (
             "patch_resolution".into(),
             set.patches

@@ -22,25 +22,6 @@ pub struct PatchBox {
     pub height_bits: u8,
 }
 
-impl PatchBox {
-    /// A patch of this box holding only `heights` (for surface lookups before the other maps).
-    pub fn with_heights(&self, heights: Vec<u16>) -> crate::gtex::Patch {
-        crate::gtex::Patch {
-            origin: self.origin,
-            axes: self.axes,
-            extent: self.extent,
-            width: self.width,
-            height: self.height,
-            height_bits: self.height_bits,
-            heights,
-            normals: vec![],
-            colors: vec![],
-            faces: vec![],
-            ring_faces: vec![],
-        }
-    }
-}
-
 /// Which normal goes into the normal map.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum NormalSource {

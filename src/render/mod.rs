@@ -1373,17 +1373,19 @@ const _: () = assert!(std::mem::size_of::<SearchGpu>() == 32);
 const _: () = assert!(std::mem::size_of::<CameraGpu>() == 160);
 const _: () = assert!(std::mem::size_of::<MeshObjectGpu>() == 144);
 
+/// The corners of the unit cube (a patch's box in patch-local space).
+fn unit_cube_corners() -> [DVec3; 8] {
+    std::array::from_fn(|k| {
+        DVec3::new((k & 1) as f64, ((k >> 1) & 1) as f64, ((k >> 2) & 1) as f64)
+    })
+}
+
 /// Whether a box (the unit cube under `clip_from_box`) may reach the view: false only when all
 /// eight corners lie outside one side of the frustum (left, right, bottom, top, or, for a
 /// perspective camera, behind the eye). Conservative: a box across a corner of the frustum is
 /// kept; the ray caster then draws nothing for it.
 fn in_frustum(clip_from_box: &DMat4, perspective: bool) -> bool {
-    let corners: Vec<glam::DVec4> = (0..8)
-        .map(|k| {
-            let c = DVec3::new((k & 1) as f64, ((k >> 1) & 1) as f64, ((k >> 2) & 1) as f64);
-            *clip_from_box * c.extend(1.0)
-        })
-        .collect();
+    let corners = unit_cube_corners().map(|c| *clip_from_box * c.extend(1.0));
     let outside = |test: &dyn Fn(&glam::DVec4) -> bool| corners.iter().all(test);
     // A relative slack so rounding never culls a box that touches the frustum.
     let slack = |c: &glam::DVec4| c.w.abs() * 1e-9;
@@ -1398,11 +1400,9 @@ fn in_frustum(clip_from_box: &DMat4, perspective: bool) -> bool {
 /// pixel footprint at the nearest corner of its box (so no part of the patch gets coarser than
 /// a pixel; far parts of a long patch get finer than they need).
 fn lod_level(view_from_patch: &DMat4, p: &crate::gtex::Patch, lens: &Lens, levels: u32) -> u32 {
-    let nearest = (0..8)
-        .map(|k| {
-            let c = DVec3::new((k & 1) as f64, ((k >> 1) & 1) as f64, ((k >> 2) & 1) as f64);
-            -view_from_patch.transform_point3(c).z
-        })
+    let nearest = unit_cube_corners()
+        .iter()
+        .map(|&c| -view_from_patch.transform_point3(c).z)
         .fold(f64::INFINITY, f64::min)
         .max(lens.near);
     let pixel = if lens.orthographic {
