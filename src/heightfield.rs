@@ -28,6 +28,12 @@ fn cell_codes(p: &Patch, i: i64, j: i64) -> Option<[f64; 4]> {
 
 /// Surface height at patch-local (u, v), or None where there is no surface.
 pub fn height_at(p: &Patch, u: f64, v: f64) -> Option<f64> {
+    height_and_slope(p, u, v).map(|(h, _)| h)
+}
+
+/// Surface height at patch-local (u, v) and its derivatives along u and v (the bilinear
+/// cell's own gradient, patch-local units), or None where there is no surface.
+pub fn height_and_slope(p: &Patch, u: f64, v: f64) -> Option<(f64, [f64; 2])> {
     let (x, y) = (u * p.width as f64 - 0.5, v * p.height as f64 - 0.5);
     let (i, j) = (x.floor(), y.floor());
     let (fx, fy) = (x - i, y - j);
@@ -36,7 +42,17 @@ pub fn height_at(p: &Patch, u: f64, v: f64) -> Option<f64> {
         + q[1] * fx * (1.0 - fy)
         + q[2] * (1.0 - fx) * fy
         + q[3] * fx * fy;
-    Some(p.decode_height(code))
+    // Codes per texel along x and y; decoding is linear, so its step scales them.
+    let dx = (q[1] - q[0]) * (1.0 - fy) + (q[3] - q[2]) * fy;
+    let dy = (q[2] - q[0]) * (1.0 - fx) + (q[3] - q[1]) * fx;
+    let per_code = p.decode_height(2.0) - p.decode_height(1.0);
+    Some((
+        p.decode_height(code),
+        [
+            dx * per_code * p.width as f64,
+            dy * per_code * p.height as f64,
+        ],
+    ))
 }
 
 /// Unit normal of a regular height grid at sample (i, j) from central differences, one-sided

@@ -52,7 +52,7 @@ ProgressCallback = Callable[[str, float], "bool | None"]
 # Share of a typical conversion's time per stage (measured on the bunny), for the progress bar.
 _STAGE_SPAN = {
     "geometry": (0, 2), "partition": (2, 75), "repair": (75, 77), "overlap": (77, 79),
-    "frame": (79, 80), "raster": (80, 96), "dilate": (96, 99), "done": (100, 100),
+    "frame": (79, 80), "resolution": (80, 90), "raster": (90, 96), "dilate": (96, 99), "done": (100, 100),
 }
 
 
@@ -65,10 +65,13 @@ def _number(name: str, value: Any, kind: type) -> Any:
 def convert(
     mesh: Any,
     *,
-    max_resolution: int = 256,
+    max_resolution: int | None = None,
     texel_size: float | None = None,
+    max_error: float | None = None,
+    max_error_rel: float | None = None,
+    error_scope: Literal["set", "chart"] = "set",
     charts: int | None = None,
-    chart_error: float = 0.1,
+    chart_error: float | None = None,
     max_charts: int = 4096,
     compactness: float = 1.0,
     lloyd_iterations: int = 6,
@@ -82,10 +85,30 @@ def convert(
     """Converts a mesh into geometry textures.
 
     mesh: a :class:`Mesh`, ``trimesh.Trimesh`` or a mesh file path.
-    max_resolution: longest side of any patch in texels; one texel size serves every patch.
+    max_resolution: longest side of any patch in texels (default 256; 1024 with ``max_error``,
+        where it only caps a chart's memory). Without ``max_error`` one texel size serves every
+        patch, chosen so the largest chart just fits.
     texel_size: world size of a texel (grown if a chart would exceed ``max_resolution``).
+    max_error: error-driven resolution, in world units. Each chart gets its own texel size,
+        from long-side resolutions ``max_resolution`` down to 2 in steps of 2^(1/4), chosen for
+        the fewest bytes that keep the reconstruction error within ``max_error`` (see
+        ``error_scope``); ``max_resolution`` stays the cap. Error is the 99th percentile, by
+        area, of the distances from points on a chart's triangles to its height field and from
+        its rim texels to the triangles they copy, measured on the maps as stored.
+        ``stats["patch_resolution"]``, ``["patch_texel"]`` and ``["patch_error"]`` give each
+        chart's choice; ``stats["texel_size"]`` is then the finest chart's texel. Without it
+        one texel size serves every chart.
+    max_error_rel: ``max_error`` as a fraction of the bounding-box diagonal.
+    error_scope: ``"set"`` (default) bounds the set's error, ``stats["reconstruction_error_p99"]``,
+        with the fewest bytes: charts whose tail (a crease, a steep rim) would be dear to remove
+        keep it while cheaper charts get finer. ``"chart"`` bounds every chart's own error,
+        which costs more where charts differ.
     charts: exact VSA chart count; by default charts are added until the area-weighted mean
-        L2,1 error ``sum(area |n - N|^2) / sum(area)`` is at most ``chart_error``.
+        L2,1 error ``sum(area |n - N|^2) / sum(area)`` is at most ``chart_error`` (0.1 by
+        default; with ``max_error`` and neither ``charts`` nor ``chart_error`` given, 0.1, 0.2
+        and 0.3 are tried and the set within the bound with the fewest bytes is kept, since a
+        chart with its own texel no longer sets everyone's and fewer, larger charts draw fewer
+        ring faces twice; ``stats["chart_error"]`` says which).
     overlap_rings: rings of neighbouring faces each patch also draws (seamless borders).
     dilation: texels of normal/color dilation into empty space.
     frame: in-plane axes from the minimum-area rectangle (default) or 2D PCA (the paper's).
@@ -98,8 +121,8 @@ def convert(
     The work runs in Rust on all cores with the GIL released.
     """
     m = as_mesh(mesh)
-    _number("max_resolution", max_resolution, int)
-    _number("chart_error", chart_error, float)
+    if max_resolution is not None:
+        _number("max_resolution", max_resolution, int)
     _number("compactness", compactness, float)
     for name, v in [("max_charts", max_charts), ("lloyd_iterations", lloyd_iterations),
                     ("overlap_rings", overlap_rings), ("dilation", dilation),
@@ -107,8 +130,10 @@ def convert(
         _number(name, v, int)
     if charts is not None:
         _number("charts", charts, int)
-    if texel_size is not None:
-        _number("texel_size", texel_size, float)
+    for name, v in [("texel_size", texel_size), ("chart_error", chart_error), ("max_error", max_error),
+                    ("max_error_rel", max_error_rel)]:
+        if v is not None:
+            _number(name, v, float)
     callback: ProgressCallback | None
     bar = None
     if progress is True:
@@ -132,8 +157,11 @@ def convert(
             m,
             max_resolution=max_resolution,
             texel_size=None if texel_size is None else float(texel_size),
+            max_error=None if max_error is None else float(max_error),
+            max_error_rel=None if max_error_rel is None else float(max_error_rel),
+            error_scope=error_scope,
             charts=charts,
-            chart_error=float(chart_error),
+            chart_error=None if chart_error is None else float(chart_error),
             max_charts=max_charts,
             compactness=float(compactness),
             lloyd_iterations=lloyd_iterations,

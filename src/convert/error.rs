@@ -1,21 +1,33 @@
-//! Reconstruction error of a patch: how far its height field (bilinear in cells whose four
-//! texels hold surface, decoded codes, src/heightfield.rs) lies from points sampled on the
-//! chart's own triangles, measured along the patch's height axis.
+//! Reconstruction error of a patch, both ways:
+//! - mesh → patch: how far the height field (bilinear in cells whose four texels hold surface,
+//!   decoded codes, src/heightfield.rs) lies from points sampled on the chart's own triangles;
+//!   the vertical gap times the cosine of the field's local slope, the first-order distance to
+//!   the field (a bare vertical gap would count a steep chart's error up to 1/cos too high);
+//! - patch → mesh: how far the texels that conservative coverage extended past the triangles
+//!   (the lips, src/convert/raster.rs) lie from the triangle they copy. Without it a flat chart
+//!   would look exact at any resolution while its 2×2 map covers its whole bounding box.
 //!
-//! Space: world in (mesh positions, samples), patch-local (unit box) for the lookup; errors in
-//! world units. A chart never folds over its height axis after repair, so each sample has exactly
-//! one surface above or below it and the vertical gap bounds the distance to the surface.
+//! Every value carries the area it stands for, so quantiles are by area whatever the sample
+//! spacing of each chart.
+//!
+//! Space: world in (mesh positions, samples), patch-local (unit box) for the lookup; errors and
+//! areas in world units. A chart never folds over its height axis after repair, so each sample
+//! has exactly one surface above or below it.
 
 use glam::DVec3;
 
 use crate::gtex::Patch;
-use crate::heightfield::height_at;
+use crate::heightfield::height_and_slope;
 use crate::mesh::Mesh;
 
-/// Points spread uniformly by area over `faces`: each triangle is cut into n² similar
-/// sub-triangles (n from its area and `spacing`) and contributes their centroids, so the pattern
-/// is deterministic. About 2 area / spacing² points, at most ~`cap` (spacing grows to fit).
-pub fn surface_samples(mesh: &Mesh, faces: &[u32], spacing: f64, cap: usize) -> Vec<DVec3> {
+/// An error value (world units) and the surface area it stands for.
+pub type Weighted = (f64, f64);
+
+/// Points spread uniformly by area over `faces`, each with the area it stands for: each triangle
+/// is cut into n² similar sub-triangles (n from its area and `spacing`) and contributes their
+/// centroids, so the pattern is deterministic. About 2 area / spacing² points, at most ~`cap`
+/// (spacing grows to fit).
+pub fn surface_samples(mesh: &Mesh, faces: &[u32], spacing: f64, cap: usize) -> Vec<(DVec3, f64)> {
     let corners = |f: u32| mesh.faces[f as usize].map(|v| mesh.positions[v as usize]);
     let area = |[a, b, c]: [DVec3; 3]| 0.5 * (b - a).cross(c - a).length();
     let total: f64 = faces.iter().map(|&f| area(corners(f))).sum();
@@ -26,14 +38,15 @@ pub fn surface_samples(mesh: &Mesh, faces: &[u32], spacing: f64, cap: usize) -> 
         let n = ((2.0 * area([a, b, c])).sqrt() / spacing)
             .ceil()
             .clamp(1.0, 64.0) as usize;
+        let each = area([a, b, c]) / (n * n) as f64;
         let (e1, e2) = ((b - a) / n as f64, (c - a) / n as f64);
         // Upward sub-triangles (i, j) and downward ones, centroids in grid units.
         for i in 0..n {
             for j in 0..n - i {
                 let (fi, fj) = (i as f64, j as f64);
-                out.push(a + e1 * (fi + 1.0 / 3.0) + e2 * (fj + 1.0 / 3.0));
+                out.push((a + e1 * (fi + 1.0 / 3.0) + e2 * (fj + 1.0 / 3.0), each));
                 if i + j + 1 < n {
-                    out.push(a + e1 * (fi + 2.0 / 3.0) + e2 * (fj + 2.0 / 3.0));
+                    out.push((a + e1 * (fi + 2.0 / 3.0) + e2 * (fj + 2.0 / 3.0), each));
                 }
             }
         }
@@ -41,29 +54,41 @@ pub fn surface_samples(mesh: &Mesh, faces: &[u32], spacing: f64, cap: usize) -> 
     out
 }
 
-/// Vertical gaps |surface − sample| (world units) at the samples under which the patch has a
-/// surface; samples off the map or in a cell without four filled texels are skipped (the rim,
-/// which conservative coverage and neighbouring patches account for).
-pub fn gaps(p: &Patch, samples: &[DVec3]) -> Vec<f64> {
+/// Distances from the samples to the patch's height field, where the patch has a surface over
+/// them; samples off the map or in a cell without four filled texels are skipped (the rim, which
+/// conservative coverage and neighbouring patches account for).
+pub fn gaps(p: &Patch, samples: &[(DVec3, f64)]) -> Vec<Weighted> {
     samples
         .iter()
-        .filter_map(|&s| {
+        .filter_map(|&(s, area)| {
             let l = p.world_to_local(s);
             if !(0.0..=1.0).contains(&l.x) || !(0.0..=1.0).contains(&l.y) {
                 return None;
             }
-            height_at(p, l.x, l.y).map(|h| (h - l.z).abs() * p.extent.z)
+            let (h, [du, dv]) = height_and_slope(p, l.x, l.y)?;
+            // World rise per world run along x and y.
+            let (sx, sy) = (du * p.extent.z / p.extent.x, dv * p.extent.z / p.extent.y);
+            let gap = (h - l.z).abs() * p.extent.z;
+            Some((gap / (1.0 + sx * sx + sy * sy).sqrt(), area))
         })
         .collect()
 }
 
-/// The q-quantile (0..=1) of `values` (nearest rank); 0 for none.
-pub fn quantile(values: &mut [f64], q: f64) -> f64 {
+/// The `q`-quantile (0..=1) of the values, each counted by its area; 0 for none.
+pub fn quantile(values: &mut [Weighted], q: f64) -> f64 {
     if values.is_empty() {
         return 0.0;
     }
-    let k = ((values.len() - 1) as f64 * q).round() as usize;
-    *values.select_nth_unstable_by(k, f64::total_cmp).1
+    values.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+    let total: f64 = values.iter().map(|v| v.1).sum();
+    let mut acc = 0.0;
+    for &(v, w) in values.iter() {
+        acc += w;
+        if acc >= q * total {
+            return v;
+        }
+    }
+    values[values.len() - 1].0
 }
 
 #[cfg(test)]
@@ -83,9 +108,11 @@ mod tests {
         assert_eq!(s.len(), 3 * 400);
         assert!(s
             .iter()
-            .all(|p| p.z == 0.0 && p.x >= 0.0 && p.y >= 0.0 && p.x + p.y <= 6.0));
-        let left = s.iter().filter(|p| p.x + p.y < 2.0).count();
+            .all(|(p, _)| p.z == 0.0 && p.x >= 0.0 && p.y >= 0.0 && p.x + p.y <= 6.0));
+        let left = s.iter().filter(|(p, _)| p.x + p.y < 2.0).count();
         assert_eq!(left, 400);
+        // Each stands for its share of the area: 6 in all.
+        assert!((s.iter().map(|s| s.1).sum::<f64>() - 6.0).abs() < 1e-9);
         // The cap coarsens the spacing instead of dropping triangles.
         let capped = surface_samples(&mesh, &[0, 1, 2], 0.1, 300);
         assert!(
@@ -96,10 +123,14 @@ mod tests {
     }
 
     #[test]
-    fn quantile_by_rank() {
-        let mut v: Vec<f64> = (0..101).map(|i| i as f64).collect();
-        assert_eq!(quantile(&mut v, 0.99), 99.0);
+    fn quantile_by_area() {
+        let mut v: Vec<Weighted> = (0..100).map(|i| (i as f64, 1.0)).collect();
+        assert_eq!(quantile(&mut v, 0.99), 98.0);
         assert_eq!(quantile(&mut v, 0.0), 0.0);
         assert_eq!(quantile(&mut [], 0.5), 0.0);
+        // One value standing for as much area as all the others: it is the median.
+        v.push((1000.0, 100.0));
+        assert_eq!(quantile(&mut v, 0.51), 1000.0);
+        assert_eq!(quantile(&mut v, 0.49), 97.0);
     }
 }

@@ -25,18 +25,40 @@ use frame::FOLD_COS;
 use raster::PatchBox;
 use vsa::{ChartTarget, FaceSet, NONE};
 
+/// Whose reconstruction error `max_error` bounds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ErrorScope {
+    /// The set's (its area-weighted p99, the figure in `stats`): each chart gets the level that
+    /// buys the most accuracy per byte, so a chart whose tail (a crease, a steep rim) would be
+    /// dear to remove keeps it while cheap charts get finer.
+    Set,
+    /// Every chart's own: each gets the coarsest level within the bound.
+    Chart,
+}
+
 /// Keywords of `convert`. `Default` gives the documented defaults.
 #[derive(Clone, Debug)]
 pub struct ConvertOptions {
     /// Longest side of any patch, in texels. The texel size is one for the whole set, chosen so
     /// the largest chart just fits.
-    pub max_resolution: u32,
+    /// `None`: 256, or 1024 with `max_error` (where the error sets each chart's texel and the cap
+    /// only bounds a chart's memory, 10 MiB at 1024²).
+    pub max_resolution: Option<u32>,
     /// World size of a texel; grown if a chart would then exceed `max_resolution`.
     pub texel_size: Option<f64>,
+    /// Error-driven resolution: each chart gets the coarsest texel that keeps its reconstruction
+    /// error (the area-weighted p99, see `error`) within this many world units, up to
+    /// `max_resolution` texels on its longest side. `None`: one texel size for all charts.
+    pub max_error: Option<f64>,
+    /// `max_error` as a fraction of the mesh's bounding-box diagonal.
+    pub max_error_rel: Option<f64>,
+    /// Whose error `max_error` bounds.
+    pub error_scope: ErrorScope,
     /// Exact chart count for VSA (before folding repair). `None`: driven by `chart_error`.
     pub charts: Option<usize>,
     /// Target area-weighted mean L2,1 error of VSA, sum(area |n - N|^2) / sum(area).
-    pub chart_error: f64,
+    /// `None`: 0.1, or with `max_error` the cheapest of `ERROR_DRIVEN_CHART_ERRORS`.
+    pub chart_error: Option<f64>,
     /// Cap on VSA charts when driven by `chart_error`.
     pub max_charts: usize,
     /// Weight of VSA's compactness term (0 = plain L2,1 VSA); rounder charts waste fewer texels.
@@ -57,10 +79,13 @@ pub struct ConvertOptions {
 impl Default for ConvertOptions {
     fn default() -> Self {
         ConvertOptions {
-            max_resolution: 256,
+            max_resolution: None,
             texel_size: None,
+            max_error: None,
+            max_error_rel: None,
+            error_scope: ErrorScope::Set,
             charts: None,
-            chart_error: 0.1,
+            chart_error: None,
             max_charts: 4096,
             compactness: 1.0,
             lloyd_iterations: 6,
@@ -74,12 +99,22 @@ impl Default for ConvertOptions {
 }
 
 impl ConvertOptions {
+    pub fn error_driven(&self) -> bool {
+        self.max_error.is_some() || self.max_error_rel.is_some()
+    }
+
+    /// `max_resolution`, or its default.
+    pub fn resolution_cap(&self) -> u32 {
+        self.max_resolution
+            .unwrap_or(if self.error_driven() { 1024 } else { 256 })
+    }
+
     pub fn validate(&self) -> Result<()> {
         let bad = |m: String| Err(GeomtexError::Parameter(m));
-        if !(2..=16384).contains(&self.max_resolution) {
+        if !(2..=16384).contains(&self.resolution_cap()) {
             return bad(format!(
                 "max_resolution must be in [2, 16384], got {}",
-                self.max_resolution
+                self.resolution_cap()
             ));
         }
         if let Some(t) = self.texel_size {
@@ -89,14 +124,31 @@ impl ConvertOptions {
                 ));
             }
         }
+        for (name, e) in [
+            ("max_error", self.max_error),
+            ("max_error_rel", self.max_error_rel),
+        ] {
+            if let Some(e) = e {
+                if !(e.is_finite() && e > 0.0) {
+                    return bad(format!("{name} must be a positive finite number, got {e}"));
+                }
+            }
+        }
+        if self.max_error.is_some() && self.max_error_rel.is_some() {
+            return bad("give max_error or max_error_rel, not both".into());
+        }
+        if self.texel_size.is_some() && (self.max_error.is_some() || self.max_error_rel.is_some()) {
+            return bad(
+                "texel_size fixes the texel while max_error chooses it per chart: give one".into(),
+            );
+        }
         if self.charts == Some(0) {
             return bad("charts must be at least 1".into());
         }
-        if !(self.chart_error.is_finite() && (0.0..=4.0).contains(&self.chart_error)) {
-            return bad(format!(
-                "chart_error must be in [0, 4], got {}",
-                self.chart_error
-            ));
+        if let Some(c) = self.chart_error {
+            if !(c.is_finite() && (0.0..=4.0).contains(&c)) {
+                return bad(format!("chart_error must be in [0, 4], got {c}"));
+            }
         }
         if !(self.compactness.is_finite() && (0.0..=100.0).contains(&self.compactness)) {
             return bad(format!(
@@ -169,9 +221,214 @@ struct Chart {
 
 /// Charts sample their surface at most this often to measure reconstruction error.
 const ERROR_SAMPLES_PER_CHART: usize = 20_000;
-/// Reconstruction error is this quantile of the vertical gaps: the maximum would be set by
-/// the few samples at creases and rims, where a bilinear map of any resolution rounds corners.
+/// Reconstruction error is this quantile (by area) of the distances: the maximum would be set
+/// by the few samples at creases and rims, where a bilinear map of any resolution rounds corners.
 const ERROR_QUANTILE: f64 = 0.99;
+
+/// A chart drawn at one texel size: its box, its maps, and its reconstruction errors with the
+/// area each stands for (see `error`), whose `ERROR_QUANTILE` is `error`.
+struct Drawn {
+    bx: PatchBox,
+    maps: raster::Maps,
+    errors: Vec<error::Weighted>,
+    error: f64,
+}
+
+/// Draws a chart (its own faces first, then its ring) at texel size `texel` and measures its
+/// reconstruction error against `samples` of its own faces and its lips.
+#[allow(clippy::too_many_arguments)]
+fn draw_chart(
+    mesh: &Mesh,
+    geo: &MeshGeometry,
+    faces: &[u32],
+    chart_faces: usize,
+    frame: &([DVec3; 3], DVec3, DVec3, DVec3),
+    texel: f64,
+    opts: &ConvertOptions,
+    samples: &[(DVec3, f64)],
+) -> Drawn {
+    let bx = patch_box(frame, texel, opts);
+    let mut maps = raster::rasterize(mesh, geo, faces, chart_faces, &bx, opts.normals);
+    let probe = Patch {
+        origin: bx.origin,
+        axes: bx.axes,
+        extent: bx.extent,
+        width: bx.width,
+        height: bx.height,
+        height_bits: bx.height_bits,
+        heights: std::mem::take(&mut maps.heights),
+        normals: Vec::new(),
+        colors: Vec::new(),
+        faces: Vec::new(),
+        ring_faces: Vec::new(),
+    };
+    let mut errors = error::gaps(&probe, samples);
+    maps.heights = probe.heights;
+    // A lip texel stands for about half a texel of surface past the triangle it copies.
+    let lip_area = 0.5 * (bx.extent.x / bx.width as f64) * (bx.extent.y / bx.height as f64);
+    errors.extend(maps.lips.iter().map(|&(_, offset)| (offset, lip_area)));
+    let error = error::quantile(&mut errors, ERROR_QUANTILE);
+    Drawn {
+        bx,
+        maps,
+        errors,
+        error,
+    }
+}
+
+/// A chart ready to draw: its own faces then its ring, its frame (axes, reference point,
+/// local bounds) and the longer side of its bounds.
+struct ChartJob<'a> {
+    faces: Vec<u32>,
+    chart_faces: usize,
+    frame: &'a ([DVec3; 3], DVec3, DVec3, DVec3),
+    long: f64,
+}
+
+/// `work` on every item in parallel, reporting progress as `stage` and stopping early when the
+/// callback cancels.
+fn each_chart<J: Sync, T: Send>(
+    items: &[J],
+    progress: Progress,
+    stage: &str,
+    work: impl Fn(&J) -> T + Sync,
+) -> Result<Vec<T>> {
+    let done = AtomicUsize::new(0);
+    let cancelled = AtomicBool::new(false);
+    let out: Vec<Option<T>> = items
+        .par_iter()
+        .map(|item| {
+            if cancelled.load(Ordering::Relaxed) {
+                return None;
+            }
+            let t = work(item);
+            let k = done.fetch_add(1, Ordering::Relaxed) + 1;
+            if k % 16 == 0 && !progress(stage, k as f64 / items.len() as f64) {
+                cancelled.store(true, Ordering::Relaxed);
+            }
+            Some(t)
+        })
+        .collect();
+    if cancelled.load(Ordering::Relaxed) {
+        return Err(GeomtexError::Cancelled(stage.into()));
+    }
+    Ok(out.into_iter().flatten().collect())
+}
+
+/// Long-side resolutions the error-driven search tries, finest first: `max` down to 2 in
+/// steps of 2^(1/4), so neighbouring levels differ by ~30% in texel count.
+fn resolution_levels(max: u32) -> Vec<u32> {
+    let mut levels: Vec<u32> = (0..)
+        .map(|k| (max as f64 * 0.5f64.powf(k as f64 / 4.0)).round() as u32)
+        .take_while(|&r| r > 2)
+        .collect();
+    levels.push(2);
+    levels.dedup();
+    levels
+}
+
+/// The coarsest level whose measured error is within `max_error`, by bisection (error grows as
+/// the resolution falls, up to aliasing); the finest level if none is. Whatever is returned
+/// was measured, so a chart said to be within the bound is.
+fn coarsest_within(levels: &[u32], max_error: f64, draw: impl Fn(u32) -> Drawn) -> u32 {
+    let (mut lo, mut hi) = (0, levels.len());
+    let mut within = None;
+    while lo < hi {
+        let mid = (lo + hi) / 2;
+        if draw(levels[mid]).error <= max_error {
+            lo = mid + 1;
+            within = Some(levels[mid]); // each later success is coarser
+        } else {
+            hi = mid;
+        }
+    }
+    within.unwrap_or(levels[0])
+}
+
+/// A chart at one resolution: its bytes, and the area of its surface over the error bound
+/// out of all the area its errors stand for.
+#[derive(Clone, Copy, Debug)]
+struct LevelCost {
+    resolution: u32,
+    bytes: f64,
+    over: f64,
+    area: f64,
+}
+
+/// A chart's costs from its coarsest level up to the first that has next to nothing over the
+/// bound, or the finest.
+fn level_costs(levels: &[u32], max_error: f64, draw: impl Fn(u32) -> Drawn) -> Vec<LevelCost> {
+    let mut costs = Vec::new();
+    for &resolution in levels.iter().rev() {
+        let d = draw(resolution);
+        let over: f64 = d
+            .errors
+            .iter()
+            .filter(|e| e.0 > max_error)
+            .map(|e| e.1)
+            .sum();
+        let area: f64 = d.errors.iter().map(|e| e.1).sum();
+        let bytes = d.bx.width as f64 * d.bx.height as f64 * (d.bx.height_bits as f64 / 8.0 + 8.0);
+        costs.push(LevelCost {
+            resolution,
+            bytes,
+            over,
+            area,
+        });
+        // Finer levels could lower this chart's share of the set's budget by a tenth of its
+        // density at most: not worth measuring.
+        if over <= 0.1 * (1.0 - ERROR_QUANTILE) * area {
+            break;
+        }
+    }
+    costs
+}
+
+/// Each chart's level for the fewest bytes with at most `1 - quantile` of all the area over the
+/// bound, so the set's error quantile is within it. A multiple-choice knapsack, solved by its
+/// Lagrangian: for a price `lambda` per unit of area over the bound each chart takes its
+/// cheapest level on its own, and the price rises until the set fits. None if even the finest
+/// levels do not fit.
+fn allocate(costs: &[Vec<LevelCost>], quantile: f64) -> Option<Vec<u32>> {
+    let slack = 1.0 - quantile;
+    let choose = |lambda: f64| -> (Vec<u32>, f64) {
+        let mut excess = 0.0;
+        let picks = costs
+            .iter()
+            .map(|levels| {
+                let price = |c: &LevelCost| c.bytes + lambda * (c.over - slack * c.area);
+                let best = levels
+                    .iter()
+                    .min_by(|a, b| price(a).total_cmp(&price(b)))
+                    .expect("every chart has a level");
+                excess += best.over - slack * best.area;
+                best.resolution
+            })
+            .collect();
+        (picks, excess)
+    };
+    // The price is in bytes per unit area: bracket it in powers of ten around bytes / area.
+    let bytes: f64 = costs.iter().filter_map(|c| c.last()).map(|c| c.bytes).sum();
+    let area: f64 = costs.iter().filter_map(|c| c.last()).map(|c| c.area).sum();
+    let unit = bytes / area.max(f64::MIN_POSITIVE);
+    let (mut lo, mut hi) = (-12.0f64, 24.0f64); // log10 of lambda / unit
+    let (fine, excess) = choose(unit * 10f64.powf(hi));
+    if excess > 0.0 {
+        return None;
+    }
+    let mut best = fine;
+    for _ in 0..80 {
+        let mid = 0.5 * (lo + hi);
+        let (picks, excess) = choose(unit * 10f64.powf(mid));
+        if excess <= 0.0 {
+            hi = mid;
+            best = picks;
+        } else {
+            lo = mid;
+        }
+    }
+    Some(best)
+}
 
 /// A box's thickness and height bits for a surface spanning `height` at texel size `texel`.
 ///
@@ -206,7 +463,7 @@ fn patch_box(
 ) -> PatchBox {
     let (axes, reference, lo, hi) = frame;
     let size = *hi - *lo;
-    let res = |s: f64| ((s / texel).ceil() as u32).clamp(2, opts.max_resolution.max(2));
+    let res = |s: f64| ((s / texel).ceil() as u32).clamp(2, opts.resolution_cap().max(2));
     let (w, h) = (res(size.x), res(size.y));
     // Centre the chart in its whole-texel box.
     let pad_x = (w as f64 * texel - size.x) * 0.5;
@@ -224,12 +481,62 @@ fn patch_box(
     }
 }
 
+/// VSA's target mean error when none is given.
+const DEFAULT_CHART_ERROR: f64 = 0.1;
+/// Partitions tried when `max_error` is given without `chart_error` or `charts`: with a texel
+/// of its own, a chart no longer sets everyone's texel, so fewer, larger charts (fewer ring
+/// faces drawn twice) often cost fewer bytes; sharp-creased CAD models still want the finest.
+const ERROR_DRIVEN_CHART_ERRORS: [f64; 3] = [0.1, 0.2, 0.3];
+
 pub fn convert(
     mesh: &Mesh,
     opts: &ConvertOptions,
     progress: Progress,
 ) -> Result<GeometryTextureSet> {
     opts.validate()?;
+    if !opts.error_driven() || opts.chart_error.is_some() || opts.charts.is_some() {
+        return convert_once(mesh, opts, progress);
+    }
+    // The set within the bound with the fewest bytes (or the most accurate, if none is).
+    let start = Instant::now();
+    let mut best: Option<GeometryTextureSet> = None;
+    for tolerance in ERROR_DRIVEN_CHART_ERRORS {
+        let o = ConvertOptions {
+            chart_error: Some(tolerance),
+            ..opts.clone()
+        };
+        let set = convert_once(mesh, &o, progress)?;
+        let key = |s: &GeometryTextureSet| {
+            let st = |n: &str| s.stats.get(n).unwrap_or(f64::INFINITY);
+            let within = st("reconstruction_error_p99") <= st("max_error");
+            (
+                !within,
+                if within {
+                    st("bytes")
+                } else {
+                    st("reconstruction_error_p99")
+                },
+            )
+        };
+        if best.as_ref().is_none_or(|b| key(&set) < key(b)) {
+            best = Some(set);
+        }
+    }
+    let mut best = best.expect("at least one partition");
+    best.stats
+        .set("partitions_tried", ERROR_DRIVEN_CHART_ERRORS.len() as f64);
+    best.stats
+        .seconds
+        .push(("all_partitions".into(), start.elapsed().as_secs_f64()));
+    Ok(best)
+}
+
+/// One conversion with one partition target.
+fn convert_once(
+    mesh: &Mesh,
+    opts: &ConvertOptions,
+    progress: Progress,
+) -> Result<GeometryTextureSet> {
     let total_start = Instant::now();
     let mut timer = Timer {
         start: total_start,
@@ -278,7 +585,7 @@ pub fn convert(
     let target = match opts.charts {
         Some(n) => ChartTarget::Count(n),
         None => ChartTarget::MeanError {
-            tolerance: opts.chart_error,
+            tolerance: opts.chart_error.unwrap_or(DEFAULT_CHART_ERROR),
             max_charts: opts.max_charts,
         },
     };
@@ -386,54 +693,116 @@ pub fn convert(
         .iter()
         .map(|f| (f.3 - f.2).x.max((f.3 - f.2).y))
         .fold(0.0, f64::max);
-    let fit = longest / opts.max_resolution as f64;
+    let fit = longest / opts.resolution_cap() as f64;
     let mut texel = opts.texel_size.map_or(fit, |t| t.max(fit));
     if texel <= 0.0 {
         texel = geo.diagonal.max(f64::MIN_POSITIVE) * 1e-6; // every chart is a point
     }
-
-    let boxes: Vec<PatchBox> = frames.iter().map(|fr| patch_box(fr, texel, opts)).collect();
+    let max_error = opts
+        .max_error
+        .or(opts.max_error_rel.map(|r| r * geo.diagonal));
+    let levels = resolution_levels(opts.resolution_cap());
     timer.lap("frame");
 
-    // Raster.
-    report(progress, "raster", 0.0)?;
-    let done = AtomicUsize::new(0);
-    let cancelled = AtomicBool::new(false);
-    let n = charts.len();
-    let mut maps: Vec<raster::Maps> = charts
-        .par_iter()
+    // Raster and reconstruction error, chart by chart: at the one texel size, or each at its own
+    // resolution chosen for max_error.
+    let jobs: Vec<ChartJob> = charts
+        .iter()
         .zip(&rings)
-        .zip(&boxes)
-        .map(|((c, (ring, _)), bx)| {
-            if cancelled.load(Ordering::Relaxed) {
-                return raster::Maps::default();
-            }
-            let faces: Vec<u32> = c.faces.iter().chain(ring).copied().collect();
-            let m = raster::rasterize(mesh, &geo, &faces, c.faces.len(), bx, opts.normals);
-            let k = done.fetch_add(1, Ordering::Relaxed) + 1;
-            if k % 16 == 0 && !progress("raster", k as f64 / n as f64) {
-                cancelled.store(true, Ordering::Relaxed);
-            }
-            m
+        .zip(&frames)
+        .map(|((c, (ring, _)), frame)| ChartJob {
+            faces: c.faces.iter().chain(ring).copied().collect(),
+            chart_faces: c.faces.len(),
+            frame,
+            long: (frame.3 - frame.2)
+                .x
+                .max((frame.3 - frame.2).y)
+                .max(texel * 1e-3),
         })
         .collect();
-    if cancelled.load(Ordering::Relaxed) {
-        return Err(GeomtexError::Cancelled("raster".into()));
-    }
+    // Samples about a texel apart at the finest texel a chart can get.
+    let spacing = |j: &ChartJob| match max_error {
+        None => texel,
+        Some(_) => j.long / opts.resolution_cap() as f64,
+    };
+    let samples = |j: &ChartJob| {
+        error::surface_samples(
+            mesh,
+            &j.faces[..j.chart_faces],
+            spacing(j),
+            ERROR_SAMPLES_PER_CHART,
+        )
+    };
+    let draw = |j: &ChartJob, t: f64, samples: &[(DVec3, f64)]| {
+        draw_chart(
+            mesh,
+            &geo,
+            &j.faces,
+            j.chart_faces,
+            j.frame,
+            t,
+            opts,
+            samples,
+        )
+    };
+    let resolution_texel = |j: &ChartJob, r: u32| j.long / r as f64;
+    // Each chart's texel size.
+    let texels: Vec<f64> = match max_error {
+        None => vec![texel; jobs.len()],
+        Some(e) => {
+            report(progress, "resolution", 0.0)?;
+            let picks = match opts.error_scope {
+                ErrorScope::Chart => each_chart(&jobs, progress, "resolution", |j| {
+                    let s = samples(j);
+                    coarsest_within(&levels, e, |r| draw(j, resolution_texel(j, r), &s))
+                })?,
+                ErrorScope::Set => {
+                    let costs = each_chart(&jobs, progress, "resolution", |j| {
+                        let s = samples(j);
+                        level_costs(&levels, e, |r| draw(j, resolution_texel(j, r), &s))
+                    })?;
+                    // Not even the finest levels fit: every chart at its finest measured.
+                    allocate(&costs, ERROR_QUANTILE).unwrap_or_else(|| {
+                        costs.iter().map(|c| c.last().unwrap().resolution).collect()
+                    })
+                }
+            };
+            timer.lap("resolution");
+            jobs.iter()
+                .zip(picks)
+                .map(|(j, r)| resolution_texel(j, r))
+                .collect()
+        }
+    };
+    report(progress, "raster", 0.0)?;
+    let jobs_texels: Vec<(&ChartJob, f64)> = jobs.iter().zip(texels).collect();
+    let mut drawn = each_chart(&jobs_texels, progress, "raster", |&(j, t)| {
+        draw(j, t, &samples(j))
+    })?;
+    drop(jobs_texels);
+    drop(jobs);
     timer.lap("raster");
 
     report(progress, "dilate", 0.0)?;
-    maps.par_iter_mut()
-        .zip(&boxes)
-        .for_each(|(m, bx)| raster::dilate(m, bx.width, bx.height, opts.dilation));
+    drawn
+        .par_iter_mut()
+        .for_each(|d| raster::dilate(&mut d.maps, d.bx.width, d.bx.height, opts.dilation));
     timer.lap("dilate");
+
+    let patch_errors: Vec<f64> = drawn.iter().map(|d| d.error).collect();
+    let mut all_errors: Vec<error::Weighted> = drawn
+        .iter_mut()
+        .flat_map(|d| std::mem::take(&mut d.errors))
+        .collect();
+    let reconstruction_max = all_errors.iter().map(|e| e.0).fold(0.0, f64::max);
+    let reconstruction_p99 = error::quantile(&mut all_errors, ERROR_QUANTILE);
+    drop(all_errors);
 
     let patches: Vec<Patch> = charts
         .into_iter()
         .zip(rings)
-        .zip(boxes)
-        .zip(maps)
-        .map(|(((c, (ring, _)), bx), m)| Patch {
+        .zip(drawn)
+        .map(|((c, (ring, _)), Drawn { bx, maps: m, .. })| Patch {
             origin: bx.origin,
             axes: bx.axes,
             extent: bx.extent,
@@ -447,25 +816,14 @@ pub fn convert(
             ring_faces: ring,
         })
         .collect();
-
-    // Each patch's reconstruction error against points sampled on its own triangles, about a
-    // texel apart (fewer on large charts, see the cap).
-    let mut gaps: Vec<Vec<f64>> = patches
-        .par_iter()
-        .map(|p| {
-            let samples = error::surface_samples(mesh, &p.faces, texel, ERROR_SAMPLES_PER_CHART);
-            error::gaps(p, &samples)
-        })
-        .collect();
-    let patch_errors: Vec<f64> = gaps
-        .iter_mut()
-        .map(|g| error::quantile(g, ERROR_QUANTILE))
-        .collect();
-    let mut all_gaps: Vec<f64> = gaps.into_iter().flatten().collect();
-    let reconstruction_max = all_gaps.iter().copied().fold(0.0, f64::max);
-    let reconstruction_p99 = error::quantile(&mut all_gaps, ERROR_QUANTILE);
-    drop(all_gaps);
-    timer.lap("error");
+    let patch_texel = |p: &Patch| (p.extent.x / p.width as f64).min(p.extent.y / p.height as f64);
+    // The set's texel size: the one texel, or the finest chart's when each has its own.
+    if max_error.is_some() {
+        texel = patches
+            .iter()
+            .map(patch_texel)
+            .fold(f64::INFINITY, f64::min);
+    }
 
     // Figures, recomputed from the output rather than carried along.
     let folding_after = patches
@@ -486,7 +844,17 @@ pub fn convert(
         texel_size: texel,
         stats: Stats::default(),
     };
+    if let Some(e) = max_error {
+        // Charts that stayed over the bound at max_resolution.
+        let over = patch_errors.iter().filter(|&&p| p > e).count();
+        stats.set("max_error", e);
+        stats.set("charts_over_max_error", over as f64);
+    }
     stats.per_patch = vec![
+        (
+            "patch_texel".into(),
+            set.patches.iter().map(patch_texel).collect(),
+        ),
         ("patch_error".into(), patch_errors),
         (
             "patch_resolution".into(),
@@ -509,6 +877,10 @@ pub fn convert(
         ("charts", set.patches.len() as f64),
         ("vsa_charts", initial_charts as f64),
         ("vsa_mean_error", vsa_mean_error),
+        (
+            "chart_error",
+            opts.chart_error.unwrap_or(DEFAULT_CHART_ERROR),
+        ),
         ("repair_splits", splits as f64),
         ("folding_charts", folding_after as f64),
         ("inverted_triangles", inverted_after as f64),
@@ -671,7 +1043,7 @@ mod tests {
         });
         assert!(matches!(e, Err(GeomtexError::Cancelled(s)) if s == "raster"));
         let opts = ConvertOptions {
-            max_resolution: 1,
+            max_resolution: Some(1),
             ..Default::default()
         };
         assert!(matches!(

@@ -36,6 +36,9 @@ pub struct Maps {
     pub heights: Vec<u16>,
     pub normals: Vec<[i8; 4]>,
     pub colors: Vec<[u8; 4]>,
+    /// Texels filled by conservative coverage alone (index, world distance from the texel's
+    /// centre to the point of the triangle it copies): how far the surface reaches past the mesh.
+    pub lips: Vec<(usize, f64)>,
 }
 
 pub const NEUTRAL_COLOR: [u8; 4] = [200, 200, 200, 255];
@@ -64,6 +67,7 @@ pub fn rasterize(
     let mut depth = vec![f64::NEG_INFINITY; w * h];
     // 0 = empty, 1 = covered by extrapolation, 2 = centre covered.
     let mut class = vec![0u8; w * h];
+    let mut lip_offset = vec![0.0f64; w * h];
     let mut normal_map = vec![[0i8; 4]; w * h];
     let mut color_map = vec![[0u8; 4]; w * h];
     let to_local = |p: DVec3| {
@@ -139,6 +143,11 @@ pub fn rasterize(
                 }
                 class[t] = here;
                 depth[t] = z;
+                if here == 1 {
+                    let near = a * la + b * lb + c * lc;
+                    lip_offset[t] =
+                        DVec2::new((px - near.x) * texel.x, (py - near.y) * texel.y).length();
+                }
                 let n = (vn[0] * la + vn[1] * lb + vn[2] * lc).normalize_or_zero();
                 normal_map[t] = encode_snorm8(to_patch_dir(n).normalize_or(DVec3::Z));
                 color_map[t] = match vc {
@@ -166,6 +175,10 @@ pub fn rasterize(
         heights,
         normals: normal_map,
         colors: color_map,
+        lips: (0..w * h)
+            .filter(|&t| class[t] == 1)
+            .map(|t| (t, lip_offset[t]))
+            .collect(),
     }
 }
 

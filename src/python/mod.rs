@@ -11,7 +11,7 @@ use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 
-use crate::convert::{ConvertOptions, InPlane, NormalSource};
+use crate::convert::{ConvertOptions, ErrorScope, InPlane, NormalSource};
 use crate::error::GeomtexError;
 use crate::gtex::GeometryTextureSet;
 use crate::mesh::Mesh;
@@ -522,17 +522,21 @@ fn load(py: Python<'_>, path: PathBuf) -> PyResult<PyGeometryTextureSet> {
 
 /// Converts a mesh to geometry textures (see geomtex.convert for the keywords).
 #[pyfunction]
-#[pyo3(signature = (mesh, *, max_resolution = 256, texel_size = None, charts = None,
-    chart_error = 0.1, max_charts = 4096, compactness = 1.0, lloyd_iterations = 6, overlap_rings = 1,
+#[pyo3(signature = (mesh, *, max_resolution = None, texel_size = None, max_error = None,
+    max_error_rel = None, error_scope = "set", charts = None,
+    chart_error = None, max_charts = 4096, compactness = 1.0, lloyd_iterations = 6, overlap_rings = 1,
     dilation = 2, frame = "min_area", normals = "smooth", height_bits = 16, progress = None))]
 #[allow(clippy::too_many_arguments)]
 fn convert(
     py: Python<'_>,
     mesh: &Bound<'_, PyMesh>,
-    max_resolution: i64,
+    max_resolution: Option<i64>,
     texel_size: Option<f64>,
+    max_error: Option<f64>,
+    max_error_rel: Option<f64>,
+    error_scope: &str,
     charts: Option<i64>,
-    chart_error: f64,
+    chart_error: Option<f64>,
     max_charts: i64,
     compactness: f64,
     lloyd_iterations: i64,
@@ -547,12 +551,25 @@ fn convert(
         usize::try_from(v).map_err(|_| parameter_error(format!("{name} must be >= 0, got {v}")))
     };
     let opts = ConvertOptions {
-        max_resolution: u32::try_from(max_resolution).map_err(|_| {
-            parameter_error(format!(
-                "max_resolution must be in [2, 16384], got {max_resolution}"
-            ))
-        })?,
+        max_resolution: max_resolution
+            .map(|r| {
+                u32::try_from(r).map_err(|_| {
+                    parameter_error(format!("max_resolution must be in [2, 16384], got {r}"))
+                })
+            })
+            .transpose()?,
         texel_size,
+        max_error,
+        max_error_rel,
+        error_scope: match error_scope {
+            "set" => ErrorScope::Set,
+            "chart" => ErrorScope::Chart,
+            other => {
+                return Err(parameter_error(format!(
+                    "error_scope must be 'set' or 'chart', got {other:?}"
+                )))
+            }
+        },
         charts: charts.map(|c| nonneg("charts", c)).transpose()?,
         chart_error,
         max_charts: nonneg("max_charts", max_charts)?,
