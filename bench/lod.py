@@ -1,4 +1,15 @@
-"""Cost against screen size: fetches per frame and time as the camera backs away.
+"""Model only what a scene requires: bytes against accuracy, and cost against screen size.
+
+Part 1, error-driven against fixed-resolution conversion, for the bunny and a horizon stack
+(three synthetic horizons, 160 x 210 grids, triangulated): the fixed conversions sweep
+``max_resolution`` (one texel size for all charts); the error-driven ones take as ``max_error``
+the p99 reconstruction error each fixed one measured, with ``error_scope="set"`` (default) and
+``"chart"``; one more row has every chart at 256² (the paper's layout). Per set: bytes, measured
+p99 reconstruction error, conversion time, and depth error of an ``exact`` render against
+trimesh + embree ray casting of the original mesh. The headline is the bytes ratio at the p99
+of ``max_resolution=256``.
+
+Part 2, cost against screen size: fetches per frame and time as the camera backs away.
 
 The bunny (256² maps) is rendered at 512² from an oblique view with the camera distance spaced
 geometrically so that the model goes from filling the frame to 1/8 of its height (~1/64 of the
@@ -15,7 +26,7 @@ Results: ``bench/results/lod.json`` and ``bench/results/lod.png``.
 
 Run from the repository root::
 
-    python bench/lod.py            # ~1 min on 2 cores
+    python bench/lod.py            # ~8 min on 2 cores
 """
 
 from __future__ import annotations
@@ -39,15 +50,137 @@ from render import BUNNY, machine_info  # noqa: E402
 RESULTS = Path(__file__).resolve().parent / "results"
 SIZE = 512
 DISTANCES = np.geomspace(1.0, 8.0, 7)  # × the full-frame distance
+FIXED = (128, 181, 256, 362, 512)  # max_resolution of the fixed conversions
+HORIZON_GRID = (160, 210)
+OBLIQUE = (1.0, 0.8, 1.0)
+
+
+def horizon_mesh() -> gt.Mesh:
+    """The horizon stack's three grids as one triangle mesh."""
+    grids = testing.horizon_stack(*HORIZON_GRID)
+    rows, cols = HORIZON_GRID
+    extent = (0.0, 10.0 * (cols - 1), 0.0, 10.0 * (rows - 1))
+    meshes = [testing.grid_mesh(g, extent) for g in grids]
+    offsets = np.cumsum([0] + [len(m.vertices) for m in meshes[:-1]])
+    return gt.Mesh(np.vstack([np.asarray(m.vertices) for m in meshes]),
+                   np.vstack([np.asarray(m.faces) + o for m, o in zip(meshes, offsets)]))
+
+
+def conversion_rows(name: str, mesh: gt.Mesh, renderer: gt.Renderer) -> list[dict[str, Any]]:
+    """Fixed and error-driven conversions of one mesh, each measured and rendered."""
+    cam = testing.look_from(mesh, OBLIQUE, distance=1.2)
+    ref = reference.raycast(mesh, cam, SIZE, SIZE)
+    rows: list[dict[str, Any]] = []
+
+    def measure(kind: str, target: float | None, **kw: Any) -> dict[str, Any]:
+        t0 = time.perf_counter()
+        gts = gt.convert(mesh, **kw)
+        seconds = time.perf_counter() - t0
+        m = reference.compare(renderer.render(gts, cam, quality="exact"), ref, mesh.diagonal)
+        st = gts.stats
+        row = {"mesh": name, "kind": kind, "options": {k: v for k, v in kw.items()},
+               "max_error": target, "diagonal": float(mesh.diagonal), "bytes": float(st["bytes"]), "charts": int(st["charts"]),
+               "chart_error": float(st["chart_error"]),
+               "p99": float(st["reconstruction_error_p99"]), "convert_s": seconds,
+               "resolution_median": float(np.median(st["patch_resolution"])),
+               "iou": m["iou"], "depth_p99": m["depth_p99"], "depth_median": m["depth_median"]}
+        print(f"{name:<8} {kind:<18} {row['bytes'] / 1e6:8.2f} MB  p99 {row['p99']:.3e}  "
+              f"charts {row['charts']:4d}  {seconds:6.1f} s  IoU {row['iou']:.4f}  "
+              f"depth p99 {row['depth_p99']:.1e}", flush=True)
+        rows.append(row)
+        return row
+
+    fixed = {r: measure(f"fixed {r}", None, max_resolution=r) for r in FIXED}
+    for r in FIXED:
+        measure("error-driven set", fixed[r]["p99"], max_error=fixed[r]["p99"])
+    measure("error-driven chart", fixed[256]["p99"], max_error=fixed[256]["p99"], error_scope="chart")
+    # Every chart at the cap: the paper's fixed 256² per patch.
+    measure("256² per patch", None, max_error=1e-12 * mesh.diagonal, max_resolution=256,
+            error_scope="chart", chart_error=0.1)
+    return rows
+
+
+def bytes_at(rows: list[dict[str, Any]], kind_prefix: str, p99: float) -> float:
+    """Bytes at a p99, interpolated log-log along the rows of one kind (sorted by p99)."""
+    pts = sorted((r["p99"], r["bytes"]) for r in rows if r["kind"].startswith(kind_prefix))
+    x = np.log([p for p, _ in pts])
+    y = np.log([b for _, b in pts])
+    return float(np.exp(np.interp(np.log(p99), x, y)))
+
+
+def plot(data: dict[str, Any], path: Path) -> None:
+    """The bytes/error plot of part 1 and the fetches and depth error of part 2."""
+    conversions, rows = data["conversions"], data["rows"]
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 3, figsize=(16, 4.4))
+    for name, marker in (("bunny", "o"), ("horizons", "s")):
+        for kind, color in (("fixed", "C0"), ("error-driven set", "C3")):
+            rs = sorted((r for r in conversions if r["mesh"] == name and r["kind"].startswith(kind)),
+                        key=lambda r: r["p99"])
+            axes[0].loglog([r["p99"] / r["diagonal"] for r in rs], [r["bytes"] for r in rs], marker + "-",
+                           color=color, label=f"{name}: {kind}")
+        for kind, color in (("error-driven chart", "C1"), ("256² per patch", "C7")):
+            rs = [r for r in conversions if r["mesh"] == name and r["kind"] == kind]
+            axes[0].loglog([r["p99"] / r["diagonal"] for r in rs], [r["bytes"] for r in rs], marker,
+                           color=color, label=f"{name}: {kind}")
+    axes[0].set_xlabel("measured p99 reconstruction error / diagonal")
+    axes[0].legend(fontsize=7)
+    axes[0].grid(True, which="both", alpha=0.3)
+    axes[0].set_ylabel("map bytes")
+    axes[0].set_title("error-driven vs fixed resolution")
+    axes = axes[1:]
+    for q, color in (("balanced", "C0"), ("exact", "C1"), ("exact+lod", "C2")):
+        rs = [r for r in rows if r["quality"] == q]
+        axes[0].loglog([r["covered_px"] for r in rs], [r["fetches_per_frame"] for r in rs], "o-", color=color, label=q)
+        axes[1].loglog([r["covered_px"] for r in rs], [r["depth_p99"] for r in rs], "o-", color=color, label=q)
+    axes[0].set_ylabel("height fetches per frame")
+    axes[1].set_ylabel("p99 |Δdepth| / diagonal (vs trimesh)")
+    axes[1].axhline(1e-2, color="grey", linestyle=":", label="renderer bound")
+    for ax in axes:
+        ax.set_xlabel("covered pixels (512² frame)")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=8)
+    axes[1].set_title("bunny, camera backing away to 1/8 of the image height", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
 
 
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=RESULTS / "lod.json")
+    ap.add_argument("--replot", action="store_true", help="only redraw the PNG from the JSON")
     args = ap.parse_args(argv)
+    if args.replot:
+        plot(json.loads(args.out.read_text()), args.out.with_suffix(".png"))
+        return
     mesh = gt.load_mesh(BUNNY)
-    gts = gt.convert(mesh)
     renderer = gt.Renderer(SIZE, SIZE)
+    conversions: list[dict[str, Any]] = []
+    headline = {}
+    for name, m in (("bunny", mesh), ("horizons", horizon_mesh())):
+        crows = conversion_rows(name, m, renderer)
+        conversions += crows
+        base = next(r for r in crows if r["kind"] == "fixed 256")
+        driven = next(r for r in crows if r["kind"] == "error-driven set" and r["max_error"] == base["p99"])
+        per_chart = next(r for r in crows if r["kind"] == "error-driven chart")
+        headline[name] = {
+            "fixed_256_bytes": base["bytes"], "fixed_256_p99": base["p99"],
+            "error_driven_bytes": driven["bytes"], "error_driven_p99": driven["p99"],
+            "bytes_ratio": driven["bytes"] / base["bytes"],
+            "bytes_ratio_at_equal_p99": bytes_at(crows, "error-driven set", base["p99"]) / base["bytes"],
+            "chart_scope_bytes_ratio": per_chart["bytes"] / base["bytes"],
+            "chart_scope_p99": per_chart["p99"],
+        }
+        h = headline[name]
+        print(f"{name}: at max_resolution=256's p99 {base['p99']:.3e}, error-driven uses "
+              f"{h['bytes_ratio']:.3f} of the bytes (p99 {driven['p99']:.3e}); interpolated at equal p99 "
+              f"{h['bytes_ratio_at_equal_p99']:.3f}; error_scope='chart' {h['chart_scope_bytes_ratio']:.3f}")
+
+    gts = gt.convert(mesh)
     rows = []
     for k in DISTANCES:
         cam = testing.look_from(mesh, (1.0, 0.8, 1.0), distance=1.2 * k)
@@ -88,28 +221,10 @@ def main(argv: list[str] | None = None) -> None:
               f"fetches per frame / {ratios[q]['fetches']:.1f}")
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps({"machine": machine_info(), "size": SIZE, "rows": rows,
-                                    "ratios": ratios}, indent=1))
+                                    "ratios": ratios, "conversions": conversions,
+                                    "error_driven": headline}, indent=1))
 
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
-    for q, color in (("balanced", "C0"), ("exact", "C1"), ("exact+lod", "C2")):
-        rs = [r for r in rows if r["quality"] == q]
-        axes[0].loglog([r["covered_px"] for r in rs], [r["fetches_per_frame"] for r in rs], "o-", color=color, label=q)
-        axes[1].loglog([r["covered_px"] for r in rs], [r["depth_p99"] for r in rs], "o-", color=color, label=q)
-    axes[0].set_ylabel("height fetches per frame")
-    axes[1].set_ylabel("p99 |Δdepth| / diagonal (vs trimesh)")
-    axes[1].axhline(1e-2, color="grey", linestyle=":", label="renderer bound")
-    for ax in axes:
-        ax.set_xlabel("covered pixels (512² frame)")
-        ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=8)
-    fig.suptitle("Bunny, camera backing away from full frame to 1/8 of the image height")
-    fig.tight_layout()
-    fig.savefig(args.out.with_suffix(".png"), dpi=120)
+    plot(json.loads(args.out.read_text()), args.out.with_suffix(".png"))
     print(f"wrote {args.out} and {args.out.with_suffix('.png')}")
 
 

@@ -130,10 +130,12 @@ def convert(
         _number(name, v, int)
     if charts is not None:
         _number("charts", charts, int)
-    for name, v in [("texel_size", texel_size), ("chart_error", chart_error), ("max_error", max_error),
-                    ("max_error_rel", max_error_rel)]:
-        if v is not None:
-            _number(name, v, float)
+    optional_numbers: list[tuple[str, float | None]] = [
+        ("texel_size", texel_size), ("chart_error", chart_error), ("max_error", max_error),
+        ("max_error_rel", max_error_rel)]
+    for name, x in optional_numbers:
+        if x is not None:
+            _number(name, x, float)
     callback: ProgressCallback | None
     bar = None
     if progress is True:

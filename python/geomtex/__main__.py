@@ -32,10 +32,14 @@ def stats_table(gts: gt.GeometryTextureSet) -> str:
         ("folding charts", f"{st['folding_charts']} (before repair: {st['folding_charts_before_repair']})"),
         ("inverted triangles", f"{st['inverted_triangles']} (before repair: {st['inverted_triangles_before_repair']})"),
         ("texels", f"{st['texels']:,} ({100 * st['empty_fraction']:.1f}% empty)"),
-        ("texel size", f"{st['texel_size']:.4g} ({st['texel_size'] / st['diagonal']:.2e} of the diagonal)"),
+        ("texel size", f"{st['texel_size']:.4g} ({st['texel_size'] / st['diagonal']:.2e} of the diagonal)"
+                       + (f"; finest of {len(set(st['patch_texel']))} (error-driven)" if "max_error" in st else "")),
         ("map bytes", f"{st['bytes'] / 1e6:.2f} MB"),
         ("reconstruction error", f"p99 {st['reconstruction_error_p99'] / st['diagonal']:.2e}, "
                                  f"max {st['reconstruction_error_max'] / st['diagonal']:.2e} of the diagonal"),
+        *([("error bound", f"{st['max_error'] / st['diagonal']:.2e} of the diagonal "
+                            f"({st['charts_over_max_error']} charts over it at the resolution cap; "
+                            f"chart_error {st['chart_error']})")] if "max_error" in st else []),
         ("mesh repairs", f"{st['duplicate_vertices']} duplicate vertices welded, {st['flipped_faces']} faces rewound"),
     ]
     rows += [(f"seconds: {k}", f"{v:.3f}") for k, v in st["seconds"].items()]
@@ -47,7 +51,11 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m geomtex", description=__doc__.splitlines()[0])
     ap.add_argument("mesh", nargs="?", help="mesh file (OBJ/PLY/STL/OFF); default: pymeshlab's bunny")
     ap.add_argument("-o", "--out", default="out", help="output folder (default: out/)")
-    ap.add_argument("--max-resolution", type=int, default=256)
+    ap.add_argument("--max-resolution", type=int, default=None,
+                    help="longest patch side in texels (default 256; 1024 with --max-error-rel)")
+    ap.add_argument("--max-error-rel", type=float, default=None,
+                    help="error-driven: each chart's texel chosen for this p99 reconstruction error, "
+                         "as a fraction of the diagonal")
     ap.add_argument("--charts", type=int, default=None, help="exact VSA chart count")
     ap.add_argument("--frame", choices=["min_area", "pca"], default="min_area")
     ap.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -57,6 +65,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         mesh = gt.load_mesh(path)
         gts = gt.convert(mesh, max_resolution=args.max_resolution, charts=args.charts,
+                         max_error_rel=args.max_error_rel,
                          frame=args.frame, progress=not args.quiet)
         out = Path(args.out)
         os.makedirs(out, exist_ok=True)

@@ -267,6 +267,12 @@ fn draw_chart(
     // A lip texel stands for about half a texel of surface past the triangle it copies.
     let lip_area = 0.5 * (bx.extent.x / bx.width as f64) * (bx.extent.y / bx.height as f64);
     errors.extend(maps.lips.iter().map(|&(_, offset)| (offset, lip_area)));
+    // An overhanging corner stands for about a texel of surface where the mesh has none.
+    errors.extend(
+        maps.overhangs
+            .iter()
+            .map(|&offset| (offset, 2.0 * lip_area)),
+    );
     let error = error::quantile(&mut errors, ERROR_QUANTILE);
     Drawn {
         bx,
@@ -932,6 +938,62 @@ fn convert_once(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn resolution_levels_step_by_a_quarter_octave_down_to_two() {
+        let l = resolution_levels(256);
+        assert_eq!(l[..5], [256, 215, 181, 152, 128]);
+        assert_eq!(*l.last().unwrap(), 2);
+        assert!(l.windows(2).all(|w| w[0] > w[1]));
+        assert_eq!(resolution_levels(2), [2]);
+    }
+
+    fn cost(resolution: u32, bytes: f64, over: f64, area: f64) -> LevelCost {
+        LevelCost {
+            resolution,
+            bytes,
+            over,
+            area,
+        }
+    }
+
+    #[test]
+    fn allocation_is_the_cheapest_that_fits_the_quantile() {
+        // Three charts of equal area, coarse to fine; at most 1% of all area may be over.
+        let costs = vec![
+            // Cheap to fix: 4% over at 10 bytes, nothing over at 40.
+            vec![cost(2, 10.0, 4.0, 100.0), cost(4, 40.0, 0.0, 100.0)],
+            // Dear to fix: 2% over at 10 bytes, 1% at 1000, nothing at 5000.
+            vec![
+                cost(2, 10.0, 2.0, 100.0),
+                cost(4, 1000.0, 1.0, 100.0),
+                cost(8, 5000.0, 0.0, 100.0),
+            ],
+            // Within the bound already.
+            vec![cost(2, 10.0, 0.0, 100.0)],
+        ];
+        // Budget 3 units of area: fix the first chart, keep the second's tail.
+        assert_eq!(allocate(&costs, 0.99), Some(vec![4, 2, 2]));
+        // Budget 1.5: the second must reach 1%, and the first must be fixed too.
+        assert_eq!(allocate(&costs, 0.995), Some(vec![4, 4, 2]));
+        // Brute force agrees on the cheapest feasible choice for a range of budgets.
+        for q in [0.9, 0.97, 0.98, 0.99, 0.995, 0.999, 1.0] {
+            let mut best = (f64::INFINITY, vec![]);
+            for a in &costs[0] {
+                for b in &costs[1] {
+                    let c = &costs[2][0];
+                    let over = a.over + b.over + c.over;
+                    let bytes = a.bytes + b.bytes + c.bytes;
+                    if over <= (1.0 - q) * 300.0 + 1e-9 && bytes < best.0 {
+                        best = (bytes, vec![a.resolution, b.resolution, c.resolution]);
+                    }
+                }
+            }
+            assert_eq!(allocate(&costs, q), Some(best.1), "quantile {q}");
+        }
+        // Nothing fits when even the finest levels are over.
+        assert_eq!(allocate(&[vec![cost(2, 1.0, 50.0, 100.0)]], 0.99), None);
+    }
 
     /// A UV sphere of radius 1 (poles are fans): closed, so it can never be a single height field.
     fn uv_sphere(rings: usize, segments: usize) -> Mesh {

@@ -39,6 +39,11 @@ pub struct Maps {
     /// Texels filled by conservative coverage alone (index, world distance from the texel's
     /// centre to the point of the triangle it copies): how far the surface reaches past the mesh.
     pub lips: Vec<(usize, f64)>,
+    /// Texel corners where the height field has a surface but no drawn triangle lies under
+    /// them: the world distance (in the patch plane) to the nearest triangle, at most two texels
+    /// (larger gaps are not searched). A coarse map's cells and flat border reach over a chart's
+    /// notches and past its outline; this is how far.
+    pub overhangs: Vec<f64>,
 }
 
 pub const NEUTRAL_COLOR: [u8; 4] = [200, 200, 200, 255];
@@ -68,6 +73,8 @@ pub fn rasterize(
     // 0 = empty, 1 = covered by extrapolation, 2 = centre covered.
     let mut class = vec![0u8; w * h];
     let mut lip_offset = vec![0.0f64; w * h];
+    // Texel corner (i, j) sits at (i, j) in texel units; (w + 1) x (h + 1) of them.
+    let mut corner_offset = vec![f64::INFINITY; (w + 1) * (h + 1)];
     let mut normal_map = vec![[0i8; 4]; w * h];
     let mut color_map = vec![[0u8; 4]; w * h];
     let to_local = |p: DVec3| {
@@ -102,6 +109,33 @@ pub fn rasterize(
             continue;
         }
         let (i1, j1) = (i1 as usize, j1 as usize);
+        // Corners within two texels of the triangle: their in-plane distance to it.
+        let tri2 = [a.truncate(), b.truncate(), c.truncate()];
+        for cj in j0.saturating_sub(1)..=(j1 + 3).min(h) {
+            for ci in i0.saturating_sub(1)..=(i1 + 3).min(w) {
+                let q = DVec2::new(ci as f64, cj as f64);
+                let k = cj * (w + 1) + ci;
+                if corner_offset[k] == 0.0 {
+                    continue;
+                }
+                let inside = {
+                    let e = |p: DVec2, r: DVec2| {
+                        ((p.x - q.x) * (r.y - q.y) - (p.y - q.y) * (r.x - q.x)) * sign
+                    };
+                    e(tri2[1], tri2[2]) >= 0.0
+                        && e(tri2[2], tri2[0]) >= 0.0
+                        && e(tri2[0], tri2[1]) >= 0.0
+                };
+                let d = if inside {
+                    0.0
+                } else {
+                    let (la, lb, lc) = nearest_on_triangle(q, tri2);
+                    let near = tri2[0] * la + tri2[1] * lb + tri2[2] * lc;
+                    DVec2::new((q.x - near.x) * texel.x, (q.y - near.y) * texel.y).length()
+                };
+                corner_offset[k] = corner_offset[k].min(d);
+            }
+        }
         // Tolerance so texel centres on a shared edge are never missed by both faces.
         let eps = -1e-9 * area.abs();
         let inv = 1.0 / area;
@@ -171,10 +205,27 @@ pub fn rasterize(
             }
         })
         .collect();
+    // A corner has surface where the texels the bilinear rule blends around it (clamped at the
+    // map's border) are all filled.
+    let filled = |i: usize, j: usize| depth[j.min(h - 1) * w + i.min(w - 1)] > f64::NEG_INFINITY;
+    let far = 2.0 * texel.x.max(texel.y);
+    let mut overhangs = Vec::new();
+    for cj in 0..=h {
+        for ci in 0..=w {
+            let (i0, j0) = (ci.saturating_sub(1), cj.saturating_sub(1));
+            if filled(i0, j0) && filled(ci, j0) && filled(i0, cj) && filled(ci, cj) {
+                let d = corner_offset[cj * (w + 1) + ci];
+                if d > 0.0 {
+                    overhangs.push(d.min(far));
+                }
+            }
+        }
+    }
     Maps {
         heights,
         normals: normal_map,
         colors: color_map,
+        overhangs,
         lips: (0..w * h)
             .filter(|&t| class[t] == 1)
             .map(|t| (t, lip_offset[t]))
