@@ -264,15 +264,14 @@ fn draw_chart(
     };
     let mut errors = error::gaps(&probe, samples);
     maps.heights = probe.heights;
-    // A lip texel stands for about half a texel of surface past the triangle it copies.
-    let lip_area = 0.5 * (bx.extent.x / bx.width as f64) * (bx.extent.y / bx.height as f64);
-    errors.extend(maps.lips.iter().map(|&(_, offset)| (offset, lip_area)));
-    // An overhanging corner stands for about a texel of surface where the mesh has none.
-    errors.extend(
-        maps.overhangs
-            .iter()
-            .map(|&offset| (offset, 2.0 * lip_area)),
-    );
+    // Surface reaching `d` past the mesh over a texel's width stands for about d × texel of
+    // area (a texel at most): a lip, or an overhanging corner. A chart's box is padded by up to
+    // half a texel, so its flat border often reaches a little past the outline; counted as a
+    // whole texel each, such slivers alone would set the p99 of a map a few hundred texels wide.
+    let texel_len = ((bx.extent.x / bx.width as f64) * (bx.extent.y / bx.height as f64)).sqrt();
+    let area = |d: f64| texel_len * d.min(texel_len);
+    errors.extend(maps.lips.iter().map(|&(_, d)| (d, area(d))));
+    errors.extend(maps.overhangs.iter().map(|&d| (d, area(d))));
     let error = error::quantile(&mut errors, ERROR_QUANTILE);
     Drawn {
         bx,

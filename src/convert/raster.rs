@@ -343,4 +343,35 @@ mod tests {
         assert!(half.heights.iter().filter(|&&q| q == 0).count() == empty);
         maps.heights.clear();
     }
+
+    #[test]
+    fn overhang_is_how_far_a_coarse_map_reaches_past_the_outline() {
+        // The triangle (0,0), (4,0), (0,4) at z = 0 in a 2 x 2 map of 2-unit texels: all four
+        // texels fill (the far one as a lip), so the field covers the whole 4 x 4 square.
+        let m = Mesh::from_flat(
+            &[0., 0., 0., 4., 0., 0., 0., 4., 0., 4., 4., 0.],
+            &[0, 1, 2, 1, 3, 2],
+            None,
+        )
+        .unwrap();
+        let geo = MeshGeometry::new(&m);
+        let bx = PatchBox {
+            origin: DVec3::new(0.0, 0.0, -0.5),
+            axes: [DVec3::X, DVec3::Y, DVec3::Z],
+            extent: DVec3::new(4.0, 4.0, 1.0),
+            width: 2,
+            height: 2,
+            height_bits: 16,
+        };
+        let one = rasterize(&m, &geo, &[0], 1, &bx, NormalSource::Flat);
+        assert!(one.heights.iter().all(|&q| q != 0));
+        assert_eq!(one.lips.len(), 1);
+        assert!((one.lips[0].1 - 2f64.sqrt()).abs() < 1e-9);
+        // The far corner (4, 4) is 2√2 from the hypotenuse; no corner is farther.
+        let worst = one.overhangs.iter().copied().fold(0.0, f64::max);
+        assert!((worst - 8f64.sqrt()).abs() < 1e-9, "{:?}", one.overhangs);
+        // Both triangles: the square is all mesh, nothing overhangs.
+        let both = rasterize(&m, &geo, &[0, 1], 2, &bx, NormalSource::Flat);
+        assert!(both.overhangs.is_empty() && both.lips.is_empty());
+    }
 }
