@@ -128,8 +128,13 @@ impl Patch {
 
     /// Bytes the maps take: an 8- or 16-bit height + RGBA8 normal + RGBA8 color per texel.
     pub fn map_bytes(&self) -> usize {
-        self.texels() * (self.height_bits as usize / 8 + 4 + 4)
+        map_bytes(self.texels(), self.height_bits)
     }
+}
+
+/// Bytes `texels` texels take: an 8- or 16-bit height + RGBA8 normal + RGBA8 color each.
+pub fn map_bytes(texels: usize, height_bits: u8) -> usize {
+    texels * (height_bits as usize / 8 + 4 + 4)
 }
 
 /// Height in [0, 1] to its `bits`-bit code in [1, code_max(bits)].

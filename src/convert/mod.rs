@@ -249,19 +249,15 @@ fn draw_chart(
 ) -> Drawn {
     let bx = patch_box(frame, texel, opts);
     let mut maps = raster::rasterize(mesh, geo, faces, chart_faces, &bx, opts.normals);
-    let probe = Patch {
-        origin: bx.origin,
-        axes: bx.axes,
-        extent: bx.extent,
-        width: bx.width,
-        height: bx.height,
-        height_bits: bx.height_bits,
-        heights: std::mem::take(&mut maps.heights),
-        normals: Vec::new(),
-        colors: Vec::new(),
-        faces: Vec::new(),
-        ring_faces: Vec::new(),
-    };
+    // The height field as a patch for the error lookups; its heights go back to the maps.
+    let probe = bx.into_patch(
+        raster::Maps {
+            heights: std::mem::take(&mut maps.heights),
+            ..Default::default()
+        },
+        Vec::new(),
+        Vec::new(),
+    );
     let mut errors = error::gaps(&probe, samples);
     maps.heights = probe.heights;
     // Surface reaching `d` past the mesh over a texel's width stands for about d × texel of
@@ -373,7 +369,8 @@ fn level_costs(levels: &[u32], max_error: f64, draw: impl Fn(u32) -> Drawn) -> V
             .map(|e| e.1)
             .sum();
         let area: f64 = d.errors.iter().map(|e| e.1).sum();
-        let bytes = d.bx.width as f64 * d.bx.height as f64 * (d.bx.height_bits as f64 / 8.0 + 8.0);
+        let texels = d.bx.width as usize * d.bx.height as usize;
+        let bytes = crate::gtex::map_bytes(texels, d.bx.height_bits) as f64;
         costs.push(LevelCost {
             resolution,
             bytes,
@@ -694,10 +691,9 @@ fn convert_once(
             (axes, reference, lo, hi)
         })
         .collect();
-    let longest = frames
-        .iter()
-        .map(|f| (f.3 - f.2).x.max((f.3 - f.2).y))
-        .fold(0.0, f64::max);
+    // The longer in-plane side of a chart's bounds.
+    let long_side = |f: &([DVec3; 3], DVec3, DVec3, DVec3)| (f.3 - f.2).x.max((f.3 - f.2).y);
+    let longest = frames.iter().map(long_side).fold(0.0, f64::max);
     let fit = longest / opts.resolution_cap() as f64;
     let mut texel = opts.texel_size.map_or(fit, |t| t.max(fit));
     if texel <= 0.0 {
@@ -719,10 +715,7 @@ fn convert_once(
             faces: c.faces.iter().chain(ring).copied().collect(),
             chart_faces: c.faces.len(),
             frame,
-            long: (frame.3 - frame.2)
-                .x
-                .max((frame.3 - frame.2).y)
-                .max(texel * 1e-3),
+            long: long_side(frame).max(texel * 1e-3),
         })
         .collect();
     // Samples about a texel apart at the finest texel a chart can get.
@@ -779,13 +772,13 @@ fn convert_once(
                 .collect()
         }
     };
+    // Drawn once more at the chosen texel: keeping the maps of every level measured would hold
+    // a few times the finest maps in memory.
     report(progress, "raster", 0.0)?;
     let jobs_texels: Vec<(&ChartJob, f64)> = jobs.iter().zip(texels).collect();
     let mut drawn = each_chart(&jobs_texels, progress, "raster", |&(j, t)| {
         draw(j, t, &samples(j))
     })?;
-    drop(jobs_texels);
-    drop(jobs);
     timer.lap("raster");
 
     report(progress, "dilate", 0.0)?;
@@ -807,19 +800,7 @@ fn convert_once(
         .into_iter()
         .zip(rings)
         .zip(drawn)
-        .map(|((c, (ring, _)), Drawn { bx, maps: m, .. })| Patch {
-            origin: bx.origin,
-            axes: bx.axes,
-            extent: bx.extent,
-            width: bx.width,
-            height: bx.height,
-            height_bits: bx.height_bits,
-            heights: m.heights,
-            normals: m.normals,
-            colors: m.colors,
-            faces: c.faces,
-            ring_faces: ring,
-        })
+        .map(|((c, (ring, _)), Drawn { bx, maps, .. })| bx.into_patch(maps, c.faces, ring))
         .collect();
     let patch_texel = |p: &Patch| (p.extent.x / p.width as f64).min(p.extent.y / p.height as f64);
     // The set's texel size: the one texel, or the finest chart's when each has its own.

@@ -7,7 +7,7 @@
 
 use glam::{DVec2, DVec3};
 
-use crate::gtex::{encode_height, encode_snorm8};
+use crate::gtex::{encode_height, encode_snorm8, Patch};
 use crate::mesh::{Mesh, MeshGeometry};
 
 /// The box a chart is drawn into.
@@ -20,6 +20,25 @@ pub struct PatchBox {
     pub height: u32,
     /// Bits per height code (8 or 16).
     pub height_bits: u8,
+}
+
+impl PatchBox {
+    /// The patch this box and its maps make, drawing `faces` then `ring_faces`.
+    pub fn into_patch(self, maps: Maps, faces: Vec<u32>, ring_faces: Vec<u32>) -> Patch {
+        Patch {
+            origin: self.origin,
+            axes: self.axes,
+            extent: self.extent,
+            width: self.width,
+            height: self.height,
+            height_bits: self.height_bits,
+            heights: maps.heights,
+            normals: maps.normals,
+            colors: maps.colors,
+            faces,
+            ring_faces,
+        }
+    }
 }
 
 /// Which normal goes into the normal map.
