@@ -14,9 +14,8 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::convert::vertical_extent;
 use crate::error::{GeomtexError, Result};
-use crate::gtex::{decode_snorm8, encode_height, encode_snorm8, GeometryTextureSet, Patch};
+use crate::gtex::{vertical_extent, decode_snorm8, encode_height, encode_snorm8, GeometryTextureSet, Patch};
 use crate::heightfield::{grid_normal, height_at};
 use crate::mesh::{Mesh, MeshGeometry};
 

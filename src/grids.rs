@@ -9,9 +9,8 @@
 
 use glam::{DVec2, DVec3};
 
-use crate::convert::vertical_extent;
 use crate::error::{GeomtexError, Result};
-use crate::gtex::{encode_height, encode_snorm8, GeometryTextureSet, Patch, Stats};
+use crate::gtex::{vertical_extent, NEUTRAL_COLOR, encode_height, encode_snorm8, GeometryTextureSet, Patch, Stats};
 use crate::heightfield::grid_normal;
 
 /// One regular grid of heights with optional RGBA8 colors (row-major, `width` samples a row).
@@ -164,7 +163,7 @@ pub fn from_grids(grids: &[HeightGrid], tile: u32, height_bits: u8) -> Result<Ge
                     });
                     p.colors.push(match &g.colors {
                         Some(c) => c[j * g.width + i],
-                        None => crate::convert::raster::NEUTRAL_COLOR,
+                        None => NEUTRAL_COLOR,
                     });
                 }
                 patches.push(p);

@@ -1,13 +1,12 @@
 //! geomtex: dense triangle meshes as geometry textures — height-map patches in oriented boxes.
 //!
 //! The core is pure Rust (no PyO3): `mesh` validates input, `convert` turns a mesh into a
-//! `gtex::GeometryTextureSet`, `format` reads and writes .gtex files. The Python binding layer
+//! `gtex::GeometryTextureSet`, `gtex::file` reads and writes .gtex files. The Python binding layer
 //! lives in `python/` behind the `python` feature.
 
 pub mod convert;
 pub mod error;
 pub mod filters;
-pub mod format;
 pub mod grids;
 pub mod gtex;
 pub mod heightfield;

@@ -19,7 +19,7 @@ pub use frame::InPlane;
 pub use raster::NormalSource;
 
 use crate::error::{GeomtexError, Result};
-use crate::gtex::{GeometryTextureSet, Patch, Stats};
+use crate::gtex::{vertical_extent, GeometryTextureSet, Patch, Stats};
 use crate::mesh::{Mesh, MeshGeometry};
 use frame::FOLD_COS;
 use raster::PatchBox;
@@ -430,31 +430,6 @@ fn allocate(costs: &[Vec<LevelCost>], quantile: f64) -> Option<Vec<u32>> {
         }
     }
     Some(best)
-}
-
-/// A box's thickness and height bits for a surface spanning `height` at texel size `texel`.
-///
-/// At least a texel thick, flat surfaces centred: a box of (near) zero height would turn
-/// patch-local z into huge numbers that f32 on the GPU cannot resolve. A margin above and below
-/// the surface keeps a ray entering through the box's top or bottom strictly off the surface, so
-/// its first sample knows which side it is on. The margin is also at least one height code step,
-/// so rounding never puts the surface on the box's top or bottom (8-bit codes would, with 0.02
-/// texel alone). 8-bit codes only where their rounding (half a code step) stays within half a
-/// texel, so the map is never coarser across than along: a surface more than ~250 texels tall
-/// keeps 16 bits.
-pub(crate) fn vertical_extent(height: f64, texel: f64, requested_bits: u8) -> (f64, u8) {
-    let base = height.max(texel);
-    let thickness = |bits: u8| {
-        let code_max = crate::gtex::code_max(bits) as f64;
-        base + 2.0 * (0.02 * texel).max(base / (code_max - 3.0))
-    };
-    let bits =
-        if requested_bits == 8 && thickness(8) / (crate::gtex::code_max(8) - 1) as f64 > texel {
-            16
-        } else {
-            requested_bits
-        };
-    (thickness(bits), bits)
 }
 
 /// The box of a chart (its frame: axes, reference point, local bounds) at texel size `texel`.

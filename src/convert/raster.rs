@@ -65,8 +65,6 @@ pub struct Maps {
     pub overhangs: Vec<f64>,
 }
 
-pub const NEUTRAL_COLOR: [u8; 4] = [200, 200, 200, 255];
-
 /// Draws `faces` into the box's maps; where faces overlap in projection the highest wins, as a
 /// ray coming down the box's z would see it.
 ///
@@ -209,7 +207,7 @@ pub fn rasterize(
                             .round()
                             .clamp(0.0, 255.0) as u8
                     }),
-                    None => NEUTRAL_COLOR,
+                    None => crate::gtex::NEUTRAL_COLOR,
                 };
             }
         }

@@ -858,7 +858,7 @@ impl Renderer {
                     color: mesh
                         .colors
                         .as_ref()
-                        .map_or(crate::convert::raster::NEUTRAL_COLOR, |c| c[t[k] as usize]),
+                        .map_or(crate::gtex::NEUTRAL_COLOR, |c| c[t[k] as usize]),
                 });
             }
         }

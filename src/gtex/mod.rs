@@ -10,12 +10,10 @@
 //! (8 or 16): 0 = empty, 1..=code_max map linearly to h in [0, 1]. Normals are patch-local unit
 //! vectors as signed bytes (x, y, z, 0).
 
-use std::io::Write;
-use std::path::Path;
-
 use glam::{DMat4, DVec3, DVec4};
 
-use crate::error::{GeomtexError, Result};
+
+pub mod file;
 
 /// Bits per height code a patch may use.
 pub const HEIGHT_BITS: [u8; 2] = [8, 16];
@@ -24,6 +22,34 @@ pub const HEIGHT_BITS: [u8; 2] = [8, 16];
 #[inline]
 pub fn code_max(bits: u8) -> u16 {
     ((1u32 << bits) - 1) as u16
+}
+
+/// Color of texels whose source has no color.
+pub const NEUTRAL_COLOR: [u8; 4] = [200, 200, 200, 255];
+
+/// A box's thickness and height bits for a surface spanning `height` at texel size `texel`.
+///
+/// At least a texel thick, flat surfaces centred: a box of (near) zero height would turn
+/// patch-local z into huge numbers that f32 on the GPU cannot resolve. A margin above and below
+/// the surface keeps a ray entering through the box's top or bottom strictly off the surface, so
+/// its first sample knows which side it is on. The margin is also at least one height code step,
+/// so rounding never puts the surface on the box's top or bottom (8-bit codes would, with 0.02
+/// texel alone). 8-bit codes only where their rounding (half a code step) stays within half a
+/// texel, so the map is never coarser across than along: a surface more than ~250 texels tall
+/// keeps 16 bits.
+pub fn vertical_extent(height: f64, texel: f64, requested_bits: u8) -> (f64, u8) {
+    let base = height.max(texel);
+    let thickness = |bits: u8| {
+        let code_max = code_max(bits) as f64;
+        base + 2.0 * (0.02 * texel).max(base / (code_max - 3.0))
+    };
+    let bits =
+        if requested_bits == 8 && thickness(8) / (code_max(8) - 1) as f64 > texel {
+            16
+        } else {
+            requested_bits
+        };
+    (thickness(bits), bits)
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -174,6 +200,37 @@ impl Stats {
     pub fn get(&self, name: &str) -> Option<f64> {
         self.values.iter().find(|(n, _)| n == name).map(|e| e.1)
     }
+
+    /// Every scalar stat typed for display: counts as integers, fractions and lengths as floats.
+    pub fn typed(&self) -> Vec<(&str, StatValue)> {
+        self.values
+            .iter()
+            .map(|(name, v)| {
+                let count = !FLOAT_STATS.contains(&name.as_str()) && v.fract() == 0.0 && v.abs() < 9e15;
+                let value = if count { StatValue::Int(*v as i64) } else { StatValue::Float(*v) };
+                (name.as_str(), value)
+            })
+            .collect()
+    }
+}
+
+/// Stats that are fractions or lengths; every other stat is a count.
+const FLOAT_STATS: &[&str] = &[
+    "empty_fraction",
+    "texel_size",
+    "diagonal",
+    "vsa_mean_error",
+    "reconstruction_error_p99",
+    "reconstruction_error_max",
+    "max_quantization_error",
+];
+
+/// One figure of a conversion or a frame, typed as it should be shown (Python int, float, str).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum StatValue {
+    Int(i64),
+    Float(f64),
+    Text(&'static str),
 }
 
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -204,33 +261,5 @@ impl GeometryTextureSet {
 
     pub fn map_bytes(&self) -> usize {
         self.patches.iter().map(Patch::map_bytes).sum()
-    }
-
-    /// Writes the set atomically: a temporary file beside `path`, synced, then renamed over it,
-    /// so a failure never leaves a half-written file.
-    pub fn save(&self, path: &Path) -> Result<()> {
-        let bytes = crate::format::encode(self);
-        let dir = match path.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d,
-            _ => Path::new("."),
-        };
-        let ctx = |what: &str| format!("{what} {}", path.display());
-        let mut tmp = tempfile::NamedTempFile::new_in(dir)
-            .map_err(|e| GeomtexError::io(ctx("cannot create a temporary file to write"), e))?;
-        tmp.write_all(&bytes)
-            .map_err(|e| GeomtexError::io(ctx("cannot write"), e))?;
-        tmp.as_file()
-            .sync_all()
-            .map_err(|e| GeomtexError::io(ctx("cannot sync"), e))?;
-        tmp.persist(path)
-            .map_err(|e| GeomtexError::io(ctx("cannot rename into"), e.error))?;
-        Ok(())
-    }
-
-    pub fn load(path: &Path) -> Result<GeometryTextureSet> {
-        let bytes = std::fs::read(path)
-            .map_err(|e| GeomtexError::io(format!("cannot read {}", path.display()), e))?;
-        crate::format::decode(&bytes)
-            .map_err(|e| GeomtexError::Format(format!("{}: {e}", path.display())))
     }
 }

@@ -16,9 +16,13 @@
 //! Written by hand (not serde/bincode) so the layout is fixed, documented and readable from any
 //! language; the magic catches text-mode mangling the way PNG's does.
 
+use std::io::Write;
+use std::path::Path;
+
 use glam::DVec3;
 
-use crate::gtex::{GeometryTextureSet, Patch, Stats};
+use super::{GeometryTextureSet, Patch, Stats};
+use crate::error::{GeomtexError, Result};
 
 pub const MAGIC: &[u8; 8] = b"GTEX\r\n\x1a\n";
 pub const VERSION: u32 = 3;
@@ -262,6 +266,36 @@ pub fn decode(bytes: &[u8]) -> Result<GeometryTextureSet, String> {
         texel_size,
         stats,
     })
+}
+
+impl GeometryTextureSet {
+    /// Writes the set atomically: a temporary file beside `path`, synced, then renamed over it,
+    /// so a failure never leaves a half-written file.
+    pub fn save(&self, path: &Path) -> Result<()> {
+        let bytes = encode(self);
+        let dir = match path.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+        let ctx = |what: &str| format!("{what} {}", path.display());
+        let mut tmp = tempfile::NamedTempFile::new_in(dir)
+            .map_err(|e| GeomtexError::io(ctx("cannot create a temporary file to write"), e))?;
+        tmp.write_all(&bytes)
+            .map_err(|e| GeomtexError::io(ctx("cannot write"), e))?;
+        tmp.as_file()
+            .sync_all()
+            .map_err(|e| GeomtexError::io(ctx("cannot sync"), e))?;
+        tmp.persist(path)
+            .map_err(|e| GeomtexError::io(ctx("cannot rename into"), e.error))?;
+        Ok(())
+    }
+
+    pub fn load(path: &Path) -> Result<GeometryTextureSet> {
+        let bytes = std::fs::read(path)
+            .map_err(|e| GeomtexError::io(format!("cannot read {}", path.display()), e))?;
+        decode(&bytes)
+            .map_err(|e| GeomtexError::Format(format!("{}: {e}", path.display())))
+    }
 }
 
 #[cfg(test)]
