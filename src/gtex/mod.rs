@@ -231,6 +231,8 @@ pub enum StatValue {
     Int(i64),
     Float(f64),
     Text(&'static str),
+    /// Not measured in this run (Python None).
+    Absent,
 }
 
 #[derive(Clone, Debug, Default, PartialEq)]
