@@ -668,7 +668,7 @@ def main(argv: list[str] | None = None) -> None:
             "depth vs. gts.first_hits (exact first crossing of the stored height maps, f64 CPU) / diagonal; "
             "surface_off_px: pixels more than one texel off in depth, surface_hit_mismatch_px: hit vs. miss "
             "disagreements",
-            "thin": "off R=256 only 8 bisections (plus presets)",
+            "thin_means": "off R=256 only 8 bisections (plus presets)",
             "height_bits": args.bits,
         },
         "meshes": meshes_info,

@@ -13,6 +13,10 @@ if ! command -v cargo >/dev/null 2>&1; then
 fi
 command -v cargo >/dev/null 2>&1 || {
   echo "setup: cargo not found; install Rust first: curl https://sh.rustup.rs -sSf | sh" >&2; exit 1; }
+for tool in clippy fmt; do
+  cargo "$tool" --version >/dev/null 2>&1 || {
+    echo "setup: cargo $tool is missing; install it with: rustup component add ${tool/fmt/rustfmt}" >&2; exit 1; }
+done
 "$PY" -c 'import sys; sys.exit(sys.version_info < (3, 11))' || {
   echo "setup: $PY is older than Python 3.11" >&2; exit 1; }
 

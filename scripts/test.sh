@@ -1,8 +1,15 @@
 #!/usr/bin/env bash
-# The whole test suite: Rust core tests (no Python, no GPU), pytest, and the type stubs.
+# The whole test suite: formatting and lints (rustfmt, clippy with the 100-line function limit,
+# ruff), Rust core tests (no Python, no GPU), pytest, and the type stubs.
 # Any failure — including pytest finding no tests (exit 5) — fails the script.
 set -euo pipefail
 . "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
+
+echo "== rustfmt, clippy (core and binding layer), ruff"
+cargo fmt --check
+cargo clippy --quiet --all-targets -- -D warnings
+cargo clippy --quiet --all-targets --features python -- -D warnings
+python -m ruff check python tests bench
 
 echo "== cargo test (pure-Rust core)"
 cargo test --release --quiet

@@ -24,6 +24,9 @@ pub enum GeomtexError {
     /// No usable GPU adapter, or the GPU refused a resource.
     #[error("{0}")]
     Device(String),
+    /// A bug: a panic inside the core, caught before it crossed into Python.
+    #[error("{0}")]
+    Internal(String),
     /// The progress callback asked to stop.
     #[error("conversion cancelled during stage '{0}'")]
     Cancelled(String),

@@ -12,6 +12,8 @@ from hypothesis import HealthCheck, settings
 import geomtex as gt
 from geomtex.testing import GENERATED
 
+from bounds import write_recorded
+
 # Property tests: CI (CI set, as .ci/run does) replays a fixed, derandomized set of examples;
 # locally each run draws new ones. GEOMTEX_HYPOTHESIS=ci|dev|thorough picks a profile by name.
 _PROPERTY = dict(deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
@@ -66,3 +68,7 @@ def bunny() -> Converted:
     if (SHARED_MESHES / "stanford-bunny.obj").exists():
         return converted("stanford-bunny")
     return converted("pymeshlab-bunny")
+
+
+def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
+    write_recorded()

@@ -11,6 +11,7 @@ import pytest
 from PIL import Image
 
 import geomtex as gt
+
 from conftest import Converted, converted, pymeshlab_bunny_path
 
 

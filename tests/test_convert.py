@@ -9,6 +9,7 @@ import pytest
 
 import geomtex as gt
 from geomtex import reference
+
 from conftest import GENERATED, SHARED_NAMES, Converted, converted
 
 # Tolerances, as fractions of the bounding-box diagonal.
@@ -180,7 +181,8 @@ def wavy_sheet_colored() -> gt.Mesh:
 
     s = wavy_sheet(40)
     v = s.vertices
-    colors = np.column_stack([np.round((v[:, 0] + 1) / 2 * 255), np.full(len(v), 100), np.zeros(len(v)), np.full(len(v), 255)])
+    n = len(v)
+    colors = np.column_stack([np.round((v[:, 0] + 1) / 2 * 255), np.full(n, 100), np.zeros(n), np.full(n, 255)])
     return gt.Mesh(v, s.faces, colors.astype(np.uint8))
 
 

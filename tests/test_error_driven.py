@@ -1,6 +1,7 @@
 """Error-driven conversion (convert(max_error=...)): the bound is met as measured, the bytes fall,
-and independent references agree: trimesh closest points (geomtex.reference.points_to_mesh) from the texel points to the original
-mesh, and trimesh ray casting of the original mesh against the GPU render."""
+and independent references agree: trimesh closest points (geomtex.reference.points_to_mesh) from
+the texel points to the original mesh, and trimesh ray casting of the original mesh against the
+GPU render."""
 
 from __future__ import annotations
 
@@ -9,12 +10,15 @@ import pytest
 
 import geomtex as gt
 from geomtex import reference, testing
+
+from bounds import RENDERER, RenderBounds
 from conftest import Converted
 
 # Issue 6: at the p99 of max_resolution=256, the error-driven bunny uses at most 60% of the bytes.
 BYTES_RATIO_MAX = 0.6
-# The renderer issue's bounds, as fractions of the diagonal.
-IOU_MIN, DEPTH_MEDIAN_MAX, DEPTH_P99_MAX = 0.99, 1e-3, 1e-2
+# Render bounds (reference: trimesh ray casting of the original mesh).
+BUNNY_DRIVEN = RENDERER
+SHEET_DRIVEN = RenderBounds(iou=0.99, depth_p99=1e-2)
 
 
 def bump_in_a_corner(n: int = 120) -> gt.Mesh:
@@ -73,8 +77,7 @@ def test_bunny_error_driven_agrees_with_trimesh(bunny: Converted, bunny_driven: 
     for direction in [(1.0, 0.8, 1.0), (-0.3, 0.2, -1.0)]:
         cam = testing.look_from(bunny.mesh, direction)
         m = reference.agreement(renderer, bunny_driven, bunny.mesh, cam, quality="exact")
-        assert m["iou"] >= IOU_MIN and m["depth_median"] <= DEPTH_MEDIAN_MAX, (direction, m)
-        assert m["depth_p99"] <= DEPTH_P99_MAX and m["nan"] == 0, (direction, m)
+        BUNNY_DRIVEN.check(m, direction)
 
 
 def test_local_detail_gets_the_texels() -> None:
@@ -100,7 +103,7 @@ def test_local_detail_gets_the_texels() -> None:
         # Coarse charts stay within their outline: the render agrees with trimesh's ray cast.
         cam = testing.look_from(mesh, (0.3, -0.5, 1.0))
         m = reference.agreement(gt.Renderer(128, 128), driven, mesh, cam, quality="exact")
-        assert m["iou"] >= IOU_MIN and m["depth_p99"] <= DEPTH_P99_MAX, (scope, m)
+        SHEET_DRIVEN.check(m, scope)
 
 
 def test_relative_bound_and_tighter_bounds_cost_more() -> None:

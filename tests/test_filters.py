@@ -9,6 +9,7 @@ import pytest
 
 import geomtex as gt
 from geomtex.testing import GENERATED, flat_grid
+
 from conftest import Converted
 
 

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import geomtex as gt
+
 from conftest import Converted, converted
 
 

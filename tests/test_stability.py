@@ -17,18 +17,32 @@ from hypothesis import strategies as st
 
 import geomtex as gt
 from geomtex import reference
-from geomtex.testing import add_fins, add_slivers, flat_grid, flip_faces, height_field, look_from, punch_holes, similar, soup
+from geomtex.testing import (
+    add_fins,
+    add_slivers,
+    flat_grid,
+    flip_faces,
+    height_field,
+    look_from,
+    punch_holes,
+    similar,
+    soup,
+)
+
+from bounds import RENDERER, RenderBounds
 from conftest import Converted, converted
-
-# The renderer issue's bounds, as fractions of the bounding-box diagonal.
-MEDIAN, P99, IOU = 1e-3, 1e-2, 0.99
-
 
 agreement = reference.agreement
 
-
-def within(m: dict, median: float = MEDIAN, p99: float = P99, iou: float = IOU) -> bool:
-    return m["nan"] == 0 and m["iou"] >= iou and m["depth_median"] <= median and m["depth_p99"] <= p99
+# Bounds of the tests below. The property tests (hypothesis) range over scales, offsets, eyes
+# and angles, so they hold the renderer issue's floor; the fixed cases are tighter.
+FAR_TINY_HUGE = RENDERER
+TERRAIN_GRAZING = RENDERER
+ANY_SCALE = RENDERER.but(iou=0.98)
+# Silhouette-dominated views: p99 with a one-pixel tolerance (see the tests).
+EYE_INSIDE = RenderBounds(depth_median=1e-3, depth_p99_1px=1e-2)
+GRAZING = RenderBounds(iou=0.95, mask_far_px=0, depth_median=1e-3, depth_p99_1px=1e-2)
+DAMAGED = RENDERER
 
 
 @pytest.fixture(scope="module")
@@ -56,7 +70,7 @@ def test_bunny_far_away_tiny_and_huge(bunny: Converted, r512: gt.Renderer, scale
         for quality in ["balanced", "exact"]:
             m = agreement(r512, gts, mesh, look_from(mesh, direction), quality=quality)
             base = agreement(r512, bunny.gts, bunny.mesh, look_from(bunny.mesh, direction), quality=quality)
-            assert within(m), (direction, quality, m)
+            FAR_TINY_HUGE.check(m, direction, quality)
             assert m["depth_p99"] <= 1.5 * base["depth_p99"] + 1e-6, (direction, quality, m, base)
             assert abs(m["iou"] - base["iou"]) <= 2e-3, (direction, quality, m, base)
 
@@ -68,7 +82,7 @@ def test_terrain_seen_half_a_degree_above_its_plane(r512: gt.Renderer, azimuth_d
     cam = look_from(terrain.mesh, (np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), np.sin(e)))
     for quality in ["balanced", "exact"]:
         m = agreement(r512, terrain.gts, terrain.mesh, cam, quality=quality)
-        assert within(m), (quality, m)
+        TERRAIN_GRAZING.check(m, quality)
 
 
 # ----------------------------------------------------------------------------- properties
@@ -86,7 +100,7 @@ def test_any_scale_and_offset(r160: gt.Renderer, log_scale: float, offset, direc
     torus = converted("torus").mesh
     mesh = similar(torus, 10.0 ** log_scale, offset)
     m = agreement(r160, gt.convert(mesh), mesh, look_from(mesh, d), quality=quality)
-    assert within(m, iou=0.98), m
+    ANY_SCALE.check(m, log_scale, offset, direction, quality)
 
 
 @given(
@@ -109,10 +123,11 @@ def test_camera_inside_a_patch_box(r160: gt.Renderer, pick: int, uvh, direction,
     up = (0.0, 0.0, 1.0) if abs(d[2]) < 0.9 * np.linalg.norm(d) else (0.0, 1.0, 0.0)
     cam = gt.Camera.look_at(eye, eye + d, up=up, yfov_deg=60)
     m = agreement(r160, torus.gts, torus.mesh, cam, quality=quality)
-    assert m["nan"] == 0, m
     if m["ref_px"] + m["covered_px"] > 200:
         assert m["iou"] >= 0.97 or m["mask_far_px"] == 0, m
-        assert m["depth_median"] <= MEDIAN and m["depth_p99_1px"] <= P99, m
+        EYE_INSIDE.check(m, eye, d, quality)
+    else:
+        RenderBounds().check(m, eye, d, quality, "too few pixels for more than no NaN")
 
 
 @given(
@@ -143,13 +158,12 @@ def test_grazing_rays(r160: gt.Renderer, elevation_deg: float, azimuth_deg: floa
                     hi[2] + 0.02 * mesh.diagonal])
     cam = gt.Camera.look_at(eye, eye + forward, up=(0, 0, 1), yfov_deg=30)
     m = agreement(r160, gts, mesh, cam, quality=quality)
-    assert m["nan"] == 0, m
+    RenderBounds().check(m, "no NaN")
     assume(m["ref_px"] >= 1000)
     # A few thousand pixels of a surface seen edge-on are mostly silhouette (at 0.125° the sheet's
     # side rims give 3% of the pixels), so the bound is on where masks differ: never more than one
     # pixel from the reference's mask; IoU ≥ 0.95 is only a floor.
-    assert m["iou"] >= 0.95 and m["mask_far_px"] == 0, m
-    assert m["depth_median"] <= MEDIAN and m["depth_p99_1px"] <= P99, m
+    GRAZING.check(m, mesh_name, elevation_deg, azimuth_deg, quality)
 
 
 # ----------------------------------------------------------------------------- damaged meshes
@@ -158,7 +172,7 @@ def test_grazing_rays(r160: gt.Renderer, elevation_deg: float, azimuth_deg: floa
 def check_renders(gts: gt.GeometryTextureSet, mesh: gt.Mesh, r: gt.Renderer) -> None:
     for direction in [(1, 0.8, 1), (-0.3, -1, -0.4)]:
         m = agreement(r, gts, mesh, look_from(mesh, direction), quality="balanced")
-        assert within(m), (direction, m)
+        DAMAGED.check(m, direction)
 
 
 def test_triangle_soup_converts_like_its_welded_mesh(bunny: Converted, r160: gt.Renderer) -> None:

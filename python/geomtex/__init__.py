@@ -7,25 +7,30 @@
 
 from __future__ import annotations
 
+import numbers
 import os
 from typing import Any, Callable, Literal
+
+import numpy as np
 
 # Mesa's Vulkan device-select layer prints a spurious "XDG_RUNTIME_DIR is invalid" on headless
 # machines; geomtex picks its adapter itself, so the layer is not needed.
 os.environ.setdefault("NODEVICE_SELECT", "1")
 
-from . import _core  # noqa: E402
-from ._core import Camera, Frame, GeometryTextureSet, Renderer, Scene, __version__
-from ._errors import (
+from . import _core, _grids, _preview  # noqa: E402
+from ._core import Camera, Frame, GeometryTextureSet, __version__  # noqa: E402
+from ._errors import (  # noqa: E402
     CancelledError,
     DeviceError,
     FileError,
     FormatError,
     GeomtexError,
+    InternalError,
     MeshError,
     ParameterError,
 )
-from ._mesh import Mesh, as_mesh, load_mesh
+from ._mesh import Mesh, as_mesh, load_mesh  # noqa: E402
+from ._render import Renderer, Scene  # noqa: E402
 
 __all__ = [
     "Camera",
@@ -36,16 +41,28 @@ __all__ = [
     "Frame",
     "GeometryTextureSet",
     "GeomtexError",
+    "InternalError",
     "Mesh",
     "MeshError",
     "ParameterError",
     "Renderer",
     "Scene",
     "__version__",
+    "as_mesh",
     "convert",
     "load",
     "load_mesh",
 ]
+
+# Methods written in Python (pictures, files, grid preparation), attached to the extension's
+# classes here so that the extension never imports this package.
+for _cls, _name, _method in [
+    (GeometryTextureSet, "_repr_png_", _preview.set_png),
+    (GeometryTextureSet, "from_heightmaps", staticmethod(_grids.from_heightmaps)),
+    (Frame, "_repr_png_", _preview.frame_png),
+    (Frame, "save", _preview.save_frame),
+]:
+    setattr(_cls, _name, _method)
 
 ProgressCallback = Callable[[str, float], "bool | None"]
 
@@ -57,9 +74,13 @@ _STAGE_SPAN = {
 
 
 def _number(name: str, value: Any, kind: type) -> Any:
-    if isinstance(value, bool) or not isinstance(value, (int, float) if kind is float else int):
+    """`value` as a Python int or float; numpy scalars count as numbers, bools do not."""
+    if value is None:
+        return None
+    wanted = numbers.Integral if kind is int else numbers.Real
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, wanted):
         raise ParameterError(f"{name} must be {'a number' if kind is float else 'an integer'}, got {value!r}")
-    return value
+    return kind(value)
 
 
 def convert(
@@ -69,17 +90,17 @@ def convert(
     texel_size: float | None = None,
     max_error: float | None = None,
     max_error_rel: float | None = None,
-    error_scope: Literal["set", "chart"] = "set",
+    error_scope: Literal["set", "chart"] | None = None,
     charts: int | None = None,
     chart_error: float | None = None,
-    max_charts: int = 4096,
-    compactness: float = 1.0,
-    lloyd_iterations: int = 6,
-    overlap_rings: int = 1,
-    dilation: int = 2,
-    frame: Literal["min_area", "pca"] = "min_area",
-    normals: Literal["smooth", "flat"] = "smooth",
-    height_bits: Literal[8, 16] = 16,
+    max_charts: int | None = None,
+    compactness: float | None = None,
+    lloyd_iterations: int | None = None,
+    overlap_rings: int | None = None,
+    dilation: int | None = None,
+    frame: Literal["min_area", "pca"] | None = None,
+    normals: Literal["smooth", "flat"] | None = None,
+    height_bits: Literal[8, 16] | None = None,
     progress: bool | ProgressCallback | None = None,
 ) -> GeometryTextureSet:
     """Converts a mesh into geometry textures.
@@ -109,8 +130,11 @@ def convert(
         and 0.3 are tried and the set within the bound with the fewest bytes is kept, since a
         chart with its own texel no longer sets everyone's and fewer, larger charts draw fewer
         ring faces twice; ``stats["chart_error"]`` says which).
-    overlap_rings: rings of neighbouring faces each patch also draws (seamless borders).
-    dilation: texels of normal/color dilation into empty space.
+    max_charts: most VSA charts (default 4096). compactness: weight of the distance term that
+        keeps charts round (default 1.0). lloyd_iterations: VSA refinement rounds (default 6).
+    overlap_rings: rings of neighbouring faces each patch also draws (default 1: seamless
+        borders).
+    dilation: texels of normal/color dilation into empty space (default 2).
     frame: in-plane axes from the minimum-area rectangle (default) or 2D PCA (the paper's).
     normals: interpolated vertex normals (``"smooth"``) or face normals (``"flat"``).
     height_bits: 16 (default) or 8. Eight bits halve the height maps' bytes (a texel then takes
@@ -121,21 +145,13 @@ def convert(
     The work runs in Rust on all cores with the GIL released.
     """
     m = as_mesh(mesh)
-    if max_resolution is not None:
-        _number("max_resolution", max_resolution, int)
-    _number("compactness", compactness, float)
-    for name, v in [("max_charts", max_charts), ("lloyd_iterations", lloyd_iterations),
-                    ("overlap_rings", overlap_rings), ("dilation", dilation),
-                    ("height_bits", height_bits)]:
-        _number(name, v, int)
-    if charts is not None:
-        _number("charts", charts, int)
-    optional_numbers: list[tuple[str, float | None]] = [
-        ("texel_size", texel_size), ("chart_error", chart_error), ("max_error", max_error),
-        ("max_error_rel", max_error_rel)]
-    for name, x in optional_numbers:
-        if x is not None:
-            _number(name, x, float)
+    integers = {name: _number(name, value, int) for name, value in [
+        ("max_resolution", max_resolution), ("charts", charts), ("max_charts", max_charts),
+        ("lloyd_iterations", lloyd_iterations), ("overlap_rings", overlap_rings),
+        ("dilation", dilation), ("height_bits", height_bits)]}
+    reals = {name: _number(name, value, float) for name, value in [
+        ("texel_size", texel_size), ("max_error", max_error), ("max_error_rel", max_error_rel),
+        ("chart_error", chart_error), ("compactness", compactness)]}
     callback: ProgressCallback | None
     bar = None
     if progress is True:
@@ -155,25 +171,8 @@ def convert(
     else:
         raise ParameterError(f"progress must be True, False, None or a callable, got {progress!r}")
     try:
-        return _core.convert(
-            m,
-            max_resolution=max_resolution,
-            texel_size=None if texel_size is None else float(texel_size),
-            max_error=None if max_error is None else float(max_error),
-            max_error_rel=None if max_error_rel is None else float(max_error_rel),
-            error_scope=error_scope,
-            charts=charts,
-            chart_error=None if chart_error is None else float(chart_error),
-            max_charts=max_charts,
-            compactness=float(compactness),
-            lloyd_iterations=lloyd_iterations,
-            overlap_rings=overlap_rings,
-            dilation=dilation,
-            frame=frame,
-            normals=normals,
-            height_bits=height_bits,
-            progress=callback,
-        )
+        return _core.convert(m, **integers, **reals, error_scope=error_scope, frame=frame,
+                             normals=normals, progress=callback)
     finally:
         if bar is not None:
             bar.close()

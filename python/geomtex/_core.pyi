@@ -2,15 +2,35 @@
 
 import os
 from collections.abc import Sequence
-from typing import Any, Callable, final
-
-from typing_extensions import disjoint_base
+from typing import Any, Callable, Literal, final
 
 import numpy as np
 import numpy.typing as npt
+from typing_extensions import disjoint_base
 
-__all__ = ["Mesh", "GeometryTextureSet", "convert", "load", "__version__", "Camera", "Scene", "Renderer", "Frame"]
+__all__ = [
+    "Mesh", "GeometryTextureSet", "convert", "load", "__version__", "Camera", "Scene", "Renderer", "Frame",
+    "GeomtexError", "MeshError", "ParameterError", "FormatError", "FileError", "CancelledError",
+    "DeviceError", "InternalError",
+]
 __version__: str
+
+ErrorScope = Literal["set", "chart"]
+InPlane = Literal["min_area", "pca"]
+NormalSource = Literal["smooth", "flat"]
+HeightBits = Literal[8, 16]
+Quality = Literal["fast", "balanced", "exact"]
+Method = Literal["linear_binary", "maxmip"]
+MapFilter = Literal["gaussian", "high_pass"]
+
+class GeomtexError(Exception): ...
+class MeshError(GeomtexError, ValueError): ...
+class ParameterError(GeomtexError, ValueError): ...
+class FormatError(GeomtexError, ValueError): ...
+class FileError(GeomtexError, OSError): ...
+class CancelledError(GeomtexError): ...
+class DeviceError(GeomtexError, RuntimeError): ...
+class InternalError(GeomtexError, RuntimeError): ...
 
 @disjoint_base
 class Mesh:
@@ -45,11 +65,20 @@ class GeometryTextureSet:
         properties: npt.ArrayLike | Sequence[npt.ArrayLike] | None = None,
         cmap: str = "viridis",
         property_range: tuple[float, float] | None = None,
-        max_resolution: int = 256,
-        height_bits: int = 16,
+        max_resolution: int | None = None,
+        height_bits: HeightBits | None = None,
+    ) -> GeometryTextureSet: ...
+    @staticmethod
+    def _from_prepared_grids(
+        prepared: Sequence[
+            tuple[npt.NDArray[np.float64], tuple[float, float, float, float], npt.NDArray[np.uint8] | None]
+        ],
+        *,
+        max_resolution: int | None = None,
+        height_bits: int | None = None,
     ) -> GeometryTextureSet: ...
     def __len__(self) -> int: ...
-    def filtered(self, kind: str, sigma: float, *, gain: float = 1.0) -> GeometryTextureSet: ...
+    def filtered(self, kind: MapFilter, sigma: float, *, gain: float | None = None) -> GeometryTextureSet: ...
     def seam_gaps(self, mesh: Mesh) -> npt.NDArray[np.float64]: ...
     @property
     def stats(self) -> dict[str, Any]: ...
@@ -73,17 +102,17 @@ def convert(
     texel_size: float | None = None,
     max_error: float | None = None,
     max_error_rel: float | None = None,
-    error_scope: str = "set",
+    error_scope: ErrorScope | None = None,
     charts: int | None = None,
     chart_error: float | None = None,
-    max_charts: int = 4096,
-    compactness: float = 1.0,
-    lloyd_iterations: int = 6,
-    overlap_rings: int = 1,
-    dilation: int = 2,
-    frame: str = "min_area",
-    normals: str = "smooth",
-    height_bits: int = 16,
+    max_charts: int | None = None,
+    compactness: float | None = None,
+    lloyd_iterations: int | None = None,
+    overlap_rings: int | None = None,
+    dilation: int | None = None,
+    frame: InPlane | None = None,
+    normals: NormalSource | None = None,
+    height_bits: int | None = None,
     progress: Callable[[str, float], bool | None] | None = None,
 ) -> GeometryTextureSet: ...
 def load(path: str | os.PathLike[str]) -> GeometryTextureSet: ...
@@ -94,8 +123,8 @@ class Camera:
     def look_at(
         eye: Any,
         target: Any,
-        up: tuple[float, float, float] = (0.0, 1.0, 0.0),
-        yfov_deg: float = 45.0,
+        up: Sequence[float] | None = None,
+        yfov_deg: float | None = None,
         near: float | None = None,
     ) -> Camera: ...
     @staticmethod
@@ -120,7 +149,7 @@ class Camera:
         self, width: int, height: int
     ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
 
-@final
+@disjoint_base
 class Scene:
     def __new__(cls) -> Scene: ...
     def add(self, obj: Any, world_from_object: npt.NDArray[np.float64] | None = None) -> int: ...
@@ -141,7 +170,7 @@ class Frame:
     def _repr_png_(self) -> bytes: ...
     def save(self, path: str | os.PathLike[str]) -> None: ...
 
-@final
+@disjoint_base
 class Renderer:
     def __new__(cls, width: int, height: int) -> Renderer: ...
     @property
@@ -155,14 +184,14 @@ class Renderer:
         obj: Any,
         camera: Camera,
         *,
-        quality: str | None = None,
-        method: str | None = None,
+        quality: Quality | None = None,
+        method: Method | None = None,
         steps_per_texel: float | None = None,
         min_linear_steps: int | None = None,
         max_linear_steps: int | None = None,
         binary_steps: int | None = None,
         max_traversal_steps: int | None = None,
-        count_fetches: bool = False,
-        lod: bool = False,
-        background: tuple[int, int, int, int] = (255, 255, 255, 0),
+        count_fetches: bool | None = None,
+        lod: bool | None = None,
+        background: tuple[int, int, int, int] | None = None,
     ) -> Frame: ...

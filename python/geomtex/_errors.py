@@ -1,31 +1,36 @@
-"""The geomtex exception tree. The Rust core maps each of its errors onto one of these."""
+"""The geomtex exception tree. The classes are created by the extension (src/python/errors.rs), so
+every error the Rust core raises is one of them; this module re-exports them.
+
+    GeomtexError
+    ├── MeshError (ValueError)        the input mesh is unusable
+    ├── ParameterError (ValueError)   a keyword is out of range, of the wrong type, or contradictory
+    ├── FormatError (ValueError)      a file is not an intact .gtex (or mesh) file
+    ├── FileError (OSError)           a file could not be read or written
+    ├── CancelledError                the progress callback returned False
+    ├── DeviceError (RuntimeError)    no usable GPU adapter, or the GPU refused a resource
+    └── InternalError (RuntimeError)  a bug: a panic caught at the boundary
+"""
 
 from __future__ import annotations
 
+from ._core import (
+    CancelledError,
+    DeviceError,
+    FileError,
+    FormatError,
+    GeomtexError,
+    InternalError,
+    MeshError,
+    ParameterError,
+)
 
-class GeomtexError(Exception):
-    """Root of every error geomtex raises on purpose."""
-
-
-class MeshError(GeomtexError, ValueError):
-    """The input mesh is unusable: NaN/inf, bad or negative indices, empty, wrong shape/dtype."""
-
-
-class ParameterError(GeomtexError, ValueError):
-    """A keyword is out of range, of the wrong type, or contradicts another."""
-
-
-class FormatError(GeomtexError, ValueError):
-    """A file is not a .gtex (or mesh) file, is truncated, corrupt, or of an unknown version."""
-
-
-class FileError(GeomtexError, OSError):
-    """A file could not be read or written."""
-
-
-class CancelledError(GeomtexError):
-    """The progress callback returned False."""
-
-
-class DeviceError(GeomtexError, RuntimeError):
-    """No usable GPU adapter (reserved for the renderer)."""
+__all__ = [
+    "CancelledError",
+    "DeviceError",
+    "FileError",
+    "FormatError",
+    "GeomtexError",
+    "InternalError",
+    "MeshError",
+    "ParameterError",
+]

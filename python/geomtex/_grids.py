@@ -1,5 +1,5 @@
-"""Argument checking and coloring for ``GeometryTextureSet.from_heightmaps`` (the tiling itself
-is in Rust, src/grids.rs).
+"""``GeometryTextureSet.from_heightmaps``: argument checking and coloring here, the tiling itself
+is in Rust, src/grids.rs.
 
 Grids are (rows, columns) arrays of heights: row j, column i lies at (x0 + i dx, y0 + j dy) with
 dx = (x1 - x0) / (columns - 1) and dy = (y1 - y0) / (rows - 1) from ``extent = (x0, x1, y0, y1)``
@@ -32,7 +32,8 @@ def _grid_list(grids: Any, what: str) -> list[npt.NDArray[np.float64]]:
         try:
             items = list(grids) if whole is None or whole.ndim > 0 else [whole]
         except TypeError:
-            raise ParameterError(f"{what} must be a 2-D array or a sequence of them, got {type(grids).__name__}") from None
+            raise ParameterError(
+                f"{what} must be a 2-D array or a sequence of them, got {type(grids).__name__}") from None
     out = []
     for k, g in enumerate(items):
         try:
@@ -87,3 +88,23 @@ def _colorize(props: Sequence[npt.NDArray[np.float64]], cmap: str, property_rang
     scale = 1.0 / (hi - lo) if hi > lo else 0.0
     return [np.ascontiguousarray(colormap(np.nan_to_num((p - lo) * scale, nan=0.0), bytes=True), dtype=np.uint8)
             for p in props]
+
+
+def from_heightmaps(grids: Any, extent: Any, *, properties: Any = None, cmap: str = "viridis",
+                    property_range: Any = None, max_resolution: int | None = None,
+                    height_bits: int | None = None) -> Any:
+    """Builds a GeometryTextureSet straight from regular height grids (horizons, terrain).
+
+    grids: one (rows, columns) array, a stack of them, or a sequence of arrays of any shapes;
+        NaN marks missing samples. extent: ``(x0, x1, y0, y1)`` for all grids or one per grid.
+    properties: optional arrays of the grids' shapes, colored through the matplotlib colormap
+        `cmap` over `property_range` (default: their finite min and max).
+    max_resolution: samples per tile side (default 256); tiles share their border samples, so
+        the surface has no cracks. height_bits: 16 (default) or 8.
+    The tiling runs in Rust with the GIL released.
+    """
+    from . import _core
+
+    prepared = prepare(grids, extent, properties, cmap, property_range)
+    return _core.GeometryTextureSet._from_prepared_grids(
+        prepared, max_resolution=max_resolution, height_bits=height_bits)

@@ -50,7 +50,8 @@ def _colors(a: Any, n_vertices: int) -> npt.NDArray[np.uint8] | None:
         return None
     arr = np.asarray(a)
     if arr.ndim == 2 and arr.shape[1] == 3:
-        arr = np.concatenate([arr, np.full((arr.shape[0], 1), 255 if arr.dtype.kind != "f" else 1.0, arr.dtype)], axis=1)
+        opaque = 255 if arr.dtype.kind != "f" else 1.0
+        arr = np.concatenate([arr, np.full((arr.shape[0], 1), opaque, arr.dtype)], axis=1)
     arr = _as_real_array(arr, "vertex_colors", 4)
     if arr.shape[0] != n_vertices:
         raise MeshError(f"vertex_colors has {arr.shape[0]} rows but the mesh has {n_vertices} vertices")

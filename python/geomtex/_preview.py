@@ -70,7 +70,8 @@ def height_mosaic(gts: Any, size: int = 512, tiles: int = 36) -> Image.Image:
             g[filled] = 70 + 185 * (h[filled] - lo) / max(hi - lo, 1.0)
         tile = Image.fromarray(g[::-1].astype(np.uint8))  # v up
         scale = (cell - 4) / max(tile.size)
-        tile = tile.resize((max(1, int(tile.size[0] * scale)), max(1, int(tile.size[1] * scale))), Image.Resampling.NEAREST)
+        size = (max(1, int(tile.size[0] * scale)), max(1, int(tile.size[1] * scale)))
+        tile = tile.resize(size, Image.Resampling.NEAREST)
         out.paste(tile, ((k % grid) * cell + 2, (k // grid) * cell + 2))
     return out.convert("RGB")
 

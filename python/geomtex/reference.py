@@ -57,42 +57,62 @@ def mesh_to_points(mesh: Any, points: npt.ArrayLike, samples: int = 200_000, see
     return np.asarray(d, dtype=np.float64)
 
 
+class RayCaster:
+    """trimesh ray casting of one mesh with its intersector kept, as a trimesh user runs it
+    (``mesh.ray`` caches embree's BVH after the first call): build it once, cast many times.
+
+    Rays are cast on a copy centred on the mesh and scaled to a 1000-unit diagonal: embree
+    intersects in float32 with absolute epsilons, so a model far from the origin would lose its
+    detail and one of micrometre size (diagonal 2.5e-5, say) would be missed altogether. Hits are
+    invariant under this similarity; positions are mapped back.
+    """
+
+    def __init__(self, mesh: Any) -> None:
+        self.mesh = _trimesh(mesh)
+        self.centre = self.mesh.bounds.mean(axis=0)
+        self.scale = _REFERENCE_DIAGONAL / max(diagonal(self.mesh), 1e-300)
+        local = type(self.mesh)((self.mesh.vertices - self.centre) * self.scale, self.mesh.faces, process=False)
+        self.intersector = local.ray
+
+    def first_hits(self, origins: npt.ArrayLike,
+                   directions: npt.ArrayLike) -> tuple[npt.NDArray[Any], npt.NDArray[Any], npt.NDArray[Any]]:
+        """(hit locations in world units, ray indices, triangle indices) of the rays that hit."""
+        o = np.asarray(origins, dtype=np.float64)
+        locations, ray_index, tri_index = self.intersector.intersects_location(
+            (o - self.centre) * self.scale, np.asarray(directions, dtype=np.float64), multiple_hits=False)
+        return locations / self.scale + self.centre, ray_index, tri_index
+
+    def cast(self, camera: Any, width: int, height: int) -> dict[str, npt.NDArray[Any]]:
+        """First hits of the camera's pixel rays; see ``raycast`` for what comes back."""
+        origins, directions = camera.rays(width, height)
+        o = origins.reshape(-1, 3)
+        locations, ray_index, tri_index = self.first_hits(o, directions.reshape(-1, 3))
+        depth = np.full(len(o), np.inf)
+        normal = np.zeros((len(o), 3))
+        triangle = np.full(len(o), -1, dtype=np.int64)
+        # z-depth: the hit's distance from the ray's origin along the camera's forward axis (the
+        # origin is the eye for perspective cameras and lies on the camera plane for orthographic).
+        depth[ray_index] = (locations - o[ray_index]) @ np.asarray(camera.forward)
+        normal[ray_index] = self.mesh.face_normals[tri_index]
+        triangle[ray_index] = tri_index
+        shape = (height, width)
+        return {
+            "depth": depth.reshape(shape).astype(np.float32),
+            "normal": normal.reshape(shape + (3,)).astype(np.float32),
+            "hit": np.isfinite(depth).reshape(shape),
+            "triangle": triangle.reshape(shape),
+        }
+
+
 def raycast(mesh: Any, camera: Any, width: int, height: int) -> dict[str, npt.NDArray[Any]]:
     """First hits of the camera's pixel rays on the mesh, by trimesh (embreex when installed).
 
     Same conventions as ``Renderer.render``: row 0 at the top, ``depth`` is z-depth along the
     camera's forward axis (+inf on a miss), ``normal`` the hit triangle's unit normal (0 on a
-    miss), ``hit`` a boolean mask, ``triangle`` the hit face (-1 on a miss).
+    miss), ``hit`` a boolean mask, ``triangle`` the hit face (-1 on a miss). Builds a new
+    intersector each call; keep a ``RayCaster`` to cast many times.
     """
-    tm = _trimesh(mesh)
-    origins, directions = camera.rays(width, height)
-    o = origins.reshape(-1, 3)
-    d = directions.reshape(-1, 3)
-    # Ray casting on a copy centred on the mesh and scaled to a 1000-unit diagonal: embree
-    # intersects in float32 with absolute epsilons, so a model far from the origin would lose its
-    # detail and one of micrometre size (diagonal 2.5e-5, say) would be missed altogether. Hits
-    # are invariant under this similarity; positions are mapped back.
-    centre = tm.bounds.mean(axis=0)
-    k = _REFERENCE_DIAGONAL / max(diagonal(tm), 1e-300)
-    local = type(tm)((tm.vertices - centre) * k, tm.faces, process=False)
-    locations, ray_index, tri_index = local.ray.intersects_location((o - centre) * k, d, multiple_hits=False)
-    locations = locations / k
-    depth = np.full(len(o), np.inf)
-    normal = np.zeros((len(o), 3))
-    triangle = np.full(len(o), -1, dtype=np.int64)
-    # z-depth: the hit's distance from the ray's origin along the camera's forward axis (the
-    # origin is the eye for perspective cameras and lies on the camera plane for orthographic).
-    forward = np.asarray(camera.forward)
-    depth[ray_index] = (locations + centre - o[ray_index]) @ forward
-    normal[ray_index] = tm.face_normals[tri_index]
-    triangle[ray_index] = tri_index
-    shape = (height, width)
-    return {
-        "depth": depth.reshape(shape).astype(np.float32),
-        "normal": normal.reshape(shape + (3,)).astype(np.float32),
-        "hit": np.isfinite(depth).reshape(shape),
-        "triangle": triangle.reshape(shape),
-    }
+    return RayCaster(mesh).cast(camera, width, height)
 
 
 def _neighbours(a: npt.NDArray[Any], fill: Any) -> list[npt.NDArray[Any]]:

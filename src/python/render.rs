@@ -1,41 +1,19 @@
-//! Bindings for the renderer: Camera, Scene, Renderer and Frame.
+//! Bindings of the renderer: Camera, Scene, Renderer and Frame. Presets, defaults and the
+//! string→enum parsing live in `crate::render`; trimesh objects and paths are turned into meshes
+//! by the Python package before they reach these classes.
 
-use std::sync::Mutex;
+use std::sync::{Mutex, MutexGuard};
 
 use glam::{DMat4, DVec3};
-use numpy::ndarray::{Array2, Array3};
-use numpy::{IntoPyArray, PyArray2, PyArray3, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{PyArray2, PyArray3, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
-use pyo3::types::{PyBytes, PyDict};
+use pyo3::types::PyDict;
 
-use super::{parameter_error, to_py_err, PyGeometryTextureSet, PyMesh};
-use crate::render::{
-    Camera, Method, Object, Projection, Renderer, Scene, SceneObject, SearchOptions,
-};
-
-fn mat4(a: Option<PyReadonlyArray2<'_, f64>>, what: &str) -> PyResult<DMat4> {
-    let Some(a) = a else {
-        return Ok(DMat4::IDENTITY);
-    };
-    if a.shape() != [4, 4] {
-        return Err(parameter_error(format!(
-            "{what} must be a 4x4 matrix, got shape {:?}",
-            a.shape()
-        )));
-    }
-    let a = a.as_array();
-    // numpy is row-major: column c of the matrix is a[.., c].
-    Ok(DMat4::from_cols_array_2d(&std::array::from_fn(|c| {
-        std::array::from_fn(|r| a[[r, c]])
-    })))
-}
-
-fn to_numpy4(m: DMat4, py: Python<'_>) -> Bound<'_, PyArray2<f64>> {
-    let rows: Vec<f64> = m.transpose().to_cols_array().to_vec();
-    Array2::from_shape_vec((4, 4), rows)
-        .unwrap()
-        .into_pyarray(py)
-}
+use super::arrays::{image, mat4_from_numpy, mat4_to_numpy, matrix};
+use super::errors::{heavy, parameter_error};
+use super::gtex::{set_stats, PyGeometryTextureSet};
+use super::mesh::PyMesh;
+use crate::render::{Camera, Object, Renderer, Scene, SceneObject, SearchOverrides};
 
 /// A camera: OpenGL-style pose (looks down -Z, +Y up) as pyrender and trimesh use; see
 /// `look_at`, `from_intrinsics` (OpenCV) and `orthographic`.
@@ -46,33 +24,33 @@ pub struct PyCamera {
 
 #[pymethods]
 impl PyCamera {
-    /// Perspective camera at `eye` looking at `target`; `yfov_deg` is the vertical field of view.
+    /// Perspective camera at `eye` looking at `target`; `yfov_deg` is the vertical field of view
+    /// (default 45), `up` defaults to +Y.
     #[staticmethod]
-    #[pyo3(signature = (eye, target, up = (0.0, 1.0, 0.0), yfov_deg = 45.0, near = None),
-        text_signature = "(eye, target, up=(0.0, 1.0, 0.0), yfov_deg=45.0, near=None)")]
+    #[pyo3(signature = (eye, target, up = None, yfov_deg = None, near = None))]
     fn look_at(
         eye: [f64; 3],
         target: [f64; 3],
-        up: (f64, f64, f64),
-        yfov_deg: f64,
+        up: Option<[f64; 3]>,
+        yfov_deg: Option<f64>,
         near: Option<f64>,
     ) -> PyResult<Self> {
-        let mut c = Camera::look_at(
+        let camera = Camera::look_at(
             DVec3::from_array(eye),
             DVec3::from_array(target),
-            DVec3::new(up.0, up.1, up.2),
-            yfov_deg,
-        )
-        .map_err(to_py_err)?;
-        c.near = checked_near(near)?;
-        Ok(PyCamera { inner: c })
+            up.map_or(Camera::DEFAULT_UP, DVec3::from_array),
+            yfov_deg.unwrap_or(Camera::DEFAULT_YFOV_DEG),
+        )?;
+        Ok(PyCamera {
+            inner: camera.with_near(near)?,
+        })
     }
 
     /// OpenCV intrinsics K (3x3) with an OpenCV camera-to-world pose (looks down +Z, +Y down), for
     /// an image of width x height.
     #[staticmethod]
     #[pyo3(signature = (K, world_from_camera, width, height, near = None))]
-    #[allow(non_snake_case)]
+    #[allow(non_snake_case)] // K is the name every OpenCV user knows
     fn from_intrinsics(
         K: PyReadonlyArray2<'_, f64>,
         world_from_camera: PyReadonlyArray2<'_, f64>,
@@ -81,22 +59,15 @@ impl PyCamera {
         near: Option<f64>,
     ) -> PyResult<Self> {
         if K.shape() != [3, 3] {
-            return Err(parameter_error(format!(
-                "K must be 3x3, got shape {:?}",
-                K.shape()
-            )));
+            return Err(parameter_error(format!("K must be 3x3, got shape {:?}", K.shape())));
         }
         let k = K.as_array();
         let k: [[f64; 3]; 3] = std::array::from_fn(|r| std::array::from_fn(|c| k[[r, c]]));
-        let mut c = Camera::from_intrinsics(
-            k,
-            mat4(Some(world_from_camera), "world_from_camera")?,
-            width,
-            height,
-        )
-        .map_err(to_py_err)?;
-        c.near = checked_near(near)?;
-        Ok(PyCamera { inner: c })
+        let world_from_camera = mat4_from_numpy(Some(world_from_camera), "world_from_camera")?;
+        let camera = Camera::from_intrinsics(k, world_from_camera, width, height)?;
+        Ok(PyCamera {
+            inner: camera.with_near(near)?,
+        })
     }
 
     /// Orthographic camera with an OpenGL pose; `ymag` is half the view's height in world units.
@@ -107,26 +78,23 @@ impl PyCamera {
         ymag: f64,
         near: Option<f64>,
     ) -> PyResult<Self> {
-        let mut c = Camera::orthographic(mat4(Some(world_from_camera), "world_from_camera")?, ymag)
-            .map_err(to_py_err)?;
-        c.near = near;
-        Ok(PyCamera { inner: c })
+        let world_from_camera = mat4_from_numpy(Some(world_from_camera), "world_from_camera")?;
+        let camera = Camera::orthographic(world_from_camera, ymag)?;
+        Ok(PyCamera {
+            inner: camera.with_near(near)?,
+        })
     }
 
     /// (4, 4) float64 OpenGL-style camera-to-world pose.
     #[getter]
     fn world_from_camera<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        to_numpy4(self.inner.world_from_camera, py)
+        mat4_to_numpy(py, self.inner.world_from_camera)
     }
 
     /// "perspective", "intrinsics" or "orthographic".
     #[getter]
     fn kind(&self) -> &'static str {
-        match self.inner.projection {
-            Projection::Perspective { .. } => "perspective",
-            Projection::Intrinsics { .. } => "intrinsics",
-            Projection::Orthographic { .. } => "orthographic",
-        }
+        self.inner.projection.kind()
     }
 
     /// World rays through every pixel centre of a width x height image: origins and unit
@@ -137,23 +105,13 @@ impl PyCamera {
         width: u32,
         height: u32,
     ) -> PyResult<(Bound<'py, PyArray3<f64>>, Bound<'py, PyArray3<f64>>)> {
-        let lens = self
-            .inner
-            .lens(width, height, 1.0, 2.0)
-            .map_err(to_py_err)?;
-        let n = width as usize * height as usize;
-        let (mut o, mut d) = (Vec::with_capacity(n * 3), Vec::with_capacity(n * 3));
-        for y in 0..height {
-            for x in 0..width {
-                let (a, b) = self.inner.pixel_ray(&lens, x as f64 + 0.5, y as f64 + 0.5);
-                o.extend_from_slice(&a.to_array());
-                d.extend_from_slice(&b.to_array());
-            }
-        }
+        let camera = self.inner;
+        let (origins, directions) =
+            heavy(py, "computing camera rays", move || camera.pixel_rays(width, height))?;
         let shape = (height as usize, width as usize, 3);
         Ok((
-            Array3::from_shape_vec(shape, o).unwrap().into_pyarray(py),
-            Array3::from_shape_vec(shape, d).unwrap().into_pyarray(py),
+            image(py, origins.into_flattened(), shape),
+            image(py, directions.into_flattened(), shape),
         ))
     }
 
@@ -161,55 +119,32 @@ impl PyCamera {
     /// along it.
     #[getter]
     fn forward(&self) -> [f64; 3] {
-        (-self.inner.world_from_camera.z_axis.truncate())
-            .normalize()
-            .to_array()
+        self.inner.forward().to_array()
     }
 
     fn __repr__(&self) -> String {
-        format!(
-            "<geomtex.Camera {} at {:?}>",
-            self.kind(),
-            self.inner.eye().to_array()
-        )
-    }
-}
-
-fn panic_message(p: &Box<dyn std::any::Any + Send>) -> String {
-    p.downcast_ref::<String>()
-        .cloned()
-        .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
-        .unwrap_or_default()
-}
-
-fn checked_near(near: Option<f64>) -> PyResult<Option<f64>> {
-    match near {
-        Some(n) if !(n.is_finite() && n > 0.0) => {
-            Err(parameter_error(format!("near must be positive, got {n}")))
-        }
-        other => Ok(other),
+        format!("<geomtex.Camera {} at {:?}>", self.kind(), self.inner.eye().to_array())
     }
 }
 
 /// Geometry-texture sets and ordinary meshes, each placed by a world_from_object matrix.
-#[pyclass(name = "Scene", module = "geomtex._core")]
+#[pyclass(name = "Scene", module = "geomtex._core", subclass)]
 #[derive(Default)]
 pub struct PyScene {
     pub(crate) inner: Scene,
 }
 
+/// A set or a mesh as a scene object; anything else was the Python package's to convert.
 fn scene_object(obj: &Bound<'_, PyAny>, world_from_object: DMat4) -> PyResult<SceneObject> {
     let object = if let Ok(s) = obj.cast::<PyGeometryTextureSet>() {
         Object::Textures(s.get().inner.clone())
     } else if let Ok(m) = obj.cast::<PyMesh>() {
         Object::Mesh(m.get().inner.clone())
     } else {
-        // trimesh and paths: let the Python side turn them into a Mesh.
-        let mesh = obj
-            .py()
-            .import("geomtex._mesh")?
-            .call_method1("as_mesh", (obj,))?;
-        Object::Mesh(mesh.cast::<PyMesh>()?.get().inner.clone())
+        return Err(parameter_error(format!(
+            "expected a GeometryTextureSet or a Mesh, got {}",
+            obj.get_type().name()?
+        )));
     };
     Ok(SceneObject {
         object,
@@ -224,16 +159,16 @@ impl PyScene {
         PyScene::default()
     }
 
-    /// Adds a GeometryTextureSet or a Mesh (or trimesh) placed by `world_from_object` (4x4,
-    /// default identity). Returns its index.
+    /// Adds a GeometryTextureSet or a Mesh placed by `world_from_object` (4x4, default identity).
+    /// Returns its index.
     #[pyo3(signature = (obj, world_from_object = None))]
     fn add(
         &mut self,
         obj: &Bound<'_, PyAny>,
         world_from_object: Option<PyReadonlyArray2<'_, f64>>,
     ) -> PyResult<usize> {
-        let m = mat4(world_from_object, "world_from_object")?;
-        self.inner.objects.push(scene_object(obj, m)?);
+        let world_from_object = mat4_from_numpy(world_from_object, "world_from_object")?;
+        self.inner.objects.push(scene_object(obj, world_from_object)?);
         Ok(self.inner.objects.len() - 1)
     }
 
@@ -242,50 +177,39 @@ impl PyScene {
     }
 
     fn __repr__(&self) -> String {
-        let sets = self
-            .inner
-            .objects
-            .iter()
-            .filter(|o| matches!(o.object, Object::Textures(_)))
-            .count();
-        format!(
-            "<geomtex.Scene {sets} texture sets, {} meshes>",
-            self.inner.objects.len() - sets
-        )
+        let objects = &self.inner.objects;
+        let sets = objects.iter().filter(|o| matches!(o.object, Object::Textures(_))).count();
+        format!("<geomtex.Scene {sets} texture sets, {} meshes>", objects.len() - sets)
     }
 }
 
 /// A headless renderer of a fixed image size. Reuse it: the GPU device, render targets and
 /// uploaded textures are kept between frames.
-#[pyclass(name = "Renderer", module = "geomtex._core", frozen)]
+#[pyclass(name = "Renderer", module = "geomtex._core", subclass, frozen)]
 pub struct PyRenderer {
     inner: Mutex<Renderer>,
     width: u32,
     height: u32,
 }
 
+impl PyRenderer {
+    /// The renderer, even if an earlier call panicked while holding it (its state is rebuilt per
+    /// frame, so a poisoned lock holds nothing half-written that a later frame reads).
+    fn renderer(&self) -> MutexGuard<'_, Renderer> {
+        self.inner.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+    }
+}
+
 #[pymethods]
 impl PyRenderer {
     #[new]
     fn new(py: Python<'_>, width: i64, height: i64) -> PyResult<Self> {
-        let (w, h) = (u32::try_from(width), u32::try_from(height));
-        let (Ok(w), Ok(h)) = (w, h) else {
-            return Err(parameter_error(format!(
-                "image size {width}x{height} must be positive"
-            )));
+        let (Ok(w), Ok(h)) = (u32::try_from(width), u32::try_from(height)) else {
+            return Err(parameter_error(format!("image size {width}x{height} must be positive")));
         };
-        let r = py
-            .detach(|| {
-                std::panic::catch_unwind(|| Renderer::new(w, h)).unwrap_or_else(|p| {
-                    Err(crate::error::GeomtexError::Device(format!(
-                        "internal error creating the renderer: {}",
-                        panic_message(&p)
-                    )))
-                })
-            })
-            .map_err(to_py_err)?;
+        let renderer = heavy(py, "creating the renderer", move || Renderer::new(w, h))?;
         Ok(PyRenderer {
-            inner: Mutex::new(r),
+            inner: Mutex::new(renderer),
             width: w,
             height: h,
         })
@@ -305,7 +229,7 @@ impl PyRenderer {
     #[getter]
     fn adapter_info<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let d = PyDict::new(py);
-        for (k, v) in self.inner.lock().unwrap().info() {
+        for (k, v) in self.renderer().info() {
             d.set_item(k, v)?;
         }
         Ok(d)
@@ -319,12 +243,8 @@ impl PyRenderer {
     /// search only) stops each patch's descent where its nodes are about a pixel.
     #[pyo3(signature = (obj, camera, *, quality = None, method = None, steps_per_texel = None,
         min_linear_steps = None, max_linear_steps = None, binary_steps = None,
-        max_traversal_steps = None, count_fetches = false, lod = false,
-        background = (255, 255, 255, 0)),
-        text_signature = "(self, /, obj, camera, *, quality=None, method=None, steps_per_texel=None, \
-min_linear_steps=None, max_linear_steps=None, binary_steps=None, max_traversal_steps=None, \
-count_fetches=False, lod=False, background=(255, 255, 255, 0))")]
-    #[allow(clippy::too_many_arguments)]
+        max_traversal_steps = None, count_fetches = None, lod = None, background = None))]
+    #[allow(clippy::too_many_arguments)] // one per keyword of Renderer.render
     fn render(
         &self,
         py: Python<'_>,
@@ -337,119 +257,41 @@ count_fetches=False, lod=False, background=(255, 255, 255, 0))")]
         max_linear_steps: Option<u32>,
         binary_steps: Option<u32>,
         max_traversal_steps: Option<u32>,
-        count_fetches: bool,
-        lod: bool,
-        background: (u8, u8, u8, u8),
+        count_fetches: Option<bool>,
+        lod: Option<bool>,
+        background: Option<(u8, u8, u8, u8)>,
     ) -> PyResult<PyFrame> {
-        let mut search = match quality.unwrap_or("balanced") {
-            "fast" => SearchOptions {
-                steps_per_texel: 0.25,
-                binary_steps: 6,
-                ..Default::default()
-            },
-            "balanced" => SearchOptions::default(),
-            "exact" => SearchOptions {
-                method: Method::MaxMip,
-                ..Default::default()
-            },
-            other => {
-                return Err(parameter_error(format!(
-                    "quality must be 'fast', 'balanced' or 'exact', got {other:?}"
-                )))
-            }
-        };
-        match method {
-            None => {}
-            Some("linear_binary") => search.method = Method::LinearBinary,
-            Some("maxmip") => search.method = Method::MaxMip,
-            Some(other) => {
-                return Err(parameter_error(format!(
-                    "method must be 'linear_binary' or 'maxmip', got {other:?}"
-                )))
-            }
+        let search = SearchOverrides {
+            quality: quality.map(str::parse).transpose()?,
+            method: method.map(str::parse).transpose()?,
+            steps_per_texel,
+            min_linear_steps,
+            max_linear_steps,
+            binary_steps,
+            max_traversal_steps,
+            count_fetches,
+            lod,
         }
-        search.steps_per_texel = steps_per_texel.unwrap_or(search.steps_per_texel);
-        search.min_linear_steps = min_linear_steps.unwrap_or(search.min_linear_steps);
-        search.max_linear_steps = max_linear_steps.unwrap_or(search.max_linear_steps);
-        search.binary_steps = binary_steps.unwrap_or(search.binary_steps);
-        search.max_traversal_steps = max_traversal_steps.unwrap_or(search.max_traversal_steps);
-        search.count_fetches = count_fetches;
-        search.lod = lod;
+        .resolve()?;
         let scene = match obj.cast::<PyScene>() {
             Ok(s) => s.borrow().inner.clone(),
             Err(_) => Scene {
                 objects: vec![scene_object(obj, DMat4::IDENTITY)?],
             },
         };
-        let cam = camera.inner;
-        let frame = py
-            .detach(|| {
-                // A panic inside wgpu must not cross into Python: report it as a DeviceError.
-                std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                    let mut r = self.inner.lock().unwrap_or_else(|e| e.into_inner());
-                    let b = background;
-                    r.background = [b.0, b.1, b.2, b.3].map(|v| v as f64 / 255.0);
-                    r.render(&scene, &cam, &search)
-                }))
-                .unwrap_or_else(|p| {
-                    Err(crate::error::GeomtexError::Device(format!(
-                        "internal error while rendering: {}",
-                        panic_message(&p)
-                    )))
-                })
-            })
-            .map_err(to_py_err)?;
-        let (h, w) = (frame.height as usize, frame.width as usize);
-        let stats = PyDict::new(py);
-        stats.set_item("gpu_ms", frame.gpu_ms)?;
-        stats.set_item("cpu_ms", frame.cpu_ms)?;
-        stats.set_item("patches_drawn", frame.patches_drawn)?;
-        stats.set_item("patches_culled", frame.patches_culled)?;
-        stats.set_item("meshes_drawn", frame.meshes_drawn)?;
-        stats.set_item("near", frame.near)?;
-        stats.set_item(
-            "method",
-            if search.method == Method::MaxMip {
-                "maxmip"
-            } else {
-                "linear_binary"
-            },
-        )?;
-        if let Some((fetches, fragments)) = frame.fetches {
-            stats.set_item("fetches", fetches)?;
-            stats.set_item("raycast_fragments", fragments)?;
-            stats.set_item(
-                "fetches_per_pixel",
-                fetches as f64 / fragments.max(1) as f64,
-            )?;
-        }
-        Ok(PyFrame {
-            color: Array3::from_shape_vec((h, w, 4), frame.color)
-                .unwrap()
-                .into_pyarray(py)
-                .unbind(),
-            depth: Array2::from_shape_vec((h, w), frame.depth)
-                .unwrap()
-                .into_pyarray(py)
-                .unbind(),
-            normal: Array3::from_shape_vec((h, w, 3), frame.normal)
-                .unwrap()
-                .into_pyarray(py)
-                .unbind(),
-            patch_id: Array2::from_shape_vec((h, w), frame.patch_id)
-                .unwrap()
-                .into_pyarray(py)
-                .unbind(),
-            stats: stats.unbind(),
-        })
+        let camera = camera.inner;
+        let background = background.map(|b| [b.0, b.1, b.2, b.3]);
+        let frame = heavy(py, "rendering", || {
+            let mut renderer = self.renderer();
+            renderer.set_background(background);
+            renderer.render(&scene, &camera, &search)
+        })?;
+        PyFrame::new(py, frame)
     }
 
     fn __repr__(&self) -> String {
-        let name = self.inner.lock().unwrap().info()[0].1.clone();
-        format!(
-            "<geomtex.Renderer {}x{} on {name}>",
-            self.width, self.height
-        )
+        let name = self.renderer().info()[0].1.clone();
+        format!("<geomtex.Renderer {}x{} on {name}>", self.width, self.height)
     }
 }
 
@@ -461,6 +303,21 @@ pub struct PyFrame {
     normal: Py<PyArray3<f32>>,
     patch_id: Py<PyArray2<i32>>,
     stats: Py<PyDict>,
+}
+
+impl PyFrame {
+    fn new(py: Python<'_>, frame: crate::render::Frame) -> PyResult<Self> {
+        let (h, w) = (frame.height as usize, frame.width as usize);
+        let stats = PyDict::new(py);
+        set_stats(&stats, &frame.stats())?;
+        Ok(PyFrame {
+            color: image(py, frame.color, (h, w, 4)).unbind(),
+            depth: matrix(py, frame.depth, h, w).unbind(),
+            normal: image(py, frame.normal, (h, w, 3)).unbind(),
+            patch_id: matrix(py, frame.patch_id, h, w).unbind(),
+            stats: stats.unbind(),
+        })
+    }
 }
 
 #[pymethods]
@@ -491,39 +348,16 @@ impl PyFrame {
         self.patch_id.clone_ref(py)
     }
 
-    /// gpu_ms (GPU timestamps, None where unsupported), cpu_ms (the whole call), patches_drawn, patches_culled (boxes outside the view),
-    /// meshes_drawn, near.
+    /// gpu_ms (GPU timestamps, None where unsupported), cpu_ms (the whole call), patches_drawn,
+    /// patches_culled (boxes outside the view), meshes_drawn, near, method; with count_fetches
+    /// also fetches, raycast_fragments and fetches_per_pixel.
     #[getter]
     fn stats(&self, py: Python<'_>) -> Py<PyDict> {
         self.stats.clone_ref(py)
-    }
-
-    fn _repr_png_<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyBytes>> {
-        let png = slf
-            .py()
-            .import("geomtex._preview")?
-            .call_method1("frame_png", (slf,))?;
-        Ok(png.cast_into::<PyBytes>()?)
-    }
-
-    /// Writes the color image as a PNG (atomically).
-    fn save(slf: &Bound<'_, Self>, path: &Bound<'_, PyAny>) -> PyResult<()> {
-        slf.py()
-            .import("geomtex._preview")?
-            .call_method1("save_frame", (slf, path))?;
-        Ok(())
     }
 
     fn __repr__(&self, py: Python<'_>) -> String {
         let shape = self.depth.bind(py).shape().to_vec();
         format!("<geomtex.Frame {}x{}>", shape[1], shape[0])
     }
-}
-
-pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    m.add_class::<PyCamera>()?;
-    m.add_class::<PyScene>()?;
-    m.add_class::<PyRenderer>()?;
-    m.add_class::<PyFrame>()?;
-    Ok(())
 }

@@ -1,0 +1,39 @@
+"""The renderer's Python face: `Scene` and `Renderer` accept anything `as_mesh` reads (trimesh
+objects, mesh files) besides geomtex objects, turning it into a Mesh before the extension sees it.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy.typing as npt
+
+from . import _core
+from ._mesh import as_mesh
+
+_NATIVE = (_core.Scene, _core.GeometryTextureSet, _core.Mesh)
+
+
+def renderable(obj: Any) -> Any:
+    """`obj` itself if the extension draws it, else a Mesh made from it."""
+    return obj if isinstance(obj, _NATIVE) else as_mesh(obj)
+
+
+class Scene(_core.Scene):
+    """Geometry-texture sets and meshes (geomtex, trimesh or a file path), each placed by a
+    ``world_from_object`` 4x4 matrix."""
+
+    def add(self, obj: Any, world_from_object: npt.NDArray[Any] | None = None) -> int:
+        """Adds `obj` placed by `world_from_object` (default identity); returns its index."""
+        return super().add(renderable(obj), world_from_object)
+
+
+class Renderer(_core.Renderer):
+    """A headless renderer of a fixed image size; reuse it (device, targets and uploaded
+    textures are kept between frames). See ``render`` for the keywords."""
+
+    def render(self, obj: Any, camera: _core.Camera, **options: Any) -> _core.Frame:
+        return super().render(renderable(obj), camera, **options)
+
+
+Renderer.render.__doc__ = _core.Renderer.render.__doc__

@@ -1,0 +1,23 @@
+"""Cameras placed relative to a mesh, for tests and benchmarks that look at it from a direction."""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+from .._core import Camera
+from .._mesh import Mesh
+
+
+def look_from(mesh: Mesh, direction: npt.ArrayLike, distance: float = 1.7, yfov_deg: float = 40.0,
+              up: npt.ArrayLike | None = None) -> Camera:
+    """A camera ``distance`` diagonals from the bounding-box centre along ``direction``, looking
+    back at the centre; ``up`` defaults to +z unless the view is near vertical, then +y."""
+    lo, hi = (np.asarray(b, np.float64) for b in mesh.bounds)
+    centre = (lo + hi) / 2
+    d = np.asarray(direction, np.float64)
+    d = d / np.linalg.norm(d)
+    if up is None:
+        up = (0.0, 0.0, 1.0) if abs(d[2]) < 0.9 else (0.0, 1.0, 0.0)
+    return Camera.look_at(centre + d * distance * mesh.diagonal, centre, up=tuple(np.asarray(up, np.float64)),
+                          yfov_deg=yfov_deg)

@@ -1,0 +1,344 @@
+//! Bindings of `GeometryTextureSet`, `convert` and `load`: arrays and errors only. Options arrive
+//! as `Option`s and fall back to the core's defaults (`ConvertArgs`, `MapFilter::from_name`,
+//! `grids::from_grids`); the notebook helpers (`_repr_png_`, `from_heightmaps`) are Python,
+//! attached by the package.
+
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+
+use glam::{DVec2, DVec3};
+use numpy::{PyArray1, PyArray2, PyArray3, PyReadonlyArray2, PyReadonlyArray3};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use super::arrays::{expect_columns, flat, image, mat4_to_numpy, matrix, rows};
+use super::errors::{heavy, parameter_error};
+use super::mesh::PyMesh;
+use crate::convert::{ConvertArgs, ConvertOptions};
+use crate::error::GeomtexError;
+use crate::filters::MapFilter;
+use crate::gtex::{GeometryTextureSet, Patch, StatValue};
+use crate::grids::HeightGrid;
+
+/// Height-map patches in oriented boxes, converted from a mesh or loaded from a .gtex file.
+#[pyclass(name = "GeometryTextureSet", module = "geomtex._core", frozen)]
+pub struct PyGeometryTextureSet {
+    pub(crate) inner: Arc<GeometryTextureSet>,
+}
+
+impl PyGeometryTextureSet {
+    fn wrap(set: GeometryTextureSet) -> Self {
+        PyGeometryTextureSet {
+            inner: Arc::new(set),
+        }
+    }
+}
+
+/// Puts typed figures into a dict (counts as int, lengths as float, None where not measured).
+pub fn set_stats(d: &Bound<'_, PyDict>, figures: &[(&str, StatValue)]) -> PyResult<()> {
+    for (name, value) in figures {
+        match *value {
+            StatValue::Int(v) => d.set_item(name, v)?,
+            StatValue::Float(v) => d.set_item(name, v)?,
+            StatValue::Text(v) => d.set_item(name, v)?,
+            StatValue::Absent => d.set_item(name, d.py().None())?,
+        }
+    }
+    Ok(())
+}
+
+/// One patch's maps and frame as a dict of numpy arrays.
+fn patch_dict<'py>(py: Python<'py>, p: &Patch) -> PyResult<Bound<'py, PyDict>> {
+    let (h, w) = (p.height as usize, p.width as usize);
+    let d = PyDict::new(py);
+    if p.height_bits == 8 {
+        let codes: Vec<u8> = p.heights.iter().map(|&q| q as u8).collect();
+        d.set_item("height", matrix(py, codes, h, w))?;
+    } else {
+        d.set_item("height", matrix(py, p.heights.clone(), h, w))?;
+    }
+    d.set_item("height_bits", p.height_bits)?;
+    let normals: Vec<i8> = p.normals.iter().flatten().copied().collect();
+    d.set_item("normal", image(py, normals, (h, w, 4)))?;
+    let colors: Vec<u8> = p.colors.iter().flatten().copied().collect();
+    d.set_item("color", image(py, colors, (h, w, 4)))?;
+    d.set_item("world_from_patch", mat4_to_numpy(py, p.world_from_patch()))?;
+    d.set_item("origin", PyArray1::from_slice(py, &p.origin.to_array()))?;
+    d.set_item("axes", rows(py, &p.axes.map(DVec3::to_array)))?;
+    d.set_item("extent", PyArray1::from_slice(py, &p.extent.to_array()))?;
+    d.set_item("faces", PyArray1::from_slice(py, &p.faces))?;
+    d.set_item("ring_faces", PyArray1::from_slice(py, &p.ring_faces))?;
+    Ok(d)
+}
+
+#[pymethods]
+impl PyGeometryTextureSet {
+    fn __len__(&self) -> usize {
+        self.inner.patches.len()
+    }
+
+    /// Figures of the conversion (see DESIGN.md), with per-stage wall-clock seconds under
+    /// "seconds" and per-patch arrays under their own names.
+    #[getter]
+    fn stats<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let stats = &self.inner.stats;
+        let d = PyDict::new(py);
+        set_stats(&d, &stats.typed())?;
+        let seconds = PyDict::new(py);
+        for (name, v) in &stats.seconds {
+            seconds.set_item(name, *v)?;
+        }
+        d.set_item("seconds", seconds)?;
+        for (name, v) in &stats.per_patch {
+            d.set_item(name, PyArray1::from_slice(py, v))?;
+        }
+        Ok(d)
+    }
+
+    /// World size of one texel (the finest patch's where texels differ).
+    #[getter]
+    fn texel_size(&self) -> f64 {
+        self.inner.texel_size
+    }
+
+    /// (P, 4, 4) float64: each patch's world_from_patch (unit cube → world box).
+    #[getter]
+    fn world_from_patch<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray3<f64>> {
+        let patches = &self.inner.patches;
+        let flat: Vec<f64> = patches
+            .iter()
+            .flat_map(|p| p.world_from_patch().transpose().to_cols_array())
+            .collect();
+        image(py, flat, (patches.len(), 4, 4))
+    }
+
+    /// (M,) int32: the patch holding each source face, -1 for degenerate faces left out.
+    fn face_patch<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<i32>> {
+        PyArray1::from_vec(py, self.inner.face_patch())
+    }
+
+    /// One patch's maps and frame as numpy arrays: height (H, W) codes, uint16 or uint8 as
+    /// `height_bits` says (0 = empty, else h = (code - 1) / (2**height_bits - 2)), normal
+    /// (H, W, 4) int8 (patch-local xyz/127), color (H, W, 4) uint8, world_from_patch (4, 4),
+    /// origin (3,), axes (3, 3) (rows x, y, z), extent (3,), faces and ring_faces (uint32).
+    fn patch<'py>(&self, py: Python<'py>, index: isize) -> PyResult<Bound<'py, PyDict>> {
+        let n = self.inner.patches.len() as isize;
+        let i = if index < 0 { index + n } else { index };
+        if !(0..n).contains(&i) {
+            return Err(pyo3::exceptions::PyIndexError::new_err(format!(
+                "patch index {index} out of range for {n} patches"
+            )));
+        }
+        patch_dict(py, &self.inner.patches[i as usize])
+    }
+
+    /// Every non-empty texel as a world point: ((N, 3) float64 points, (N, 3) float32 unit
+    /// normals).
+    fn to_points<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f32>>)> {
+        let inner = self.inner.clone();
+        let (p, n) = heavy(py, "collecting texel points", move || Ok(inner.to_points()))?;
+        let k = p.len();
+        Ok((
+            matrix(py, p.into_flattened(), k, 3),
+            matrix(py, n.into_flattened(), k, 3),
+        ))
+    }
+
+    /// Exact first hits of world rays on the set's surface, computed on the CPU in f64 (the
+    /// reference the GPU searches are tested against): ((N,) float64 distances along the rays,
+    /// +inf on a miss; (N,) int32 patch indices, -1 on a miss). Directions must be unit vectors.
+    fn first_hits<'py>(
+        &self,
+        py: Python<'py>,
+        origins: PyReadonlyArray2<'py, f64>,
+        directions: PyReadonlyArray2<'py, f64>,
+    ) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<i32>>)> {
+        expect_columns(&origins, 3, "origins", GeomtexError::Parameter)?;
+        if directions.shape() != origins.shape() {
+            return Err(parameter_error(format!(
+                "origins and directions must both be (N, 3); got {:?} and {:?}",
+                origins.shape(),
+                directions.shape()
+            )));
+        }
+        let to_points = |a: Vec<f64>| -> Vec<DVec3> {
+            a.chunks_exact(3).map(DVec3::from_slice).collect()
+        };
+        let rays: Vec<(DVec3, DVec3)> = to_points(flat(&origins))
+            .into_iter()
+            .zip(to_points(flat(&directions)))
+            .collect();
+        let inner = self.inner.clone();
+        let hits = heavy(py, "casting rays on the CPU", move || {
+            Ok(crate::heightfield::first_hits(&inner, &rays))
+        })?;
+        let (t, k): (Vec<f64>, Vec<i32>) = hits.into_iter().unzip();
+        Ok((PyArray1::from_vec(py, t), PyArray1::from_vec(py, k)))
+    }
+
+    /// Writes a .gtex file atomically (no half file is ever left behind).
+    fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        let inner = self.inner.clone();
+        heavy(py, "saving", move || inner.save(&path))
+    }
+
+    /// A copy with every height map filtered: "gaussian" (low-pass) or "high_pass" (unsharp
+    /// masking, h + gain (h - gaussian h)); `sigma` in world units; normals rebuilt.
+    #[pyo3(signature = (kind, sigma, *, gain = None))]
+    fn filtered(&self, py: Python<'_>, kind: &str, sigma: f64, gain: Option<f64>) -> PyResult<Self> {
+        let filter = MapFilter::from_name(kind, gain)?;
+        let inner = self.inner.clone();
+        let set = heavy(py, "filtering", move || crate::filters::filtered(&inner, filter, sigma))?;
+        Ok(Self::wrap(set))
+    }
+
+    /// Gaps (world units, float64) between neighbouring patches at points along their charts'
+    /// shared edges of `mesh` (the mesh the set was converted from).
+    fn seam_gaps<'py>(
+        &self,
+        py: Python<'py>,
+        mesh: &Bound<'py, PyMesh>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let (inner, m) = (self.inner.clone(), mesh.get().inner.clone());
+        let gaps = heavy(py, "measuring seam gaps", move || crate::filters::seam_gaps(&inner, &m))?;
+        Ok(PyArray1::from_vec(py, gaps))
+    }
+
+    /// Builds a set from height grids already checked and colored by `geomtex._grids.prepare`
+    /// (`GeometryTextureSet.from_heightmaps` is the public entry).
+    #[staticmethod]
+    #[pyo3(signature = (prepared, *, max_resolution = None, height_bits = None))]
+    fn _from_prepared_grids(
+        py: Python<'_>,
+        prepared: Vec<PreparedGrid<'_>>,
+        max_resolution: Option<i64>,
+        height_bits: Option<i64>,
+    ) -> PyResult<Self> {
+        let grids: Vec<HeightGrid> = prepared.iter().map(height_grid).collect();
+        let set = heavy(py, "building patches from height grids", move || {
+            crate::grids::from_grids(&grids, max_resolution, height_bits)
+        })?;
+        Ok(Self::wrap(set))
+    }
+
+    fn __repr__(&self) -> String {
+        let s = &self.inner;
+        format!(
+            "<geomtex.GeometryTextureSet {} patches, {} texels ({:.1}% empty), texel {:.4e}>",
+            s.patches.len(),
+            s.texels(),
+            100.0 * s.empty_texels() as f64 / s.texels().max(1) as f64,
+            s.texel_size
+        )
+    }
+}
+
+/// One grid as `geomtex._grids.prepare` hands it over: heights (rows, cols), (x0, y0, dx, dy),
+/// optional colors (rows, cols, 4).
+type PreparedGrid<'py> = (
+    PyReadonlyArray2<'py, f64>,
+    (f64, f64, f64, f64),
+    Option<PyReadonlyArray3<'py, u8>>,
+);
+
+fn height_grid((z, (x0, y0, dx, dy), colors): &PreparedGrid<'_>) -> HeightGrid {
+    let shape = z.shape();
+    HeightGrid {
+        width: shape[1],
+        height: shape[0],
+        origin: DVec2::new(*x0, *y0),
+        spacing: DVec2::new(*dx, *dy),
+        z: flat(z),
+        colors: colors.as_ref().map(|c| {
+            let bytes = c.as_array().as_standard_layout().into_owned().into_raw_vec_and_offset().0;
+            bytes.chunks_exact(4).map(|q| [q[0], q[1], q[2], q[3]]).collect()
+        }),
+    }
+}
+
+/// Loads a .gtex file; FormatError if it is not one, is truncated, corrupt or of another version.
+#[pyfunction]
+pub fn load(py: Python<'_>, path: PathBuf) -> PyResult<PyGeometryTextureSet> {
+    let set = heavy(py, "loading", move || GeometryTextureSet::load(&path))?;
+    Ok(PyGeometryTextureSet::wrap(set))
+}
+
+/// Converts a mesh to geometry textures (see geomtex.convert for the keywords; every keyword left
+/// as None takes the core's default).
+#[pyfunction]
+#[pyo3(signature = (mesh, *, max_resolution = None, texel_size = None, max_error = None,
+    max_error_rel = None, error_scope = None, charts = None, chart_error = None, max_charts = None,
+    compactness = None, lloyd_iterations = None, overlap_rings = None, dilation = None,
+    frame = None, normals = None, height_bits = None, progress = None))]
+#[allow(clippy::too_many_arguments)] // one per keyword of geomtex.convert
+pub fn convert(
+    py: Python<'_>,
+    mesh: &Bound<'_, PyMesh>,
+    max_resolution: Option<i64>,
+    texel_size: Option<f64>,
+    max_error: Option<f64>,
+    max_error_rel: Option<f64>,
+    error_scope: Option<&str>,
+    charts: Option<i64>,
+    chart_error: Option<f64>,
+    max_charts: Option<i64>,
+    compactness: Option<f64>,
+    lloyd_iterations: Option<i64>,
+    overlap_rings: Option<i64>,
+    dilation: Option<i64>,
+    frame: Option<&str>,
+    normals: Option<&str>,
+    height_bits: Option<i64>,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<PyGeometryTextureSet> {
+    let options = ConvertArgs {
+        max_resolution,
+        texel_size,
+        max_error,
+        max_error_rel,
+        error_scope: error_scope.map(str::parse).transpose()?,
+        charts,
+        chart_error,
+        max_charts,
+        compactness,
+        lloyd_iterations,
+        overlap_rings,
+        dilation,
+        frame: frame.map(str::parse).transpose()?,
+        normals: normals.map(str::parse).transpose()?,
+        height_bits,
+    }
+    .into_options()?;
+    let set = convert_reporting(py, mesh.get().inner.clone(), &options, progress)?;
+    Ok(PyGeometryTextureSet::wrap(set))
+}
+
+/// Runs a conversion with the GIL released, calling `progress(stage, fraction)` with the GIL
+/// taken back. An exception raised by the callback (KeyboardInterrupt from tqdm, say) stops the
+/// conversion and is re-raised as it was.
+fn convert_reporting(
+    py: Python<'_>,
+    mesh: Arc<crate::mesh::Mesh>,
+    options: &ConvertOptions,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<GeometryTextureSet> {
+    let callback_error: Mutex<Option<PyErr>> = Mutex::new(None);
+    let report = |stage: &str, fraction: f64| -> bool {
+        let Some(callback) = &progress else {
+            return true;
+        };
+        Python::attach(|py| match callback.call1(py, (stage, fraction)) {
+            Ok(r) => r.is_none(py) || r.is_truthy(py).unwrap_or(true),
+            Err(e) => {
+                *callback_error.lock().unwrap_or_else(|p| p.into_inner()) = Some(e);
+                false
+            }
+        })
+    };
+    let result = heavy(py, "converting", || crate::convert::convert(&mesh, options, &report));
+    let raised = callback_error.into_inner().unwrap_or_else(|p| p.into_inner());
+    result.map_err(|e| raised.unwrap_or(e))
+}
