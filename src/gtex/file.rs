@@ -22,7 +22,7 @@ use std::path::Path;
 use glam::DVec3;
 
 use super::{GeometryTextureSet, Patch, Stats};
-use crate::error::{GeomtexError, Result};
+use crate::error::GeomtexError;
 
 pub const MAGIC: &[u8; 8] = b"GTEX\r\n\x1a\n";
 pub const VERSION: u32 = 3;
@@ -271,7 +271,7 @@ pub fn decode(bytes: &[u8]) -> Result<GeometryTextureSet, String> {
 impl GeometryTextureSet {
     /// Writes the set atomically: a temporary file beside `path`, synced, then renamed over it,
     /// so a failure never leaves a half-written file.
-    pub fn save(&self, path: &Path) -> Result<()> {
+    pub fn save(&self, path: &Path) -> crate::error::Result<()> {
         let bytes = encode(self);
         let dir = match path.parent() {
             Some(d) if !d.as_os_str().is_empty() => d,
@@ -290,7 +290,7 @@ impl GeometryTextureSet {
         Ok(())
     }
 
-    pub fn load(path: &Path) -> Result<GeometryTextureSet> {
+    pub fn load(path: &Path) -> crate::error::Result<GeometryTextureSet> {
         let bytes = std::fs::read(path)
             .map_err(|e| GeomtexError::io(format!("cannot read {}", path.display()), e))?;
         decode(&bytes)
