@@ -6,8 +6,9 @@ coverage. This script measures, in one run and on one wgpu adapter:
 
 * **headline (512x512)**: the Stanford bunny from five views at 1.7 x its diagonal; per view
   the geometry-texture frame (wall and GPU ms), the original mesh rasterized by the same
-  renderer, and trimesh + embree ray casting of the same pixel rays (its intersector built once
-  and kept, as trimesh users run it), with accuracy against the latter (hit-mask IoU, |depth difference| / diagonal, normal angle, NaN count);
+  renderer, and trimesh + embree ray casting of the same pixel rays (its intersector built
+  once and kept, as trimesh users run it), with accuracy against the latter (hit-mask IoU,
+  |depth difference| / diagonal, normal angle, NaN count);
 * **coverage sweep (1024x1024)**: an oblique view with the camera distance spaced
   geometrically so that the covered pixels go from ~50 to (almost) the whole frame; per
   distance the same three timings and accuracy figures;

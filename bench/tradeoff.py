@@ -26,7 +26,8 @@ Results: ``bench/results/tradeoff.json`` and ``bench/results/tradeoff.png`` (Par
 Run from the repository root::
 
     python bench/tradeoff.py          # 2 meshes x 3 views x 4 R x 2 bits x 17 settings (~12 min)
-    python bench/tradeoff.py --quick  # oblique + grazing views, presets only off R=256, 1 timed render (~2 min)
+    python bench/tradeoff.py --quick  # oblique + grazing views, presets only off R=256,
+                                      # 1 timed render (~2 min)
     python bench/tradeoff.py --thin   # all views, but only 8 bisections off R=256 (~6 min)
 """
 

@@ -25,7 +25,8 @@ def face_normals(mesh: gt.Mesh) -> tuple[np.ndarray, np.ndarray]:
 
 
 def check_no_folding(c: Converted) -> int:
-    """Every chart face must face up (normal·z > 0) in its patch's frame. Returns the checked count."""
+    """Every chart face must face up (normal·z > 0) in its patch's frame. Returns the checked
+    count."""
     normals, area = face_normals(c.mesh)
     wfp = c.gts.world_from_patch
     face_patch = c.gts.face_patch()

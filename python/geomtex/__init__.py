@@ -179,7 +179,8 @@ def convert(
 
 
 def load(path: str | os.PathLike[str]) -> GeometryTextureSet:
-    """Reads a .gtex file. Raises FormatError for anything that is not an intact .gtex file (version 1, 2 or 3)."""
+    """Reads a .gtex file. Raises FormatError for anything that is not an intact .gtex file
+    (version 1, 2 or 3)."""
     p = os.fspath(path)
     if not os.path.exists(p):
         raise FileError(f"no such file: {p}")

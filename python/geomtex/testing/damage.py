@@ -36,7 +36,8 @@ def flip_faces(mesh: Mesh, fraction: float, seed: int = 0) -> tuple[Mesh, npt.ND
 
 
 def punch_holes(mesh: Mesh, fraction: float, holes: int = 40, seed: int = 0) -> Mesh:
-    """The mesh less ``fraction`` of its faces, taken as ``holes`` round holes around random faces."""
+    """The mesh less ``fraction`` of its faces, taken as ``holes`` round holes around random
+    faces."""
     v, f = arrays(mesh)
     centroids = v[f].mean(axis=1)
     rng = np.random.default_rng(seed)
