@@ -10,7 +10,7 @@ use pyo3::types::{PyBytes, PyDict};
 
 use super::{parameter_error, to_py_err, PyGeometryTextureSet, PyMesh};
 use crate::render::{
-    Camera, Method, Object, Projection, Renderer, Scene, SceneObject, SearchOptions,
+    Camera, Method, Object, Projection, Renderer, Scene, SceneObject, SearchOverrides,
 };
 
 fn mat4(a: Option<PyReadonlyArray2<'_, f64>>, what: &str) -> PyResult<DMat4> {
@@ -137,19 +137,8 @@ impl PyCamera {
         width: u32,
         height: u32,
     ) -> PyResult<(Bound<'py, PyArray3<f64>>, Bound<'py, PyArray3<f64>>)> {
-        let lens = self
-            .inner
-            .lens(width, height, 1.0, 2.0)
-            .map_err(to_py_err)?;
-        let n = width as usize * height as usize;
-        let (mut o, mut d) = (Vec::with_capacity(n * 3), Vec::with_capacity(n * 3));
-        for y in 0..height {
-            for x in 0..width {
-                let (a, b) = self.inner.pixel_ray(&lens, x as f64 + 0.5, y as f64 + 0.5);
-                o.extend_from_slice(&a.to_array());
-                d.extend_from_slice(&b.to_array());
-            }
-        }
+        let (o, d) = self.inner.pixel_rays(width, height).map_err(to_py_err)?;
+        let (o, d) = (o.concat(), d.concat());
         let shape = (height as usize, width as usize, 3);
         Ok((
             Array3::from_shape_vec(shape, o).unwrap().into_pyarray(py),
@@ -341,40 +330,19 @@ count_fetches=False, lod=False, background=(255, 255, 255, 0))")]
         lod: bool,
         background: (u8, u8, u8, u8),
     ) -> PyResult<PyFrame> {
-        let mut search = match quality.unwrap_or("balanced") {
-            "fast" => SearchOptions {
-                steps_per_texel: 0.25,
-                binary_steps: 6,
-                ..Default::default()
-            },
-            "balanced" => SearchOptions::default(),
-            "exact" => SearchOptions {
-                method: Method::MaxMip,
-                ..Default::default()
-            },
-            other => {
-                return Err(parameter_error(format!(
-                    "quality must be 'fast', 'balanced' or 'exact', got {other:?}"
-                )))
-            }
-        };
-        match method {
-            None => {}
-            Some("linear_binary") => search.method = Method::LinearBinary,
-            Some("maxmip") => search.method = Method::MaxMip,
-            Some(other) => {
-                return Err(parameter_error(format!(
-                    "method must be 'linear_binary' or 'maxmip', got {other:?}"
-                )))
-            }
+        let search = SearchOverrides {
+            quality: quality.map(str::parse).transpose().map_err(to_py_err)?,
+            method: method.map(str::parse).transpose().map_err(to_py_err)?,
+            steps_per_texel,
+            min_linear_steps,
+            max_linear_steps,
+            binary_steps,
+            max_traversal_steps,
+            count_fetches: Some(count_fetches),
+            lod: Some(lod),
         }
-        search.steps_per_texel = steps_per_texel.unwrap_or(search.steps_per_texel);
-        search.min_linear_steps = min_linear_steps.unwrap_or(search.min_linear_steps);
-        search.max_linear_steps = max_linear_steps.unwrap_or(search.max_linear_steps);
-        search.binary_steps = binary_steps.unwrap_or(search.binary_steps);
-        search.max_traversal_steps = max_traversal_steps.unwrap_or(search.max_traversal_steps);
-        search.count_fetches = count_fetches;
-        search.lod = lod;
+        .resolve()
+        .map_err(to_py_err)?;
         let scene = match obj.cast::<PyScene>() {
             Ok(s) => s.borrow().inner.clone(),
             Err(_) => Scene {
@@ -388,7 +356,7 @@ count_fetches=False, lod=False, background=(255, 255, 255, 0))")]
                 std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
                     let mut r = self.inner.lock().unwrap_or_else(|e| e.into_inner());
                     let b = background;
-                    r.background = [b.0, b.1, b.2, b.3].map(|v| v as f64 / 255.0);
+                    r.set_background(Some([b.0, b.1, b.2, b.3]));
                     r.render(&scene, &cam, &search)
                 }))
                 .unwrap_or_else(|p| {
