@@ -9,10 +9,12 @@ use super::device::Gpu;
 use crate::error::{GeomtexError, Result};
 use crate::gtex::GeometryTextureSet;
 
+/// Where a patch's first texel sits in the atlas: (layer, x, y).
+pub(crate) type Place = (u32, u32, u32);
+
 /// A texture set's maps and pyramids, uploaded.
 pub(crate) struct Atlas {
-    /// Per patch: (layer, x, y) of its first texel in the atlas.
-    pub places: Vec<(u32, u32, u32)>,
+    pub places: Vec<Place>,
     /// Height, normal and color arrays, as gtex_bindings.wgsl binds them.
     pub views: [wgpu::TextureView; 3],
     /// Every patch's min-max pyramid (src/heightfield.rs).
@@ -57,10 +59,10 @@ impl Atlas {
 
 /// Shelf packing of the patches, tallest first, with 1-texel gaps: each patch's (layer, x, y)
 /// and the number of layers.
-fn pack(set: &GeometryTextureSet, side: u32) -> Result<(Vec<(u32, u32, u32)>, u32)> {
+fn pack(set: &GeometryTextureSet, side: u32) -> Result<(Vec<Place>, u32)> {
     let mut order: Vec<usize> = (0..set.patches.len()).collect();
     order.sort_by_key(|&i| std::cmp::Reverse(set.patches[i].height));
-    let mut places = vec![(0u32, 0u32, 0u32); set.patches.len()];
+    let mut places: Vec<Place> = vec![(0, 0, 0); set.patches.len()];
     let (mut layer, mut x, mut y, mut shelf) = (0u32, 0u32, 0u32, 0u32);
     for &i in &order {
         let p = &set.patches[i];
@@ -125,7 +127,7 @@ fn write_maps(
     queue: &wgpu::Queue,
     textures: &[wgpu::Texture; 3],
     set: &GeometryTextureSet,
-    places: &[(u32, u32, u32)],
+    places: &[Place],
     narrow: bool,
 ) {
     let height_bytes = if narrow { 1 } else { 2 };
@@ -179,7 +181,7 @@ fn upload_pyramids(gpu: &Gpu, set: &GeometryTextureSet) -> Result<(wgpu::Buffer,
         }
     }
     let pyramid_bytes = values.len() as u64 * 4;
-    let binding_limit = u64::from(gpu.device.limits().max_storage_buffer_binding_size);
+    let binding_limit = gpu.device.limits().max_storage_buffer_binding_size;
     if pyramid_bytes > binding_limit {
         return Err(GeomtexError::Device(format!(
             "the set's {} texels need {:.0} MiB of max pyramids; this adapter binds at most \

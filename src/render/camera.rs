@@ -35,6 +35,9 @@ pub struct Camera {
     pub near: Option<f64>,
 }
 
+/// World rays through pixel centres: origins and unit directions, one per pixel.
+pub type PixelRays = (Vec<[f64; 3]>, Vec<[f64; 3]>);
+
 /// Per-render projection numbers derived from a camera and an image size.
 #[derive(Clone, Copy, Debug)]
 pub struct Lens {
@@ -311,7 +314,7 @@ impl Camera {
 
     /// World rays through every pixel centre of a `width` x `height` image: origins and unit
     /// directions, row-major with row 0 at the top. The renderer's own rays.
-    pub fn pixel_rays(&self, width: u32, height: u32) -> Result<(Vec<[f64; 3]>, Vec<[f64; 3]>)> {
+    pub fn pixel_rays(&self, width: u32, height: u32) -> Result<PixelRays> {
         // Rays do not depend on the depth range; any valid one will do.
         let lens = self.lens(width, height, 1.0, 2.0)?;
         let n = width as usize * height as usize;

@@ -91,7 +91,7 @@ pub(crate) fn lod_level(view_from_patch: &DMat4, p: &Patch, lens: &Lens, levels:
     };
     let texel = (p.extent.x / p.width as f64).min(p.extent.y / p.height as f64);
     let texels_per_pixel = pixel / texel;
-    if !(texels_per_pixel >= 2.0) {
+    if texels_per_pixel.is_nan() || texels_per_pixel < 2.0 {
         return 0;
     }
     (texels_per_pixel.log2().floor() as u32).min(levels.saturating_sub(1))

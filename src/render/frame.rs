@@ -62,3 +62,53 @@ impl Frame {
         stats
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn frame(fetches: Option<(u64, u64)>) -> Frame {
+        Frame {
+            width: 1,
+            height: 1,
+            color: vec![0; 4],
+            depth: vec![f32::INFINITY],
+            normal: vec![0.0; 3],
+            patch_id: vec![-1],
+            gpu_ms: None,
+            cpu_ms: 2.5,
+            patches_drawn: 3,
+            patches_culled: 1,
+            meshes_drawn: 0,
+            near: 0.25,
+            method: Method::MaxMip,
+            fetches,
+        }
+    }
+
+    #[test]
+    fn stats_keep_their_names_order_and_types() {
+        let names = |f: &Frame| f.stats().iter().map(|(k, _)| *k).collect::<Vec<_>>();
+        let plain = [
+            "gpu_ms",
+            "cpu_ms",
+            "patches_drawn",
+            "patches_culled",
+            "meshes_drawn",
+            "near",
+            "method",
+        ];
+        assert_eq!(names(&frame(None)), plain);
+        let counted = frame(Some((30, 0)));
+        assert_eq!(
+            names(&counted)[7..],
+            ["fetches", "raycast_fragments", "fetches_per_pixel"]
+        );
+        let stats = counted.stats();
+        assert_eq!(stats[0].1, StatValue::Absent);
+        assert_eq!(stats[2].1, StatValue::Int(3));
+        assert_eq!(stats[6].1, StatValue::Text("maxmip"));
+        // No fragments: per pixel divides by one, not zero.
+        assert_eq!(stats[9].1, StatValue::Float(30.0));
+    }
+}

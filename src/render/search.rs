@@ -12,7 +12,8 @@ use crate::error::{GeomtexError, Result};
 pub enum Method {
     /// The paper's search: a linear march balanced by slant, then bisection.
     LinearBinary,
-    /// Exact: descend a max pyramid, skip what the ray passes above, solve each cell in closed form.
+    /// Exact: descend a max pyramid, skip what the ray passes above, solve each cell in closed
+    /// form.
     MaxMip,
 }
 

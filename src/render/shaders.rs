@@ -89,6 +89,19 @@ mod tests {
         }
     }
 
+    /// No file in shaders/ is left out of every pipeline.
+    #[test]
+    fn every_shader_file_is_assembled() {
+        let modules = super::all().map(|(_, src)| src);
+        let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/shaders");
+        for entry in std::fs::read_dir(dir).unwrap() {
+            let path = entry.unwrap().path();
+            let text = std::fs::read_to_string(&path).unwrap();
+            let used = modules.iter().any(|m| m.contains(&text));
+            assert!(used, "{} is in no pipeline's module", path.display());
+        }
+    }
+
     /// Each group's bindings are declared in one file, so no assembled module declares one twice.
     #[test]
     fn every_binding_is_declared_once_per_module() {

@@ -143,3 +143,31 @@ impl<T, U> UploadCache<T, U> {
         self.entries.retain(|_, (weak, _)| weak.strong_count() > 0);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn uploads_are_kept_while_their_object_lives() {
+        let mut cache: UploadCache<u32, u32> = UploadCache::default();
+        let object = Arc::new(7);
+        let mut uploads = 0;
+        for _ in 0..2 {
+            let got = cache.get_or_upload(&object, |v| {
+                uploads += 1;
+                Ok(*v * 2)
+            });
+            assert_eq!(*got.unwrap(), 14);
+        }
+        assert_eq!(uploads, 1);
+        let twin = Arc::new(7);
+        assert!(
+            cache.get(&twin).is_none(),
+            "an equal but distinct object is not cached"
+        );
+        drop(object);
+        cache.purge();
+        assert!(cache.entries.is_empty());
+    }
+}
