@@ -4,9 +4,6 @@
 //
 // Space: framebuffer pixels, row 0 at the top; values are reversed-Z depth (0 = nothing).
 
-@group(0) @binding(0) var depth: texture_2d<f32>;
-@group(0) @binding(1) var<storage, read_write> out: array<f32>;
-
 @compute @workgroup_size(8, 8)
 fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
     let size = textureDimensions(depth);

@@ -1,18 +1,10 @@
-// Geometry-texture patches: each patch's box is drawn (back faces, so a camera inside a box still
-// gets fragments) and the fragment shader casts the pixel's ray through the patch's height map.
+// Entry points of the geometry-texture pass: each patch's box is drawn (back faces, so a camera
+// inside a box still gets fragments) and the fragment shader casts the pixel's ray through the
+// patch's height map.
 //
-// Spaces: view (camera-relative, see camera_functions.wgsl) and patch-local, where the box is the
+// Spaces: view (camera-relative, see camera_types.wgsl) and patch-local, where the box is the
 // unit cube, x/y are texture u/v and z is height. Ray parameters t are shared by both spaces
 // (the map between them is affine). The height-field search lives in heightfield_functions.wgsl.
-
-@group(0) @binding(0) var<uniform> camera: Camera;
-@group(0) @binding(1) var<uniform> search: Search;
-@group(1) @binding(0) var<storage, read> patches: array<Patch>;
-@group(1) @binding(2) var normals: texture_2d_array<f32>;
-@group(1) @binding(3) var colors: texture_2d_array<f32>;
-@group(1) @binding(4) var linear_clamp: sampler;
-// Counting build: x = fetches, y = ray-cast fragments.
-@group(0) @binding(2) var<storage, read_write> counters: array<atomic<u32>, 2>;
 
 struct VsOut {
     @builtin(position) position: vec4<f32>,

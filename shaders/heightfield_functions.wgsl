@@ -1,32 +1,14 @@
-// Height-field intersection, shared by the ray-casting pipelines: the surface rule of
-// src/heightfield.rs (bilinear in cells whose four texels all hold surface) (its CPU twin is the reference the tests hold this code to), the paper's
-// linear + binary search, and an exact min-max-pyramid traversal.
+// Height-field intersection, shared by the ray-casting passes: the surface rule of
+// src/heightfield.rs (bilinear in cells whose four texels all hold surface; that CPU code is the
+// reference the tests hold this code to), the paper's linear + binary search, and an exact
+// min-max-pyramid traversal. Reads `heights` and `pyramid` (gtex_bindings.wgsl).
 //
 // Space: patch-local (unit cube, heights h in [0, 1]) and, inside it, texel-centre coordinates
 // x = u W - 1/2 (texel i at x = i) or cell-grid coordinates g = x + 1 (pyramid level-0 cell c spans
-// g in [c, c + 1]). Heights are 8- or 16-bit codes: 0 = empty, else h = (code - 1) / (code_max - 1),
-// code_max (255 or 65535) per patch.
+// g in [c, c + 1]). Heights are 8- or 16-bit codes: 0 = empty, else
+// h = (code - 1) / (code_max - 1), code_max (255 or 65535) per patch.
 
-struct Patch {
-    view_from_patch: mat4x4<f32>,
-    patch_from_view: mat4x4<f32>,
-    // Patch-local normal → world normal.
-    world_normal_from_patch: mat4x4<f32>,
-    // Texel origin of the patch in its atlas layer, and its size in texels.
-    atlas_origin: vec2<f32>,
-    size: vec2<f32>,
-    // x: atlas layer, y: patch id written to the id target.
-    ids: vec4<i32>,
-    // x: first pyramid value of this patch in `pyramid`, y: pyramid levels, z: the largest
-    // height code (255 or 65535), w: level-of-detail stop level (0 = exact).
-    pyramid_at: vec4<u32>,
-}
-
-@group(1) @binding(1) var heights: texture_2d_array<u32>;
-@group(1) @binding(5) var<storage, read> pyramid: array<u32>;
-
-// Counting build (COUNT_FETCHES = true): height and pyramid reads of this fragment.
-override COUNT_FETCHES: bool = false;
+// Counting build: this fragment's height and pyramid reads (see COUNT_FETCHES).
 var<private> fetches: u32 = 0u;
 
 fn load_code(p: Patch, texel: vec2<i32>) -> f32 {
@@ -72,14 +54,6 @@ fn side(p: Patch, point: vec3<f32>) -> f32 {
         return 0.0;
     }
     return select(-1.0, 1.0, point.z > h);
-}
-
-struct Search {
-    // x: linear steps per texel crossed, y: least linear steps, z: most linear steps,
-    // w: binary steps.
-    steps: vec4<f32>,
-    // x: 0 = linear + binary, 1 = max pyramid; y: most traversal steps (max pyramid).
-    method: vec4<u32>,
 }
 
 // The paper's search: linear steps balanced by slant, then bisection. Returns t or -1.

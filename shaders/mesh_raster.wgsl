@@ -1,18 +1,9 @@
-// Ordinary triangle meshes, rasterized into the same color/normal/id/depth targets as the
-// geometry-texture patches so the nearer surface wins at every pixel.
+// Entry points of the mesh pass: ordinary triangle meshes, rasterized into the same
+// color/normal/id/depth targets as the geometry-texture patches so the nearer surface wins at
+// every pixel.
 //
 // Spaces: object space (vertices relative to the mesh's own centre, f32), view space
-// (camera-relative, see camera_functions.wgsl), world for output normals.
-
-struct MeshObject {
-    view_from_object: mat4x4<f32>,
-    world_normal_from_object: mat4x4<f32>,
-    // x: id written to the id target.
-    ids: vec4<i32>,
-}
-
-@group(0) @binding(0) var<uniform> camera: Camera;
-@group(1) @binding(0) var<uniform> object: MeshObject;
+// (camera-relative, see camera_types.wgsl), world for output normals.
 
 struct VsIn {
     @location(0) position: vec3<f32>,

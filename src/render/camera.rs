@@ -35,6 +35,9 @@ pub struct Camera {
     pub near: Option<f64>,
 }
 
+/// World rays through pixel centres: origins and unit directions, one per pixel.
+pub type PixelRays = (Vec<[f64; 3]>, Vec<[f64; 3]>);
+
 /// Per-render projection numbers derived from a camera and an image size.
 #[derive(Clone, Copy, Debug)]
 pub struct Lens {
@@ -44,6 +47,17 @@ pub struct Lens {
     pub clip_from_view: DMat4,
     pub near: f64,
     pub far: f64,
+}
+
+impl Projection {
+    /// "perspective", "intrinsics" or "orthographic".
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Projection::Perspective { .. } => "perspective",
+            Projection::Intrinsics { .. } => "intrinsics",
+            Projection::Orthographic { .. } => "orthographic",
+        }
+    }
 }
 
 fn check_finite(what: &str, v: &[f64]) -> Result<()> {
@@ -77,6 +91,24 @@ fn check_pose(m: &DMat4) -> Result<()> {
 }
 
 impl Camera {
+    /// The up direction `look_at` callers get when they give none.
+    pub const DEFAULT_UP: DVec3 = DVec3::Y;
+    /// The vertical field of view `look_at` callers get when they give none.
+    pub const DEFAULT_YFOV_DEG: f64 = 45.0;
+
+    /// The camera with a fixed near plane distance (any projection), or `None` to choose one
+    /// from the scene's bounds at render time.
+    pub fn with_near(self, near: Option<f64>) -> Result<Camera> {
+        if let Some(n) = near {
+            if !(n.is_finite() && n > 0.0) {
+                return Err(GeomtexError::Parameter(format!(
+                    "near must be positive, got {n}"
+                )));
+            }
+        }
+        Ok(Camera { near, ..self })
+    }
+
     /// A perspective camera at `eye` looking at `target`.
     pub fn look_at(eye: DVec3, target: DVec3, up: DVec3, yfov_deg: f64) -> Result<Camera> {
         check_finite(
@@ -172,6 +204,12 @@ impl Camera {
 
     pub fn eye(&self) -> DVec3 {
         self.world_from_camera.w_axis.truncate()
+    }
+
+    /// The unit vector the camera looks along (its -Z axis in world space); z-depth is measured
+    /// along it.
+    pub fn forward(&self) -> DVec3 {
+        (-self.world_from_camera.z_axis.truncate()).normalize()
     }
 
     /// (fx, fy, cx, cy) in OpenCV pixel units for a perspective camera and this image size.
@@ -274,6 +312,23 @@ impl Camera {
         (m.transform_point3(o), m.transform_vector3(d).normalize())
     }
 
+    /// World rays through every pixel centre of a `width` x `height` image: origins and unit
+    /// directions, row-major with row 0 at the top. The renderer's own rays.
+    pub fn pixel_rays(&self, width: u32, height: u32) -> Result<PixelRays> {
+        // Rays do not depend on the depth range; any valid one will do.
+        let lens = self.lens(width, height, 1.0, 2.0)?;
+        let n = width as usize * height as usize;
+        let (mut origins, mut directions) = (Vec::with_capacity(n), Vec::with_capacity(n));
+        for y in 0..height {
+            for x in 0..width {
+                let (o, d) = self.pixel_ray(&lens, x as f64 + 0.5, y as f64 + 0.5);
+                origins.push(o.to_array());
+                directions.push(d.to_array());
+            }
+        }
+        Ok((origins, directions))
+    }
+
     /// View-space z distance (along the camera's forward axis) from a reversed-Z depth value.
     pub fn distance_from_depth(lens: &Lens, depth: f32) -> f32 {
         if depth <= 0.0 {
@@ -328,6 +383,29 @@ mod tests {
         // Pixel to the right (+x) and below (+y in OpenCV).
         let (_, d) = cam.pixel_ray(&lens, 100.5, 50.5);
         assert!(d.x > 0.0 && d.y > 0.0);
+    }
+
+    #[test]
+    fn near_is_checked_for_every_projection() {
+        let cam = Camera::orthographic(DMat4::IDENTITY, 1.0).unwrap();
+        assert_eq!(cam.with_near(Some(0.5)).unwrap().near, Some(0.5));
+        assert_eq!(cam.with_near(None).unwrap().near, None);
+        let e = cam.with_near(Some(-1.0)).unwrap_err().to_string();
+        assert_eq!(e, "near must be positive, got -1");
+        assert!(cam.with_near(Some(f64::NAN)).is_err());
+        assert_eq!(cam.projection.kind(), "orthographic");
+        assert_eq!(cam.forward(), DVec3::NEG_Z);
+    }
+
+    #[test]
+    fn pixel_rays_are_row_major_from_the_top() {
+        let cam = Camera::look_at(DVec3::Z * 5.0, DVec3::ZERO, Camera::DEFAULT_UP, 45.0).unwrap();
+        let (origins, directions) = cam.pixel_rays(4, 3).unwrap();
+        assert_eq!((origins.len(), directions.len()), (12, 12));
+        // Row 0 looks up (+Y), the last row down; column 0 looks left.
+        assert!(directions[0][1] > 0.0 && directions[11][1] < 0.0);
+        assert!(directions[0][0] < 0.0 && directions[3][0] > 0.0);
+        assert!(origins.iter().all(|o| *o == [0.0, 0.0, 5.0]));
     }
 
     #[test]

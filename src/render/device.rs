@@ -1,5 +1,8 @@
 //! Headless wgpu device: adapter choice (high performance first, `WGPU_BACKEND` and an
-//! adapter-name override honoured), and a clear error when there is none.
+//! adapter-name override honoured), a clear error when there is none, and error scopes that turn
+//! GPU errors into `GeomtexError::Device`.
+//!
+//! Spaces: none.
 
 use crate::error::{GeomtexError, Result};
 
@@ -105,5 +108,24 @@ impl Gpu {
             ("driver", i.driver),
             ("driver_info", i.driver_info),
         ]
+    }
+}
+
+/// Runs `work` inside validation and out-of-memory error scopes and turns what they catch into
+/// `GeomtexError::Device`, so a GPU error never becomes a panic.
+pub(crate) fn guarded<T>(device: &wgpu::Device, work: impl FnOnce() -> Result<T>) -> Result<T> {
+    let validation = device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let memory = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+    let result = work();
+    let oom = pollster::block_on(memory.pop());
+    let invalid = pollster::block_on(validation.pop());
+    match (oom, invalid) {
+        (Some(e), _) => Err(GeomtexError::Device(format!(
+            "the GPU ran out of memory: {e}"
+        ))),
+        (None, Some(e)) => Err(GeomtexError::Device(format!(
+            "the GPU rejected a command: {e}"
+        ))),
+        (None, None) => result,
     }
 }

@@ -1,0 +1,13 @@
+// Group 1 of the geometry-texture pass: one texture set's patches, atlases and max pyramids.
+//
+// Spaces: patch records map view ↔ patch-local (see gtex_types.wgsl); the texture arrays are
+// addressed in atlas texels (layer, x, y).
+
+@group(1) @binding(0) var<storage, read> patches: array<Patch>;
+// Height codes: 0 = empty, else 1..code_max (8- or 16-bit per patch).
+@group(1) @binding(1) var heights: texture_2d_array<u32>;
+@group(1) @binding(2) var normals: texture_2d_array<f32>;
+@group(1) @binding(3) var colors: texture_2d_array<f32>;
+@group(1) @binding(4) var linear_clamp: sampler;
+// Every patch's min-max pyramid (src/heightfield.rs), from Patch.pyramid_at.x on.
+@group(1) @binding(5) var<storage, read> pyramid: array<u32>;

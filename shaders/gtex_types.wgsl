@@ -1,0 +1,19 @@
+// One geometry-texture patch as the ray caster sees it.
+//
+// Spaces: view (camera-relative, see camera_types.wgsl), patch-local (the box is the unit cube,
+// x/y are texture u/v, z is height), world for normals, atlas texels for the maps.
+
+struct Patch {
+    view_from_patch: mat4x4<f32>,
+    patch_from_view: mat4x4<f32>,
+    // Patch-local normal → world normal.
+    world_normal_from_patch: mat4x4<f32>,
+    // Texel origin of the patch in its atlas layer, and its size in texels.
+    atlas_origin: vec2<f32>,
+    size: vec2<f32>,
+    // x: atlas layer, y: patch id written to the id target.
+    ids: vec4<i32>,
+    // x: first pyramid value of this patch in `pyramid`, y: pyramid levels, z: the largest
+    // height code (255 or 65535), w: level-of-detail stop level (0 = exact).
+    pyramid_at: vec4<u32>,
+}

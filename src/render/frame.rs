@@ -1,0 +1,114 @@
+//! One rendered image and the figures of the call that made it.
+//!
+//! Spaces: images are row-major with row 0 at the top; depth is measured along the camera's
+//! forward axis in world units; normals are world-space.
+
+use crate::gtex::StatValue;
+
+use super::search::Method;
+
+/// One rendered image, row-major with row 0 at the top.
+pub struct Frame {
+    pub width: u32,
+    pub height: u32,
+    /// RGBA8, shaded with a headlight; the background where nothing was hit.
+    pub color: Vec<u8>,
+    /// z-depth: distance along the camera's forward axis in world units; +inf on a miss.
+    pub depth: Vec<f32>,
+    /// World-space unit normals (xyz), 0 on a miss.
+    pub normal: Vec<f32>,
+    /// Patch index (0.. across the scene's texture sets in order), -1 on a miss, -2 - k for the
+    /// k-th mesh of the scene.
+    pub patch_id: Vec<i32>,
+    pub gpu_ms: Option<f64>,
+    pub cpu_ms: f64,
+    pub patches_drawn: usize,
+    /// Patches whose box lies wholly outside the view frustum, skipped before drawing.
+    pub patches_culled: usize,
+    pub meshes_drawn: usize,
+    pub near: f64,
+    /// The height-map search the frame was drawn with.
+    pub method: Method,
+    /// With `count_fetches`: height-map and pyramid reads, and the fragments that ray cast.
+    pub fetches: Option<(u64, u64)>,
+}
+
+impl Frame {
+    /// The frame's figures by name, in a stable order; the fetch figures only when counted.
+    pub fn stats(&self) -> Vec<(&'static str, StatValue)> {
+        let count = |n: usize| StatValue::Int(n as i64);
+        let mut stats = vec![
+            (
+                "gpu_ms",
+                self.gpu_ms.map_or(StatValue::Absent, StatValue::Float),
+            ),
+            ("cpu_ms", StatValue::Float(self.cpu_ms)),
+            ("patches_drawn", count(self.patches_drawn)),
+            ("patches_culled", count(self.patches_culled)),
+            ("meshes_drawn", count(self.meshes_drawn)),
+            ("near", StatValue::Float(self.near)),
+            ("method", StatValue::Text(self.method.as_str())),
+        ];
+        if let Some((fetches, fragments)) = self.fetches {
+            stats.extend([
+                ("fetches", StatValue::Int(fetches as i64)),
+                ("raycast_fragments", StatValue::Int(fragments as i64)),
+                (
+                    "fetches_per_pixel",
+                    StatValue::Float(fetches as f64 / fragments.max(1) as f64),
+                ),
+            ]);
+        }
+        stats
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn frame(fetches: Option<(u64, u64)>) -> Frame {
+        Frame {
+            width: 1,
+            height: 1,
+            color: vec![0; 4],
+            depth: vec![f32::INFINITY],
+            normal: vec![0.0; 3],
+            patch_id: vec![-1],
+            gpu_ms: None,
+            cpu_ms: 2.5,
+            patches_drawn: 3,
+            patches_culled: 1,
+            meshes_drawn: 0,
+            near: 0.25,
+            method: Method::MaxMip,
+            fetches,
+        }
+    }
+
+    #[test]
+    fn stats_keep_their_names_order_and_types() {
+        let names = |f: &Frame| f.stats().iter().map(|(k, _)| *k).collect::<Vec<_>>();
+        let plain = [
+            "gpu_ms",
+            "cpu_ms",
+            "patches_drawn",
+            "patches_culled",
+            "meshes_drawn",
+            "near",
+            "method",
+        ];
+        assert_eq!(names(&frame(None)), plain);
+        let counted = frame(Some((30, 0)));
+        assert_eq!(
+            names(&counted)[7..],
+            ["fetches", "raycast_fragments", "fetches_per_pixel"]
+        );
+        let stats = counted.stats();
+        assert_eq!(stats[0].1, StatValue::Absent);
+        assert_eq!(stats[2].1, StatValue::Int(3));
+        assert_eq!(stats[6].1, StatValue::Text("maxmip"));
+        // No fragments: per pixel divides by one, not zero.
+        assert_eq!(stats[9].1, StatValue::Float(30.0));
+    }
+}

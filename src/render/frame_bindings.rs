@@ -1,0 +1,117 @@
+//! Group 0 of every raster pass (frame_bindings.wgsl): the camera and search uniforms and the
+//! fetch counters, written once per frame and shared by all objects of every kind.
+//!
+//! Spaces: the camera record is camera-relative view space (see gpu_types.rs).
+
+use glam::DMat4;
+
+use super::camera::Lens;
+use super::gpu_types::{CameraGpu, SearchGpu};
+use super::pipelines::{storage_entry, uniform_entry, VERTEX_AND_FRAGMENT};
+use super::search::SearchOptions;
+
+/// Bytes of the fetch counters: fetches and ray-cast fragments, u32 each.
+const COUNTERS_BYTES: u64 = 8;
+
+pub(crate) struct FrameBindings {
+    pub layout: wgpu::BindGroupLayout,
+    pub group: wgpu::BindGroup,
+    camera: wgpu::Buffer,
+    search: wgpu::Buffer,
+    counters: wgpu::Buffer,
+    counters_readback: wgpu::Buffer,
+}
+
+impl FrameBindings {
+    pub fn new(device: &wgpu::Device) -> FrameBindings {
+        let fragment = wgpu::ShaderStages::FRAGMENT;
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("frame"),
+            entries: &[
+                uniform_entry(0, VERTEX_AND_FRAGMENT),
+                uniform_entry(1, fragment),
+                storage_entry(2, fragment, false),
+            ],
+        });
+        let uniform = |label, size| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        };
+        let camera = uniform("camera", size_of::<CameraGpu>() as u64);
+        let search = uniform("search", size_of::<SearchGpu>() as u64);
+        let counters = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("fetch counters"),
+            size: COUNTERS_BYTES,
+            usage: wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_DST
+                | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let counters_readback = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("fetch counters readback"),
+            size: COUNTERS_BYTES,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("frame"),
+            layout: &layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: camera.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: search.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: counters.as_entire_binding(),
+                },
+            ],
+        });
+        FrameBindings {
+            layout,
+            group,
+            camera,
+            search,
+            counters,
+            counters_readback,
+        }
+    }
+
+    /// This frame's camera and search records; the counters start from zero when counting.
+    pub fn write(
+        &self,
+        queue: &wgpu::Queue,
+        lens: &Lens,
+        view_from_world: DMat4,
+        search: &SearchOptions,
+    ) {
+        let camera = CameraGpu::new(lens, view_from_world);
+        queue.write_buffer(&self.camera, 0, bytemuck::bytes_of(&camera));
+        queue.write_buffer(&self.search, 0, bytemuck::bytes_of(&SearchGpu::new(search)));
+        if search.count_fetches {
+            queue.write_buffer(&self.counters, 0, &[0u8; COUNTERS_BYTES as usize]);
+        }
+    }
+
+    /// Copies the counters for reading back, when counting; the buffer to read, if any.
+    pub fn encode_counters_readback(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        search: &SearchOptions,
+    ) -> Option<&wgpu::Buffer> {
+        if !search.count_fetches {
+            return None;
+        }
+        let readback = &self.counters_readback;
+        encoder.copy_buffer_to_buffer(&self.counters, 0, readback, 0, COUNTERS_BYTES);
+        Some(readback)
+    }
+}

@@ -1,0 +1,143 @@
+//! GPU records: Rust mirrors of the WGSL structs, byte for byte (mat4 = 64 bytes, vec4 = 16;
+//! every struct 16-aligned as WGSL lays it out). The asserts at the bottom fail the build when a
+//! record and its WGSL struct part ways.
+//!
+//! Spaces: every matrix here is camera-relative (view space, OpenGL-style): composed in f64 with
+//! the camera position subtracted, then cast to f32, so far-off models keep their detail.
+
+use std::mem::offset_of;
+
+use bytemuck::{Pod, Zeroable};
+use glam::{DMat3, DMat4};
+
+use super::camera::Lens;
+use super::search::{Method, SearchOptions};
+
+/// `Camera` in camera_types.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+pub(crate) struct CameraGpu {
+    pub clip_from_view: [[f32; 4]; 4],
+    pub view_from_world: [[f32; 4]; 4],
+    pub ray: [f32; 4],
+    pub params: [f32; 4],
+}
+
+/// `Search` in search_types.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+pub(crate) struct SearchGpu {
+    pub steps: [f32; 4],
+    pub method: [u32; 4],
+}
+
+/// `Patch` in gtex_types.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+pub(crate) struct PatchGpu {
+    pub view_from_patch: [[f32; 4]; 4],
+    pub patch_from_view: [[f32; 4]; 4],
+    pub world_normal_from_patch: [[f32; 4]; 4],
+    pub atlas_origin: [f32; 2],
+    pub size: [f32; 2],
+    pub ids: [i32; 4],
+    pub pyramid_at: [u32; 4],
+}
+
+/// `MeshObject` in mesh_types.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+pub(crate) struct MeshObjectGpu {
+    pub view_from_object: [[f32; 4]; 4],
+    pub world_normal_from_object: [[f32; 4]; 4],
+    pub ids: [i32; 4],
+}
+
+/// `VsIn` in mesh_raster.wgsl (vertex buffer 0: Float32x3, Float32x3, Unorm8x4).
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+pub(crate) struct MeshVertex {
+    pub position: [f32; 3],
+    pub normal: [f32; 3],
+    pub color: [u8; 4],
+}
+
+/// A matrix as the GPU takes it (f32, column-major).
+pub(crate) fn gpu_matrix(m: DMat4) -> [[f32; 4]; 4] {
+    m.as_mat4().to_cols_array_2d()
+}
+
+/// Inverse transpose of a linear map, as a 4x4 acting on directions (w = 0).
+pub(crate) fn normal_matrix(linear: DMat3) -> [[f32; 4]; 4] {
+    let n = linear.inverse().transpose();
+    gpu_matrix(DMat4::from_mat3(n))
+}
+
+impl CameraGpu {
+    pub fn new(lens: &Lens, view_from_world: DMat4) -> CameraGpu {
+        // Normals are shaded by direction only; the translation would cost f32 precision.
+        let rotation_only = DMat4::from_mat3(DMat3::from_mat4(view_from_world));
+        CameraGpu {
+            clip_from_view: gpu_matrix(lens.clip_from_view),
+            view_from_world: gpu_matrix(rotation_only),
+            ray: lens.ray.map(|v| v as f32),
+            params: [
+                lens.orthographic as u8 as f32,
+                lens.near as f32,
+                lens.far.min(f64::MAX) as f32,
+                0.0,
+            ],
+        }
+    }
+}
+
+impl SearchGpu {
+    pub fn new(search: &SearchOptions) -> SearchGpu {
+        SearchGpu {
+            steps: [
+                search.steps_per_texel,
+                search.min_linear_steps as f32,
+                search.max_linear_steps as f32,
+                search.binary_steps as f32,
+            ],
+            method: [
+                (search.method == Method::MaxMip) as u32,
+                search.max_traversal_steps,
+                0,
+                0,
+            ],
+        }
+    }
+}
+
+/// Size and 16-byte struct alignment as WGSL lays the struct out.
+macro_rules! wgsl_size {
+    ($t:ty, $size:expr) => {
+        const _: () = assert!(size_of::<$t>() == $size && $size % 16 == 0);
+    };
+}
+
+wgsl_size!(CameraGpu, 160);
+const _: () = assert!(offset_of!(CameraGpu, view_from_world) == 64);
+const _: () = assert!(offset_of!(CameraGpu, ray) == 128);
+const _: () = assert!(offset_of!(CameraGpu, params) == 144);
+
+wgsl_size!(SearchGpu, 32);
+const _: () = assert!(offset_of!(SearchGpu, method) == 16);
+
+wgsl_size!(PatchGpu, 240);
+const _: () = assert!(offset_of!(PatchGpu, patch_from_view) == 64);
+const _: () = assert!(offset_of!(PatchGpu, world_normal_from_patch) == 128);
+const _: () = assert!(offset_of!(PatchGpu, atlas_origin) == 192);
+const _: () = assert!(offset_of!(PatchGpu, size) == 200);
+const _: () = assert!(offset_of!(PatchGpu, ids) == 208);
+const _: () = assert!(offset_of!(PatchGpu, pyramid_at) == 224);
+
+wgsl_size!(MeshObjectGpu, 144);
+const _: () = assert!(offset_of!(MeshObjectGpu, world_normal_from_object) == 64);
+const _: () = assert!(offset_of!(MeshObjectGpu, ids) == 128);
+
+// A vertex buffer, not a WGSL struct: tightly packed as the attribute formats say.
+const _: () = assert!(size_of::<MeshVertex>() == 28);
+const _: () = assert!(offset_of!(MeshVertex, normal) == 12);
+const _: () = assert!(offset_of!(MeshVertex, color) == 24);

@@ -1,0 +1,173 @@
+//! Object kinds. A kind uploads its objects (cached for as long as they live), widens the
+//! scene's depth range by their bounds, and makes each object's draw call for a frame; the camera,
+//! targets, group 0 (frame_bindings.rs) and readback are shared by all kinds.
+//!
+//! Adding a kind: a module here (its pass, group-1 layout and upload cache) with its shader files
+//! and a function in shaders.rs, a variant of `Object` (scene.rs), and one line in `registered`.
+//!
+//! Spaces: world (f64), each object's own (placed by `world_from_object`) and view
+//! (camera-relative); every matrix a kind gives the GPU is composed in f64 as view_from_*.
+
+pub(crate) mod gtex;
+pub(crate) mod mesh;
+
+use std::collections::HashMap;
+use std::sync::{Arc, Weak};
+
+use glam::DMat4;
+
+use super::camera::Lens;
+use super::cull::DepthRange;
+use super::device::Gpu;
+use super::scene::{Object, SceneObject};
+use super::search::SearchOptions;
+use crate::error::Result;
+
+/// Every kind the renderer draws, each built once with the frame's group-0 layout.
+pub(crate) fn registered(
+    device: &wgpu::Device,
+    frame_layout: &wgpu::BindGroupLayout,
+) -> Vec<Box<dyn Kind>> {
+    vec![
+        Box::new(gtex::GtexKind::new(device, frame_layout)),
+        Box::new(mesh::MeshKind::new(device, frame_layout)),
+    ]
+}
+
+/// One object kind's part in a frame.
+pub(crate) trait Kind: Send {
+    /// Uploads `object` unless it is cached, and widens `depth` by its bounds as
+    /// `view_from_object` places them; false (doing nothing) when the object is another kind's.
+    fn upload(
+        &mut self,
+        gpu: &Gpu,
+        object: &Object,
+        view_from_object: &DMat4,
+        depth: &mut DepthRange,
+    ) -> Result<bool>;
+
+    /// The draw call of an object this kind uploaded, counted in `tally`; `None` when nothing of
+    /// it is in view.
+    fn draw(
+        &self,
+        gpu: &Gpu,
+        frame: &FrameView,
+        placed: &SceneObject,
+        tally: &mut Tally,
+    ) -> Option<DrawCall>;
+
+    /// Drops the uploads of objects that no longer exist.
+    fn purge(&mut self);
+}
+
+/// What every kind needs to know about the frame being drawn.
+pub(crate) struct FrameView<'a> {
+    pub lens: &'a Lens,
+    pub view_from_world: DMat4,
+    pub search: &'a SearchOptions,
+}
+
+/// A frame's counts, and the ids handed out so far (drawn in scene order).
+#[derive(Default)]
+pub(crate) struct Tally {
+    /// Patches numbered so far, across the scene's texture sets, culled ones included.
+    pub patch_ids: i32,
+    pub patches_drawn: usize,
+    pub patches_culled: usize,
+    /// Meshes drawn so far; the k-th mesh writes id -2 - k.
+    pub meshes_drawn: usize,
+}
+
+/// One object's draw in the scene pass, after group 0 is bound.
+pub(crate) struct DrawCall {
+    pub pipeline: wgpu::RenderPipeline,
+    /// Group 1: the kind's records and resources for this object.
+    pub group: wgpu::BindGroup,
+    pub vertex_buffer: Option<wgpu::Buffer>,
+    pub vertices: u32,
+    pub instances: u32,
+}
+
+impl DrawCall {
+    pub fn encode(&self, pass: &mut wgpu::RenderPass<'_>) {
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(1, &self.group, &[]);
+        if let Some(buffer) = &self.vertex_buffer {
+            pass.set_vertex_buffer(0, buffer.slice(..));
+        }
+        pass.draw(0..self.vertices, 0..self.instances);
+    }
+}
+
+/// GPU copies of objects, keyed by the object's identity and kept while it lives (a new object
+/// at a freed address is uploaded again).
+pub(crate) struct UploadCache<T, U> {
+    entries: HashMap<usize, (Weak<T>, U)>,
+}
+
+impl<T, U> Default for UploadCache<T, U> {
+    fn default() -> Self {
+        UploadCache {
+            entries: HashMap::new(),
+        }
+    }
+}
+
+impl<T, U> UploadCache<T, U> {
+    fn key(object: &Arc<T>) -> usize {
+        Arc::as_ptr(object) as usize
+    }
+
+    /// The upload of this very object, if cached.
+    pub fn get(&self, object: &Arc<T>) -> Option<&U> {
+        let (weak, upload) = self.entries.get(&Self::key(object))?;
+        let same = weak.upgrade().is_some_and(|o| Arc::ptr_eq(&o, object));
+        same.then_some(upload)
+    }
+
+    /// The cached upload of `object`, made by `upload` when there is none.
+    pub fn get_or_upload(
+        &mut self,
+        object: &Arc<T>,
+        upload: impl FnOnce(&T) -> Result<U>,
+    ) -> Result<&U> {
+        let key = Self::key(object);
+        if self.get(object).is_none() {
+            let made = upload(object)?;
+            self.entries.insert(key, (Arc::downgrade(object), made));
+        }
+        Ok(&self.entries[&key].1)
+    }
+
+    pub fn purge(&mut self) {
+        self.entries.retain(|_, (weak, _)| weak.strong_count() > 0);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn uploads_are_kept_while_their_object_lives() {
+        let mut cache: UploadCache<u32, u32> = UploadCache::default();
+        let object = Arc::new(7);
+        let mut uploads = 0;
+        for _ in 0..2 {
+            let got = cache.get_or_upload(&object, |v| {
+                uploads += 1;
+                Ok(*v * 2)
+            });
+            assert_eq!(*got.unwrap(), 14);
+        }
+        assert_eq!(uploads, 1);
+        let twin = Arc::new(7);
+        assert!(
+            cache.get(&twin).is_none(),
+            "an equal but distinct object is not cached"
+        );
+        drop(object);
+        cache.purge();
+        assert!(cache.entries.is_empty());
+    }
+}

@@ -1,0 +1,215 @@
+//! How a ray finds its first hit in a height map: the method, its settings, the quality presets
+//! and the per-call overrides on top of them.
+//!
+//! Spaces: none; step counts are in texels of patch-local space.
+
+use std::str::FromStr;
+
+use crate::error::{GeomtexError, Result};
+
+/// How a ray finds its first hit in a height map.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Method {
+    /// The paper's search: a linear march balanced by slant, then bisection.
+    LinearBinary,
+    /// Exact: descend a max pyramid, skip what the ray passes above, solve each cell in closed
+    /// form.
+    MaxMip,
+}
+
+impl Method {
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            Method::LinearBinary => "linear_binary",
+            Method::MaxMip => "maxmip",
+        }
+    }
+}
+
+impl FromStr for Method {
+    type Err = GeomtexError;
+
+    fn from_str(s: &str) -> Result<Method> {
+        match s {
+            "linear_binary" => Ok(Method::LinearBinary),
+            "maxmip" => Ok(Method::MaxMip),
+            other => Err(GeomtexError::Parameter(format!(
+                "method must be 'linear_binary' or 'maxmip', got {other:?}"
+            ))),
+        }
+    }
+}
+
+/// Measured settings for a speed/accuracy trade (see `SearchOptions::preset`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Quality {
+    Fast,
+    #[default]
+    Balanced,
+    Exact,
+}
+
+impl FromStr for Quality {
+    type Err = GeomtexError;
+
+    fn from_str(s: &str) -> Result<Quality> {
+        match s {
+            "fast" => Ok(Quality::Fast),
+            "balanced" => Ok(Quality::Balanced),
+            "exact" => Ok(Quality::Exact),
+            other => Err(GeomtexError::Parameter(format!(
+                "quality must be 'fast', 'balanced' or 'exact', got {other:?}"
+            ))),
+        }
+    }
+}
+
+/// Search settings of a render.
+#[derive(Clone, Copy, Debug)]
+pub struct SearchOptions {
+    pub method: Method,
+    /// Linear samples per texel the ray crosses in the patch (the balance by slant).
+    pub steps_per_texel: f32,
+    pub min_linear_steps: u32,
+    pub max_linear_steps: u32,
+    pub binary_steps: u32,
+    /// Most node visits of the max-pyramid traversal per fragment.
+    pub max_traversal_steps: u32,
+    /// Count height-map fetches per fragment (a slower counting build of the pipeline).
+    pub count_fetches: bool,
+    /// Level of detail (max-pyramid search only): each patch's traversal stops at the pyramid
+    /// level whose nodes are about one pixel at the patch's nearest point, and hits the node's
+    /// mid height there instead of descending to the exact bilinear cell.
+    pub lod: bool,
+}
+
+impl Default for SearchOptions {
+    fn default() -> Self {
+        SearchOptions {
+            method: Method::LinearBinary,
+            steps_per_texel: 0.5,
+            min_linear_steps: 2,
+            max_linear_steps: 1024,
+            binary_steps: 8,
+            max_traversal_steps: 4096,
+            count_fetches: false,
+            lod: false,
+        }
+    }
+}
+
+impl SearchOptions {
+    /// The settings a quality stands for.
+    pub fn preset(quality: Quality) -> SearchOptions {
+        match quality {
+            Quality::Fast => SearchOptions {
+                steps_per_texel: 0.25,
+                binary_steps: 6,
+                ..Default::default()
+            },
+            Quality::Balanced => SearchOptions::default(),
+            Quality::Exact => SearchOptions {
+                method: Method::MaxMip,
+                ..Default::default()
+            },
+        }
+    }
+
+    pub fn validate(&self) -> Result<()> {
+        let ok = self.steps_per_texel.is_finite()
+            && self.steps_per_texel > 0.0
+            && self.min_linear_steps >= 1
+            && self.max_linear_steps >= self.min_linear_steps
+            && self.max_linear_steps <= 65536
+            && self.binary_steps <= 64
+            && (1..=1 << 20).contains(&self.max_traversal_steps);
+        if self.lod && self.method != Method::MaxMip {
+            return Err(GeomtexError::Parameter(
+                "lod needs the max-pyramid search (method='maxmip' or quality='exact')".into(),
+            ));
+        }
+        if ok {
+            Ok(())
+        } else {
+            Err(GeomtexError::Parameter(format!(
+                "search options out of range: {self:?} (need steps_per_texel > 0, \
+                 1 <= min_linear_steps <= max_linear_steps <= 65536, binary_steps <= 64, \
+                 1 <= max_traversal_steps <= 2^20)"
+            )))
+        }
+    }
+}
+
+/// A caller's choices: a quality preset (Balanced when none) and any settings that override it.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SearchOverrides {
+    pub quality: Option<Quality>,
+    pub method: Option<Method>,
+    pub steps_per_texel: Option<f32>,
+    pub min_linear_steps: Option<u32>,
+    pub max_linear_steps: Option<u32>,
+    pub binary_steps: Option<u32>,
+    pub max_traversal_steps: Option<u32>,
+    pub count_fetches: Option<bool>,
+    pub lod: Option<bool>,
+}
+
+impl SearchOverrides {
+    /// The preset of the quality, then each given override, validated.
+    pub fn resolve(&self) -> Result<SearchOptions> {
+        let preset = SearchOptions::preset(self.quality.unwrap_or_default());
+        let options = SearchOptions {
+            method: self.method.unwrap_or(preset.method),
+            steps_per_texel: self.steps_per_texel.unwrap_or(preset.steps_per_texel),
+            min_linear_steps: self.min_linear_steps.unwrap_or(preset.min_linear_steps),
+            max_linear_steps: self.max_linear_steps.unwrap_or(preset.max_linear_steps),
+            binary_steps: self.binary_steps.unwrap_or(preset.binary_steps),
+            max_traversal_steps: self
+                .max_traversal_steps
+                .unwrap_or(preset.max_traversal_steps),
+            count_fetches: self.count_fetches.unwrap_or(preset.count_fetches),
+            lod: self.lod.unwrap_or(preset.lod),
+        };
+        options.validate()?;
+        Ok(options)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_parse_back_and_bad_names_say_what_is_allowed() {
+        for m in [Method::LinearBinary, Method::MaxMip] {
+            assert_eq!(m.as_str().parse::<Method>().unwrap(), m);
+        }
+        assert_eq!("exact".parse::<Quality>().unwrap(), Quality::Exact);
+        let e = "best".parse::<Quality>().unwrap_err().to_string();
+        assert_eq!(
+            e,
+            "quality must be 'fast', 'balanced' or 'exact', got \"best\""
+        );
+        let e = "bvh".parse::<Method>().unwrap_err().to_string();
+        assert_eq!(e, "method must be 'linear_binary' or 'maxmip', got \"bvh\"");
+    }
+
+    #[test]
+    fn overrides_apply_on_top_of_the_preset() {
+        let fast = SearchOverrides {
+            quality: Some(Quality::Fast),
+            binary_steps: Some(3),
+            ..Default::default()
+        }
+        .resolve()
+        .unwrap();
+        assert_eq!((fast.steps_per_texel, fast.binary_steps), (0.25, 3));
+        let plain = SearchOverrides::default().resolve().unwrap();
+        assert_eq!(plain.method, Method::LinearBinary);
+        let lod_without_maxmip = SearchOverrides {
+            lod: Some(true),
+            ..Default::default()
+        };
+        assert!(lod_without_maxmip.resolve().is_err());
+    }
+}

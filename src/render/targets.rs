@@ -1,0 +1,303 @@
+//! Render targets shared by every object kind (color, normal, id and reversed-Z depth), and
+//! reading them back: one image size, made once and reused by every frame.
+//!
+//! Spaces: framebuffer pixels, row-major with row 0 at the top; depth values are reversed Z
+//! (0 = nothing) until `Camera::distance_from_depth` turns them into view distances.
+
+use crate::error::{GeomtexError, Result};
+
+use super::device::Gpu;
+use super::pipelines::DepthCopy;
+
+pub(crate) const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+pub(crate) const NORMAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+pub(crate) const ID_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Sint;
+pub(crate) const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+/// Bytes per row of a texture copy, padded as wgpu requires.
+fn padded_row(bytes_per_pixel: u32, width: u32) -> u32 {
+    let a = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    (bytes_per_pixel * width).div_ceil(a) * a
+}
+
+/// GPU timestamps around the scene pass: the query set, its resolve buffer and a readback copy.
+type Timestamps = (wgpu::QuerySet, wgpu::Buffer, wgpu::Buffer);
+
+pub(crate) struct Targets {
+    pub width: u32,
+    pub height: u32,
+    color: wgpu::Texture,
+    normal: wgpu::Texture,
+    id: wgpu::Texture,
+    depth: wgpu::Texture,
+    /// The depth texture copied to a buffer by the depth copy pass (see depth_copy.wgsl).
+    depth_values: wgpu::Buffer,
+    depth_copy_group: wgpu::BindGroup,
+    /// Color, normal, id (rows padded) and depth.
+    readback: [wgpu::Buffer; 4],
+    timestamps: Option<Timestamps>,
+}
+
+/// What one frame's readback holds.
+pub(crate) struct Readback {
+    pub color: Vec<u8>,
+    /// Unit normals, xyz per pixel.
+    pub normal: Vec<f32>,
+    pub patch_id: Vec<i32>,
+    /// Reversed-Z depth values.
+    pub depth: Vec<f32>,
+    pub gpu_ms: Option<f64>,
+    /// The fetch counters, when they were asked for.
+    pub counters: Option<[u32; 2]>,
+}
+
+fn render_texture(
+    device: &wgpu::Device,
+    label: &str,
+    size: wgpu::Extent3d,
+    format: wgpu::TextureFormat,
+    usage: wgpu::TextureUsages,
+) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size,
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | usage,
+        view_formats: &[],
+    })
+}
+
+fn map_buffer(device: &wgpu::Device, label: &str, size: u64) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+fn make_timestamps(device: &wgpu::Device) -> Timestamps {
+    let set = device.create_query_set(&wgpu::QuerySetDescriptor {
+        label: Some("frame timestamps"),
+        ty: wgpu::QueryType::Timestamp,
+        count: 2,
+    });
+    let resolve = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("timestamp resolve"),
+        size: 16,
+        usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    (set, resolve, map_buffer(device, "timestamp readback", 16))
+}
+
+/// Maps every buffer, waits once, and returns their bytes (buffers unmapped again).
+fn read_buffers(device: &wgpu::Device, buffers: &[&wgpu::Buffer]) -> Result<Vec<Vec<u8>>> {
+    for b in buffers {
+        b.slice(..).map_async(wgpu::MapMode::Read, |_| {});
+    }
+    device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|e| GeomtexError::Device(format!("waiting for the GPU failed: {e}")))?;
+    let bytes = buffers
+        .iter()
+        .map(|b| {
+            Ok(b.slice(..)
+                .get_mapped_range()
+                .map_err(|e| GeomtexError::Device(format!("readback failed: {e:?}")))?
+                .to_vec())
+        })
+        .collect();
+    for b in buffers {
+        b.unmap();
+    }
+    bytes
+}
+
+impl Targets {
+    pub fn new(gpu: &Gpu, depth_copy: &DepthCopy, width: u32, height: u32) -> Targets {
+        let device = &gpu.device;
+        let size = wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: 1,
+        };
+        let copied = wgpu::TextureUsages::COPY_SRC;
+        let color = render_texture(device, "color", size, COLOR_FORMAT, copied);
+        let normal = render_texture(device, "normal", size, NORMAL_FORMAT, copied);
+        let id = render_texture(device, "id", size, ID_FORMAT, copied);
+        let bound = wgpu::TextureUsages::TEXTURE_BINDING;
+        let depth = render_texture(device, "depth", size, DEPTH_FORMAT, bound);
+        let depth_bytes = (width as u64) * (height as u64) * 4;
+        let depth_values = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("depth values"),
+            size: depth_bytes,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let depth_copy_group = depth_copy.bind_group(device, &depth, &depth_values);
+        let rows = |bytes_per_pixel| padded_row(bytes_per_pixel, width) as u64 * height as u64;
+        let readback = [
+            map_buffer(device, "color readback", rows(4)),
+            map_buffer(device, "normal readback", rows(8)),
+            map_buffer(device, "id readback", rows(4)),
+            map_buffer(device, "depth readback", depth_bytes),
+        ];
+        Targets {
+            width,
+            height,
+            color,
+            normal,
+            id,
+            depth,
+            depth_values,
+            depth_copy_group,
+            readback,
+            timestamps: gpu.timestamps.then(|| make_timestamps(device)),
+        }
+    }
+
+    /// The pass every object kind draws in: all targets cleared (color to `background`, ids to
+    /// -1, depth to 0 = nothing in reversed Z), timed when the adapter can.
+    pub fn begin_scene_pass<'e>(
+        &self,
+        encoder: &'e mut wgpu::CommandEncoder,
+        background: [f64; 4],
+    ) -> wgpu::RenderPass<'e> {
+        let clear = |c: wgpu::Color| wgpu::Operations {
+            load: wgpu::LoadOp::Clear(c),
+            store: wgpu::StoreOp::Store,
+        };
+        let [r, g, b, a] = background;
+        let no_id = wgpu::Color {
+            r: -1.0,
+            g: 0.0,
+            b: 0.0,
+            a: 0.0,
+        };
+        let clears = [wgpu::Color { r, g, b, a }, wgpu::Color::TRANSPARENT, no_id];
+        let views =
+            [&self.color, &self.normal, &self.id].map(|t| t.create_view(&Default::default()));
+        let attachments: Vec<_> = views
+            .iter()
+            .zip(clears)
+            .map(|(view, color)| {
+                Some(wgpu::RenderPassColorAttachment {
+                    view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: clear(color),
+                })
+            })
+            .collect();
+        let depth_view = self.depth.create_view(&Default::default());
+        encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("scene"),
+            color_attachments: &attachments,
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &depth_view,
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(0.0),
+                    store: wgpu::StoreOp::Store,
+                }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: self.timestamps.as_ref().map(|(set, _, _)| {
+                wgpu::RenderPassTimestampWrites {
+                    query_set: set,
+                    beginning_of_pass_write_index: Some(0),
+                    end_of_pass_write_index: Some(1),
+                }
+            }),
+            occlusion_query_set: None,
+            multiview_mask: None,
+        })
+    }
+
+    /// Copies every target into its readback buffer: depth through the depth copy pass, the
+    /// others as texture copies; then the timestamps.
+    pub fn encode_readback(&self, encoder: &mut wgpu::CommandEncoder, depth_copy: &DepthCopy) {
+        depth_copy.encode(encoder, &self.depth_copy_group, self.width, self.height);
+        for (texture, buffer, bytes_per_pixel) in [
+            (&self.color, &self.readback[0], 4),
+            (&self.normal, &self.readback[1], 8),
+            (&self.id, &self.readback[2], 4),
+        ] {
+            encoder.copy_texture_to_buffer(
+                wgpu::TexelCopyTextureInfo {
+                    texture,
+                    mip_level: 0,
+                    origin: wgpu::Origin3d::ZERO,
+                    aspect: wgpu::TextureAspect::All,
+                },
+                wgpu::TexelCopyBufferInfo {
+                    buffer,
+                    layout: wgpu::TexelCopyBufferLayout {
+                        offset: 0,
+                        bytes_per_row: Some(padded_row(bytes_per_pixel, self.width)),
+                        rows_per_image: None,
+                    },
+                },
+                texture.size(),
+            );
+        }
+        let depth_size = self.depth_values.size();
+        encoder.copy_buffer_to_buffer(&self.depth_values, 0, &self.readback[3], 0, depth_size);
+        if let Some((set, resolve, readback)) = &self.timestamps {
+            encoder.resolve_query_set(set, 0..2, resolve, 0);
+            encoder.copy_buffer_to_buffer(resolve, 0, readback, 0, 16);
+        }
+    }
+
+    /// Reads the submitted frame back in one wait, with the fetch counters when given.
+    pub fn read_back(&self, gpu: &Gpu, counters: Option<&wgpu::Buffer>) -> Result<Readback> {
+        let mut buffers: Vec<&wgpu::Buffer> = self.readback.iter().collect();
+        buffers.extend(counters);
+        buffers.extend(self.timestamps.as_ref().map(|(_, _, r)| r));
+        let mut bytes = read_buffers(&gpu.device, &buffers)?.into_iter();
+        let mut next = || bytes.next().unwrap_or_default();
+        let color = self.unpad(next(), 4);
+        let normal_half = self.unpad(next(), 8);
+        let ids = self.unpad(next(), 4);
+        let depth = bytemuck::cast_slice(&next()).to_vec();
+        let counters = counters.map(|_| {
+            let c: Vec<u32> = bytemuck::cast_slice(&next()).to_vec();
+            [c[0], c[1]]
+        });
+        let gpu_ms = self.timestamps.as_ref().map(|_| {
+            let ticks: Vec<u64> = bytemuck::cast_slice(&next()).to_vec();
+            let period = gpu.queue.get_timestamp_period() as f64;
+            ticks[1].saturating_sub(ticks[0]) as f64 * period / 1e6
+        });
+        let normal = bytemuck::cast_slice::<u8, [u16; 4]>(&normal_half)
+            .iter()
+            .flat_map(|n| [n[0], n[1], n[2]].map(|h| half::f16::from_bits(h).to_f32()))
+            .collect();
+        Ok(Readback {
+            color,
+            normal,
+            patch_id: bytemuck::cast_slice(&ids).to_vec(),
+            depth,
+            gpu_ms,
+            counters,
+        })
+    }
+
+    /// Drops the row padding of a texture copy.
+    fn unpad(&self, bytes: Vec<u8>, bytes_per_pixel: u32) -> Vec<u8> {
+        let row = (bytes_per_pixel * self.width) as usize;
+        let pitch = padded_row(bytes_per_pixel, self.width) as usize;
+        if row == pitch {
+            return bytes;
+        }
+        bytes
+            .chunks(pitch)
+            .take(self.height as usize)
+            .flat_map(|r| &r[..row])
+            .copied()
+            .collect()
+    }
+}
