@@ -28,7 +28,10 @@ pub fn image<T: Element>(
 }
 
 /// (N, K) array of fixed-size rows.
-pub fn rows<T: Element + Copy, const K: usize>(py: Python<'_>, items: &[[T; K]]) -> Bound<'_, PyArray2<T>> {
+pub fn rows<'py, T: Element + Copy, const K: usize>(
+    py: Python<'py>,
+    items: &[[T; K]],
+) -> Bound<'py, PyArray2<T>> {
     matrix(py, items.iter().flatten().copied().collect(), items.len(), K)
 }
 

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 
 use glam::{DVec2, DVec3};
-use numpy::{PyArray1, PyArray2, PyArray3, PyReadonlyArray2, PyReadonlyArray3};
+use numpy::{PyArray1, PyArray2, PyArray3, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -64,7 +64,7 @@ fn patch_dict<'py>(py: Python<'py>, p: &Patch) -> PyResult<Bound<'py, PyDict>> {
     d.set_item("color", image(py, colors, (h, w, 4)))?;
     d.set_item("world_from_patch", mat4_to_numpy(py, p.world_from_patch()))?;
     d.set_item("origin", PyArray1::from_slice(py, &p.origin.to_array()))?;
-    d.set_item("axes", rows(py, &p.axes.map(DVec3::to_array)))?;
+    d.set_item("axes", rows(py, &p.axes.map(|a| a.to_array())))?;
     d.set_item("extent", PyArray1::from_slice(py, &p.extent.to_array()))?;
     d.set_item("faces", PyArray1::from_slice(py, &p.faces))?;
     d.set_item("ring_faces", PyArray1::from_slice(py, &p.ring_faces))?;
