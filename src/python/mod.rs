@@ -11,7 +11,7 @@ use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 
-use crate::convert::{ConvertOptions, ErrorScope, InPlane, NormalSource};
+use crate::convert::ConvertArgs;
 use crate::error::GeomtexError;
 use crate::gtex::GeometryTextureSet;
 use crate::mesh::Mesh;
@@ -245,22 +245,7 @@ impl PyGeometryTextureSet {
 
     /// (M,) int32: the patch holding each source face, -1 for degenerate faces left out.
     fn face_patch<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<i32>> {
-        let n = self.inner.stats.get("faces").unwrap_or(0.0) as usize;
-        let max_face = self
-            .inner
-            .patches
-            .iter()
-            .flat_map(|p| p.faces.iter())
-            .max()
-            .copied();
-        let n = n.max(max_face.map_or(0, |m| m as usize + 1));
-        let mut out = vec![-1i32; n];
-        for (k, p) in self.inner.patches.iter().enumerate() {
-            for &f in &p.faces {
-                out[f as usize] = k as i32;
-            }
-        }
-        Array1::from_vec(out).into_pyarray(py)
+        Array1::from_vec(self.inner.face_patch()).into_pyarray(py)
     }
 
     /// One patch's maps and frame as numpy arrays: height (H, W) codes, uint16 or uint8 as
@@ -400,15 +385,7 @@ impl PyGeometryTextureSet {
     /// masking, h + gain (h - gaussian h)); `sigma` in world units; normals rebuilt.
     #[pyo3(signature = (kind, sigma, *, gain = 1.0))]
     fn filtered(&self, py: Python<'_>, kind: &str, sigma: f64, gain: f64) -> PyResult<Self> {
-        let filter = match kind {
-            "gaussian" => crate::filters::MapFilter::Gaussian,
-            "high_pass" => crate::filters::MapFilter::HighPass { gain },
-            other => {
-                return Err(parameter_error(format!(
-                    "kind must be 'gaussian' or 'high_pass', got {other:?}"
-                )))
-            }
-        };
+        let filter = crate::filters::MapFilter::from_name(kind, Some(gain)).map_err(to_py_err)?;
         let inner = self.inner.clone();
         let set = py
             .detach(move || crate::filters::filtered(&inner, filter, sigma))
@@ -479,8 +456,7 @@ impl PyGeometryTextureSet {
                 }
             })
             .collect();
-        let tile = u32::try_from(max_resolution).unwrap_or(0);
-        let bits = u8::try_from(height_bits).unwrap_or(0);
+        let (tile, bits) = (Some(max_resolution), Some(height_bits));
         let set = py
             .detach(move || crate::grids::from_grids(&grids, tile, bits))
             .map_err(to_py_err)?;
@@ -547,63 +523,25 @@ fn convert(
     height_bits: i64,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<PyGeometryTextureSet> {
-    let nonneg = |name: &str, v: i64| -> PyResult<usize> {
-        usize::try_from(v).map_err(|_| parameter_error(format!("{name} must be >= 0, got {v}")))
-    };
-    let opts = ConvertOptions {
-        max_resolution: max_resolution
-            .map(|r| {
-                u32::try_from(r).map_err(|_| {
-                    parameter_error(format!("max_resolution must be in [2, 16384], got {r}"))
-                })
-            })
-            .transpose()?,
+    let opts = ConvertArgs {
+        max_resolution,
         texel_size,
         max_error,
         max_error_rel,
-        error_scope: match error_scope {
-            "set" => ErrorScope::Set,
-            "chart" => ErrorScope::Chart,
-            other => {
-                return Err(parameter_error(format!(
-                    "error_scope must be 'set' or 'chart', got {other:?}"
-                )))
-            }
-        },
-        charts: charts.map(|c| nonneg("charts", c)).transpose()?,
+        error_scope: Some(error_scope.parse().map_err(to_py_err)?),
+        charts,
         chart_error,
-        max_charts: nonneg("max_charts", max_charts)?,
-        compactness,
-        lloyd_iterations: nonneg("lloyd_iterations", lloyd_iterations)?,
-        overlap_rings: nonneg("overlap_rings", overlap_rings)?,
-        dilation: nonneg("dilation", dilation)?,
-        in_plane: match frame {
-            "min_area" => InPlane::MinAreaRect,
-            "pca" => InPlane::Pca,
-            other => {
-                return Err(parameter_error(format!(
-                    "frame must be 'min_area' or 'pca', got {other:?}"
-                )))
-            }
-        },
-        normals: match normals {
-            "smooth" => NormalSource::Smooth,
-            "flat" => NormalSource::Flat,
-            other => {
-                return Err(parameter_error(format!(
-                    "normals must be 'smooth' or 'flat', got {other:?}"
-                )))
-            }
-        },
-        height_bits: match height_bits {
-            8 | 16 => height_bits as u8,
-            other => {
-                return Err(parameter_error(format!(
-                    "height_bits must be 8 or 16, got {other}"
-                )))
-            }
-        },
-    };
+        max_charts: Some(max_charts),
+        compactness: Some(compactness),
+        lloyd_iterations: Some(lloyd_iterations),
+        overlap_rings: Some(overlap_rings),
+        dilation: Some(dilation),
+        frame: Some(frame.parse().map_err(to_py_err)?),
+        normals: Some(normals.parse().map_err(to_py_err)?),
+        height_bits: Some(height_bits),
+    }
+    .into_options()
+    .map_err(to_py_err)?;
     let inner = mesh.get().inner.clone();
     // An exception raised by the callback (KeyboardInterrupt from tqdm, say) stops the
     // conversion and is re-raised as it was.
