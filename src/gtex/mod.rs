@@ -2,9 +2,9 @@
 //!
 //! Spaces:
 //! - world: the source mesh's coordinates (f64).
-//! - patch-local: the patch box is the unit cube; x/y are texture u/v, z is height.
-//!   world = origin + axes[0] * (u * extent.x) + axes[1] * (v * extent.y)
-//!         + axes[2] * (h * extent.z), which `Patch::world_from_patch` holds as a matrix.
+//! - patch-local: the patch box is the unit cube; x/y are texture u/v, z is height:
+//!   world = origin + axes[0] (u extent.x) + axes[1] (v extent.y) + axes[2] (h extent.z),
+//!   the matrix `Patch::world_from_patch`.
 //!
 //! Texel (i, j) (column i along u, row j along v) covers u in [i/w, (i+1)/w] and is sampled at its
 //! centre. Maps are row-major with row 0 at v = 0. Heights are codes of a patch's `height_bits`
