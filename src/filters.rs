@@ -15,7 +15,9 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::error::{GeomtexError, Result};
-use crate::gtex::{vertical_extent, decode_snorm8, encode_height, encode_snorm8, GeometryTextureSet, Patch};
+use crate::gtex::{
+    decode_snorm8, encode_height, encode_snorm8, vertical_extent, GeometryTextureSet, Patch,
+};
 use crate::heightfield::{grid_normal, height_at};
 use crate::mesh::{Mesh, MeshGeometry};
 
@@ -25,6 +27,25 @@ pub enum MapFilter {
     Gaussian,
     /// Unsharp masking, h + gain (h - gaussian(h)): exaggerates detail finer than sigma.
     HighPass { gain: f64 },
+}
+
+/// `gain` of a high-pass filter when none is given.
+pub const DEFAULT_GAIN: f64 = 1.0;
+
+impl MapFilter {
+    /// The filter named `kind` ("gaussian" | "high_pass"); `gain` (default `DEFAULT_GAIN`) is
+    /// the high-pass filter's and is checked when the filter runs.
+    pub fn from_name(kind: &str, gain: Option<f64>) -> Result<MapFilter> {
+        match kind {
+            "gaussian" => Ok(MapFilter::Gaussian),
+            "high_pass" => Ok(MapFilter::HighPass {
+                gain: gain.unwrap_or(DEFAULT_GAIN),
+            }),
+            other => Err(GeomtexError::Parameter(format!(
+                "kind must be 'gaussian' or 'high_pass', got {other:?}"
+            ))),
+        }
+    }
 }
 
 /// Offsets along the normal that a Gaussian of `sigma` (world units) would move each texel
@@ -170,7 +191,7 @@ fn refit(p: &Patch, new: &[f64]) -> Patch {
     if lo > hi {
         return q; // an empty patch stays empty
     }
-    let (thickness, bits) = vertical_extent(hi - lo, texel.0.min(texel.1), p.height_bits);
+    let (thickness, bits) = vertical_extent(hi - lo, p.texel_size(), p.height_bits);
     let bottom = lo - 0.5 * (thickness - (hi - lo));
     q.origin = p.origin + p.axes[2] * bottom;
     q.extent.z = thickness;
@@ -207,7 +228,8 @@ fn texel_at(p: &Patch, u: f64, v: f64) -> (usize, usize) {
 
 /// Gaps between neighbouring patches along their charts' shared edges (world units): at points
 /// on each edge shared by faces of two different patches, the distance from the first patch's
-/// surface point to the second patch's surface (its tangent plane there), both ways. Points where either patch has no surface are skipped (none, on a clean conversion).
+/// surface point to the second patch's surface (its tangent plane there), both ways. Points
+/// where either patch has no surface are skipped (none, on a clean conversion).
 pub fn seam_gaps(set: &GeometryTextureSet, mesh: &Mesh) -> Result<Vec<f64>> {
     let mut owner = vec![u32::MAX; mesh.faces.len()];
     for (k, p) in set.patches.iter().enumerate() {
@@ -275,4 +297,31 @@ pub fn seam_gaps(set: &GeometryTextureSet, mesh: &Mesh) -> Result<Vec<f64>> {
         }
     }
     Ok(gaps)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn filters_by_name() {
+        assert_eq!(
+            MapFilter::from_name("gaussian", None).unwrap(),
+            MapFilter::Gaussian
+        );
+        assert_eq!(
+            MapFilter::from_name("high_pass", None).unwrap(),
+            MapFilter::HighPass { gain: 1.0 }
+        );
+        assert_eq!(
+            MapFilter::from_name("high_pass", Some(2.5)).unwrap(),
+            MapFilter::HighPass { gain: 2.5 }
+        );
+        let e = MapFilter::from_name("x", None).unwrap_err();
+        assert!(matches!(&e, GeomtexError::Parameter(_)));
+        assert_eq!(
+            e.to_string(),
+            "kind must be 'gaussian' or 'high_pass', got \"x\""
+        );
+    }
 }

@@ -10,7 +10,9 @@
 use glam::{DVec2, DVec3};
 
 use crate::error::{GeomtexError, Result};
-use crate::gtex::{vertical_extent, NEUTRAL_COLOR, encode_height, encode_snorm8, GeometryTextureSet, Patch, Stats};
+use crate::gtex::{
+    encode_height, encode_snorm8, vertical_extent, GeometryTextureSet, Patch, Stats, NEUTRAL_COLOR,
+};
 use crate::heightfield::grid_normal;
 
 /// One regular grid of heights with optional RGBA8 colors (row-major, `width` samples a row).
@@ -92,8 +94,21 @@ fn tile_starts(n: usize, tile: usize) -> Vec<usize> {
         .collect()
 }
 
-/// Builds a set from grids, cut into tiles of at most `tile` x `tile` samples.
-pub fn from_grids(grids: &[HeightGrid], tile: u32, height_bits: u8) -> Result<GeometryTextureSet> {
+/// `max_resolution` (the longest tile side, in samples) when none is given.
+pub const DEFAULT_MAX_RESOLUTION: i64 = 256;
+/// `height_bits` when none is given.
+pub const DEFAULT_HEIGHT_BITS: i64 = 16;
+
+/// Builds a set from grids, cut into tiles of at most `max_resolution` x `max_resolution`
+/// samples (default `DEFAULT_MAX_RESOLUTION`) with `height_bits`-bit heights (default
+/// `DEFAULT_HEIGHT_BITS`, else 8).
+pub fn from_grids(
+    grids: &[HeightGrid],
+    max_resolution: Option<i64>,
+    height_bits: Option<i64>,
+) -> Result<GeometryTextureSet> {
+    let tile = max_resolution.unwrap_or(DEFAULT_MAX_RESOLUTION);
+    let bits = height_bits.unwrap_or(DEFAULT_HEIGHT_BITS);
     if grids.is_empty() {
         return Err(GeomtexError::Parameter("no grids given".into()));
     }
@@ -102,11 +117,14 @@ pub fn from_grids(grids: &[HeightGrid], tile: u32, height_bits: u8) -> Result<Ge
             "max_resolution must be in [2, 16384], got {tile}"
         )));
     }
-    if !crate::gtex::HEIGHT_BITS.contains(&height_bits) {
-        return Err(GeomtexError::Parameter(format!(
-            "height_bits must be 8 or 16, got {height_bits}"
-        )));
-    }
+    let bits = match u8::try_from(bits) {
+        Ok(b) if crate::gtex::HEIGHT_BITS.contains(&b) => b,
+        _ => {
+            return Err(GeomtexError::Parameter(format!(
+                "height_bits must be 8 or 16, got {bits}"
+            )))
+        }
+    };
     for (k, g) in grids.iter().enumerate() {
         g.validate(k)?;
     }
@@ -116,58 +134,10 @@ pub fn from_grids(grids: &[HeightGrid], tile: u32, height_bits: u8) -> Result<Ge
     for (k, g) in grids.iter().enumerate() {
         for &j0 in &tile_starts(g.height, tile) {
             for &i0 in &tile_starts(g.width, tile) {
-                let (tw, th) = (tile.min(g.width - i0), tile.min(g.height - j0));
-                let samples = (j0..j0 + th).flat_map(|j| (i0..i0 + tw).map(move |i| (i, j)));
-                let (lo, hi) = samples
-                    .clone()
-                    .map(|(i, j)| g.at(i, j))
-                    .filter(|z| !z.is_nan())
-                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), z| {
-                        (lo.min(z), hi.max(z))
-                    });
-                if lo > hi {
-                    continue; // no data in this tile
+                if let Some(p) = tile_patch(g, (i0, j0), tile, bits) {
+                    patches.push(p);
+                    per_patch_grid.push(k as f64);
                 }
-                let texel = g.spacing.min_element();
-                let (thickness, bits) = vertical_extent(hi - lo, texel, height_bits);
-                let origin = DVec3::new(
-                    g.origin.x + (i0 as f64 - 0.5) * g.spacing.x,
-                    g.origin.y + (j0 as f64 - 0.5) * g.spacing.y,
-                    lo - 0.5 * (thickness - (hi - lo)),
-                );
-                let mut p = Patch {
-                    origin,
-                    axes: [DVec3::X, DVec3::Y, DVec3::Z],
-                    extent: DVec3::new(tw as f64 * g.spacing.x, th as f64 * g.spacing.y, thickness),
-                    width: tw as u32,
-                    height: th as u32,
-                    height_bits: bits,
-                    heights: Vec::with_capacity(tw * th),
-                    normals: Vec::with_capacity(tw * th),
-                    colors: Vec::with_capacity(tw * th),
-                    faces: vec![],
-                    ring_faces: vec![],
-                };
-                for (i, j) in samples {
-                    let z = g.at(i, j);
-                    let filled = !z.is_nan();
-                    p.heights.push(if filled {
-                        encode_height((z - origin.z) / thickness, bits)
-                    } else {
-                        0
-                    });
-                    p.normals.push(if filled {
-                        encode_snorm8(g.normal(i, j))
-                    } else {
-                        [0, 0, 127, 0]
-                    });
-                    p.colors.push(match &g.colors {
-                        Some(c) => c[j * g.width + i],
-                        None => NEUTRAL_COLOR,
-                    });
-                }
-                patches.push(p);
-                per_patch_grid.push(k as f64);
             }
         }
     }
@@ -179,11 +149,75 @@ pub fn from_grids(grids: &[HeightGrid], tile: u32, height_bits: u8) -> Result<Ge
         patches,
         stats: Stats::default(),
     };
+    set.stats = grid_stats(grids, &set, bits);
+    set.stats.per_patch = vec![("patch_grid".into(), per_patch_grid)];
+    Ok(set)
+}
+
+/// The patch of the tile of `g` starting at sample (i0, j0), at most `tile` samples a side;
+/// None if the tile holds no data.
+fn tile_patch(g: &HeightGrid, (i0, j0): (usize, usize), tile: usize, bits: u8) -> Option<Patch> {
+    let (tw, th) = (tile.min(g.width - i0), tile.min(g.height - j0));
+    let samples = (j0..j0 + th).flat_map(|j| (i0..i0 + tw).map(move |i| (i, j)));
+    let (lo, hi) = samples
+        .clone()
+        .map(|(i, j)| g.at(i, j))
+        .filter(|z| !z.is_nan())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), z| {
+            (lo.min(z), hi.max(z))
+        });
+    if lo > hi {
+        return None;
+    }
+    let texel = g.spacing.min_element();
+    let (thickness, bits) = vertical_extent(hi - lo, texel, bits);
+    let origin = DVec3::new(
+        g.origin.x + (i0 as f64 - 0.5) * g.spacing.x,
+        g.origin.y + (j0 as f64 - 0.5) * g.spacing.y,
+        lo - 0.5 * (thickness - (hi - lo)),
+    );
+    let mut p = Patch {
+        origin,
+        axes: [DVec3::X, DVec3::Y, DVec3::Z],
+        extent: DVec3::new(tw as f64 * g.spacing.x, th as f64 * g.spacing.y, thickness),
+        width: tw as u32,
+        height: th as u32,
+        height_bits: bits,
+        heights: Vec::with_capacity(tw * th),
+        normals: Vec::with_capacity(tw * th),
+        colors: Vec::with_capacity(tw * th),
+        faces: vec![],
+        ring_faces: vec![],
+    };
+    for (i, j) in samples {
+        let z = g.at(i, j);
+        let filled = !z.is_nan();
+        p.heights.push(if filled {
+            encode_height((z - origin.z) / thickness, bits)
+        } else {
+            0
+        });
+        p.normals.push(if filled {
+            encode_snorm8(g.normal(i, j))
+        } else {
+            [0, 0, 127, 0]
+        });
+        p.colors.push(match &g.colors {
+            Some(c) => c[j * g.width + i],
+            None => NEUTRAL_COLOR,
+        });
+    }
+    Some(p)
+}
+
+/// The stats of a set built from `grids` with `height_bits` requested.
+fn grid_stats(grids: &[HeightGrid], set: &GeometryTextureSet, height_bits: u8) -> Stats {
     let samples: usize = grids.iter().map(|g| g.z.len()).sum();
     let missing: usize = grids
         .iter()
         .map(|g| g.z.iter().filter(|z| z.is_nan()).count())
         .sum();
+    let mut stats = Stats::default();
     for (name, v) in [
         ("grids", grids.len() as f64),
         ("samples", samples as f64),
@@ -202,10 +236,9 @@ pub fn from_grids(grids: &[HeightGrid], tile: u32, height_bits: u8) -> Result<Ge
         ),
         ("texel_size", set.texel_size),
     ] {
-        set.stats.set(name, v);
+        stats.set(name, v);
     }
-    set.stats.per_patch = vec![("patch_grid".into(), per_patch_grid)];
-    Ok(set)
+    stats
 }
 
 #[cfg(test)]
@@ -240,7 +273,7 @@ mod tests {
         assert_eq!(tile_starts(7, 4), vec![0, 3]);
         let mut g = grid(23, 17, |x, y| (0.3 * x).sin() + 0.2 * y);
         g.z[5 * 23 + 7] = f64::NAN;
-        let set = from_grids(&[g], 8, 16).unwrap();
+        let set = from_grids(&[g], Some(8), Some(16)).unwrap();
         assert_eq!(set.patches.len(), 4 * 3);
         let g = grid(23, 17, |x, y| (0.3 * x).sin() + 0.2 * y);
         // Every sample is on the surface of every tile that holds it (to the 16-bit rounding).
@@ -269,17 +302,49 @@ mod tests {
     fn bad_grids_are_errors_with_their_place() {
         let mut g = grid(4, 3, |_, _| 0.0);
         g.z[5] = f64::INFINITY;
-        let e = from_grids(&[grid(4, 3, |_, _| 0.0), g], 256, 16)
+        let e = from_grids(&[grid(4, 3, |_, _| 0.0), g], Some(256), Some(16))
             .unwrap_err()
             .to_string();
         assert!(e.contains("grid 1") && e.contains("row 1, column 1"), "{e}");
         let mut g = grid(4, 3, |_, _| f64::NAN);
-        assert!(from_grids(&[g], 256, 16)
+        assert!(from_grids(&[g], Some(256), Some(16))
             .unwrap_err()
             .to_string()
             .contains("NaN"));
         g = grid(1, 3, |_, _| 0.0);
-        assert!(from_grids(&[g], 256, 16).is_err());
-        assert!(from_grids(&[], 256, 16).is_err());
+        assert!(from_grids(&[g], Some(256), Some(16)).is_err());
+        assert!(from_grids(&[], Some(256), Some(16)).is_err());
+    }
+
+    #[test]
+    fn out_of_range_keywords_are_parameter_errors_and_defaults_apply() {
+        let message = |r: Option<i64>, b: Option<i64>| {
+            from_grids(&[grid(4, 3, |_, _| 0.0)], r, b)
+                .unwrap_err()
+                .to_string()
+        };
+        assert_eq!(
+            message(Some(-5), None),
+            "max_resolution must be in [2, 16384], got -5"
+        );
+        assert_eq!(
+            message(Some(1 << 40), None),
+            format!("max_resolution must be in [2, 16384], got {}", 1i64 << 40)
+        );
+        assert_eq!(
+            message(None, Some(12)),
+            "height_bits must be 8 or 16, got 12"
+        );
+        assert_eq!(
+            message(None, Some(-8)),
+            "height_bits must be 8 or 16, got -8"
+        );
+        let set = from_grids(&[grid(300, 3, |x, _| x)], None, None).unwrap();
+        assert_eq!(
+            set.patches.len(),
+            2,
+            "tiles of DEFAULT_MAX_RESOLUTION samples"
+        );
+        assert!(set.patches.iter().all(|p| p.height_bits == 16));
     }
 }

@@ -138,7 +138,8 @@ pub fn first_hit(p: &Patch, o: DVec3, d: DVec3, t0: f64, t1: f64) -> Option<f64>
         lo = lo.max(a.min(b));
         hi = hi.min(a.max(b));
     }
-    if !(hi > lo) {
+    // NaN bounds (a ray with no direction) clip to nothing too.
+    if lo.is_nan() || hi.is_nan() || hi <= lo {
         return None;
     }
     // Texel-centre coordinates along the ray: x(t) = x0 + dx t.

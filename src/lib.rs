@@ -16,7 +16,9 @@ pub mod render;
 #[cfg(feature = "python")]
 mod python;
 
-pub use convert::{convert, ConvertOptions, InPlane, NormalSource};
+pub use convert::{
+    convert, ConvertArgs, ConvertOptions, ErrorScope, InPlane, NormalSource, Progress,
+};
 pub use error::{GeomtexError, Result};
 pub use gtex::{GeometryTextureSet, Patch, Stats};
 pub use mesh::Mesh;

@@ -20,13 +20,13 @@ impl Mesh {
     /// checking everything a user can get wrong. Faces come as i64 so negative indices can be
     /// reported instead of wrapping around.
     pub fn from_flat(positions: &[f64], faces: &[i64], colors: Option<&[u8]>) -> Result<Mesh> {
-        if positions.len() % 3 != 0 {
+        if !positions.len().is_multiple_of(3) {
             return Err(GeomtexError::Mesh(format!(
                 "vertex array holds {} numbers, not a multiple of 3",
                 positions.len()
             )));
         }
-        if faces.len() % 3 != 0 {
+        if !faces.len().is_multiple_of(3) {
             return Err(GeomtexError::Mesh(format!(
                 "face array holds {} indices, not a multiple of 3",
                 faces.len()
@@ -96,6 +96,19 @@ impl Mesh {
             faces: tris,
             colors,
         })
+    }
+
+    /// The mesh with the faces marked in `flips` wound the other way (face indices kept).
+    pub fn rewound(&self, flips: &[bool]) -> Mesh {
+        Mesh {
+            faces: self
+                .faces
+                .iter()
+                .zip(flips)
+                .map(|(&[a, b, c], &flip)| if flip { [a, c, b] } else { [a, b, c] })
+                .collect(),
+            ..self.clone()
+        }
     }
 
     pub fn bounds(&self) -> (DVec3, DVec3) {
@@ -190,55 +203,85 @@ pub struct MeshGeometry {
     pub diagonal: f64,
 }
 
-impl MeshGeometry {
-    pub fn new(mesh: &Mesh) -> MeshGeometry {
-        let nf = mesh.faces.len();
-        let nv = mesh.positions.len();
-        let diagonal = mesh.diagonal();
-        // Weld by exact position: sort vertex indices by their coordinates' bits.
-        let mut order: Vec<u32> = (0..nv as u32).collect();
-        let key = |v: u32| {
-            mesh.positions[v as usize]
-                .to_array()
-                .map(|x| (x + 0.0).to_bits())
-        };
-        order.sort_unstable_by_key(|&v| (key(v), v));
-        let mut weld: Vec<u32> = (0..nv as u32).collect();
-        let mut duplicate_vertices = 0;
-        for k in 1..order.len() {
-            if key(order[k]) == key(order[k - 1]) {
-                weld[order[k] as usize] = weld[order[k - 1] as usize];
-                duplicate_vertices += 1;
-            }
+/// Per vertex, the lowest index of a vertex at exactly the same position (by the bits of its
+/// coordinates, -0 and +0 alike), and how many vertices repeat an earlier one.
+fn weld(mesh: &Mesh) -> (Vec<u32>, usize) {
+    let nv = mesh.positions.len();
+    let mut order: Vec<u32> = (0..nv as u32).collect();
+    let key = |v: u32| {
+        mesh.positions[v as usize]
+            .to_array()
+            .map(|x| (x + 0.0).to_bits())
+    };
+    order.sort_unstable_by_key(|&v| (key(v), v));
+    let mut weld: Vec<u32> = (0..nv as u32).collect();
+    let mut duplicate_vertices = 0;
+    for k in 1..order.len() {
+        if key(order[k]) == key(order[k - 1]) {
+            weld[order[k] as usize] = weld[order[k - 1] as usize];
+            duplicate_vertices += 1;
         }
+    }
+    (weld, duplicate_vertices)
+}
+
+/// Normals, areas and centroids of the faces, which are degenerate, and the vertex normals.
+struct FaceGeometry {
+    normals: Vec<DVec3>,
+    areas: Vec<f64>,
+    centroids: Vec<DVec3>,
+    degenerate: Vec<bool>,
+    vertex_normals: Vec<DVec3>,
+}
+
+impl FaceGeometry {
+    fn new(mesh: &Mesh, weld: &[u32], diagonal: f64) -> FaceGeometry {
+        let (nf, nv) = (mesh.faces.len(), mesh.positions.len());
         // Relative to the model size so a micrometre part and a 1e6-offset scan behave alike.
         let area_eps = (diagonal * 1e-10).powi(2);
-        let mut face_normals = vec![DVec3::ZERO; nf];
-        let mut face_areas = vec![0.0; nf];
-        let mut centroids = vec![DVec3::ZERO; nf];
-        let mut degenerate = vec![false; nf];
-        let mut vertex_normals = vec![DVec3::ZERO; nv];
+        let mut g = FaceGeometry {
+            normals: vec![DVec3::ZERO; nf],
+            areas: vec![0.0; nf],
+            centroids: vec![DVec3::ZERO; nf],
+            degenerate: vec![false; nf],
+            vertex_normals: vec![DVec3::ZERO; nv],
+        };
         for (f, t) in mesh.faces.iter().enumerate() {
             let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
             // Edges from the centroid-free form keep precision for far-from-origin models.
             let cross = (b - a).cross(c - a);
             let twice_area = cross.length();
-            centroids[f] = (a + b + c) / 3.0;
+            g.centroids[f] = (a + b + c) / 3.0;
             if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] || twice_area * 0.5 <= area_eps {
-                degenerate[f] = true;
+                g.degenerate[f] = true;
                 continue;
             }
-            face_areas[f] = twice_area * 0.5;
-            face_normals[f] = cross / twice_area;
+            g.areas[f] = twice_area * 0.5;
+            g.normals[f] = cross / twice_area;
             for &v in t {
-                vertex_normals[weld[v as usize] as usize] += cross; // |cross| = 2 area
+                g.vertex_normals[weld[v as usize] as usize] += cross; // |cross| = 2 area
             }
         }
-        for v in 0..nv {
-            vertex_normals[v] = vertex_normals[weld[v] as usize].normalize_or_zero();
+        // In vertex order: a vertex welded to an earlier one takes its (normalized) normal.
+        for (v, &w) in weld.iter().enumerate() {
+            g.vertex_normals[v] = g.vertex_normals[w as usize].normalize_or_zero();
         }
+        g
+    }
+}
 
-        // Edge adjacency by sorting (min, max, face, direction) keys: O(M log M), no hash map.
+/// Faces sharing an edge (all of them on a non-manifold edge), the faces across each manifold
+/// edge with `AGREE_BIT`, and the edge counts.
+struct EdgeAdjacency {
+    face_neighbors: Csr,
+    manifold_neighbors: Csr,
+    edge_counts: EdgeCounts,
+}
+
+impl EdgeAdjacency {
+    /// By sorting (min, max, face, direction) keys: O(M log M), no hash map.
+    fn new(mesh: &Mesh, weld: &[u32], degenerate: &[bool]) -> EdgeAdjacency {
+        let nf = mesh.faces.len();
         let mut edges: Vec<(u32, u32, u32, bool)> = Vec::with_capacity(nf * 3);
         for (f, t) in mesh.faces.iter().enumerate() {
             if degenerate[f] {
@@ -252,7 +295,8 @@ impl MeshGeometry {
         edges.sort_unstable();
         let mut pairs = Vec::with_capacity(edges.len() * 2);
         let mut edge_counts = EdgeCounts::default();
-        // Across each manifold edge: (face, other face | AGREE_BIT if the two agree on orientation).
+        // Across each manifold edge: (face, other face | AGREE_BIT if the two agree on
+        // orientation).
         let mut manifold = Vec::with_capacity(edges.len());
         let mut i = 0;
         while i < edges.len() {
@@ -262,7 +306,8 @@ impl MeshGeometry {
             }
             match j - i {
                 1 => edge_counts.boundary += 1,
-                // Two faces agreeing on orientation walk their shared edge in opposite directions.
+                // Two faces agreeing on orientation walk their shared edge in opposite
+                // directions.
                 2 => {
                     let agree = edges[i].3 != edges[i + 1].3;
                     edge_counts.inconsistent += usize::from(!agree);
@@ -283,40 +328,56 @@ impl MeshGeometry {
         }
         pairs.sort_unstable();
         pairs.dedup();
-        let face_neighbors = Csr::from_pairs(nf, &pairs);
-        let manifold_neighbors = Csr::from_pairs(nf, &manifold);
+        EdgeAdjacency {
+            face_neighbors: Csr::from_pairs(nf, &pairs),
+            manifold_neighbors: Csr::from_pairs(nf, &manifold),
+            edge_counts,
+        }
+    }
+}
 
-        let mut vf = Vec::with_capacity(nf * 3);
-        for (f, t) in mesh.faces.iter().enumerate() {
-            if !degenerate[f] {
-                for &v in t {
-                    vf.push((weld[v as usize], f as u32));
-                }
+/// Faces around each vertex (welded vertices list the same faces).
+fn vertex_faces(mesh: &Mesh, weld: &[u32], degenerate: &[bool], duplicates: usize) -> Csr {
+    let (nf, nv) = (mesh.faces.len(), mesh.positions.len());
+    let mut vf = Vec::with_capacity(nf * 3);
+    for (f, t) in mesh.faces.iter().enumerate() {
+        if !degenerate[f] {
+            for &v in t {
+                vf.push((weld[v as usize], f as u32));
             }
         }
-        vf.sort_unstable();
-        vf.dedup();
-        let welded_faces = Csr::from_pairs(nv, &vf);
-        // Every vertex lists its weld group's faces.
-        let mut all = Vec::with_capacity(vf.len() + duplicate_vertices * 6);
-        for v in 0..nv {
-            for &f in welded_faces.row(weld[v] as usize) {
-                all.push((v as u32, f));
-            }
+    }
+    vf.sort_unstable();
+    vf.dedup();
+    let welded_faces = Csr::from_pairs(nv, &vf);
+    // Every vertex lists its weld group's faces.
+    let mut all = Vec::with_capacity(vf.len() + duplicates * 6);
+    for (v, &w) in weld.iter().enumerate() {
+        for &f in welded_faces.row(w as usize) {
+            all.push((v as u32, f));
         }
-        let vertex_faces = Csr::from_pairs(nv, &all);
+    }
+    Csr::from_pairs(nv, &all)
+}
 
+impl MeshGeometry {
+    pub fn new(mesh: &Mesh) -> MeshGeometry {
+        let diagonal = mesh.diagonal();
+        let (weld, duplicate_vertices) = weld(mesh);
+        let faces = FaceGeometry::new(mesh, &weld, diagonal);
+        let edges = EdgeAdjacency::new(mesh, &weld, &faces.degenerate);
+        let vertex_faces = vertex_faces(mesh, &weld, &faces.degenerate, duplicate_vertices);
         MeshGeometry {
-            face_normals,
-            face_areas,
-            centroids,
-            degenerate,
-            vertex_normals,
+            face_normals: faces.normals,
+            face_areas: faces.areas,
+            centroids: faces.centroids,
+            degenerate: faces.degenerate,
+            vertex_normals: faces.vertex_normals,
             weld,
             duplicate_vertices,
-            face_neighbors,
-            edge_counts,
-            manifold_neighbors,
+            face_neighbors: edges.face_neighbors,
+            edge_counts: edges.edge_counts,
+            manifold_neighbors: edges.manifold_neighbors,
             vertex_faces,
             diagonal,
         }
@@ -421,7 +482,8 @@ mod tests {
         let flips = geo.winding_flips();
         let flipped: Vec<usize> = (0..flips.len()).filter(|&f| flips[f]).collect();
         assert_eq!(flipped, vec![0, 7, 20]);
-        // A fin on an interior edge makes it non-manifold; a soup copy welds back to the same counts.
+        // A fin on an interior edge makes it non-manifold; a soup copy welds back to the same
+        // counts.
         mesh.positions.push(DVec3::new(1.5, 1.5, 1.0));
         mesh.faces.push([6, 12, 25]);
         assert_eq!(MeshGeometry::new(&mesh).edge_counts.nonmanifold, 1);

@@ -1,4 +1,5 @@
-//! Chart frames: the height direction z and the in-plane axes x/y of each patch box.
+//! Chart frames: the height direction z and the in-plane axes x/y of each patch box, the
+//! chart's bounds in them, and its box at a texel size.
 //!
 //! Space: world directions and positions (f64). Projections are taken relative to a point of the
 //! chart so that models far from the origin keep full precision.
@@ -6,21 +7,16 @@
 use geo::{ConvexHull, MinimumRotatedRect, MultiPoint, Point};
 use glam::{DVec2, DVec3};
 
-use crate::mesh::MeshGeometry;
+use super::options::InPlane;
+use super::raster::PatchBox;
+use crate::gtex::vertical_extent;
+use crate::mesh::{Mesh, MeshGeometry};
 
 /// A face with normal·z at or below this folds in a frame with that z. Slightly above the
 /// paper's 0 so round-off can never let a vertical face through.
 pub const FOLD_COS: f64 = 1e-6;
 
-/// How x/y are chosen inside the plane perpendicular to z.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum InPlane {
-    /// The principal axes of the projected vertices (the paper's 2D PCA).
-    Pca,
-    /// The sides of the minimum-area rectangle around the projected vertices.
-    MinAreaRect,
-}
-
+/// Smallest normal·z over the faces: at or below `FOLD_COS`, they fold in a frame with that z.
 pub fn min_dot(geo: &MeshGeometry, faces: &[u32], z: DVec3) -> f64 {
     faces
         .iter()
@@ -166,6 +162,73 @@ fn min_rect_direction(pts: &[DVec2]) -> Option<DVec2> {
         e1
     };
     longer.try_normalize()
+}
+
+/// A chart's frame: its axes, a reference point (one of its vertices) and the tight bounds, in
+/// those axes relative to the reference, of everything it draws.
+#[derive(Clone, Copy, Debug)]
+pub struct ChartFrame {
+    /// Right-handed x, y, z (z = the chart's height direction).
+    pub axes: [DVec3; 3],
+    pub reference: DVec3,
+    pub lo: DVec3,
+    pub hi: DVec3,
+}
+
+impl ChartFrame {
+    /// The frame of a chart drawing its `faces` and `ring` faces with height direction `z`.
+    pub fn new(mesh: &Mesh, faces: &[u32], ring: &[u32], z: DVec3, method: InPlane) -> ChartFrame {
+        let mut verts: Vec<u32> = faces
+            .iter()
+            .chain(ring)
+            .flat_map(|&f| mesh.faces[f as usize])
+            .collect();
+        verts.sort_unstable();
+        verts.dedup();
+        let points: Vec<DVec3> = verts.iter().map(|&v| mesh.positions[v as usize]).collect();
+        let axes = in_plane_axes(&points, z, method);
+        let reference = points[0];
+        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        for p in &points {
+            let d = *p - reference;
+            let l = DVec3::new(d.dot(axes[0]), d.dot(axes[1]), d.dot(axes[2]));
+            lo = lo.min(l);
+            hi = hi.max(l);
+        }
+        ChartFrame {
+            axes,
+            reference,
+            lo,
+            hi,
+        }
+    }
+
+    /// The longer in-plane side of the bounds.
+    pub fn long_side(&self) -> f64 {
+        (self.hi - self.lo).x.max((self.hi - self.lo).y)
+    }
+
+    /// The box the chart is drawn into at texel size `texel`: whole texels, at most
+    /// `max_resolution` on a side, with the chart centred in it.
+    pub fn patch_box(&self, texel: f64, max_resolution: u32, height_bits: u8) -> PatchBox {
+        let size = self.hi - self.lo;
+        let res = |s: f64| ((s / texel).ceil() as u32).clamp(2, max_resolution.max(2));
+        let (w, h) = (res(size.x), res(size.y));
+        let pad_x = (w as f64 * texel - size.x) * 0.5;
+        let pad_y = (h as f64 * texel - size.y) * 0.5;
+        let (thickness, height_bits) = vertical_extent(size.z, texel, height_bits);
+        let pad_z = (thickness - size.z) * 0.5;
+        let corner = DVec3::new(self.lo.x - pad_x, self.lo.y - pad_y, self.lo.z - pad_z);
+        let axes = self.axes;
+        PatchBox {
+            origin: self.reference + axes[0] * corner.x + axes[1] * corner.y + axes[2] * corner.z,
+            axes,
+            extent: DVec3::new(w as f64 * texel, h as f64 * texel, thickness),
+            width: w,
+            height: h,
+            height_bits,
+        }
+    }
 }
 
 #[cfg(test)]

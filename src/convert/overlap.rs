@@ -8,18 +8,18 @@ use glam::DVec3;
 use super::frame::FOLD_COS;
 use crate::mesh::{Mesh, MeshGeometry};
 
+/// A chart's overlap ring: the faces it also draws, and how many were left out for facing down.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Ring {
+    pub faces: Vec<u32>,
+    pub skipped: usize,
+}
+
 /// Faces within `rings` vertex-rings of the chart, not in it, not degenerate, and facing up in
-/// the chart's frame (a ring face with normal·z <= 0 would fold the patch). Returns the kept
-/// faces and how many were left out for facing down.
-pub fn ring_faces(
-    mesh: &Mesh,
-    geo: &MeshGeometry,
-    chart: &[u32],
-    z: DVec3,
-    rings: usize,
-) -> (Vec<u32>, usize) {
+/// the chart's frame (a ring face with normal·z <= 0 would fold the patch).
+pub fn ring_faces(mesh: &Mesh, geo: &MeshGeometry, chart: &[u32], z: DVec3, rings: usize) -> Ring {
     if rings == 0 {
-        return (Vec::new(), 0);
+        return Ring::default();
     }
     let mut seen: std::collections::HashSet<u32> = chart.iter().copied().collect();
     let mut frontier: Vec<u32> = chart.to_vec();
@@ -50,5 +50,8 @@ pub fn ring_faces(
             .filter(|&g| geo.face_normals[g as usize].dot(z) > FOLD_COS)
             .collect();
     }
-    (kept, skipped)
+    Ring {
+        faces: kept,
+        skipped,
+    }
 }

@@ -7,6 +7,7 @@
 
 use glam::{DVec2, DVec3};
 
+use super::options::NormalSource;
 use crate::gtex::{encode_height, encode_snorm8, Patch};
 use crate::mesh::{Mesh, MeshGeometry};
 
@@ -41,13 +42,13 @@ impl PatchBox {
     }
 }
 
-/// Which normal goes into the normal map.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum NormalSource {
-    /// Area-weighted vertex normals interpolated across each face.
-    Smooth,
-    /// The face's own normal (keeps CAD creases sharp).
-    Flat,
+/// A texel filled by conservative coverage alone, and the world distance (in the patch plane)
+/// from its centre to the point of the triangle it copies: how far the surface reaches past the
+/// mesh there.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lip {
+    pub texel: usize,
+    pub distance: f64,
 }
 
 #[derive(Default)]
@@ -55,14 +56,348 @@ pub struct Maps {
     pub heights: Vec<u16>,
     pub normals: Vec<[i8; 4]>,
     pub colors: Vec<[u8; 4]>,
-    /// Texels filled by conservative coverage alone (index, world distance from the texel's
-    /// centre to the point of the triangle it copies): how far the surface reaches past the mesh.
-    pub lips: Vec<(usize, f64)>,
+    pub lips: Vec<Lip>,
     /// Texel corners where the height field has a surface but no drawn triangle lies under
     /// them: the world distance (in the patch plane) to the nearest triangle, at most two texels
     /// (larger gaps are not searched). A coarse map's cells and flat border reach over a chart's
     /// notches and past its outline; this is how far.
     pub overhangs: Vec<f64>,
+}
+
+/// How a face covers a texel; a texel keeps the best coverage any face gives it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+enum Coverage {
+    Empty,
+    /// The texel square touches the face but its centre lies outside it.
+    Lip,
+    /// The texel centre lies inside the face.
+    Centre,
+}
+
+/// A face in texel units (x, y) and world height above the box floor (z), with what the
+/// coverage tests need.
+struct LocalFace {
+    corners: [DVec3; 3],
+    /// Sign of the face's area in the patch plane (its winding there).
+    sign: f64,
+    inv_area: f64,
+    /// Tolerance so texel centres on a shared edge are never missed by both faces.
+    eps: f64,
+    /// Half the texel square's extent along each edge's normal: the conservative margin.
+    margins: [f64; 3],
+    lo: DVec3,
+    hi: DVec3,
+}
+
+impl LocalFace {
+    /// None for a face seen edge-on, which covers no area.
+    fn new(corners: [DVec3; 3]) -> Option<LocalFace> {
+        let [a, b, c] = corners;
+        let area = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+        if area.abs() < 1e-300 {
+            return None;
+        }
+        let margin = |p: DVec3, q: DVec3| 0.5 * ((q.x - p.x).abs() + (q.y - p.y).abs());
+        Some(LocalFace {
+            corners,
+            sign: area.signum(),
+            inv_area: 1.0 / area,
+            eps: -1e-9 * area.abs(),
+            margins: [margin(b, c), margin(c, a), margin(a, b)],
+            lo: a.min(b).min(c),
+            hi: a.max(b).max(c),
+        })
+    }
+
+    fn flat(&self) -> [DVec2; 3] {
+        self.corners.map(|p| p.truncate())
+    }
+
+    /// How the texel centred at (px, py) is covered, and the barycentric coordinates of the
+    /// point whose values it takes (the centre, or the face's point nearest to it for a lip).
+    fn coverage(&self, px: f64, py: f64, lips: bool) -> Option<(Coverage, [f64; 3])> {
+        let ([a, b, c], sign) = (self.corners, self.sign);
+        let wa = ((b.x - px) * (c.y - py) - (b.y - py) * (c.x - px)) * sign;
+        let wb = ((c.x - px) * (a.y - py) - (c.y - py) * (a.x - px)) * sign;
+        let wc = ((a.x - px) * (b.y - py) - (a.y - py) * (b.x - px)) * sign;
+        if wa >= self.eps && wb >= self.eps && wc >= self.eps {
+            let inv = self.inv_area;
+            return Some((
+                Coverage::Centre,
+                [wa * sign * inv, wb * sign * inv, wc * sign * inv],
+            ));
+        }
+        // The texel square overlaps the triangle iff no separating axis exists among the three
+        // edge normals and the two box axes (so at most half a texel diagonal out).
+        let (lo, hi) = (self.lo, self.hi);
+        let overlaps_box =
+            px + 0.5 >= lo.x && px - 0.5 <= hi.x && py + 0.5 >= lo.y && py - 0.5 <= hi.y;
+        let [ma, mb, mc] = self.margins;
+        if lips && overlaps_box && wa >= -ma && wb >= -mb && wc >= -mc {
+            let (la, lb, lc) = nearest_on_triangle(DVec2::new(px, py), self.flat());
+            return Some((Coverage::Lip, [la, lb, lc]));
+        }
+        None
+    }
+
+    /// Whether the point q (texel units) lies inside the face's projection.
+    fn contains(&self, q: DVec2) -> bool {
+        let t = self.flat();
+        let e = |p: DVec2, r: DVec2| {
+            ((p.x - q.x) * (r.y - q.y) - (p.y - q.y) * (r.x - q.x)) * self.sign
+        };
+        e(t[1], t[2]) >= 0.0 && e(t[2], t[0]) >= 0.0 && e(t[0], t[1]) >= 0.0
+    }
+}
+
+/// The normals and colors a face gives the points of its surface.
+struct FaceShading {
+    normals: [DVec3; 3],
+    colors: Option<[[u8; 4]; 3]>,
+}
+
+impl FaceShading {
+    fn new(mesh: &Mesh, geo: &MeshGeometry, f: u32, source: NormalSource) -> FaceShading {
+        let tri = mesh.faces[f as usize];
+        FaceShading {
+            normals: match source {
+                NormalSource::Smooth => tri.map(|v| geo.vertex_normals[v as usize]),
+                NormalSource::Flat => [geo.face_normals[f as usize]; 3],
+            },
+            colors: mesh.colors.as_ref().map(|cs| tri.map(|v| cs[v as usize])),
+        }
+    }
+
+    /// The world unit normal at barycentric coordinates `l` (zero if they cancel).
+    fn normal(&self, [la, lb, lc]: [f64; 3]) -> DVec3 {
+        let vn = &self.normals;
+        (vn[0] * la + vn[1] * lb + vn[2] * lc).normalize_or_zero()
+    }
+
+    fn color(&self, [la, lb, lc]: [f64; 3]) -> [u8; 4] {
+        match self.colors {
+            Some([ca, cb, cc]) => std::array::from_fn(|k| {
+                (la * ca[k] as f64 + lb * cb[k] as f64 + lc * cc[k] as f64)
+                    .round()
+                    .clamp(0.0, 255.0) as u8
+            }),
+            None => crate::gtex::NEUTRAL_COLOR,
+        }
+    }
+}
+
+/// The texels (columns i0..=i1, rows j0..=j1) a face's bounds touch.
+#[derive(Clone, Copy)]
+struct TexelSpan {
+    i0: usize,
+    j0: usize,
+    i1: usize,
+    j1: usize,
+}
+
+/// The maps while faces are drawn into them, with what conservative coverage and the overhang
+/// figures need to know about each texel and texel corner.
+struct Canvas<'a> {
+    bx: &'a PatchBox,
+    w: usize,
+    h: usize,
+    /// World size of a texel along x and y.
+    texel: DVec2,
+    /// Height above the box floor (world units) of the surface drawn so far.
+    depth: Vec<f64>,
+    coverage: Vec<Coverage>,
+    lip_distance: Vec<f64>,
+    /// In-plane world distance from each texel corner to the nearest face; corner (i, j) sits at
+    /// (i, j) in texel units, (w + 1) x (h + 1) of them.
+    corner_distance: Vec<f64>,
+    normals: Vec<[i8; 4]>,
+    colors: Vec<[u8; 4]>,
+}
+
+impl<'a> Canvas<'a> {
+    fn new(bx: &'a PatchBox) -> Canvas<'a> {
+        let (w, h) = (bx.width as usize, bx.height as usize);
+        Canvas {
+            bx,
+            w,
+            h,
+            texel: DVec2::new(bx.extent.x / w as f64, bx.extent.y / h as f64),
+            depth: vec![f64::NEG_INFINITY; w * h],
+            coverage: vec![Coverage::Empty; w * h],
+            lip_distance: vec![0.0; w * h],
+            corner_distance: vec![f64::INFINITY; (w + 1) * (h + 1)],
+            normals: vec![[0; 4]; w * h],
+            colors: vec![[0; 4]; w * h],
+        }
+    }
+
+    /// A world point in texel units (x, y) and world height above the box floor (z).
+    fn to_local(&self, p: DVec3) -> DVec3 {
+        let (bx, texel) = (self.bx, self.texel);
+        let d = p - bx.origin;
+        DVec3::new(
+            d.dot(bx.axes[0]) / texel.x,
+            d.dot(bx.axes[1]) / texel.y,
+            d.dot(bx.axes[2]),
+        )
+    }
+
+    /// A world direction in patch axes.
+    fn to_patch_dir(&self, n: DVec3) -> DVec3 {
+        let axes = &self.bx.axes;
+        DVec3::new(n.dot(axes[0]), n.dot(axes[1]), n.dot(axes[2]))
+    }
+
+    /// The texels a face's bounds touch (one more before them, for the conservative margin),
+    /// or None if it lies wholly before the map.
+    fn span(&self, face: &LocalFace) -> Option<TexelSpan> {
+        let (lo, hi) = (face.lo, face.hi);
+        let i0 = (lo.x - 1.0).floor().max(0.0) as usize;
+        let j0 = (lo.y - 1.0).floor().max(0.0) as usize;
+        let i1 = (hi.x.ceil()).min(self.w as f64 - 1.0);
+        let j1 = (hi.y.ceil()).min(self.h as f64 - 1.0);
+        if i1 < 0.0 || j1 < 0.0 {
+            return None;
+        }
+        Some(TexelSpan {
+            i0,
+            j0,
+            i1: i1 as usize,
+            j1: j1 as usize,
+        })
+    }
+
+    fn draw_face(
+        &mut self,
+        mesh: &Mesh,
+        geo: &MeshGeometry,
+        f: u32,
+        lips: bool,
+        source: NormalSource,
+    ) {
+        let corners = mesh.faces[f as usize].map(|v| self.to_local(mesh.positions[v as usize]));
+        let Some(face) = LocalFace::new(corners) else {
+            return;
+        };
+        let Some(span) = self.span(&face) else {
+            return;
+        };
+        self.measure_corners(&face, span);
+        let shading = FaceShading::new(mesh, geo, f, source);
+        for j in span.j0..=span.j1 {
+            let py = j as f64 + 0.5;
+            for i in span.i0..=span.i1 {
+                let px = i as f64 + 0.5;
+                if let Some((here, l)) = face.coverage(px, py, lips) {
+                    self.cover(j * self.w + i, (px, py), &face, here, l, &shading);
+                }
+            }
+        }
+    }
+
+    /// Texel `t` (centred at `centre`) takes the face's values at barycentric `l` if the face
+    /// covers it better than what is there, or as well and higher (a ray coming down the box's
+    /// z sees the highest).
+    fn cover(
+        &mut self,
+        t: usize,
+        (px, py): (f64, f64),
+        face: &LocalFace,
+        here: Coverage,
+        l: [f64; 3],
+        shading: &FaceShading,
+    ) {
+        let [a, b, c] = face.corners;
+        let [la, lb, lc] = l;
+        let z = la * a.z + lb * b.z + lc * c.z;
+        if here < self.coverage[t] || (here == self.coverage[t] && z <= self.depth[t]) {
+            return;
+        }
+        self.coverage[t] = here;
+        self.depth[t] = z;
+        if here == Coverage::Lip {
+            let near = a * la + b * lb + c * lc;
+            self.lip_distance[t] =
+                DVec2::new((px - near.x) * self.texel.x, (py - near.y) * self.texel.y).length();
+        }
+        let n = shading.normal(l);
+        self.normals[t] = encode_snorm8(self.to_patch_dir(n).normalize_or(DVec3::Z));
+        self.colors[t] = shading.color(l);
+    }
+
+    /// Lowers the distance of the corners within two texels of the face to the face's.
+    fn measure_corners(&mut self, face: &LocalFace, span: TexelSpan) {
+        let tri = face.flat();
+        for cj in span.j0.saturating_sub(1)..=(span.j1 + 3).min(self.h) {
+            for ci in span.i0.saturating_sub(1)..=(span.i1 + 3).min(self.w) {
+                let q = DVec2::new(ci as f64, cj as f64);
+                let k = cj * (self.w + 1) + ci;
+                if self.corner_distance[k] == 0.0 {
+                    continue;
+                }
+                let d = if face.contains(q) {
+                    0.0
+                } else {
+                    let (la, lb, lc) = nearest_on_triangle(q, tri);
+                    let near = tri[0] * la + tri[1] * lb + tri[2] * lc;
+                    DVec2::new((q.x - near.x) * self.texel.x, (q.y - near.y) * self.texel.y)
+                        .length()
+                };
+                self.corner_distance[k] = self.corner_distance[k].min(d);
+            }
+        }
+    }
+
+    /// Corners where the surface reaches past every face: those whose four neighbouring texels
+    /// (the bilinear rule's blend around them, clamped at the map's border) are all filled.
+    fn overhangs(&self) -> Vec<f64> {
+        let (w, h) = (self.w, self.h);
+        let filled =
+            |i: usize, j: usize| self.depth[j.min(h - 1) * w + i.min(w - 1)] > f64::NEG_INFINITY;
+        let far = 2.0 * self.texel.x.max(self.texel.y);
+        let mut overhangs = Vec::new();
+        for cj in 0..=h {
+            for ci in 0..=w {
+                let (i0, j0) = (ci.saturating_sub(1), cj.saturating_sub(1));
+                if filled(i0, j0) && filled(ci, j0) && filled(i0, cj) && filled(ci, cj) {
+                    let d = self.corner_distance[cj * (w + 1) + ci];
+                    if d > 0.0 {
+                        overhangs.push(d.min(far));
+                    }
+                }
+            }
+        }
+        overhangs
+    }
+
+    fn into_maps(self) -> Maps {
+        let heights = self
+            .depth
+            .iter()
+            .map(|&z| {
+                if z == f64::NEG_INFINITY {
+                    0
+                } else {
+                    encode_height(z / self.bx.extent.z, self.bx.height_bits)
+                }
+            })
+            .collect();
+        let overhangs = self.overhangs();
+        let lips = (0..self.w * self.h)
+            .filter(|&t| self.coverage[t] == Coverage::Lip)
+            .map(|t| Lip {
+                texel: t,
+                distance: self.lip_distance[t],
+            })
+            .collect();
+        Maps {
+            heights,
+            normals: self.normals,
+            colors: self.colors,
+            lips,
+            overhangs,
+        }
+    }
 }
 
 /// Draws `faces` into the box's maps; where faces overlap in projection the highest wins, as a
@@ -73,9 +408,9 @@ pub struct Maps {
 /// nearest point (a flat lip at most half a texel diagonal wide, never an extrapolated plane,
 /// which a steep face would send far off). Texels whose centre is covered always win over lips.
 /// The overlap-ring faces that follow get no lips: the neighbouring chart covers past them, and
-/// a lip on a ring face that is steep in this frame would stick out as a shelf. Without this, patches meeting at a sharp crease
-/// (where the overlap ring cannot reach, its faces pointing down) leave a crack of up to a texel
-/// that rays fall through.
+/// a lip on a ring face that is steep in this frame would stick out as a shelf. Without this,
+/// patches meeting at a sharp crease (where the overlap ring cannot reach, its faces pointing
+/// down) leave a crack of up to a texel that rays fall through.
 pub fn rasterize(
     mesh: &Mesh,
     geo: &MeshGeometry,
@@ -84,170 +419,11 @@ pub fn rasterize(
     bx: &PatchBox,
     normals: NormalSource,
 ) -> Maps {
-    let (w, h) = (bx.width as usize, bx.height as usize);
-    let texel = DVec2::new(bx.extent.x / w as f64, bx.extent.y / h as f64);
-    let mut depth = vec![f64::NEG_INFINITY; w * h];
-    // 0 = empty, 1 = covered by extrapolation, 2 = centre covered.
-    let mut class = vec![0u8; w * h];
-    let mut lip_offset = vec![0.0f64; w * h];
-    // Texel corner (i, j) sits at (i, j) in texel units; (w + 1) x (h + 1) of them.
-    let mut corner_offset = vec![f64::INFINITY; (w + 1) * (h + 1)];
-    let mut normal_map = vec![[0i8; 4]; w * h];
-    let mut color_map = vec![[0u8; 4]; w * h];
-    let to_local = |p: DVec3| {
-        let d = p - bx.origin;
-        DVec3::new(
-            d.dot(bx.axes[0]) / texel.x,
-            d.dot(bx.axes[1]) / texel.y,
-            d.dot(bx.axes[2]),
-        )
-    };
-    let to_patch_dir =
-        |n: DVec3| DVec3::new(n.dot(bx.axes[0]), n.dot(bx.axes[1]), n.dot(bx.axes[2]));
+    let mut canvas = Canvas::new(bx);
     for (n, &f) in faces.iter().enumerate() {
-        let lips = n < chart_faces;
-        let tri = mesh.faces[f as usize];
-        let [a, b, c] = tri.map(|v| to_local(mesh.positions[v as usize]));
-        let area = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
-        if area.abs() < 1e-300 {
-            continue; // edge-on in this frame: covers no area
-        }
-        let sign = area.signum();
-        // Half the texel square's extent along each edge's normal: the conservative margin.
-        let margin = |p: DVec3, q: DVec3| 0.5 * ((q.x - p.x).abs() + (q.y - p.y).abs());
-        let (ma, mb, mc) = (margin(b, c), margin(c, a), margin(a, b));
-        let lo = a.min(b).min(c);
-        let hi = a.max(b).max(c);
-        let i0 = (lo.x - 1.0).floor().max(0.0) as usize;
-        let j0 = (lo.y - 1.0).floor().max(0.0) as usize;
-        let i1 = (hi.x.ceil()).min(w as f64 - 1.0);
-        let j1 = (hi.y.ceil()).min(h as f64 - 1.0);
-        if i1 < 0.0 || j1 < 0.0 {
-            continue;
-        }
-        let (i1, j1) = (i1 as usize, j1 as usize);
-        // Corners within two texels of the triangle: their in-plane distance to it.
-        let tri2 = [a.truncate(), b.truncate(), c.truncate()];
-        for cj in j0.saturating_sub(1)..=(j1 + 3).min(h) {
-            for ci in i0.saturating_sub(1)..=(i1 + 3).min(w) {
-                let q = DVec2::new(ci as f64, cj as f64);
-                let k = cj * (w + 1) + ci;
-                if corner_offset[k] == 0.0 {
-                    continue;
-                }
-                let inside = {
-                    let e = |p: DVec2, r: DVec2| {
-                        ((p.x - q.x) * (r.y - q.y) - (p.y - q.y) * (r.x - q.x)) * sign
-                    };
-                    e(tri2[1], tri2[2]) >= 0.0
-                        && e(tri2[2], tri2[0]) >= 0.0
-                        && e(tri2[0], tri2[1]) >= 0.0
-                };
-                let d = if inside {
-                    0.0
-                } else {
-                    let (la, lb, lc) = nearest_on_triangle(q, tri2);
-                    let near = tri2[0] * la + tri2[1] * lb + tri2[2] * lc;
-                    DVec2::new((q.x - near.x) * texel.x, (q.y - near.y) * texel.y).length()
-                };
-                corner_offset[k] = corner_offset[k].min(d);
-            }
-        }
-        // Tolerance so texel centres on a shared edge are never missed by both faces.
-        let eps = -1e-9 * area.abs();
-        let inv = 1.0 / area;
-        let vn = match normals {
-            NormalSource::Smooth => tri.map(|v| geo.vertex_normals[v as usize]),
-            NormalSource::Flat => [geo.face_normals[f as usize]; 3],
-        };
-        let vc = mesh.colors.as_ref().map(|cs| tri.map(|v| cs[v as usize]));
-        for j in j0..=j1 {
-            let py = j as f64 + 0.5;
-            for i in i0..=i1 {
-                let px = i as f64 + 0.5;
-                let wa = ((b.x - px) * (c.y - py) - (b.y - py) * (c.x - px)) * sign;
-                let wb = ((c.x - px) * (a.y - py) - (c.y - py) * (a.x - px)) * sign;
-                let wc = ((a.x - px) * (b.y - py) - (a.y - py) * (b.x - px)) * sign;
-                // The texel square overlaps the triangle iff no separating axis exists among the
-                // three edge normals and the two box axes (so at most half a texel diagonal out).
-                let overlaps_box =
-                    px + 0.5 >= lo.x && px - 0.5 <= hi.x && py + 0.5 >= lo.y && py - 0.5 <= hi.y;
-                let here = if wa >= eps && wb >= eps && wc >= eps {
-                    2
-                } else if lips && overlaps_box && wa >= -ma && wb >= -mb && wc >= -mc {
-                    1
-                } else {
-                    continue;
-                };
-                let (la, lb, lc) = if here == 2 {
-                    (wa * sign * inv, wb * sign * inv, wc * sign * inv)
-                } else {
-                    nearest_on_triangle(
-                        DVec2::new(px, py),
-                        [a.truncate(), b.truncate(), c.truncate()],
-                    )
-                };
-                let z = la * a.z + lb * b.z + lc * c.z;
-                let t = j * w + i;
-                if here < class[t] || (here == class[t] && z <= depth[t]) {
-                    continue;
-                }
-                class[t] = here;
-                depth[t] = z;
-                if here == 1 {
-                    let near = a * la + b * lb + c * lc;
-                    lip_offset[t] =
-                        DVec2::new((px - near.x) * texel.x, (py - near.y) * texel.y).length();
-                }
-                let n = (vn[0] * la + vn[1] * lb + vn[2] * lc).normalize_or_zero();
-                normal_map[t] = encode_snorm8(to_patch_dir(n).normalize_or(DVec3::Z));
-                color_map[t] = match vc {
-                    Some([ca, cb, cc]) => std::array::from_fn(|k| {
-                        (la * ca[k] as f64 + lb * cb[k] as f64 + lc * cc[k] as f64)
-                            .round()
-                            .clamp(0.0, 255.0) as u8
-                    }),
-                    None => crate::gtex::NEUTRAL_COLOR,
-                };
-            }
-        }
+        canvas.draw_face(mesh, geo, f, n < chart_faces, normals);
     }
-    let heights = depth
-        .iter()
-        .map(|&z| {
-            if z == f64::NEG_INFINITY {
-                0
-            } else {
-                encode_height(z / bx.extent.z, bx.height_bits)
-            }
-        })
-        .collect();
-    // A corner has surface where the texels the bilinear rule blends around it (clamped at the
-    // map's border) are all filled.
-    let filled = |i: usize, j: usize| depth[j.min(h - 1) * w + i.min(w - 1)] > f64::NEG_INFINITY;
-    let far = 2.0 * texel.x.max(texel.y);
-    let mut overhangs = Vec::new();
-    for cj in 0..=h {
-        for ci in 0..=w {
-            let (i0, j0) = (ci.saturating_sub(1), cj.saturating_sub(1));
-            if filled(i0, j0) && filled(ci, j0) && filled(i0, cj) && filled(ci, cj) {
-                let d = corner_offset[cj * (w + 1) + ci];
-                if d > 0.0 {
-                    overhangs.push(d.min(far));
-                }
-            }
-        }
-    }
-    Maps {
-        heights,
-        normals: normal_map,
-        colors: color_map,
-        overhangs,
-        lips: (0..w * h)
-            .filter(|&t| class[t] == 1)
-            .map(|t| (t, lip_offset[t]))
-            .collect(),
-    }
+    canvas.into_maps()
 }
 
 /// Barycentric coordinates of the point of triangle `t` nearest to `p` (p outside it): the
@@ -383,7 +559,7 @@ mod tests {
         let one = rasterize(&m, &geo, &[0], 1, &bx, NormalSource::Flat);
         assert!(one.heights.iter().all(|&q| q != 0));
         assert_eq!(one.lips.len(), 1);
-        assert!((one.lips[0].1 - 2f64.sqrt()).abs() < 1e-9);
+        assert!((one.lips[0].distance - 2f64.sqrt()).abs() < 1e-9);
         // The far corner (4, 4) is 2√2 from the hypotenuse; no corner is farther.
         let worst = one.overhangs.iter().copied().fold(0.0, f64::max);
         assert!((worst - 8f64.sqrt()).abs() < 1e-9, "{:?}", one.overhangs);

@@ -13,6 +13,7 @@ use std::collections::BinaryHeap;
 
 use glam::DVec3;
 
+use super::options::ConvertOptions;
 use crate::mesh::{Csr, MeshGeometry};
 
 pub const NONE: u32 = u32::MAX;
@@ -112,6 +113,44 @@ pub struct Partition {
     pub proxies: Vec<DVec3>,
     /// Area-weighted mean L2,1 error, sum(area |n - N|^2) / sum(area).
     pub mean_error: f64,
+}
+
+impl Partition {
+    /// Each chart's faces by mesh index (faces left unlabelled skipped), empty charts dropped.
+    pub fn groups(&self, set: &FaceSet) -> Vec<Vec<u32>> {
+        let mut groups: Vec<Vec<u32>> = vec![Vec::new(); self.proxies.len()];
+        for (l, &c) in self.labels.iter().enumerate() {
+            if c != NONE {
+                groups[c as usize].push(set.global[l]);
+            }
+        }
+        groups.retain(|g| !g.is_empty());
+        groups
+    }
+}
+
+/// The global partition: each chart's faces by mesh index, and VSA's mean L2,1 error.
+pub struct MeshPartition {
+    pub groups: Vec<Vec<u32>>,
+    pub mean_error: f64,
+}
+
+/// Partitions the mesh's `active` (non-degenerate) faces as the options say.
+pub fn partition_mesh(geo: &MeshGeometry, active: &[u32], opts: &ConvertOptions) -> MeshPartition {
+    let mut scratch = vec![NONE; geo.degenerate.len()];
+    let set = FaceSet::new(geo, active, &mut scratch);
+    let target = match opts.charts {
+        Some(n) => ChartTarget::Count(n),
+        None => ChartTarget::MeanError {
+            tolerance: opts.chart_error_target(),
+            max_charts: opts.max_charts,
+        },
+    };
+    let part = partition(&set, target, opts.lloyd_iterations, opts.compactness);
+    MeshPartition {
+        groups: part.groups(&set),
+        mean_error: part.mean_error,
+    }
 }
 
 #[derive(PartialEq)]

@@ -293,8 +293,7 @@ impl GeometryTextureSet {
     pub fn load(path: &Path) -> crate::error::Result<GeometryTextureSet> {
         let bytes = std::fs::read(path)
             .map_err(|e| GeomtexError::io(format!("cannot read {}", path.display()), e))?;
-        decode(&bytes)
-            .map_err(|e| GeomtexError::Format(format!("{}: {e}", path.display())))
+        decode(&bytes).map_err(|e| GeomtexError::Format(format!("{}: {e}", path.display())))
     }
 }
 

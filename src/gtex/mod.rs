@@ -2,8 +2,9 @@
 //!
 //! Spaces:
 //! - world: the source mesh's coordinates (f64).
-//! - patch-local: the patch box is the unit cube; x/y are texture u/v, z is height.
-//!   world = origin + axes[0] * (u * extent.x) + axes[1] * (v * extent.y) + axes[2] * (h * extent.z).
+//! - patch-local: the patch box is the unit cube; x/y are texture u/v, z is height:
+//!   world = origin + axes[0] (u extent.x) + axes[1] (v extent.y) + axes[2] (h extent.z),
+//!   the matrix `Patch::world_from_patch`.
 //!
 //! Texel (i, j) (column i along u, row j along v) covers u in [i/w, (i+1)/w] and is sampled at its
 //! centre. Maps are row-major with row 0 at v = 0. Heights are codes of a patch's `height_bits`
@@ -11,7 +12,6 @@
 //! vectors as signed bytes (x, y, z, 0).
 
 use glam::{DMat4, DVec3, DVec4};
-
 
 pub mod file;
 
@@ -43,12 +43,11 @@ pub fn vertical_extent(height: f64, texel: f64, requested_bits: u8) -> (f64, u8)
         let code_max = code_max(bits) as f64;
         base + 2.0 * (0.02 * texel).max(base / (code_max - 3.0))
     };
-    let bits =
-        if requested_bits == 8 && thickness(8) / (code_max(8) - 1) as f64 > texel {
-            16
-        } else {
-            requested_bits
-        };
+    let bits = if requested_bits == 8 && thickness(8) / (code_max(8) - 1) as f64 > texel {
+        16
+    } else {
+        requested_bits
+    };
     (thickness(bits), bits)
 }
 
@@ -148,6 +147,11 @@ impl Patch {
         self.width as usize * self.height as usize
     }
 
+    /// World size of a texel: the shorter of its two sides.
+    pub fn texel_size(&self) -> f64 {
+        (self.extent.x / self.width as f64).min(self.extent.y / self.height as f64)
+    }
+
     pub fn empty_texels(&self) -> usize {
         self.heights.iter().filter(|&&q| q == 0).count()
     }
@@ -181,7 +185,8 @@ pub fn decode_snorm8(n: [i8; 4]) -> DVec3 {
 }
 
 /// Named figures of a conversion: counts in `values`, per-stage wall-clock seconds in `seconds`,
-/// one value per patch in `per_patch`. Ordered name/value lists, so the file format and the Python dict need no schema.
+/// one value per patch in `per_patch`. Ordered name/value lists, so the file format and the
+/// Python dict need no schema.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Stats {
     pub values: Vec<(String, f64)>,
@@ -206,8 +211,13 @@ impl Stats {
         self.values
             .iter()
             .map(|(name, v)| {
-                let count = !FLOAT_STATS.contains(&name.as_str()) && v.fract() == 0.0 && v.abs() < 9e15;
-                let value = if count { StatValue::Int(*v as i64) } else { StatValue::Float(*v) };
+                let count =
+                    !FLOAT_STATS.contains(&name.as_str()) && v.fract() == 0.0 && v.abs() < 9e15;
+                let value = if count {
+                    StatValue::Int(*v as i64)
+                } else {
+                    StatValue::Float(*v)
+                };
                 (name.as_str(), value)
             })
             .collect()
@@ -263,5 +273,24 @@ impl GeometryTextureSet {
 
     pub fn map_bytes(&self) -> usize {
         self.patches.iter().map(Patch::map_bytes).sum()
+    }
+
+    /// The patch holding each source face, -1 for faces left out (degenerate ones). As long as
+    /// the source mesh's face count (the "faces" stat), or as the largest face listed.
+    pub fn face_patch(&self) -> Vec<i32> {
+        let counted = self.stats.get("faces").unwrap_or(0.0) as usize;
+        let listed = self
+            .patches
+            .iter()
+            .flat_map(|p| p.faces.iter())
+            .max()
+            .map_or(0, |&m| m as usize + 1);
+        let mut out = vec![-1i32; counted.max(listed)];
+        for (k, p) in self.patches.iter().enumerate() {
+            for &f in &p.faces {
+                out[f as usize] = k as i32;
+            }
+        }
+        out
     }
 }

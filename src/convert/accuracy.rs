@@ -19,18 +19,36 @@
 
 use glam::DVec3;
 
+use super::raster::Maps;
 use crate::gtex::Patch;
 use crate::heightfield::height_and_slope;
 use crate::mesh::Mesh;
 
-/// An error value (world units) and the surface area it stands for.
-pub type Weighted = (f64, f64);
+/// Charts sample their surface at most this often to measure reconstruction error.
+pub const SAMPLES_PER_CHART: usize = 20_000;
+/// Reconstruction error is this quantile (by area) of the distances: the maximum would be set
+/// by the few samples at creases and rims, where a bilinear map of any resolution rounds corners.
+pub const ERROR_QUANTILE: f64 = 0.99;
+
+/// An error (world units) and the surface area it stands for.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WeightedError {
+    pub value: f64,
+    pub area: f64,
+}
+
+/// A point on the mesh and the surface area it stands for.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AreaSample {
+    pub point: DVec3,
+    pub area: f64,
+}
 
 /// Points spread uniformly by area over `faces`, each with the area it stands for: each triangle
 /// is cut into n² similar sub-triangles (n from its area and `spacing`) and contributes their
 /// centroids, so the pattern is deterministic. About 2 area / spacing² points, at most ~`cap`
 /// (spacing grows to fit).
-pub fn surface_samples(mesh: &Mesh, faces: &[u32], spacing: f64, cap: usize) -> Vec<(DVec3, f64)> {
+pub fn surface_samples(mesh: &Mesh, faces: &[u32], spacing: f64, cap: usize) -> Vec<AreaSample> {
     let corners = |f: u32| mesh.faces[f as usize].map(|v| mesh.positions[v as usize]);
     let area = |[a, b, c]: [DVec3; 3]| 0.5 * (b - a).cross(c - a).length();
     let total: f64 = faces.iter().map(|&f| area(corners(f))).sum();
@@ -47,9 +65,15 @@ pub fn surface_samples(mesh: &Mesh, faces: &[u32], spacing: f64, cap: usize) -> 
         for i in 0..n {
             for j in 0..n - i {
                 let (fi, fj) = (i as f64, j as f64);
-                out.push((a + e1 * (fi + 1.0 / 3.0) + e2 * (fj + 1.0 / 3.0), each));
+                out.push(AreaSample {
+                    point: a + e1 * (fi + 1.0 / 3.0) + e2 * (fj + 1.0 / 3.0),
+                    area: each,
+                });
                 if i + j + 1 < n {
-                    out.push((a + e1 * (fi + 2.0 / 3.0) + e2 * (fj + 2.0 / 3.0), each));
+                    out.push(AreaSample {
+                        point: a + e1 * (fi + 2.0 / 3.0) + e2 * (fj + 2.0 / 3.0),
+                        area: each,
+                    });
                 }
             }
         }
@@ -60,11 +84,11 @@ pub fn surface_samples(mesh: &Mesh, faces: &[u32], spacing: f64, cap: usize) -> 
 /// Distances from the samples to the patch's height field, where the patch has a surface over
 /// them; samples off the map or in a cell without four filled texels are skipped (the rim, which
 /// conservative coverage and neighbouring patches account for).
-pub fn gaps(p: &Patch, samples: &[(DVec3, f64)]) -> Vec<Weighted> {
+pub fn gaps(p: &Patch, samples: &[AreaSample]) -> Vec<WeightedError> {
     samples
         .iter()
-        .filter_map(|&(s, area)| {
-            let l = p.world_to_local(s);
+        .filter_map(|&AreaSample { point, area }| {
+            let l = p.world_to_local(point);
             if !(0.0..=1.0).contains(&l.x) || !(0.0..=1.0).contains(&l.y) {
                 return None;
             }
@@ -72,26 +96,63 @@ pub fn gaps(p: &Patch, samples: &[(DVec3, f64)]) -> Vec<Weighted> {
             // World rise per world run along x and y.
             let (sx, sy) = (du * p.extent.z / p.extent.x, dv * p.extent.z / p.extent.y);
             let gap = (h - l.z).abs() * p.extent.z;
-            Some((gap / (1.0 + sx * sx + sy * sy).sqrt(), area))
+            Some(WeightedError {
+                value: gap / (1.0 + sx * sx + sy * sy).sqrt(),
+                area,
+            })
         })
         .collect()
 }
 
+/// Surface reaching past the mesh, as errors: the lips and overhanging corners of `maps`, drawn
+/// with texels `texel_len` wide (the geometric mean of their sides).
+///
+/// Surface reaching `d` past the mesh over a texel's width stands for about d × texel of area (a
+/// texel at most). A chart's box is padded by up to half a texel, so its flat border often
+/// reaches a little past the outline; counted as a whole texel each, such slivers alone would
+/// set the p99 of a map a few hundred texels wide.
+pub fn past_the_mesh(maps: &Maps, texel_len: f64) -> impl Iterator<Item = WeightedError> + '_ {
+    let weighted = move |d: f64| WeightedError {
+        value: d,
+        area: texel_len * d.min(texel_len),
+    };
+    let lips = maps.lips.iter().map(move |lip| weighted(lip.distance));
+    lips.chain(maps.overhangs.iter().map(move |&d| weighted(d)))
+}
+
 /// The `q`-quantile (0..=1) of the values, each counted by its area; 0 for none.
-pub fn quantile(values: &mut [Weighted], q: f64) -> f64 {
+pub fn quantile(values: &mut [WeightedError], q: f64) -> f64 {
     if values.is_empty() {
         return 0.0;
     }
-    values.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
-    let total: f64 = values.iter().map(|v| v.1).sum();
+    values.sort_unstable_by(|a, b| a.value.total_cmp(&b.value));
+    let total: f64 = values.iter().map(|v| v.area).sum();
     let mut acc = 0.0;
-    for &(v, w) in values.iter() {
-        acc += w;
+    for v in values.iter() {
+        acc += v.area;
         if acc >= q * total {
-            return v;
+            return v.value;
         }
     }
-    values[values.len() - 1].0
+    values[values.len() - 1].value
+}
+
+/// A whole set's reconstruction error: its `ERROR_QUANTILE` by area and its largest.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SetError {
+    pub quantile: f64,
+    pub max: f64,
+}
+
+impl SetError {
+    /// Of all the charts' errors together.
+    pub fn of(mut errors: Vec<WeightedError>) -> SetError {
+        let max = errors.iter().map(|e| e.value).fold(0.0, f64::max);
+        SetError {
+            quantile: quantile(&mut errors, ERROR_QUANTILE),
+            max,
+        }
+    }
 }
 
 #[cfg(test)]
@@ -111,11 +172,12 @@ mod tests {
         assert_eq!(s.len(), 3 * 400);
         assert!(s
             .iter()
-            .all(|(p, _)| p.z == 0.0 && p.x >= 0.0 && p.y >= 0.0 && p.x + p.y <= 6.0));
-        let left = s.iter().filter(|(p, _)| p.x + p.y < 2.0).count();
+            .map(|s| s.point)
+            .all(|p| p.z == 0.0 && p.x >= 0.0 && p.y >= 0.0 && p.x + p.y <= 6.0));
+        let left = s.iter().filter(|s| s.point.x + s.point.y < 2.0).count();
         assert_eq!(left, 400);
         // Each stands for its share of the area: 6 in all.
-        assert!((s.iter().map(|s| s.1).sum::<f64>() - 6.0).abs() < 1e-9);
+        assert!((s.iter().map(|s| s.area).sum::<f64>() - 6.0).abs() < 1e-9);
         // The cap coarsens the spacing instead of dropping triangles.
         let capped = surface_samples(&mesh, &[0, 1, 2], 0.1, 300);
         assert!(
@@ -127,12 +189,13 @@ mod tests {
 
     #[test]
     fn quantile_by_area() {
-        let mut v: Vec<Weighted> = (0..100).map(|i| (i as f64, 1.0)).collect();
+        let weighted = |value: f64, area: f64| WeightedError { value, area };
+        let mut v: Vec<WeightedError> = (0..100).map(|i| weighted(i as f64, 1.0)).collect();
         assert_eq!(quantile(&mut v, 0.99), 98.0);
         assert_eq!(quantile(&mut v, 0.0), 0.0);
         assert_eq!(quantile(&mut [], 0.5), 0.0);
         // One value standing for as much area as all the others: it is the median.
-        v.push((1000.0, 100.0));
+        v.push(weighted(1000.0, 100.0));
         assert_eq!(quantile(&mut v, 0.51), 1000.0);
         assert_eq!(quantile(&mut v, 0.49), 97.0);
     }

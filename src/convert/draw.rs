@@ -1,0 +1,118 @@
+//! One chart drawn at one texel size and its reconstruction error measured: what the resolution
+//! search does at every level it tries, and the final raster once more at the chosen one.
+//!
+//! Space: world (mesh, frames, texel sizes, errors); the maps are patch-local (see raster).
+
+use super::accuracy::{self, AreaSample, WeightedError, ERROR_QUANTILE, SAMPLES_PER_CHART};
+use super::frame::ChartFrame;
+use super::options::ConvertOptions;
+use super::raster::{self, Maps, PatchBox};
+use crate::mesh::{Mesh, MeshGeometry};
+
+/// A chart ready to draw: its own faces then its ring, its frame, and the longer side of its
+/// bounds.
+pub struct ChartJob<'a> {
+    pub faces: Vec<u32>,
+    pub chart_faces: usize,
+    pub frame: &'a ChartFrame,
+    pub long_side: f64,
+}
+
+impl ChartJob<'_> {
+    /// The texel size that gives the chart `resolution` texels on its longer side.
+    pub fn texel_for(&self, resolution: u32) -> f64 {
+        self.long_side / resolution as f64
+    }
+}
+
+/// A chart drawn at one texel size: its box, its maps, and its reconstruction errors with the
+/// area each stands for (see `accuracy`), whose `ERROR_QUANTILE` is `error`.
+pub struct Drawn {
+    pub bx: PatchBox,
+    pub maps: Maps,
+    pub errors: Vec<WeightedError>,
+    pub error: f64,
+}
+
+/// What every chart is drawn with: the mesh, its geometry, the options, and the set's one texel
+/// size (the starting point when each chart gets its own).
+pub struct ChartDrawer<'a> {
+    pub mesh: &'a Mesh,
+    pub geo: &'a MeshGeometry,
+    pub opts: &'a ConvertOptions,
+    pub texel: f64,
+    /// Whether each chart gets its own texel size (error-driven resolution).
+    pub per_chart_texel: bool,
+}
+
+impl ChartDrawer<'_> {
+    /// The jobs of charts with these faces, rings and frames.
+    pub fn jobs<'f>(
+        &self,
+        charts: impl Iterator<Item = (&'f [u32], &'f [u32])>,
+        frames: &'f [ChartFrame],
+    ) -> Vec<ChartJob<'f>> {
+        charts
+            .zip(frames)
+            .map(|((faces, ring), frame)| ChartJob {
+                faces: faces.iter().chain(ring).copied().collect(),
+                chart_faces: faces.len(),
+                frame,
+                long_side: frame.long_side().max(self.texel * 1e-3),
+            })
+            .collect()
+    }
+
+    /// Points on the chart's own faces to measure its error against: about a texel apart at
+    /// the finest texel it can get.
+    pub fn samples(&self, job: &ChartJob) -> Vec<AreaSample> {
+        let spacing = if self.per_chart_texel {
+            job.texel_for(self.opts.resolution_cap())
+        } else {
+            self.texel
+        };
+        accuracy::surface_samples(
+            self.mesh,
+            &job.faces[..job.chart_faces],
+            spacing,
+            SAMPLES_PER_CHART,
+        )
+    }
+
+    /// Draws a chart (its own faces first, then its ring) at texel size `texel` and measures
+    /// its reconstruction error against `samples` of its own faces and its lips.
+    pub fn draw(&self, job: &ChartJob, texel: f64, samples: &[AreaSample]) -> Drawn {
+        let opts = self.opts;
+        let bx = job
+            .frame
+            .patch_box(texel, opts.resolution_cap(), opts.height_bits);
+        let mut maps = raster::rasterize(
+            self.mesh,
+            self.geo,
+            &job.faces,
+            job.chart_faces,
+            &bx,
+            opts.normals,
+        );
+        // The height field as a patch for the error lookups; its heights go back to the maps.
+        let probe = bx.into_patch(
+            Maps {
+                heights: std::mem::take(&mut maps.heights),
+                ..Default::default()
+            },
+            Vec::new(),
+            Vec::new(),
+        );
+        let mut errors = accuracy::gaps(&probe, samples);
+        maps.heights = probe.heights;
+        let texel_len = ((bx.extent.x / bx.width as f64) * (bx.extent.y / bx.height as f64)).sqrt();
+        errors.extend(accuracy::past_the_mesh(&maps, texel_len));
+        let error = accuracy::quantile(&mut errors, ERROR_QUANTILE);
+        Drawn {
+            bx,
+            maps,
+            errors,
+            error,
+        }
+    }
+}

@@ -1,0 +1,442 @@
+//! The keywords of `convert`: their one set of defaults, their validation, the names they go by
+//! as strings, and `ConvertArgs`, the keywords as a caller (the Python binding) receives them.
+//!
+//! Space: lengths (`texel_size`, `max_error`) are world units; `max_error_rel` is a fraction of
+//! the mesh's bounding-box diagonal.
+
+use std::str::FromStr;
+
+use crate::error::{GeomtexError, Result};
+
+/// Whose reconstruction error `max_error` bounds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ErrorScope {
+    /// The set's (its area-weighted p99, the figure in `stats`): each chart gets the level that
+    /// buys the most accuracy per byte, so a chart whose tail (a crease, a steep rim) would be
+    /// dear to remove keeps it while cheap charts get finer.
+    Set,
+    /// Every chart's own: each gets the coarsest level within the bound.
+    Chart,
+}
+
+/// How x/y are chosen inside the plane perpendicular to z.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum InPlane {
+    /// The principal axes of the projected vertices (the paper's 2D PCA).
+    Pca,
+    /// The sides of the minimum-area rectangle around the projected vertices.
+    MinAreaRect,
+}
+
+/// Which normal goes into the normal map.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NormalSource {
+    /// Area-weighted vertex normals interpolated across each face.
+    Smooth,
+    /// The face's own normal (keeps CAD creases sharp).
+    Flat,
+}
+
+/// `max_resolution` when none is given and the texel is one for the whole set.
+pub const DEFAULT_MAX_RESOLUTION: u32 = 256;
+/// `max_resolution` when none is given with `max_error`: the error sets each chart's texel and
+/// the cap only bounds a chart's memory (10 MiB at 1024²).
+pub const ERROR_DRIVEN_MAX_RESOLUTION: u32 = 1024;
+/// The range `max_resolution` must lie in.
+pub const MAX_RESOLUTION_RANGE: std::ops::RangeInclusive<u32> = 2..=16384;
+/// VSA's target mean error when none is given.
+pub const DEFAULT_CHART_ERROR: f64 = 0.1;
+/// Partitions tried when `max_error` is given without `chart_error` or `charts`: with a texel
+/// of its own, a chart no longer sets everyone's texel, so fewer, larger charts (fewer ring
+/// faces drawn twice) often cost fewer bytes; sharp-creased CAD models still want the finest.
+pub const ERROR_DRIVEN_CHART_ERRORS: [f64; 3] = [0.1, 0.2, 0.3];
+
+/// Keywords of `convert`. `Default` gives the documented defaults, the only place they are set.
+#[derive(Clone, Debug)]
+pub struct ConvertOptions {
+    /// Longest side of any patch, in texels. The texel size is one for the whole set, chosen so
+    /// the largest chart just fits.
+    /// `None`: `DEFAULT_MAX_RESOLUTION`, or `ERROR_DRIVEN_MAX_RESOLUTION` with `max_error`.
+    pub max_resolution: Option<u32>,
+    /// World size of a texel; grown if a chart would then exceed `max_resolution`.
+    pub texel_size: Option<f64>,
+    /// Error-driven resolution: each chart gets the coarsest texel that keeps its reconstruction
+    /// error (the area-weighted p99, see `accuracy`) within this many world units, up to
+    /// `max_resolution` texels on its longest side. `None`: one texel size for all charts.
+    pub max_error: Option<f64>,
+    /// `max_error` as a fraction of the mesh's bounding-box diagonal.
+    pub max_error_rel: Option<f64>,
+    /// Whose error `max_error` bounds.
+    pub error_scope: ErrorScope,
+    /// Exact chart count for VSA (before folding repair). `None`: driven by `chart_error`.
+    pub charts: Option<usize>,
+    /// Target area-weighted mean L2,1 error of VSA, sum(area |n - N|^2) / sum(area).
+    /// `None`: `DEFAULT_CHART_ERROR`, or with `max_error` the cheapest of
+    /// `ERROR_DRIVEN_CHART_ERRORS`.
+    pub chart_error: Option<f64>,
+    /// Cap on VSA charts when driven by `chart_error`.
+    pub max_charts: usize,
+    /// Weight of VSA's compactness term (0 = plain L2,1 VSA); rounder charts waste fewer texels.
+    pub compactness: f64,
+    /// Lloyd iterations after the last chart insertion.
+    pub lloyd_iterations: usize,
+    /// Rings of neighbouring faces each chart also draws.
+    pub overlap_rings: usize,
+    /// Texels of normal/color dilation into empty space.
+    pub dilation: usize,
+    pub in_plane: InPlane,
+    pub normals: NormalSource,
+    /// Bits per height code, 8 or 16: 8 halves the height map's bytes and rounds heights to
+    /// 1/254 of each patch's height range.
+    pub height_bits: u8,
+}
+
+impl Default for ConvertOptions {
+    fn default() -> Self {
+        ConvertOptions {
+            max_resolution: None,
+            texel_size: None,
+            max_error: None,
+            max_error_rel: None,
+            error_scope: ErrorScope::Set,
+            charts: None,
+            chart_error: None,
+            max_charts: 4096,
+            compactness: 1.0,
+            lloyd_iterations: 6,
+            overlap_rings: 1,
+            dilation: 2,
+            in_plane: InPlane::MinAreaRect,
+            normals: NormalSource::Smooth,
+            height_bits: 16,
+        }
+    }
+}
+
+fn parameter<T>(message: String) -> Result<T> {
+    Err(GeomtexError::Parameter(message))
+}
+
+/// `Err` unless `value`, when given, is a positive finite number.
+fn positive_finite(name: &str, value: Option<f64>) -> Result<()> {
+    match value {
+        Some(v) if !(v.is_finite() && v > 0.0) => {
+            parameter(format!("{name} must be a positive finite number, got {v}"))
+        }
+        _ => Ok(()),
+    }
+}
+
+/// `Err` unless `value` is at most `max`.
+fn at_most(name: &str, value: usize, max: usize) -> Result<()> {
+    if value > max {
+        return parameter(format!("{name} must be at most {max}, got {value}"));
+    }
+    Ok(())
+}
+
+impl ConvertOptions {
+    pub fn error_driven(&self) -> bool {
+        self.max_error.is_some() || self.max_error_rel.is_some()
+    }
+
+    /// `max_resolution`, or its default.
+    pub fn resolution_cap(&self) -> u32 {
+        self.max_resolution.unwrap_or(if self.error_driven() {
+            ERROR_DRIVEN_MAX_RESOLUTION
+        } else {
+            DEFAULT_MAX_RESOLUTION
+        })
+    }
+
+    /// VSA's target mean error: `chart_error`, or its default.
+    pub fn chart_error_target(&self) -> f64 {
+        self.chart_error.unwrap_or(DEFAULT_CHART_ERROR)
+    }
+
+    pub fn validate(&self) -> Result<()> {
+        self.validate_resolution()?;
+        self.validate_partition()?;
+        at_most("overlap_rings", self.overlap_rings, 16)?;
+        at_most("dilation", self.dilation, 64)?;
+        if !crate::gtex::HEIGHT_BITS.contains(&self.height_bits) {
+            return parameter(format!(
+                "height_bits must be 8 or 16, got {}",
+                self.height_bits
+            ));
+        }
+        at_most("lloyd_iterations", self.lloyd_iterations, 1000)
+    }
+
+    /// The keywords that choose the texel size.
+    fn validate_resolution(&self) -> Result<()> {
+        if !MAX_RESOLUTION_RANGE.contains(&self.resolution_cap()) {
+            return parameter(format!(
+                "max_resolution must be in [2, 16384], got {}",
+                self.resolution_cap()
+            ));
+        }
+        positive_finite("texel_size", self.texel_size)?;
+        positive_finite("max_error", self.max_error)?;
+        positive_finite("max_error_rel", self.max_error_rel)?;
+        if self.max_error.is_some() && self.max_error_rel.is_some() {
+            return parameter("give max_error or max_error_rel, not both".into());
+        }
+        if self.texel_size.is_some() && self.error_driven() {
+            return parameter(
+                "texel_size fixes the texel while max_error chooses it per chart: give one".into(),
+            );
+        }
+        Ok(())
+    }
+
+    /// The keywords of VSA.
+    fn validate_partition(&self) -> Result<()> {
+        if self.charts == Some(0) {
+            return parameter("charts must be at least 1".into());
+        }
+        if let Some(c) = self.chart_error {
+            if !(c.is_finite() && (0.0..=4.0).contains(&c)) {
+                return parameter(format!("chart_error must be in [0, 4], got {c}"));
+            }
+        }
+        if !(self.compactness.is_finite() && (0.0..=100.0).contains(&self.compactness)) {
+            return parameter(format!(
+                "compactness must be in [0, 100], got {}",
+                self.compactness
+            ));
+        }
+        if self.max_charts == 0 {
+            return parameter("max_charts must be at least 1".into());
+        }
+        Ok(())
+    }
+}
+
+/// The string that names one of `choices` (name, value), or a Parameter error naming them all.
+fn parse_choice<T: Copy>(keyword: &str, s: &str, choices: &[(&str, T)]) -> Result<T> {
+    if let Some(&(_, value)) = choices.iter().find(|(name, _)| *name == s) {
+        return Ok(value);
+    }
+    let names: Vec<String> = choices.iter().map(|(n, _)| format!("'{n}'")).collect();
+    parameter(format!(
+        "{keyword} must be {}, got {s:?}",
+        names.join(" or ")
+    ))
+}
+
+impl FromStr for ErrorScope {
+    type Err = GeomtexError;
+
+    /// "set" | "chart".
+    fn from_str(s: &str) -> Result<Self> {
+        parse_choice(
+            "error_scope",
+            s,
+            &[("set", ErrorScope::Set), ("chart", ErrorScope::Chart)],
+        )
+    }
+}
+
+impl FromStr for InPlane {
+    type Err = GeomtexError;
+
+    /// "min_area" | "pca" (the keyword is `frame`).
+    fn from_str(s: &str) -> Result<Self> {
+        parse_choice(
+            "frame",
+            s,
+            &[("min_area", InPlane::MinAreaRect), ("pca", InPlane::Pca)],
+        )
+    }
+}
+
+impl FromStr for NormalSource {
+    type Err = GeomtexError;
+
+    /// "smooth" | "flat".
+    fn from_str(s: &str) -> Result<Self> {
+        parse_choice(
+            "normals",
+            s,
+            &[
+                ("smooth", NormalSource::Smooth),
+                ("flat", NormalSource::Flat),
+            ],
+        )
+    }
+}
+
+/// The keywords of `convert` as a caller (the Python binding) receives them: every one optional,
+/// integers as signed 64-bit. `into_options` fills the defaults and checks the ranges.
+#[derive(Clone, Debug, Default)]
+pub struct ConvertArgs {
+    pub max_resolution: Option<i64>,
+    pub texel_size: Option<f64>,
+    pub max_error: Option<f64>,
+    pub max_error_rel: Option<f64>,
+    pub error_scope: Option<ErrorScope>,
+    pub charts: Option<i64>,
+    pub chart_error: Option<f64>,
+    pub max_charts: Option<i64>,
+    pub compactness: Option<f64>,
+    pub lloyd_iterations: Option<i64>,
+    pub overlap_rings: Option<i64>,
+    pub dilation: Option<i64>,
+    pub frame: Option<InPlane>,
+    pub normals: Option<NormalSource>,
+    pub height_bits: Option<i64>,
+}
+
+/// A count that must not be negative.
+fn count(name: &str, value: i64) -> Result<usize> {
+    usize::try_from(value).or_else(|_| parameter(format!("{name} must be >= 0, got {value}")))
+}
+
+/// `count` of a given value, or `default`.
+fn count_or(name: &str, value: Option<i64>, default: usize) -> Result<usize> {
+    value.map_or(Ok(default), |v| count(name, v))
+}
+
+impl ConvertArgs {
+    /// The options these arguments give, `ConvertOptions::default()` for each one not given,
+    /// validated.
+    pub fn into_options(self) -> Result<ConvertOptions> {
+        let default = ConvertOptions::default();
+        let max_resolution = self
+            .max_resolution
+            .map(|r| {
+                u32::try_from(r).or_else(|_| {
+                    parameter(format!("max_resolution must be in [2, 16384], got {r}"))
+                })
+            })
+            .transpose()?;
+        let height_bits = match self.height_bits {
+            None => default.height_bits,
+            Some(b @ (8 | 16)) => b as u8,
+            Some(other) => return parameter(format!("height_bits must be 8 or 16, got {other}")),
+        };
+        let opts = ConvertOptions {
+            max_resolution,
+            texel_size: self.texel_size,
+            max_error: self.max_error,
+            max_error_rel: self.max_error_rel,
+            error_scope: self.error_scope.unwrap_or(default.error_scope),
+            charts: self.charts.map(|c| count("charts", c)).transpose()?,
+            chart_error: self.chart_error,
+            max_charts: count_or("max_charts", self.max_charts, default.max_charts)?,
+            compactness: self.compactness.unwrap_or(default.compactness),
+            lloyd_iterations: count_or(
+                "lloyd_iterations",
+                self.lloyd_iterations,
+                default.lloyd_iterations,
+            )?,
+            overlap_rings: count_or("overlap_rings", self.overlap_rings, default.overlap_rings)?,
+            dilation: count_or("dilation", self.dilation, default.dilation)?,
+            in_plane: self.frame.unwrap_or(default.in_plane),
+            normals: self.normals.unwrap_or(default.normals),
+            height_bits,
+        };
+        opts.validate()?;
+        Ok(opts)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn message(e: GeomtexError) -> String {
+        match e {
+            GeomtexError::Parameter(m) => m,
+            other => panic!("not a Parameter error: {other:?}"),
+        }
+    }
+
+    #[test]
+    fn names_parse_and_bad_names_say_the_choices() {
+        assert_eq!("chart".parse::<ErrorScope>().unwrap(), ErrorScope::Chart);
+        assert_eq!("min_area".parse::<InPlane>().unwrap(), InPlane::MinAreaRect);
+        assert_eq!("flat".parse::<NormalSource>().unwrap(), NormalSource::Flat);
+        assert_eq!(
+            message("x".parse::<ErrorScope>().unwrap_err()),
+            "error_scope must be 'set' or 'chart', got \"x\""
+        );
+        assert_eq!(
+            message("diagonal".parse::<InPlane>().unwrap_err()),
+            "frame must be 'min_area' or 'pca', got \"diagonal\""
+        );
+        assert_eq!(
+            message("bumpy".parse::<NormalSource>().unwrap_err()),
+            "normals must be 'smooth' or 'flat', got \"bumpy\""
+        );
+    }
+
+    #[test]
+    fn no_arguments_give_the_defaults() {
+        let opts = ConvertArgs::default().into_options().unwrap();
+        let default = ConvertOptions::default();
+        assert_eq!(format!("{opts:?}"), format!("{default:?}"));
+        assert_eq!(opts.resolution_cap(), 256);
+        assert_eq!(opts.error_scope, ErrorScope::Set);
+        assert_eq!((opts.max_charts, opts.lloyd_iterations), (4096, 6));
+        assert_eq!(
+            (opts.overlap_rings, opts.dilation, opts.height_bits),
+            (1, 2, 16)
+        );
+        assert_eq!(opts.compactness, 1.0);
+        assert_eq!(
+            (opts.in_plane, opts.normals),
+            (InPlane::MinAreaRect, NormalSource::Smooth)
+        );
+    }
+
+    #[test]
+    fn out_of_range_arguments_are_parameter_errors() {
+        let bad = |args: ConvertArgs| message(args.into_options().unwrap_err());
+        assert_eq!(
+            bad(ConvertArgs {
+                max_resolution: Some(-5),
+                ..Default::default()
+            }),
+            "max_resolution must be in [2, 16384], got -5"
+        );
+        assert_eq!(
+            bad(ConvertArgs {
+                max_resolution: Some(1),
+                ..Default::default()
+            }),
+            "max_resolution must be in [2, 16384], got 1"
+        );
+        assert_eq!(
+            bad(ConvertArgs {
+                charts: Some(-3),
+                ..Default::default()
+            }),
+            "charts must be >= 0, got -3"
+        );
+        assert_eq!(
+            bad(ConvertArgs {
+                overlap_rings: Some(99),
+                ..Default::default()
+            }),
+            "overlap_rings must be at most 16, got 99"
+        );
+        assert_eq!(
+            bad(ConvertArgs {
+                height_bits: Some(12),
+                ..Default::default()
+            }),
+            "height_bits must be 8 or 16, got 12"
+        );
+        let given = ConvertArgs {
+            max_resolution: Some(64),
+            height_bits: Some(8),
+            normals: Some(NormalSource::Flat),
+            ..Default::default()
+        };
+        let opts = given.into_options().unwrap();
+        assert_eq!((opts.max_resolution, opts.height_bits), (Some(64), 8));
+        assert_eq!(opts.normals, NormalSource::Flat);
+    }
+}

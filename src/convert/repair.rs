@@ -1,0 +1,101 @@
+//! Folding repair: a chart folds if any of its faces has normal·z <= 0 in its frame, so no
+//! height field can hold it. A folding chart is split in two (VSA seeded at its worst and best
+//! fitting faces) until every chart has a z that all its faces face.
+//!
+//! Space: world (face normals and height directions, unit vectors).
+
+use glam::DVec3;
+
+use super::frame::{self, FOLD_COS};
+use super::vsa::{self, FaceSet, NONE};
+use crate::mesh::MeshGeometry;
+
+/// A chart after repair: its faces and height direction.
+pub struct Chart {
+    pub faces: Vec<u32>,
+    pub z: DVec3,
+}
+
+/// How many charts fold, and how many faces face away from their chart's z.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Folding {
+    pub charts: usize,
+    pub inverted_faces: usize,
+}
+
+impl Folding {
+    /// Of charts given as (faces, height direction).
+    pub fn count<'a>(
+        geo: &MeshGeometry,
+        charts: impl IntoIterator<Item = (&'a [u32], DVec3)>,
+    ) -> Folding {
+        let mut folding = Folding::default();
+        for (faces, z) in charts {
+            let inverted = faces
+                .iter()
+                .filter(|&&f| geo.face_normals[f as usize].dot(z) <= 0.0)
+                .count();
+            folding.charts += usize::from(inverted > 0);
+            folding.inverted_faces += inverted;
+        }
+        folding
+    }
+
+    /// Of VSA's charts in the paper's frame (the median normal): the yardstick for the
+    /// "before repair" figures.
+    pub fn before_repair(geo: &MeshGeometry, groups: &[Vec<u32>]) -> Folding {
+        let z = |g: &[u32]| {
+            frame::median_normal(geo, g)
+                .try_normalize()
+                .unwrap_or(DVec3::Z)
+        };
+        Folding::count(geo, groups.iter().map(|g| (g.as_slice(), z(g))))
+    }
+}
+
+/// The charts after repair, largest first, and how many splits it took.
+pub struct Repaired {
+    pub charts: Vec<Chart>,
+    pub splits: usize,
+}
+
+/// Splits folding charts until none folds.
+pub fn repair(geo: &MeshGeometry, groups: Vec<Vec<u32>>) -> Repaired {
+    let mut scratch = vec![NONE; geo.degenerate.len()];
+    let mut queue = groups;
+    let mut charts: Vec<Chart> = Vec::with_capacity(queue.len());
+    let mut splits = 0usize;
+    while let Some(faces) = queue.pop() {
+        let (z, worst) = frame::choose_z(geo, &faces);
+        if worst > FOLD_COS || faces.len() == 1 {
+            charts.push(Chart { faces, z });
+            continue;
+        }
+        queue.extend(split(geo, &faces, z, &mut scratch));
+        splits += 1;
+    }
+    // Largest charts first: a stable, meaningful order for users and for atlas packing.
+    charts.sort_by(|a, b| {
+        b.faces
+            .len()
+            .cmp(&a.faces.len())
+            .then(a.faces[0].cmp(&b.faces[0]))
+    });
+    Repaired { charts, splits }
+}
+
+/// A folding chart's two (rarely more) parts.
+fn split(geo: &MeshGeometry, faces: &[u32], z: DVec3, scratch: &mut [u32]) -> Vec<Vec<u32>> {
+    let sub = FaceSet::new(geo, faces, scratch);
+    let parts = vsa::split_in_two(&sub, z).groups(&sub);
+    if parts.len() >= 2 {
+        return parts;
+    }
+    // VSA could not separate them (identical normals cannot fold): split by facing.
+    let (up, down): (Vec<u32>, Vec<u32>) = faces
+        .iter()
+        .partition(|&&f| geo.face_normals[f as usize].dot(z) > FOLD_COS);
+    let mut parts = vec![up, down];
+    parts.retain(|p| !p.is_empty());
+    parts
+}

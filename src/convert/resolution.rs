@@ -1,0 +1,232 @@
+//! Texel sizes: the set's one texel (the largest chart just fits `max_resolution`), or with
+//! `max_error` each chart's own, the coarsest that keeps the chart's (`ErrorScope::Chart`) or
+//! the set's (`ErrorScope::Set`) reconstruction error within the bound.
+//!
+//! Space: world lengths (texel sizes, errors, chart sides); resolutions in texels.
+
+use super::accuracy::ERROR_QUANTILE;
+use super::draw::{ChartDrawer, ChartJob, Drawn};
+use super::frame::ChartFrame;
+use super::options::{ConvertOptions, ErrorScope};
+use super::progress::{each_chart, Progress};
+use crate::error::Result;
+
+/// The set's one texel size: the largest chart just fits `max_resolution`, or `texel_size` if
+/// that is coarser.
+pub fn common_texel(frames: &[ChartFrame], opts: &ConvertOptions, diagonal: f64) -> f64 {
+    let longest = frames.iter().map(ChartFrame::long_side).fold(0.0, f64::max);
+    let fit = longest / opts.resolution_cap() as f64;
+    let texel = opts.texel_size.map_or(fit, |t| t.max(fit));
+    if texel <= 0.0 {
+        return diagonal.max(f64::MIN_POSITIVE) * 1e-6; // every chart is a point
+    }
+    texel
+}
+
+/// Each chart's texel size for `max_error`, measured by drawing it at the levels the search
+/// tries.
+pub fn chart_texels(
+    jobs: &[ChartJob],
+    drawer: &ChartDrawer,
+    max_error: f64,
+    progress: Progress,
+) -> Result<Vec<f64>> {
+    let levels = resolution_levels(drawer.opts.resolution_cap());
+    let picks = match drawer.opts.error_scope {
+        ErrorScope::Chart => each_chart(jobs, progress, "resolution", |j| {
+            let s = drawer.samples(j);
+            coarsest_within(&levels, max_error, |r| drawer.draw(j, j.texel_for(r), &s))
+        })?,
+        ErrorScope::Set => {
+            let costs = each_chart(jobs, progress, "resolution", |j| {
+                let s = drawer.samples(j);
+                level_costs(&levels, max_error, |r| drawer.draw(j, j.texel_for(r), &s))
+            })?;
+            // Not even the finest levels fit: every chart at its finest measured.
+            allocate(&costs, ERROR_QUANTILE)
+                .unwrap_or_else(|| costs.iter().map(|c| c.last().unwrap().resolution).collect())
+        }
+    };
+    Ok(jobs
+        .iter()
+        .zip(picks)
+        .map(|(j, r)| j.texel_for(r))
+        .collect())
+}
+
+/// Long-side resolutions the error-driven search tries, finest first: `max` down to 2 in
+/// steps of 2^(1/4), so neighbouring levels differ by ~30% in texel count.
+fn resolution_levels(max: u32) -> Vec<u32> {
+    let mut levels: Vec<u32> = (0..)
+        .map(|k| (max as f64 * 0.5f64.powf(k as f64 / 4.0)).round() as u32)
+        .take_while(|&r| r > 2)
+        .collect();
+    levels.push(2);
+    levels.dedup();
+    levels
+}
+
+/// The coarsest level whose measured error is within `max_error`, by bisection (error grows as
+/// the resolution falls, up to aliasing); the finest level if none is. Whatever is returned
+/// was measured, so a chart said to be within the bound is.
+fn coarsest_within(levels: &[u32], max_error: f64, draw: impl Fn(u32) -> Drawn) -> u32 {
+    let (mut lo, mut hi) = (0, levels.len());
+    let mut within = None;
+    while lo < hi {
+        let mid = (lo + hi) / 2;
+        if draw(levels[mid]).error <= max_error {
+            lo = mid + 1;
+            within = Some(levels[mid]); // each later success is coarser
+        } else {
+            hi = mid;
+        }
+    }
+    within.unwrap_or(levels[0])
+}
+
+/// A chart at one resolution: its bytes, and the area of its surface over the error bound
+/// out of all the area its errors stand for.
+#[derive(Clone, Copy, Debug)]
+struct LevelCost {
+    resolution: u32,
+    bytes: f64,
+    over: f64,
+    area: f64,
+}
+
+/// A chart's costs from its coarsest level up to the first that has next to nothing over the
+/// bound, or the finest.
+fn level_costs(levels: &[u32], max_error: f64, draw: impl Fn(u32) -> Drawn) -> Vec<LevelCost> {
+    let mut costs = Vec::new();
+    for &resolution in levels.iter().rev() {
+        let d = draw(resolution);
+        let over: f64 = d
+            .errors
+            .iter()
+            .filter(|e| e.value > max_error)
+            .map(|e| e.area)
+            .sum();
+        let area: f64 = d.errors.iter().map(|e| e.area).sum();
+        let texels = d.bx.width as usize * d.bx.height as usize;
+        let bytes = crate::gtex::map_bytes(texels, d.bx.height_bits) as f64;
+        costs.push(LevelCost {
+            resolution,
+            bytes,
+            over,
+            area,
+        });
+        // Finer levels could lower this chart's share of the set's budget by a tenth of its
+        // density at most: not worth measuring.
+        if over <= 0.1 * (1.0 - ERROR_QUANTILE) * area {
+            break;
+        }
+    }
+    costs
+}
+
+/// Each chart's level for the fewest bytes with at most `1 - quantile` of all the area over the
+/// bound, so the set's error quantile is within it. A multiple-choice knapsack, solved by its
+/// Lagrangian: for a price `lambda` per unit of area over the bound each chart takes its
+/// cheapest level on its own, and the price rises until the set fits. None if even the finest
+/// levels do not fit.
+fn allocate(costs: &[Vec<LevelCost>], quantile: f64) -> Option<Vec<u32>> {
+    let slack = 1.0 - quantile;
+    let choose = |lambda: f64| -> (Vec<u32>, f64) {
+        let mut excess = 0.0;
+        let picks = costs
+            .iter()
+            .map(|levels| {
+                let price = |c: &LevelCost| c.bytes + lambda * (c.over - slack * c.area);
+                let best = levels
+                    .iter()
+                    .min_by(|a, b| price(a).total_cmp(&price(b)))
+                    .expect("every chart has a level");
+                excess += best.over - slack * best.area;
+                best.resolution
+            })
+            .collect();
+        (picks, excess)
+    };
+    // The price is in bytes per unit area: bracket it in powers of ten around bytes / area.
+    let bytes: f64 = costs.iter().filter_map(|c| c.last()).map(|c| c.bytes).sum();
+    let area: f64 = costs.iter().filter_map(|c| c.last()).map(|c| c.area).sum();
+    let unit = bytes / area.max(f64::MIN_POSITIVE);
+    let (mut lo, mut hi) = (-12.0f64, 24.0f64); // log10 of lambda / unit
+    let (fine, excess) = choose(unit * 10f64.powf(hi));
+    if excess > 0.0 {
+        return None;
+    }
+    let mut best = fine;
+    for _ in 0..80 {
+        let mid = 0.5 * (lo + hi);
+        let (picks, excess) = choose(unit * 10f64.powf(mid));
+        if excess <= 0.0 {
+            hi = mid;
+            best = picks;
+        } else {
+            lo = mid;
+        }
+    }
+    Some(best)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn resolution_levels_step_by_a_quarter_octave_down_to_two() {
+        let l = resolution_levels(256);
+        assert_eq!(l[..5], [256, 215, 181, 152, 128]);
+        assert_eq!(*l.last().unwrap(), 2);
+        assert!(l.windows(2).all(|w| w[0] > w[1]));
+        assert_eq!(resolution_levels(2), [2]);
+    }
+
+    fn cost(resolution: u32, bytes: f64, over: f64, area: f64) -> LevelCost {
+        LevelCost {
+            resolution,
+            bytes,
+            over,
+            area,
+        }
+    }
+
+    #[test]
+    fn allocation_is_the_cheapest_that_fits_the_quantile() {
+        // Three charts of equal area, coarse to fine; at most 1% of all area may be over.
+        let costs = vec![
+            // Cheap to fix: 4% over at 10 bytes, nothing over at 40.
+            vec![cost(2, 10.0, 4.0, 100.0), cost(4, 40.0, 0.0, 100.0)],
+            // Dear to fix: 2% over at 10 bytes, 1% at 1000, nothing at 5000.
+            vec![
+                cost(2, 10.0, 2.0, 100.0),
+                cost(4, 1000.0, 1.0, 100.0),
+                cost(8, 5000.0, 0.0, 100.0),
+            ],
+            // Within the bound already.
+            vec![cost(2, 10.0, 0.0, 100.0)],
+        ];
+        // Budget 3 units of area: fix the first chart, keep the second's tail.
+        assert_eq!(allocate(&costs, 0.99), Some(vec![4, 2, 2]));
+        // Budget 1.5: the second must reach 1%, and the first must be fixed too.
+        assert_eq!(allocate(&costs, 0.995), Some(vec![4, 4, 2]));
+        // Brute force agrees on the cheapest feasible choice for a range of budgets.
+        for q in [0.9, 0.97, 0.98, 0.99, 0.995, 0.999, 1.0] {
+            let mut best = (f64::INFINITY, vec![]);
+            for a in &costs[0] {
+                for b in &costs[1] {
+                    let c = &costs[2][0];
+                    let over = a.over + b.over + c.over;
+                    let bytes = a.bytes + b.bytes + c.bytes;
+                    if over <= (1.0 - q) * 300.0 + 1e-9 && bytes < best.0 {
+                        best = (bytes, vec![a.resolution, b.resolution, c.resolution]);
+                    }
+                }
+            }
+            assert_eq!(allocate(&costs, q), Some(best.1), "quantile {q}");
+        }
+        // Nothing fits when even the finest levels are over.
+        assert_eq!(allocate(&[vec![cost(2, 1.0, 50.0, 100.0)]], 0.99), None);
+    }
+}
