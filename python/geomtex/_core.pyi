@@ -15,13 +15,13 @@ __all__ = [
 ]
 __version__: str
 
-ErrorScope = Literal["set", "chart"]
-InPlane = Literal["min_area", "pca"]
-NormalSource = Literal["smooth", "flat"]
-HeightBits = Literal[8, 16]
-Quality = Literal["fast", "balanced", "exact"]
-Method = Literal["linear_binary", "maxmip"]
-MapFilter = Literal["gaussian", "high_pass"]
+_ErrorScope = Literal["set", "chart"]
+_InPlane = Literal["min_area", "pca"]
+_NormalSource = Literal["smooth", "flat"]
+_HeightBits = Literal[8, 16]
+_Quality = Literal["fast", "balanced", "exact"]
+_Method = Literal["linear_binary", "maxmip"]
+_MapFilter = Literal["gaussian", "high_pass"]
 
 class GeomtexError(Exception): ...
 class MeshError(GeomtexError, ValueError): ...
@@ -66,7 +66,7 @@ class GeometryTextureSet:
         cmap: str = "viridis",
         property_range: tuple[float, float] | None = None,
         max_resolution: int | None = None,
-        height_bits: HeightBits | None = None,
+        height_bits: _HeightBits | None = None,
     ) -> GeometryTextureSet: ...
     @staticmethod
     def _from_prepared_grids(
@@ -78,7 +78,7 @@ class GeometryTextureSet:
         height_bits: int | None = None,
     ) -> GeometryTextureSet: ...
     def __len__(self) -> int: ...
-    def filtered(self, kind: MapFilter, sigma: float, *, gain: float | None = None) -> GeometryTextureSet: ...
+    def filtered(self, kind: _MapFilter, sigma: float, *, gain: float | None = None) -> GeometryTextureSet: ...
     def seam_gaps(self, mesh: Mesh) -> npt.NDArray[np.float64]: ...
     @property
     def stats(self) -> dict[str, Any]: ...
@@ -102,7 +102,7 @@ def convert(
     texel_size: float | None = None,
     max_error: float | None = None,
     max_error_rel: float | None = None,
-    error_scope: ErrorScope | None = None,
+    error_scope: _ErrorScope | None = None,
     charts: int | None = None,
     chart_error: float | None = None,
     max_charts: int | None = None,
@@ -110,8 +110,8 @@ def convert(
     lloyd_iterations: int | None = None,
     overlap_rings: int | None = None,
     dilation: int | None = None,
-    frame: InPlane | None = None,
-    normals: NormalSource | None = None,
+    frame: _InPlane | None = None,
+    normals: _NormalSource | None = None,
     height_bits: int | None = None,
     progress: Callable[[str, float], bool | None] | None = None,
 ) -> GeometryTextureSet: ...
@@ -184,8 +184,8 @@ class Renderer:
         obj: Any,
         camera: Camera,
         *,
-        quality: Quality | None = None,
-        method: Method | None = None,
+        quality: _Quality | None = None,
+        method: _Method | None = None,
         steps_per_texel: float | None = None,
         min_linear_steps: int | None = None,
         max_linear_steps: int | None = None,

@@ -70,8 +70,8 @@ def height_mosaic(gts: Any, size: int = 512, tiles: int = 36) -> Image.Image:
             g[filled] = 70 + 185 * (h[filled] - lo) / max(hi - lo, 1.0)
         tile = Image.fromarray(g[::-1].astype(np.uint8))  # v up
         scale = (cell - 4) / max(tile.size)
-        size = (max(1, int(tile.size[0] * scale)), max(1, int(tile.size[1] * scale)))
-        tile = tile.resize(size, Image.Resampling.NEAREST)
+        scaled = (max(1, int(tile.size[0] * scale)), max(1, int(tile.size[1] * scale)))
+        tile = tile.resize(scaled, Image.Resampling.NEAREST)
         out.paste(tile, ((k % grid) * cell + 2, (k // grid) * cell + 2))
     return out.convert("RGB")
 
@@ -124,10 +124,14 @@ def overview(gts: Any, size: int = 512, title: str | None = None) -> Image.Image
     return canvas
 
 
-def set_png(gts: Any) -> bytes:
-    """PNG bytes of `overview`, for Jupyter's _repr_png_."""
+# The three functions below become methods of the extension's classes (geomtex/__init__.py
+# attaches them), hence their first parameter's name.
+
+
+def set_png(self: Any) -> bytes:
+    """GeometryTextureSet._repr_png_: PNG bytes of `overview`, for Jupyter."""
     buf = io.BytesIO()
-    overview(gts, 384).save(buf, format="PNG")
+    overview(self, 384).save(buf, format="PNG")
     return buf.getvalue()
 
 
@@ -138,14 +142,16 @@ def frame_image(frame: Any) -> Image.Image:
     return Image.alpha_composite(white, Image.fromarray(rgba, "RGBA")).convert("RGB")
 
 
-def frame_png(frame: Any) -> bytes:
+def frame_png(self: Any) -> bytes:
+    """Frame._repr_png_: the color image over white as PNG bytes, for Jupyter."""
     buf = io.BytesIO()
-    frame_image(frame).save(buf, format="PNG")
+    frame_image(self).save(buf, format="PNG")
     return buf.getvalue()
 
 
-def save_frame(frame: Any, path: Any) -> None:
-    """Writes the frame's color as a PNG via a temporary file and a rename (no half file)."""
+def save_frame(self: Any, path: Any) -> None:
+    """Frame.save: writes the color image as a PNG via a temporary file and a rename (no half
+    file is ever left behind)."""
     import os
     import tempfile
 
@@ -154,7 +160,7 @@ def save_frame(frame: Any, path: Any) -> None:
     fd, tmp = tempfile.mkstemp(suffix=".png", dir=folder)
     try:
         with os.fdopen(fd, "wb") as f:
-            f.write(frame_png(frame))
+            f.write(frame_png(self))
         os.replace(tmp, target)
     except BaseException:
         os.unlink(tmp)

@@ -9,8 +9,16 @@ use pyo3::prelude::*;
 use super::errors::parameter_error;
 use crate::error::GeomtexError;
 
+/// Two arrays returned together, as a Python tuple.
+pub type ArrayPair<'py, A, B> = PyResult<(Bound<'py, A>, Bound<'py, B>)>;
+
 /// (rows, columns) array over a flat row-major vector.
-pub fn matrix<T: Element>(py: Python<'_>, flat: Vec<T>, rows: usize, cols: usize) -> Bound<'_, PyArray2<T>> {
+pub fn matrix<T: Element>(
+    py: Python<'_>,
+    flat: Vec<T>,
+    rows: usize,
+    cols: usize,
+) -> Bound<'_, PyArray2<T>> {
     Array2::from_shape_vec((rows, cols), flat)
         .expect("the core's vector has rows x cols elements")
         .into_pyarray(py)
@@ -32,12 +40,21 @@ pub fn rows<'py, T: Element + Copy, const K: usize>(
     py: Python<'py>,
     items: &[[T; K]],
 ) -> Bound<'py, PyArray2<T>> {
-    matrix(py, items.iter().flatten().copied().collect(), items.len(), K)
+    matrix(
+        py,
+        items.iter().flatten().copied().collect(),
+        items.len(),
+        K,
+    )
 }
 
 /// A C-ordered copy of a 2D array's elements.
 pub fn flat<T: Element + Clone>(a: &PyReadonlyArray2<'_, T>) -> Vec<T> {
-    a.as_array().as_standard_layout().into_owned().into_raw_vec_and_offset().0
+    a.as_array()
+        .as_standard_layout()
+        .into_owned()
+        .into_raw_vec_and_offset()
+        .0
 }
 
 /// Checks that `a` has `cols` columns; `what` names it in the error, raised as `kind`.
@@ -50,7 +67,11 @@ pub fn expect_columns<T: Element>(
     if a.shape()[1] == cols {
         return Ok(());
     }
-    Err(kind(format!("{what} must have shape (N, {cols}); got {:?}", a.shape())).into())
+    Err(kind(format!(
+        "{what} must have shape (N, {cols}); got {:?}",
+        a.shape()
+    ))
+    .into())
 }
 
 /// A 4x4 matrix from numpy (row-major: column c is a[.., c]); identity when absent.

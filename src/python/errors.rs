@@ -41,8 +41,16 @@ const SUBCLASSES: [(&CStr, &CStr, Builtin); 7] = [
         c"A file is not a .gtex (or mesh) file, is truncated, corrupt, or of an unknown version.",
         Builtin::Value,
     ),
-    (c"geomtex.FileError", c"A file could not be read or written.", Builtin::OS),
-    (c"geomtex.CancelledError", c"The progress callback returned False.", Builtin::None),
+    (
+        c"geomtex.FileError",
+        c"A file could not be read or written.",
+        Builtin::OS,
+    ),
+    (
+        c"geomtex.CancelledError",
+        c"The progress callback returned False.",
+        Builtin::None,
+    ),
     (
         c"geomtex.DeviceError",
         c"No usable GPU adapter, or the GPU refused a resource.",

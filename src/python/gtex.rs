@@ -7,18 +7,20 @@ use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 
 use glam::{DVec2, DVec3};
-use numpy::{PyArray1, PyArray2, PyArray3, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods};
+use numpy::{
+    PyArray1, PyArray2, PyArray3, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods,
+};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use super::arrays::{expect_columns, flat, image, mat4_to_numpy, matrix, rows};
+use super::arrays::{expect_columns, flat, image, mat4_to_numpy, matrix, rows, ArrayPair};
 use super::errors::{heavy, parameter_error};
 use super::mesh::PyMesh;
 use crate::convert::{ConvertArgs, ConvertOptions};
 use crate::error::GeomtexError;
 use crate::filters::MapFilter;
-use crate::gtex::{GeometryTextureSet, Patch, StatValue};
 use crate::grids::HeightGrid;
+use crate::gtex::{GeometryTextureSet, Patch, StatValue};
 
 /// Height-map patches in oriented boxes, converted from a mesh or loaded from a .gtex file.
 #[pyclass(name = "GeometryTextureSet", module = "geomtex._core", frozen)]
@@ -134,10 +136,7 @@ impl PyGeometryTextureSet {
 
     /// Every non-empty texel as a world point: ((N, 3) float64 points, (N, 3) float32 unit
     /// normals).
-    fn to_points<'py>(
-        &self,
-        py: Python<'py>,
-    ) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f32>>)> {
+    fn to_points<'py>(&self, py: Python<'py>) -> ArrayPair<'py, PyArray2<f64>, PyArray2<f32>> {
         let inner = self.inner.clone();
         let (p, n) = heavy(py, "collecting texel points", move || Ok(inner.to_points()))?;
         let k = p.len();
@@ -155,7 +154,7 @@ impl PyGeometryTextureSet {
         py: Python<'py>,
         origins: PyReadonlyArray2<'py, f64>,
         directions: PyReadonlyArray2<'py, f64>,
-    ) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<i32>>)> {
+    ) -> ArrayPair<'py, PyArray1<f64>, PyArray1<i32>> {
         expect_columns(&origins, 3, "origins", GeomtexError::Parameter)?;
         if directions.shape() != origins.shape() {
             return Err(parameter_error(format!(
@@ -164,9 +163,8 @@ impl PyGeometryTextureSet {
                 directions.shape()
             )));
         }
-        let to_points = |a: Vec<f64>| -> Vec<DVec3> {
-            a.chunks_exact(3).map(DVec3::from_slice).collect()
-        };
+        let to_points =
+            |a: Vec<f64>| -> Vec<DVec3> { a.chunks_exact(3).map(DVec3::from_slice).collect() };
         let rays: Vec<(DVec3, DVec3)> = to_points(flat(&origins))
             .into_iter()
             .zip(to_points(flat(&directions)))
@@ -188,10 +186,18 @@ impl PyGeometryTextureSet {
     /// A copy with every height map filtered: "gaussian" (low-pass) or "high_pass" (unsharp
     /// masking, h + gain (h - gaussian h)); `sigma` in world units; normals rebuilt.
     #[pyo3(signature = (kind, sigma, *, gain = None))]
-    fn filtered(&self, py: Python<'_>, kind: &str, sigma: f64, gain: Option<f64>) -> PyResult<Self> {
+    fn filtered(
+        &self,
+        py: Python<'_>,
+        kind: &str,
+        sigma: f64,
+        gain: Option<f64>,
+    ) -> PyResult<Self> {
         let filter = MapFilter::from_name(kind, gain)?;
         let inner = self.inner.clone();
-        let set = heavy(py, "filtering", move || crate::filters::filtered(&inner, filter, sigma))?;
+        let set = heavy(py, "filtering", move || {
+            crate::filters::filtered(&inner, filter, sigma)
+        })?;
         Ok(Self::wrap(set))
     }
 
@@ -203,7 +209,9 @@ impl PyGeometryTextureSet {
         mesh: &Bound<'py, PyMesh>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
         let (inner, m) = (self.inner.clone(), mesh.get().inner.clone());
-        let gaps = heavy(py, "measuring seam gaps", move || crate::filters::seam_gaps(&inner, &m))?;
+        let gaps = heavy(py, "measuring seam gaps", move || {
+            crate::filters::seam_gaps(&inner, &m)
+        })?;
         Ok(PyArray1::from_vec(py, gaps))
     }
 
@@ -253,8 +261,16 @@ fn height_grid((z, (x0, y0, dx, dy), colors): &PreparedGrid<'_>) -> HeightGrid {
         spacing: DVec2::new(*dx, *dy),
         z: flat(z),
         colors: colors.as_ref().map(|c| {
-            let bytes = c.as_array().as_standard_layout().into_owned().into_raw_vec_and_offset().0;
-            bytes.chunks_exact(4).map(|q| [q[0], q[1], q[2], q[3]]).collect()
+            let bytes = c
+                .as_array()
+                .as_standard_layout()
+                .into_owned()
+                .into_raw_vec_and_offset()
+                .0;
+            bytes
+                .chunks_exact(4)
+                .map(|q| [q[0], q[1], q[2], q[3]])
+                .collect()
         }),
     }
 }
@@ -338,7 +354,11 @@ fn convert_reporting(
             }
         })
     };
-    let result = heavy(py, "converting", || crate::convert::convert(&mesh, options, &report));
-    let raised = callback_error.into_inner().unwrap_or_else(|p| p.into_inner());
+    let result = heavy(py, "converting", || {
+        crate::convert::convert(&mesh, options, &report)
+    });
+    let raised = callback_error
+        .into_inner()
+        .unwrap_or_else(|p| p.into_inner());
     result.map_err(|e| raised.unwrap_or(e))
 }

@@ -31,8 +31,14 @@ impl PyMesh {
         if let Some(c) = &vertex_colors {
             expect_columns(c, 4, "vertex_colors", GeomtexError::Mesh)?;
         }
-        let (v, f, c) = (flat(&vertices), flat(&faces), vertex_colors.as_ref().map(flat));
-        let mesh = heavy(py, "validating the mesh", || Mesh::from_flat(&v, &f, c.as_deref()))?;
+        let (v, f, c) = (
+            flat(&vertices),
+            flat(&faces),
+            vertex_colors.as_ref().map(flat),
+        );
+        let mesh = heavy(py, "validating the mesh", || {
+            Mesh::from_flat(&v, &f, c.as_deref())
+        })?;
         Ok(PyMesh {
             inner: Arc::new(mesh),
         })
@@ -81,7 +87,11 @@ impl PyMesh {
     }
 
     fn __repr__(&self) -> String {
-        let colored = if self.inner.colors.is_some() { ", colored" } else { "" };
+        let colored = if self.inner.colors.is_some() {
+            ", colored"
+        } else {
+            ""
+        };
         format!(
             "<geomtex.Mesh {} vertices, {} faces{colored}>",
             self.inner.positions.len(),

@@ -9,7 +9,7 @@ use numpy::{PyArray2, PyArray3, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use super::arrays::{image, mat4_from_numpy, mat4_to_numpy, matrix};
+use super::arrays::{image, mat4_from_numpy, mat4_to_numpy, matrix, ArrayPair};
 use super::errors::{heavy, parameter_error};
 use super::gtex::{set_stats, PyGeometryTextureSet};
 use super::mesh::PyMesh;
@@ -59,7 +59,10 @@ impl PyCamera {
         near: Option<f64>,
     ) -> PyResult<Self> {
         if K.shape() != [3, 3] {
-            return Err(parameter_error(format!("K must be 3x3, got shape {:?}", K.shape())));
+            return Err(parameter_error(format!(
+                "K must be 3x3, got shape {:?}",
+                K.shape()
+            )));
         }
         let k = K.as_array();
         let k: [[f64; 3]; 3] = std::array::from_fn(|r| std::array::from_fn(|c| k[[r, c]]));
@@ -104,10 +107,11 @@ impl PyCamera {
         py: Python<'py>,
         width: u32,
         height: u32,
-    ) -> PyResult<(Bound<'py, PyArray3<f64>>, Bound<'py, PyArray3<f64>>)> {
+    ) -> ArrayPair<'py, PyArray3<f64>, PyArray3<f64>> {
         let camera = self.inner;
-        let (origins, directions) =
-            heavy(py, "computing camera rays", move || camera.pixel_rays(width, height))?;
+        let (origins, directions) = heavy(py, "computing camera rays", move || {
+            camera.pixel_rays(width, height)
+        })?;
         let shape = (height as usize, width as usize, 3);
         Ok((
             image(py, origins.into_flattened(), shape),
@@ -123,7 +127,11 @@ impl PyCamera {
     }
 
     fn __repr__(&self) -> String {
-        format!("<geomtex.Camera {} at {:?}>", self.kind(), self.inner.eye().to_array())
+        format!(
+            "<geomtex.Camera {} at {:?}>",
+            self.kind(),
+            self.inner.eye().to_array()
+        )
     }
 }
 
@@ -168,7 +176,9 @@ impl PyScene {
         world_from_object: Option<PyReadonlyArray2<'_, f64>>,
     ) -> PyResult<usize> {
         let world_from_object = mat4_from_numpy(world_from_object, "world_from_object")?;
-        self.inner.objects.push(scene_object(obj, world_from_object)?);
+        self.inner
+            .objects
+            .push(scene_object(obj, world_from_object)?);
         Ok(self.inner.objects.len() - 1)
     }
 
@@ -178,8 +188,14 @@ impl PyScene {
 
     fn __repr__(&self) -> String {
         let objects = &self.inner.objects;
-        let sets = objects.iter().filter(|o| matches!(o.object, Object::Textures(_))).count();
-        format!("<geomtex.Scene {sets} texture sets, {} meshes>", objects.len() - sets)
+        let sets = objects
+            .iter()
+            .filter(|o| matches!(o.object, Object::Textures(_)))
+            .count();
+        format!(
+            "<geomtex.Scene {sets} texture sets, {} meshes>",
+            objects.len() - sets
+        )
     }
 }
 
@@ -196,7 +212,9 @@ impl PyRenderer {
     /// The renderer, even if an earlier call panicked while holding it (its state is rebuilt per
     /// frame, so a poisoned lock holds nothing half-written that a later frame reads).
     fn renderer(&self) -> MutexGuard<'_, Renderer> {
-        self.inner.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+        self.inner
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner())
     }
 }
 
@@ -205,7 +223,9 @@ impl PyRenderer {
     #[new]
     fn new(py: Python<'_>, width: i64, height: i64) -> PyResult<Self> {
         let (Ok(w), Ok(h)) = (u32::try_from(width), u32::try_from(height)) else {
-            return Err(parameter_error(format!("image size {width}x{height} must be positive")));
+            return Err(parameter_error(format!(
+                "image size {width}x{height} must be positive"
+            )));
         };
         let renderer = heavy(py, "creating the renderer", move || Renderer::new(w, h))?;
         Ok(PyRenderer {
@@ -291,7 +311,10 @@ impl PyRenderer {
 
     fn __repr__(&self) -> String {
         let name = self.renderer().info()[0].1.clone();
-        format!("<geomtex.Renderer {}x{} on {name}>", self.width, self.height)
+        format!(
+            "<geomtex.Renderer {}x{} on {name}>",
+            self.width, self.height
+        )
     }
 }
 
