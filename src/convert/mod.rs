@@ -360,6 +360,11 @@ mod tests {
             seen.iter().all(|&n| n == 1),
             "every face in exactly one chart"
         );
+        let face_patch = set.face_patch();
+        assert_eq!(face_patch.len(), mesh.faces.len());
+        for (k, p) in set.patches.iter().enumerate() {
+            assert!(p.faces.iter().all(|&f| face_patch[f as usize] == k as i32));
+        }
         // Texel points lie on the facets (inside the unit ball, outside the facets' inscribed
         // sphere), except where conservative coverage extrapolates a facet's plane by at most half
         // a texel diagonal: so 1 - sag <= r <= 1 + 0.71 texel.
