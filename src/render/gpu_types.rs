@@ -13,6 +13,13 @@ use glam::{DMat3, DMat4};
 use super::camera::Lens;
 use super::search::{Method, SearchOptions};
 
+// Formats of the shared render targets (targets.rs), which every pipeline writes; here so that
+// pipelines.rs and targets.rs need not import each other.
+pub(crate) const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+pub(crate) const NORMAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+pub(crate) const ID_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Sint;
+pub(crate) const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
 /// `Camera` in camera_types.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]

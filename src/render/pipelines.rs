@@ -4,8 +4,8 @@
 //!
 //! Spaces: none of their own; see the shaders each pipeline runs.
 
+use super::gpu_types::{COLOR_FORMAT, DEPTH_FORMAT, ID_FORMAT, NORMAL_FORMAT};
 use super::shaders;
-use super::targets::{COLOR_FORMAT, DEPTH_FORMAT, ID_FORMAT, NORMAL_FORMAT};
 
 /// The stages that see the per-frame and per-object records of a raster pass.
 pub(crate) const VERTEX_AND_FRAGMENT: wgpu::ShaderStages =

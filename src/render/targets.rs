@@ -7,12 +7,8 @@
 use crate::error::{GeomtexError, Result};
 
 use super::device::Gpu;
+use super::gpu_types::{COLOR_FORMAT, DEPTH_FORMAT, ID_FORMAT, NORMAL_FORMAT};
 use super::pipelines::DepthCopy;
-
-pub(crate) const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
-pub(crate) const NORMAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
-pub(crate) const ID_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Sint;
-pub(crate) const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
 /// Bytes per row of a texture copy, padded as wgpu requires.
 fn padded_row(bytes_per_pixel: u32, width: u32) -> u32 {
