@@ -4,7 +4,8 @@ A frame is compared with trimesh's ray casting of the original mesh (``reference
 ``reference.agreement``): coverage IoU, |Δdepth| / bounding-box diagonal (median and p99, raw or
 with a one-pixel tolerance at silhouettes), median normal angle, NaN pixels. Each test states its
 bounds as a ``RenderBounds`` with the measured value written beside each bound (at most ~3× above
-it, so a regression fails); ``check`` asserts them all and says which failed.
+it, so a regression fails; the renderer issue's floor — IoU >= 0.99, median <= 0.1% and p99 <=
+1% of the diagonal — is far looser); ``check`` asserts them all and says which failed.
 
 With ``GEOMTEX_RECORD_BOUNDS=path.json`` every checked measurement is written to that file at the
 end of the session (test id, bounds, figures), which is how the bounds here were measured.
@@ -66,8 +67,3 @@ def write_recorded() -> None:
     if path and _RECORDED:
         with open(path, "w") as f:
             json.dump(_RECORDED, f, indent=1)
-
-
-# The renderer issue's bounds, the floor every render test starts from: IoU >= 0.99, median
-# |Δdepth| <= 0.1% and p99 <= 1% of the diagonal, median normal error <= 3°, no NaN.
-RENDERER = RenderBounds(iou=0.99, depth_median=1e-3, depth_p99=1e-2)
