@@ -40,7 +40,8 @@ def pymeshlab_bunny_path() -> Path:
 
 
 class Converted:
-    def __init__(self, mesh: gt.Mesh, gts: gt.GeometryTextureSet) -> None:
+    def __init__(self, name: str, mesh: gt.Mesh, gts: gt.GeometryTextureSet) -> None:
+        self.name = name
         self.mesh = mesh
         self.gts = gts
         self.points, self.normals = gts.to_points()
@@ -58,7 +59,7 @@ def converted(name: str) -> Converted:
             mesh = gt.load_mesh(pymeshlab_bunny_path())
         else:
             mesh = gt.load_mesh(shared_mesh_path(name))
-        _cache[name] = Converted(mesh, gt.convert(mesh))
+        _cache[name] = Converted(name, mesh, gt.convert(mesh))
     return _cache[name]
 
 

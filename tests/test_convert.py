@@ -12,9 +12,24 @@ from geomtex import reference
 
 from conftest import GENERATED, SHARED_NAMES, Converted, converted
 
-# Tolerances, as fractions of the bounding-box diagonal.
-POINTS_RMS_REL = 5e-4  # texel points → mesh (issue 2: 0.05%)
-COVERAGE_P99_REL = 2e-3  # mesh → nearest texel point, 99th percentile (issue 2: 0.2%)
+# Bounds per mesh, as fractions of the bounding-box diagonal: texel points → mesh (RMS) and mesh →
+# nearest texel point (99th percentile), at most ~3x the measured figure written beside them and
+# never above the conversion issue's targets (0.05% and 0.2%). Fandisk's RMS is set by the flat
+# lips at its creases, the single triangle's by its rim; coverage is ~0.7 texel everywhere.
+DISTANCE_BOUNDS = {  # name: (rms, p99)
+    "stanford-bunny": (1.6e-5, 1.0e-3),  # 6.3e-6, 4.1e-4
+    "pymeshlab-bunny": (9e-6, 1.0e-3),  # 3.5e-6, 4.0e-4
+    "fandisk": (2e-4, 2e-3),  # 8.0e-5, 1.8e-3
+    "rocker-arm": (1.9e-5, 1.3e-3),  # 7.6e-6, 5.2e-4
+    "spot": (8e-6, 1.3e-3),  # 3.3e-6, 5.2e-4
+    "homer": (1.9e-5, 1.5e-3),  # 7.5e-6, 5.8e-4
+    "teapot": (6e-5, 1.8e-3),  # 2.3e-5, 7.3e-4
+    "fractal_terrain": (7.5e-6, 5.5e-4),  # 3.0e-6, 2.2e-4
+    "open_sheet": (1.1e-6, 2e-3),  # 4.4e-7, 1.8e-3
+    "single_triangle": (2.9e-4, 2e-3),  # 1.1e-4, 1.9e-3
+    "sphere": (6e-7, 2e-3),  # 2.2e-7, 8.2e-4
+    "torus": (4e-7, 1.5e-3),  # 1.5e-7, 5.9e-4
+}
 
 
 def face_normals(mesh: gt.Mesh) -> tuple[np.ndarray, np.ndarray]:
@@ -49,8 +64,9 @@ def check_distances(c: Converted, n_points: int = 5000, n_samples: int = 50_000)
     rms = float(np.sqrt(np.mean(d**2)) / diag)
     cover = reference.mesh_to_points(c.mesh, c.points, samples=n_samples)
     p99 = float(np.percentile(cover, 99) / diag)
-    assert rms <= POINTS_RMS_REL, f"texel points lie {rms:.2e} (RMS, of the diagonal) off the mesh"
-    assert p99 <= COVERAGE_P99_REL, f"mesh covered only to {p99:.2e} of the diagonal (p99)"
+    rms_bound, p99_bound = DISTANCE_BOUNDS[c.name]
+    assert rms <= rms_bound, f"{c.name}: texel points lie {rms:.2e} (RMS, of the diagonal) off the mesh"
+    assert p99 <= p99_bound, f"{c.name}: mesh covered only to {p99:.2e} of the diagonal (p99)"
     return rms, p99
 
 
