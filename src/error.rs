@@ -34,6 +34,23 @@ pub enum GeomtexError {
 
 pub type Result<T> = std::result::Result<T, GeomtexError>;
 
+/// The value `s` names among `choices` (name, value), or a Parameter error naming `keyword` and
+/// every choice ("quality must be 'fast', 'balanced' or 'exact', got \"best\"").
+pub fn parse_choice<T: Copy>(keyword: &str, s: &str, choices: &[(&str, T)]) -> Result<T> {
+    if let Some(&(_, value)) = choices.iter().find(|(name, _)| *name == s) {
+        return Ok(value);
+    }
+    let names: Vec<String> = choices.iter().map(|(n, _)| format!("'{n}'")).collect();
+    let listed = match names.split_last() {
+        Some((last, [])) => last.clone(),
+        Some((last, rest)) => format!("{} or {last}", rest.join(", ")),
+        None => String::new(),
+    };
+    Err(GeomtexError::Parameter(format!(
+        "{keyword} must be {listed}, got {s:?}"
+    )))
+}
+
 impl GeomtexError {
     pub fn io(context: impl Into<String>, source: std::io::Error) -> Self {
         GeomtexError::Io {

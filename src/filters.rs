@@ -14,7 +14,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::error::{GeomtexError, Result};
+use crate::error::{parse_choice, GeomtexError, Result};
 use crate::gtex::{
     decode_snorm8, encode_height, encode_snorm8, vertical_extent, GeometryTextureSet, Patch,
 };
@@ -36,15 +36,14 @@ impl MapFilter {
     /// The filter named `kind` ("gaussian" | "high_pass"); `gain` (default `DEFAULT_GAIN`) is
     /// the high-pass filter's and is checked when the filter runs.
     pub fn from_name(kind: &str, gain: Option<f64>) -> Result<MapFilter> {
-        match kind {
-            "gaussian" => Ok(MapFilter::Gaussian),
-            "high_pass" => Ok(MapFilter::HighPass {
+        let high_pass = parse_choice("kind", kind, &[("gaussian", false), ("high_pass", true)])?;
+        Ok(if high_pass {
+            MapFilter::HighPass {
                 gain: gain.unwrap_or(DEFAULT_GAIN),
-            }),
-            other => Err(GeomtexError::Parameter(format!(
-                "kind must be 'gaussian' or 'high_pass', got {other:?}"
-            ))),
-        }
+            }
+        } else {
+            MapFilter::Gaussian
+        })
     }
 }
 

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import json
 import os
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass
 from typing import Any
 
 _RECORDED: list[dict[str, Any]] = []
@@ -45,9 +45,6 @@ class RenderBounds:
                 out.append(f"{name} = {value:.4g} {'<' if name == 'iou' else '>'} {bound:.4g}")
         return out
 
-    def holds(self, m: dict[str, Any]) -> bool:
-        return not self.violations(m)
-
     def check(self, m: dict[str, Any], *context: Any) -> None:
         """Asserts every bound; the message names the failed ones, the context and all figures."""
         _RECORDED.append({"test": os.environ.get("PYTEST_CURRENT_TEST", "?").split(" ")[0],
@@ -55,10 +52,6 @@ class RenderBounds:
                           "measured": {k: float(v) for k, v in m.items() if isinstance(v, (int, float))}})
         bad = self.violations(m)
         assert not bad, f"{context}: {'; '.join(bad)}; measured {m}"
-
-    def but(self, **changes: Any) -> RenderBounds:
-        """These bounds with some changed."""
-        return replace(self, **changes)
 
 
 def write_recorded() -> None:

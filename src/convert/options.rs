@@ -6,7 +6,7 @@
 
 use std::str::FromStr;
 
-use crate::error::{GeomtexError, Result};
+use crate::error::{parse_choice, GeomtexError, Result};
 
 /// Whose reconstruction error `max_error` bounds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -211,18 +211,6 @@ impl ConvertOptions {
         }
         Ok(())
     }
-}
-
-/// The string that names one of `choices` (name, value), or a Parameter error naming them all.
-fn parse_choice<T: Copy>(keyword: &str, s: &str, choices: &[(&str, T)]) -> Result<T> {
-    if let Some(&(_, value)) = choices.iter().find(|(name, _)| *name == s) {
-        return Ok(value);
-    }
-    let names: Vec<String> = choices.iter().map(|(n, _)| format!("'{n}'")).collect();
-    parameter(format!(
-        "{keyword} must be {}, got {s:?}",
-        names.join(" or ")
-    ))
 }
 
 impl FromStr for ErrorScope {

@@ -2,8 +2,11 @@
 //! again (`into_pyarray` takes ownership of the buffer), and 4x4 matrices in numpy's row order.
 
 use glam::DMat4;
-use numpy::ndarray::{Array2, Array3};
-use numpy::{Element, IntoPyArray, PyArray2, PyArray3, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::ndarray::{Array2, Array3, Dimension};
+use numpy::{
+    Element, IntoPyArray, PyArray2, PyArray3, PyReadonlyArray, PyReadonlyArray2,
+    PyUntypedArrayMethods,
+};
 use pyo3::prelude::*;
 
 use super::errors::parameter_error;
@@ -48,8 +51,8 @@ pub fn rows<'py, T: Element + Copy, const K: usize>(
     )
 }
 
-/// A C-ordered copy of a 2D array's elements.
-pub fn flat<T: Element + Clone>(a: &PyReadonlyArray2<'_, T>) -> Vec<T> {
+/// A C-ordered copy of an array's elements.
+pub fn flat<T: Element + Clone, D: Dimension>(a: &PyReadonlyArray<'_, T, D>) -> Vec<T> {
     a.as_array()
         .as_standard_layout()
         .into_owned()

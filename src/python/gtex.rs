@@ -261,12 +261,7 @@ fn height_grid((z, (x0, y0, dx, dy), colors): &PreparedGrid<'_>) -> HeightGrid {
         spacing: DVec2::new(*dx, *dy),
         z: flat(z),
         colors: colors.as_ref().map(|c| {
-            let bytes = c
-                .as_array()
-                .as_standard_layout()
-                .into_owned()
-                .into_raw_vec_and_offset()
-                .0;
+            let bytes = flat(c);
             bytes
                 .chunks_exact(4)
                 .map(|q| [q[0], q[1], q[2], q[3]])

@@ -5,7 +5,7 @@
 
 use wgpu::util::DeviceExt;
 
-use super::device::Gpu;
+use super::device::{texture_2d, Gpu};
 use crate::error::{GeomtexError, Result};
 use crate::gtex::GeometryTextureSet;
 
@@ -98,18 +98,8 @@ fn map_textures(device: &wgpu::Device, side: u32, layers: u32, narrow: bool) -> 
         height: side,
         depth_or_array_layers: layers,
     };
-    let make = |label, format| {
-        device.create_texture(&wgpu::TextureDescriptor {
-            label: Some(label),
-            size,
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-            view_formats: &[],
-        })
-    };
+    let usage = wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST;
+    let make = |label, format| texture_2d(device, label, size, format, usage);
     let height_format = if narrow {
         wgpu::TextureFormat::R8Uint
     } else {

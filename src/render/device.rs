@@ -129,3 +129,23 @@ pub(crate) fn guarded<T>(device: &wgpu::Device, work: impl FnOnce() -> Result<T>
         (None, None) => result,
     }
 }
+
+/// A 2D (array) texture with one mip level and one sample, the only kind the renderer makes.
+pub(crate) fn texture_2d(
+    device: &wgpu::Device,
+    label: &str,
+    size: wgpu::Extent3d,
+    format: wgpu::TextureFormat,
+    usage: wgpu::TextureUsages,
+) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size,
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage,
+        view_formats: &[],
+    })
+}

@@ -5,7 +5,7 @@
 
 use std::str::FromStr;
 
-use crate::error::{GeomtexError, Result};
+use crate::error::{parse_choice, GeomtexError, Result};
 
 /// How a ray finds its first hit in a height map.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -30,13 +30,11 @@ impl FromStr for Method {
     type Err = GeomtexError;
 
     fn from_str(s: &str) -> Result<Method> {
-        match s {
-            "linear_binary" => Ok(Method::LinearBinary),
-            "maxmip" => Ok(Method::MaxMip),
-            other => Err(GeomtexError::Parameter(format!(
-                "method must be 'linear_binary' or 'maxmip', got {other:?}"
-            ))),
-        }
+        let choices = [
+            ("linear_binary", Method::LinearBinary),
+            ("maxmip", Method::MaxMip),
+        ];
+        parse_choice("method", s, &choices)
     }
 }
 
@@ -53,14 +51,12 @@ impl FromStr for Quality {
     type Err = GeomtexError;
 
     fn from_str(s: &str) -> Result<Quality> {
-        match s {
-            "fast" => Ok(Quality::Fast),
-            "balanced" => Ok(Quality::Balanced),
-            "exact" => Ok(Quality::Exact),
-            other => Err(GeomtexError::Parameter(format!(
-                "quality must be 'fast', 'balanced' or 'exact', got {other:?}"
-            ))),
-        }
+        let choices = [
+            ("fast", Quality::Fast),
+            ("balanced", Quality::Balanced),
+            ("exact", Quality::Exact),
+        ];
+        parse_choice("quality", s, &choices)
     }
 }
 

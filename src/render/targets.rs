@@ -6,7 +6,7 @@
 
 use crate::error::{GeomtexError, Result};
 
-use super::device::Gpu;
+use super::device::{texture_2d, Gpu};
 use super::gpu_types::{COLOR_FORMAT, DEPTH_FORMAT, ID_FORMAT, NORMAL_FORMAT};
 use super::pipelines::DepthCopy;
 
@@ -54,16 +54,13 @@ fn render_texture(
     format: wgpu::TextureFormat,
     usage: wgpu::TextureUsages,
 ) -> wgpu::Texture {
-    device.create_texture(&wgpu::TextureDescriptor {
-        label: Some(label),
+    texture_2d(
+        device,
+        label,
         size,
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
         format,
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | usage,
-        view_formats: &[],
-    })
+        wgpu::TextureUsages::RENDER_ATTACHMENT | usage,
+    )
 }
 
 fn map_buffer(device: &wgpu::Device, label: &str, size: u64) -> wgpu::Buffer {
