@@ -1,4 +1,4 @@
-// Per-pixel rays, reversed-Z depth and headlight shading, shared by every raster pass.
+// Per-pixel rays, reversed-Z depth and headlight shading, shared by every pass that draws into the frame.
 //
 // Spaces: view (camera-relative, OpenGL-style; see camera_types.wgsl) and framebuffer pixels
 // (centres at +0.5, row 0 at the top); `headlight` takes a world-space normal.
@@ -18,6 +18,17 @@ fn depth_from_distance(cam: Camera, z_distance: f32) -> f32 {
         return clamp((cam.params.z - z_distance) / (cam.params.z - cam.params.y), 0.0, 1.0);
     }
     return clamp(cam.params.y / max(z_distance, 1e-30), 0.0, 1.0);
+}
+
+// The inverse: the view distance of a depth value; a huge finite one for 0 (nothing drawn).
+fn distance_from_depth(cam: Camera, depth: f32) -> f32 {
+    if (depth <= 0.0) {
+        return 3.0e38;
+    }
+    if (cam.params.x > 0.5) {
+        return cam.params.z - depth * (cam.params.z - cam.params.y);
+    }
+    return cam.params.y / depth;
 }
 
 // Headlight: light comes from the eye, so shading needs no light setup.

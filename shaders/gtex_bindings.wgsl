@@ -1,4 +1,5 @@
-// Group 1 of the geometry-texture pass: one texture set's patches, atlases and max pyramids.
+// Group 1 of the geometry-texture passes (raster and tracer): one texture set's patches, atlases
+// and max pyramids; gtex_trace_bindings.wgsl adds what only the tracer needs.
 //
 // Spaces: patch records map view ↔ patch-local (see gtex_types.wgsl); the texture arrays are
 // addressed in atlas texels (layer, x, y).

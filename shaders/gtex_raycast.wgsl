@@ -1,10 +1,11 @@
-// Entry points of the geometry-texture pass: each patch's box is drawn (back faces, so a camera
-// inside a box still gets fragments) and the fragment shader casts the pixel's ray through the
-// patch's height map.
+// Entry points of the geometry-texture raster pass: each visible patch's box is drawn (back
+// faces, so a camera inside a box still gets fragments) and the fragment shader searches the
+// pixel's ray through the patch's height map, the whole box as one piece
+// (gtex_piece_functions.wgsl, shared with the tracer). Rasterizing whole boxes measured faster
+// on lavapipe than tracing camera rays through the hierarchy (see bench/README.md).
 //
-// Spaces: view (camera-relative, see camera_types.wgsl) and patch-local, where the box is the
-// unit cube, x/y are texture u/v and z is height. Ray parameters t are shared by both spaces
-// (the map between them is affine). The height-field search lives in heightfield_functions.wgsl.
+// Spaces: view (camera-relative, see camera_types.wgsl) and patch-local, where the patch's box is
+// the unit cube, x/y are texture u/v and z is height.
 
 struct VsOut {
     @builtin(position) position: vec4<f32>,
@@ -23,16 +24,8 @@ const CUBE = array<vec3<f32>, 36>(
 
 @vertex
 fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) instance: u32) -> VsOut {
-    let local = CUBE[vertex];
-    let view = patches[instance].view_from_patch * vec4<f32>(local, 1.0);
+    let view = patches[instance].view_from_patch * vec4<f32>(CUBE[vertex], 1.0);
     return VsOut(camera.clip_from_view * view, instance);
-}
-
-// 1 / d with rays parallel to an axis sent to a huge finite slope instead of dividing by zero.
-fn safe_inverse(d: vec3<f32>) -> vec3<f32> {
-    let tiny = 1e-30;
-    let s = select(vec3<f32>(-1.0), vec3<f32>(1.0), d >= vec3<f32>(0.0));
-    return 1.0 / select(d, s * tiny, abs(d) < vec3<f32>(tiny));
 }
 
 struct FsOut {
@@ -44,54 +37,25 @@ struct FsOut {
 
 @fragment
 fn fs_main(in: VsOut) -> FsOut {
-    let p = patches[in.patch_index];
+    // The whole box, searched from the pyramid's top level.
+    let piece = PatchBox(vec3<f32>(0.0), in.patch_index, vec3<f32>(1.0), 31u);
     let ray = camera_ray(camera, in.position.xy);
-    let o = (p.patch_from_view * vec4<f32>(ray.origin, 1.0)).xyz;
-    let d = (p.patch_from_view * vec4<f32>(ray.dir, 0.0)).xyz;
-
-    // Where the ray is inside the unit cube (and in front of the near plane).
-    let inv = safe_inverse(d);
-    let ta = (vec3<f32>(0.0) - o) * inv;
-    let tb = (vec3<f32>(1.0) - o) * inv;
-    let tmin3 = min(ta, tb);
-    let tmax3 = max(ta, tb);
-    let t_start = max(max(tmin3.x, tmin3.y), max(tmin3.z, camera.params.y));
-    let t_end = min(min(tmax3.x, tmax3.y), tmax3.z);
-    if (!(t_end > t_start)) {
-        discard;
-    }
-
-    // Search from the box entry: with the camera as origin, ray positions in texels would be
-    // differences of large f32 numbers (the camera may be thousands of texels away).
-    let entry = o + d * t_start;
-    var t_local: f32;
-    if (search.method.x == 1u) {
-        t_local = maxmip_hit(p, search, entry, d, 0.0, t_end - t_start);
-    } else {
-        t_local = linear_binary_hit(p, search, entry, d, 0.0, t_end - t_start);
-    }
-    let t_hit = select(-1.0, t_start + t_local, t_local >= 0.0);
+    let t_hit = piece_search(piece, ray.origin, ray.dir, camera.params.y, 3.0e38);
     if (COUNT_FETCHES) {
         atomicAdd(&counters[0], fetches);
+    }
+    if (searches > 0u) {
         atomicAdd(&counters[1], 1u);
     }
     if (t_hit < 0.0) {
         discard;
     }
-
-    let hit = o + d * t_hit;
-    let uv = clamp(hit.xy * p.size, vec2<f32>(0.5), p.size - 0.5);
-    let atlas_size = vec2<f32>(textureDimensions(normals));
-    let coord = (p.atlas_origin + uv) / atlas_size;
-    let n_local = textureSampleLevel(normals, linear_clamp, coord, p.ids.x, 0.0).xyz;
-    let base = textureSampleLevel(colors, linear_clamp, coord, p.ids.x, 0.0);
-    let n_world = normalize((p.world_normal_from_patch * vec4<f32>(n_local, 0.0)).xyz);
-
-    let hit_view = ray.origin + ray.dir * t_hit;
+    let surface = gtex_surface(piece.patch_index, ray.origin, ray.dir, t_hit);
     var out: FsOut;
-    out.color = vec4<f32>(headlight(camera, base.rgb, n_world, ray.dir), base.a);
-    out.normal = vec4<f32>(n_world, 0.0);
-    out.id = p.ids.y;
-    out.depth = depth_from_distance(camera, -hit_view.z);
+    out.color = vec4<f32>(headlight(camera, surface.color.rgb, surface.normal, ray.dir), surface.color.a);
+    out.normal = vec4<f32>(surface.normal, 0.0);
+    out.id = patches[piece.patch_index].ids.y;
+    // View distance along -Z equals t for both projections (camera_ray's directions have z = -1).
+    out.depth = depth_from_distance(camera, t_hit);
     return out;
 }

@@ -17,3 +17,13 @@ struct Patch {
     // height code (255 or 65535), w: level-of-detail stop level (0 = exact).
     pyramid_at: vec4<u32>,
 }
+
+// A piece of a patch's box (src/render/kinds/gtex/boxes.rs): the part over one node of the
+// patch's min-max pyramid, only as tall as the heights under it. Patch-local space.
+struct PatchBox {
+    lo: vec3<f32>,
+    patch_index: u32,
+    hi: vec3<f32>,
+    // The pyramid level of the node (where a search inside the piece starts).
+    level: u32,
+}

@@ -156,13 +156,15 @@ fn node_hit(p: Patch, o: vec3<f32>, d: vec3<f32>, node: vec2<f32>, scale: f32, t
     return select(-1.0, ta + s, s >= 0.0);
 }
 
-// Exact first hit by descending the min-max pyramid: a node is skipped whole when the ray over it
-// stays above its highest surface or below its lowest (no crossing is possible); a level-0 cell
-// is solved in closed form. Node values pack the max code (high 16 bits) and min code (low).
-fn maxmip_hit(p: Patch, search: Search, o: vec3<f32>, d: vec3<f32>, t_start: f32, t_end: f32) -> f32 {
+// Exact first hit by descending the min-max pyramid from level `top` (the ray's stretch lies in
+// one node of it): a node is skipped whole when the ray over it stays above its highest surface
+// or below its lowest (no crossing is possible); a level-0 cell is solved in closed form. Node
+// values pack the max code (high 16 bits) and min code (low).
+fn maxmip_hit(p: Patch, search: Search, o: vec3<f32>, d: vec3<f32>, t_start: f32, t_end: f32, top: i32) -> f32 {
     let levels = i32(p.pyramid_at.y);
-    // Level-of-detail stop level (0: exact, down to the bilinear cells).
-    var stop = i32(p.pyramid_at.w);
+    // Level-of-detail stop level (0: exact, down to the bilinear cells), never above `top`: a
+    // coarser node's surface could leave the piece being searched.
+    var stop = min(i32(p.pyramid_at.w), top);
     // Offsets and row lengths of each level (level 0 is (W + 1) x (H + 1)).
     var offset: array<u32, 16>;
     var dims: array<vec2<u32>, 16>;
@@ -177,7 +179,7 @@ fn maxmip_hit(p: Patch, search: Search, o: vec3<f32>, d: vec3<f32>, t_start: f32
     let g0 = vec2<f32>(o.x * p.size.x + 0.5, o.y * p.size.y + 0.5);
     let dg = d.xy * p.size;
     let along = select(vec2<f32>(0.0), normalize(dg), dot(dg, dg) > 0.0);
-    var level = levels - 1;
+    var level = min(top, levels - 1);
     var t = t_start;
     for (var step = 0u; step < search.method.y; step += 1u) {
         if (t >= t_end) {

@@ -17,7 +17,7 @@ import numpy as np
 # machines; geomtex picks its adapter itself, so the layer is not needed.
 os.environ.setdefault("NODEVICE_SELECT", "1")
 
-from . import _core, _grids, _preview  # noqa: E402
+from . import _core, _grids, _preview, _rays  # noqa: E402
 from ._core import Camera, Frame, GeometryTextureSet, __version__  # noqa: E402
 from ._errors import (  # noqa: E402
     CancelledError,
@@ -30,6 +30,7 @@ from ._errors import (  # noqa: E402
     ParameterError,
 )
 from ._mesh import Mesh, as_mesh, load_mesh  # noqa: E402
+from ._rays import RayHits  # noqa: E402
 from ._render import Renderer, Scene  # noqa: E402
 
 __all__ = [
@@ -45,6 +46,7 @@ __all__ = [
     "Mesh",
     "MeshError",
     "ParameterError",
+    "RayHits",
     "Renderer",
     "Scene",
     "__version__",
@@ -57,6 +59,8 @@ __all__ = [
 # Methods written in Python (pictures, files, grid preparation), attached to the extension's
 # classes here so that the extension never imports this package.
 for _cls, _name, _method in [
+    *[(_cls, _query.__name__, _query) for _cls in (GeometryTextureSet, _core.Scene)
+      for _query in (_rays.intersects_first, _rays.intersects_location, _rays.intersects_any)],
     (GeometryTextureSet, "_repr_png_", _preview.set_png),
     (GeometryTextureSet, "from_heightmaps", staticmethod(_grids.from_heightmaps)),
     (Frame, "_repr_png_", _preview.frame_png),

@@ -94,6 +94,17 @@ class GeometryTextureSet:
     ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int32]]: ...
     def save(self, path: str | os.PathLike[str]) -> None: ...
     def _repr_png_(self) -> bytes: ...
+    def intersects_first(
+        self, origins: npt.ArrayLike, directions: npt.ArrayLike, *, quality: _Quality | None = None,
+        method: _Method | None = None,
+    ) -> Any: ...
+    def intersects_location(
+        self, ray_origins: npt.ArrayLike, ray_directions: npt.ArrayLike, multiple_hits: bool = False,
+        **options: Any,
+    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.int32]]: ...
+    def intersects_any(
+        self, ray_origins: npt.ArrayLike, ray_directions: npt.ArrayLike, **options: Any
+    ) -> npt.NDArray[np.bool_]: ...
 
 def convert(
     mesh: Mesh,
@@ -154,6 +165,17 @@ class Scene:
     def __new__(cls) -> Scene: ...
     def add(self, obj: Any, world_from_object: npt.NDArray[np.float64] | None = None) -> int: ...
     def __len__(self) -> int: ...
+    def intersects_first(
+        self, origins: npt.ArrayLike, directions: npt.ArrayLike, *, quality: _Quality | None = None,
+        method: _Method | None = None,
+    ) -> Any: ...
+    def intersects_location(
+        self, ray_origins: npt.ArrayLike, ray_directions: npt.ArrayLike, multiple_hits: bool = False,
+        **options: Any,
+    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.int32]]: ...
+    def intersects_any(
+        self, ray_origins: npt.ArrayLike, ray_directions: npt.ArrayLike, **options: Any
+    ) -> npt.NDArray[np.bool_]: ...
 
 @final
 class Frame:
@@ -195,3 +217,13 @@ class Renderer:
         lod: bool | None = None,
         background: tuple[int, int, int, int] | None = None,
     ) -> Frame: ...
+    def intersect(
+        self,
+        obj: Any,
+        origins: npt.NDArray[np.float64],
+        directions: npt.NDArray[np.float64],
+        *,
+        any_hit: bool | None = None,
+        quality: _Quality | None = None,
+        method: _Method | None = None,
+    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int32], npt.NDArray[np.float32]]: ...

@@ -77,6 +77,28 @@ pub fn expect_columns<T: Element>(
     .into())
 }
 
+/// Rays from (N, 3) origins and directions of the same shape.
+pub fn rays_from_numpy(
+    origins: &PyReadonlyArray2<'_, f64>,
+    directions: &PyReadonlyArray2<'_, f64>,
+) -> PyResult<Vec<(glam::DVec3, glam::DVec3)>> {
+    expect_columns(origins, 3, "origins", GeomtexError::Parameter)?;
+    if directions.shape() != origins.shape() {
+        return Err(parameter_error(format!(
+            "origins and directions must both be (N, 3); got {:?} and {:?}",
+            origins.shape(),
+            directions.shape()
+        )));
+    }
+    let points = |a: Vec<f64>| -> Vec<glam::DVec3> {
+        a.chunks_exact(3).map(glam::DVec3::from_slice).collect()
+    };
+    Ok(points(flat(origins))
+        .into_iter()
+        .zip(points(flat(directions)))
+        .collect())
+}
+
 /// A 4x4 matrix from numpy (row-major: column c is a[.., c]); identity when absent.
 pub fn mat4_from_numpy(a: Option<PyReadonlyArray2<'_, f64>>, what: &str) -> PyResult<DMat4> {
     let Some(a) = a else {

@@ -6,18 +6,17 @@
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 
-use glam::{DVec2, DVec3};
+use glam::DVec2;
 use numpy::{
     PyArray1, PyArray2, PyArray3, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods,
 };
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use super::arrays::{expect_columns, flat, image, mat4_to_numpy, matrix, rows, ArrayPair};
-use super::errors::{heavy, parameter_error};
+use super::arrays::{flat, image, mat4_to_numpy, matrix, rays_from_numpy, rows, ArrayPair};
+use super::errors::heavy;
 use super::mesh::PyMesh;
 use crate::convert::{ConvertArgs, ConvertOptions};
-use crate::error::GeomtexError;
 use crate::filters::MapFilter;
 use crate::grids::HeightGrid;
 use crate::gtex::{GeometryTextureSet, Patch, StatValue};
@@ -155,20 +154,7 @@ impl PyGeometryTextureSet {
         origins: PyReadonlyArray2<'py, f64>,
         directions: PyReadonlyArray2<'py, f64>,
     ) -> ArrayPair<'py, PyArray1<f64>, PyArray1<i32>> {
-        expect_columns(&origins, 3, "origins", GeomtexError::Parameter)?;
-        if directions.shape() != origins.shape() {
-            return Err(parameter_error(format!(
-                "origins and directions must both be (N, 3); got {:?} and {:?}",
-                origins.shape(),
-                directions.shape()
-            )));
-        }
-        let to_points =
-            |a: Vec<f64>| -> Vec<DVec3> { a.chunks_exact(3).map(DVec3::from_slice).collect() };
-        let rays: Vec<(DVec3, DVec3)> = to_points(flat(&origins))
-            .into_iter()
-            .zip(to_points(flat(&directions)))
-            .collect();
+        let rays = rays_from_numpy(&origins, &directions)?;
         let inner = self.inner.clone();
         let hits = heavy(py, "casting rays on the CPU", move || {
             Ok(crate::heightfield::first_hits(&inner, &rays))

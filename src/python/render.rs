@@ -5,15 +5,15 @@
 use std::sync::{Mutex, MutexGuard};
 
 use glam::{DMat4, DVec3};
-use numpy::{PyArray2, PyArray3, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{PyArray1, PyArray2, PyArray3, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use super::arrays::{image, mat4_from_numpy, mat4_to_numpy, matrix, ArrayPair};
+use super::arrays::{image, mat4_from_numpy, mat4_to_numpy, matrix, rays_from_numpy, ArrayPair};
 use super::errors::{heavy, parameter_error};
 use super::gtex::{set_stats, PyGeometryTextureSet};
 use super::mesh::PyMesh;
-use crate::render::{Camera, Object, Renderer, Scene, SceneObject, SearchOverrides};
+use crate::render::{Camera, Object, Quality, Renderer, Scene, SceneObject, SearchOverrides};
 
 /// A camera: OpenGL-style pose (looks down -Z, +Y up) as pyrender and trimesh use; see
 /// `look_at`, `from_intrinsics` (OpenCV) and `orthographic`.
@@ -208,6 +208,23 @@ pub struct PyRenderer {
     height: u32,
 }
 
+/// Distances, patch ids and normals of a ray query.
+type RayHitArrays<'py> = (
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<i32>>,
+    Bound<'py, PyArray2<f32>>,
+);
+
+/// A Scene as given, or a scene of one object placed at the origin.
+fn scene_of(obj: &Bound<'_, PyAny>) -> PyResult<Scene> {
+    Ok(match obj.cast::<PyScene>() {
+        Ok(s) => s.borrow().inner.clone(),
+        Err(_) => Scene {
+            objects: vec![scene_object(obj, DMat4::IDENTITY)?],
+        },
+    })
+}
+
 impl PyRenderer {
     /// The renderer, even if an earlier call panicked while holding it (its state is rebuilt per
     /// frame, so a poisoned lock holds nothing half-written that a later frame reads).
@@ -293,12 +310,7 @@ impl PyRenderer {
             lod,
         }
         .resolve()?;
-        let scene = match obj.cast::<PyScene>() {
-            Ok(s) => s.borrow().inner.clone(),
-            Err(_) => Scene {
-                objects: vec![scene_object(obj, DMat4::IDENTITY)?],
-            },
-        };
+        let scene = scene_of(obj)?;
         let camera = camera.inner;
         let background = background.map(|b| [b.0, b.1, b.2, b.3]);
         let frame = heavy(py, "rendering", || {
@@ -307,6 +319,47 @@ impl PyRenderer {
             renderer.render(&scene, &camera, &search)
         })?;
         PyFrame::new(py, frame)
+    }
+
+    /// Ray queries on the GPU against a Scene or a GeometryTextureSet (no meshes): per ray the
+    /// distance to the nearest hit along its unit direction (+inf on a miss), the patch id (-1)
+    /// and the world normal. `any_hit` stops each ray at the first hit found (shadow-style
+    /// visibility, not the nearest). `quality` defaults to "exact" here.
+    #[pyo3(signature = (obj, origins, directions, *, any_hit = None, quality = None, method = None))]
+    #[allow(clippy::too_many_arguments)] // one per keyword of Renderer.intersect
+    fn intersect<'py>(
+        &self,
+        py: Python<'py>,
+        obj: &Bound<'py, PyAny>,
+        origins: PyReadonlyArray2<'py, f64>,
+        directions: PyReadonlyArray2<'py, f64>,
+        any_hit: Option<bool>,
+        quality: Option<&str>,
+        method: Option<&str>,
+    ) -> PyResult<RayHitArrays<'py>> {
+        let search = SearchOverrides {
+            quality: Some(
+                quality
+                    .map(str::parse)
+                    .transpose()?
+                    .unwrap_or(Quality::Exact),
+            ),
+            method: method.map(str::parse).transpose()?,
+            ..Default::default()
+        }
+        .resolve()?;
+        let scene = scene_of(obj)?;
+        let rays = rays_from_numpy(&origins, &directions)?;
+        let hits = heavy(py, "tracing rays", || {
+            self.renderer()
+                .intersect(&scene, &rays, &search, any_hit.unwrap_or(false))
+        })?;
+        let n = hits.patch_id.len();
+        Ok((
+            PyArray1::from_vec(py, hits.distance),
+            PyArray1::from_vec(py, hits.patch_id),
+            matrix(py, hits.normal, n, 3),
+        ))
     }
 
     fn __repr__(&self) -> String {

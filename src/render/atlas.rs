@@ -9,6 +9,9 @@ use super::device::{texture_2d, Gpu};
 use crate::error::{GeomtexError, Result};
 use crate::gtex::GeometryTextureSet;
 
+/// A patch's min-max pyramid: per level its width, height and packed values.
+pub(crate) type Pyramid = Vec<(u32, u32, Vec<u32>)>;
+
 /// Where a patch's first texel sits in the atlas: (layer, x, y).
 pub(crate) type Place = (u32, u32, u32);
 
@@ -24,8 +27,9 @@ pub(crate) struct Atlas {
 }
 
 impl Atlas {
-    /// Packs and uploads a set; errors when it does not fit this adapter's limits.
-    pub fn upload(gpu: &Gpu, set: &GeometryTextureSet) -> Result<Atlas> {
+    /// Packs and uploads a set with its patches' min-max pyramids
+    /// (heightfield::min_max_pyramid); errors when it does not fit this adapter's limits.
+    pub fn upload(gpu: &Gpu, set: &GeometryTextureSet, pyramids: &[Pyramid]) -> Result<Atlas> {
         let limits = gpu.device.limits();
         let side = limits.max_texture_dimension_2d.min(4096);
         let (places, layers) = pack(set, side)?;
@@ -47,7 +51,7 @@ impl Atlas {
                 ..Default::default()
             })
         };
-        let (pyramid, pyramid_at) = upload_pyramids(gpu, set)?;
+        let (pyramid, pyramid_at) = upload_pyramids(gpu, set, pyramids)?;
         Ok(Atlas {
             places,
             views: textures.each_ref().map(view),
@@ -160,13 +164,16 @@ fn write_maps(
 }
 
 /// Every patch's min-max pyramid in one buffer, and where each patch's starts.
-fn upload_pyramids(gpu: &Gpu, set: &GeometryTextureSet) -> Result<(wgpu::Buffer, Vec<[u32; 2]>)> {
+fn upload_pyramids(
+    gpu: &Gpu,
+    set: &GeometryTextureSet,
+    pyramids: &[Pyramid],
+) -> Result<(wgpu::Buffer, Vec<[u32; 2]>)> {
     let mut values: Vec<u32> = Vec::new();
     let mut pyramid_at = Vec::with_capacity(set.patches.len());
-    for p in &set.patches {
-        let levels = crate::heightfield::min_max_pyramid(p);
+    for levels in pyramids {
         pyramid_at.push([values.len() as u32, levels.len() as u32]);
-        for (_, _, v) in &levels {
+        for (_, _, v) in levels {
             values.extend_from_slice(v);
         }
     }

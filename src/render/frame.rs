@@ -23,20 +23,30 @@ pub struct Frame {
     pub gpu_ms: Option<f64>,
     pub cpu_ms: f64,
     pub patches_drawn: usize,
-    /// Patches whose box lies wholly outside the view frustum, skipped before drawing.
+    /// Patches whose box lies wholly outside the view frustum, left out of the frame's tracing.
     pub patches_culled: usize,
     pub meshes_drawn: usize,
     pub near: f64,
     /// The height-map search the frame was drawn with.
     pub method: Method,
-    /// With `count_fetches`: height-map and pyramid reads, and the fragments that ray cast.
-    pub fetches: Option<(u64, u64)>,
+    /// Height-map searches the tracer started (one per box a ray entered before its nearest hit).
+    pub searches: u64,
+    /// With `count_fetches`: height-map and pyramid reads.
+    pub fetches: Option<u64>,
 }
 
 impl Frame {
+    /// Pixels showing a geometry texture.
+    pub fn covered_pixels(&self) -> usize {
+        self.patch_id.iter().filter(|&&id| id >= 0).count()
+    }
+
     /// The frame's figures by name, in a stable order; the fetch figures only when counted.
+    /// Per-pixel figures divide by the covered pixels (at least one).
     pub fn stats(&self) -> Vec<(&'static str, StatValue)> {
         let count = |n: usize| StatValue::Int(n as i64);
+        let covered = self.covered_pixels();
+        let per_pixel = |n: u64| StatValue::Float(n as f64 / covered.max(1) as f64);
         let mut stats = vec![
             (
                 "gpu_ms",
@@ -48,14 +58,17 @@ impl Frame {
             ("meshes_drawn", count(self.meshes_drawn)),
             ("near", StatValue::Float(self.near)),
             ("method", StatValue::Text(self.method.as_str())),
+            ("covered_pixels", count(covered)),
+            ("searches", StatValue::Int(self.searches as i64)),
+            ("searches_per_pixel", per_pixel(self.searches)),
         ];
-        if let Some((fetches, fragments)) = self.fetches {
+        if let Some(fetches) = self.fetches {
             stats.extend([
                 ("fetches", StatValue::Int(fetches as i64)),
-                ("raycast_fragments", StatValue::Int(fragments as i64)),
+                ("fetches_per_pixel", per_pixel(fetches)),
                 (
-                    "fetches_per_pixel",
-                    StatValue::Float(fetches as f64 / fragments.max(1) as f64),
+                    "fetches_per_search",
+                    StatValue::Float(fetches as f64 / self.searches.max(1) as f64),
                 ),
             ]);
         }
@@ -67,7 +80,7 @@ impl Frame {
 mod tests {
     use super::*;
 
-    fn frame(fetches: Option<(u64, u64)>) -> Frame {
+    fn frame(fetches: Option<u64>) -> Frame {
         Frame {
             width: 1,
             height: 1,
@@ -82,6 +95,7 @@ mod tests {
             meshes_drawn: 0,
             near: 0.25,
             method: Method::MaxMip,
+            searches: 0,
             fetches,
         }
     }
@@ -97,18 +111,22 @@ mod tests {
             "meshes_drawn",
             "near",
             "method",
+            "covered_pixels",
+            "searches",
+            "searches_per_pixel",
         ];
         assert_eq!(names(&frame(None)), plain);
-        let counted = frame(Some((30, 0)));
+        let counted = frame(Some(30));
         assert_eq!(
-            names(&counted)[7..],
-            ["fetches", "raycast_fragments", "fetches_per_pixel"]
+            names(&counted)[10..],
+            ["fetches", "fetches_per_pixel", "fetches_per_search"]
         );
         let stats = counted.stats();
         assert_eq!(stats[0].1, StatValue::Absent);
         assert_eq!(stats[2].1, StatValue::Int(3));
         assert_eq!(stats[6].1, StatValue::Text("maxmip"));
-        // No fragments: per pixel divides by one, not zero.
-        assert_eq!(stats[9].1, StatValue::Float(30.0));
+        // Nothing covered and no searches: the figures divide by one, not zero.
+        assert_eq!(stats[11].1, StatValue::Float(30.0));
+        assert_eq!(stats[12].1, StatValue::Float(30.0));
     }
 }

@@ -1,5 +1,6 @@
 //! Group 0 of every raster pass (frame_bindings.wgsl): the camera and search uniforms and the
-//! fetch counters, written once per frame and shared by all objects of every kind.
+//! counters (box searches, and height fetches in the counting build), written once per frame and
+//! shared by all objects of every kind.
 //!
 //! Spaces: the camera record is camera-relative view space (see gpu_types.rs).
 
@@ -7,10 +8,10 @@ use glam::DMat4;
 
 use super::camera::Lens;
 use super::gpu_types::{CameraGpu, SearchGpu};
-use super::pipelines::{storage_entry, uniform_entry, VERTEX_AND_FRAGMENT};
+use super::pipelines::{storage_entry, uniform_entry, FRAME_STAGES};
 use super::search::SearchOptions;
 
-/// Bytes of the fetch counters: fetches and ray-cast fragments, u32 each.
+/// Bytes of the counters: height fetches (counting build only) and box searches, u32 each.
 const COUNTERS_BYTES: u64 = 8;
 
 pub(crate) struct FrameBindings {
@@ -24,13 +25,17 @@ pub(crate) struct FrameBindings {
 
 impl FrameBindings {
     pub fn new(device: &wgpu::Device) -> FrameBindings {
-        let fragment = wgpu::ShaderStages::FRAGMENT;
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("frame"),
             entries: &[
-                uniform_entry(0, VERTEX_AND_FRAGMENT),
-                uniform_entry(1, fragment),
-                storage_entry(2, fragment, false),
+                uniform_entry(0, FRAME_STAGES),
+                uniform_entry(1, FRAME_STAGES),
+                // Writable storage is not allowed in vertex shaders (without a feature).
+                storage_entry(
+                    2,
+                    FRAME_STAGES.difference(wgpu::ShaderStages::VERTEX),
+                    false,
+                ),
             ],
         });
         let uniform = |label, size| {
@@ -44,7 +49,7 @@ impl FrameBindings {
         let camera = uniform("camera", size_of::<CameraGpu>() as u64);
         let search = uniform("search", size_of::<SearchGpu>() as u64);
         let counters = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("fetch counters"),
+            label: Some("counters"),
             size: COUNTERS_BYTES,
             usage: wgpu::BufferUsages::STORAGE
                 | wgpu::BufferUsages::COPY_DST
@@ -52,7 +57,7 @@ impl FrameBindings {
             mapped_at_creation: false,
         });
         let counters_readback = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("fetch counters readback"),
+            label: Some("counters readback"),
             size: COUNTERS_BYTES,
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
@@ -85,7 +90,7 @@ impl FrameBindings {
         }
     }
 
-    /// This frame's camera and search records; the counters start from zero when counting.
+    /// This frame's camera and search records; the counters start from zero.
     pub fn write(
         &self,
         queue: &wgpu::Queue,
@@ -96,22 +101,18 @@ impl FrameBindings {
         let camera = CameraGpu::new(lens, view_from_world);
         queue.write_buffer(&self.camera, 0, bytemuck::bytes_of(&camera));
         queue.write_buffer(&self.search, 0, bytemuck::bytes_of(&SearchGpu::new(search)));
-        if search.count_fetches {
-            queue.write_buffer(&self.counters, 0, &[0u8; COUNTERS_BYTES as usize]);
-        }
+        queue.write_buffer(&self.counters, 0, &[0u8; COUNTERS_BYTES as usize]);
     }
 
-    /// Copies the counters for reading back, when counting; the buffer to read, if any.
-    pub fn encode_counters_readback(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        search: &SearchOptions,
-    ) -> Option<&wgpu::Buffer> {
-        if !search.count_fetches {
-            return None;
-        }
+    /// The search record alone, for ray queries (which use no camera).
+    pub fn write_search(&self, queue: &wgpu::Queue, search: &SearchOptions) {
+        queue.write_buffer(&self.search, 0, bytemuck::bytes_of(&SearchGpu::new(search)));
+    }
+
+    /// Copies the counters for reading back; the buffer to read.
+    pub fn encode_counters_readback(&self, encoder: &mut wgpu::CommandEncoder) -> &wgpu::Buffer {
         let readback = &self.counters_readback;
         encoder.copy_buffer_to_buffer(&self.counters, 0, readback, 0, COUNTERS_BYTES);
-        Some(readback)
+        readback
     }
 }

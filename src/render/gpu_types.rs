@@ -148,3 +148,36 @@ const _: () = assert!(offset_of!(MeshObjectGpu, ids) == 128);
 const _: () = assert!(size_of::<MeshVertex>() == 28);
 const _: () = assert!(offset_of!(MeshVertex, normal) == 12);
 const _: () = assert!(offset_of!(MeshVertex, color) == 24);
+
+/// `QueryRay` in query_types.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+pub(crate) struct QueryRayGpu {
+    pub origin: [f32; 3],
+    pub t_min: f32,
+    pub dir: [f32; 3],
+    pub _pad: u32,
+}
+
+/// `QueryHit` in query_types.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+pub(crate) struct QueryHitGpu {
+    pub normal: [f32; 3],
+    pub t: f32,
+    pub id: i32,
+    pub _pad: [u32; 3],
+}
+
+/// `Query` in query_types.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+pub(crate) struct QueryGpu {
+    pub counts: [u32; 4],
+}
+
+wgsl_size!(QueryRayGpu, 32);
+const _: () = assert!(offset_of!(QueryRayGpu, dir) == 16);
+wgsl_size!(QueryHitGpu, 32);
+const _: () = assert!(offset_of!(QueryHitGpu, id) == 16);
+wgsl_size!(QueryGpu, 16);

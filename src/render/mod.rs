@@ -1,5 +1,6 @@
-//! Headless rendering of geometry textures (per-pixel ray casting) and ordinary meshes
-//! (rasterization) into one reversed-Z depth buffer, read back as numpy-ready arrays.
+//! Headless rendering of geometry textures (per-pixel ray casting through thin pieces of their
+//! patches' boxes) and ordinary meshes (rasterization) into one reversed-Z depth buffer, read back
+//! as numpy-ready arrays; and ray queries through a hierarchy over the same pieces (`query`).
 //!
 //! A render is three steps: prepare (upload what is new, choose the near plane, make each
 //! object's draw call), encode the passes (the scene pass, then copies into readback buffers),
@@ -11,6 +12,7 @@
 //! matrix the GPU sees is composed in f64 with the camera position subtracted, then cast to f32.
 
 mod atlas;
+mod bvh;
 pub mod camera;
 mod cull;
 pub mod device;
@@ -19,6 +21,7 @@ mod frame_bindings;
 mod gpu_types;
 mod kinds;
 mod pipelines;
+mod query;
 mod scene;
 mod search;
 pub mod shaders;
@@ -29,6 +32,7 @@ use std::time::Instant;
 pub use camera::{Camera, Lens, Projection};
 pub use device::Gpu;
 pub use frame::Frame;
+pub use query::RayHits;
 pub use scene::{Object, Scene, SceneObject};
 pub use search::{Method, Quality, SearchOptions, SearchOverrides};
 
@@ -45,6 +49,8 @@ pub struct Renderer {
     frame_bindings: FrameBindings,
     kinds: Vec<Box<dyn Kind>>,
     depth_copy: DepthCopy,
+    /// Group 2 of ray queries (query.rs).
+    query_layout: wgpu::BindGroupLayout,
     targets: Targets,
     /// Clear color of the color target, RGBA in [0, 1].
     background: [f64; 4],
@@ -77,7 +83,8 @@ impl Renderer {
         }
         let device = &gpu.device;
         let frame_bindings = FrameBindings::new(device);
-        let kinds = kinds::registered(device, &frame_bindings.layout);
+        let query_layout = query::query_layout(device);
+        let kinds = kinds::registered(device, &frame_bindings.layout, &query_layout);
         let depth_copy = DepthCopy::new(device);
         let targets = Targets::new(&gpu, &depth_copy, width, height);
         let mut renderer = Renderer {
@@ -85,6 +92,7 @@ impl Renderer {
             frame_bindings,
             kinds,
             depth_copy,
+            query_layout,
             targets,
             background: [0.0; 4],
         };
@@ -119,7 +127,7 @@ impl Renderer {
         guarded(&device, || {
             let start = Instant::now();
             let prepared = self.prepare(scene, camera, search)?;
-            let counters = self.encode_passes(&prepared, search);
+            let counters = self.encode_passes(&prepared);
             let readback = self.targets.read_back(&self.gpu, counters)?;
             Ok(self.finish(prepared, readback, search, start))
         })
@@ -182,9 +190,9 @@ impl Renderer {
         unreachable!("every Object variant has a kind in kinds::registered")
     }
 
-    /// Encodes and submits the scene pass and the copies into readback buffers; the fetch
-    /// counters to read back, when counting.
-    fn encode_passes(&self, prepared: &Prepared, search: &SearchOptions) -> Option<&wgpu::Buffer> {
+    /// Encodes and submits the scene pass and the copies into readback buffers; the counters
+    /// to read back.
+    fn encode_passes(&self, prepared: &Prepared) -> &wgpu::Buffer {
         let mut encoder = self
             .gpu
             .device
@@ -199,9 +207,7 @@ impl Renderer {
             }
         }
         self.targets.encode_readback(&mut encoder, &self.depth_copy);
-        let counters = self
-            .frame_bindings
-            .encode_counters_readback(&mut encoder, search);
+        let counters = self.frame_bindings.encode_counters_readback(&mut encoder);
         self.gpu.queue.submit(Some(encoder.finish()));
         counters
     }
@@ -221,6 +227,7 @@ impl Renderer {
             .map(|&d| Camera::distance_from_depth(&lens, d))
             .collect();
         let tally = prepared.tally;
+        let [fetches, searches] = readback.counters;
         Frame {
             width,
             height,
@@ -235,7 +242,8 @@ impl Renderer {
             meshes_drawn: tally.meshes_drawn,
             near: lens.near,
             method: search.method,
-            fetches: readback.counters.map(|[f, r]| (f as u64, r as u64)),
+            searches: searches as u64,
+            fetches: search.count_fetches.then_some(fetches as u64),
         }
     }
 }

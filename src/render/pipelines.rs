@@ -1,6 +1,7 @@
 //! Pipeline and layout building shared by every pass: bind group layout entries, the raster
-//! pipeline every object kind draws with (same targets, reversed-Z depth), and the depth copy
-//! pass. Each kind builds its own group-1 layout and pipelines from these (see `kinds/`).
+//! pipeline every kind draws with (same targets, reversed-Z depth) and compute pipelines (ray
+//! queries and the depth copy). Each kind builds its own group-1 layout and pipelines from these
+//! (see `kinds/`).
 //!
 //! Spaces: none of their own; see the shaders each pipeline runs.
 
@@ -10,6 +11,11 @@ use super::shaders;
 /// The stages that see the per-frame and per-object records of a raster pass.
 pub(crate) const VERTEX_AND_FRAGMENT: wgpu::ShaderStages =
     wgpu::ShaderStages::VERTEX.union(wgpu::ShaderStages::FRAGMENT);
+
+/// Every stage that reads the frame's group 0: the raster passes and the ray queries (which use
+/// its search settings).
+pub(crate) const FRAME_STAGES: wgpu::ShaderStages =
+    VERTEX_AND_FRAGMENT.union(wgpu::ShaderStages::COMPUTE);
 
 pub(crate) fn uniform_entry(
     binding: u32,
@@ -136,6 +142,36 @@ impl RasterPipeline<'_> {
     }
 }
 
+/// A compute pipeline running `cs_main` of `source`.
+pub(crate) fn compute_pipeline(
+    device: &wgpu::Device,
+    label: &str,
+    source: &str,
+    layouts: &[Option<&wgpu::BindGroupLayout>],
+    constants: &[(&str, f64)],
+) -> wgpu::ComputePipeline {
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(label),
+        source: wgpu::ShaderSource::Wgsl(source.into()),
+    });
+    let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some(label),
+        bind_group_layouts: layouts,
+        immediate_size: 0,
+    });
+    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(label),
+        layout: Some(&layout),
+        module: &module,
+        entry_point: Some("cs_main"),
+        compilation_options: wgpu::PipelineCompilationOptions {
+            constants,
+            zero_initialize_workgroup_memory: true,
+        },
+        cache: None,
+    })
+}
+
 /// The compute pass that copies the depth target into a buffer (see depth_copy.wgsl).
 pub(crate) struct DepthCopy {
     layout: wgpu::BindGroupLayout,
@@ -157,23 +193,8 @@ impl DepthCopy {
                 storage_entry(1, compute, false),
             ],
         });
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("depth_copy"),
-            source: wgpu::ShaderSource::Wgsl(shaders::depth_copy().into()),
-        });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("depth_copy"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("depth_copy"),
-            layout: Some(&pipeline_layout),
-            module: &module,
-            entry_point: Some("cs_main"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
+        let source = shaders::depth_copy();
+        let pipeline = compute_pipeline(device, "depth_copy", &source, &[Some(&layout)], &[]);
         DepthCopy { layout, pipeline }
     }
 

@@ -12,16 +12,23 @@ const CAMERA_TYPES: &str = shader!("camera_types.wgsl");
 const SEARCH_TYPES: &str = shader!("search_types.wgsl");
 const GTEX_TYPES: &str = shader!("gtex_types.wgsl");
 const MESH_TYPES: &str = shader!("mesh_types.wgsl");
+const TRACE_TYPES: &str = shader!("trace_types.wgsl");
+const QUERY_TYPES: &str = shader!("query_types.wgsl");
 
 const FRAME_BINDINGS: &str = shader!("frame_bindings.wgsl");
 const GTEX_BINDINGS: &str = shader!("gtex_bindings.wgsl");
 const MESH_BINDINGS: &str = shader!("mesh_bindings.wgsl");
+const QUERY_BINDINGS: &str = shader!("query_bindings.wgsl");
+const GTEX_TRACE_BINDINGS: &str = shader!("gtex_trace_bindings.wgsl");
 const DEPTH_COPY_BINDINGS: &str = shader!("depth_copy_bindings.wgsl");
 
 const CAMERA_FUNCTIONS: &str = shader!("camera_functions.wgsl");
 const HEIGHTFIELD_FUNCTIONS: &str = shader!("heightfield_functions.wgsl");
+const GTEX_PIECE_FUNCTIONS: &str = shader!("gtex_piece_functions.wgsl");
+const GTEX_TRACE_FUNCTIONS: &str = shader!("gtex_trace_functions.wgsl");
 
 const GTEX_RAYCAST: &str = shader!("gtex_raycast.wgsl");
+const GTEX_TRACE_RAYS: &str = shader!("gtex_trace_rays.wgsl");
 const MESH_RASTER: &str = shader!("mesh_raster.wgsl");
 const DEPTH_COPY: &str = shader!("depth_copy.wgsl");
 
@@ -29,7 +36,7 @@ fn assemble(parts: &[&str]) -> String {
     parts.join("\n")
 }
 
-/// The geometry-texture pass (kinds/gtex.rs).
+/// The geometry-texture raster pass (kinds/gtex).
 pub fn gtex_raycast() -> String {
     assemble(&[
         CAMERA_TYPES,
@@ -39,7 +46,27 @@ pub fn gtex_raycast() -> String {
         GTEX_BINDINGS,
         CAMERA_FUNCTIONS,
         HEIGHTFIELD_FUNCTIONS,
+        GTEX_PIECE_FUNCTIONS,
         GTEX_RAYCAST,
+    ])
+}
+
+/// Ray queries through geometry-texture sets (kinds/gtex, query.rs).
+pub fn gtex_trace_rays() -> String {
+    assemble(&[
+        CAMERA_TYPES,
+        SEARCH_TYPES,
+        GTEX_TYPES,
+        TRACE_TYPES,
+        QUERY_TYPES,
+        FRAME_BINDINGS,
+        GTEX_BINDINGS,
+        GTEX_TRACE_BINDINGS,
+        QUERY_BINDINGS,
+        HEIGHTFIELD_FUNCTIONS,
+        GTEX_PIECE_FUNCTIONS,
+        GTEX_TRACE_FUNCTIONS,
+        GTEX_TRACE_RAYS,
     ])
 }
 
@@ -64,9 +91,10 @@ pub fn depth_copy() -> String {
 }
 
 /// Every assembled pipeline module, by name.
-pub fn all() -> [(&'static str, String); 3] {
+pub fn all() -> [(&'static str, String); 4] {
     [
         ("gtex_raycast", gtex_raycast()),
+        ("gtex_trace_rays", gtex_trace_rays()),
         ("mesh_raster", mesh_raster()),
         ("depth_copy", depth_copy()),
     ]

@@ -43,8 +43,8 @@ pub(crate) struct Readback {
     /// Reversed-Z depth values.
     pub depth: Vec<f32>,
     pub gpu_ms: Option<f64>,
-    /// The fetch counters, when they were asked for.
-    pub counters: Option<[u32; 2]>,
+    /// The frame's counters: height fetches (counting build only) and piece searches.
+    pub counters: [u32; 2],
 }
 
 fn render_texture(
@@ -108,6 +108,19 @@ fn read_buffers(device: &wgpu::Device, buffers: &[&wgpu::Buffer]) -> Result<Vec<
         b.unmap();
     }
     bytes
+}
+
+/// Copies `source` (a COPY_SRC buffer) out at the end of `encoder`, submits it and returns the
+/// bytes after one wait.
+pub(crate) fn read_buffer(
+    gpu: &Gpu,
+    mut encoder: wgpu::CommandEncoder,
+    source: &wgpu::Buffer,
+) -> Result<Vec<u8>> {
+    let readback = map_buffer(&gpu.device, "readback", source.size());
+    encoder.copy_buffer_to_buffer(source, 0, &readback, 0, source.size());
+    gpu.queue.submit(Some(encoder.finish()));
+    Ok(read_buffers(&gpu.device, &[&readback])?.remove(0))
 }
 
 impl Targets {
@@ -245,10 +258,10 @@ impl Targets {
         }
     }
 
-    /// Reads the submitted frame back in one wait, with the fetch counters when given.
-    pub fn read_back(&self, gpu: &Gpu, counters: Option<&wgpu::Buffer>) -> Result<Readback> {
+    /// Reads the submitted frame back in one wait, with the frame's counters.
+    pub fn read_back(&self, gpu: &Gpu, counters: &wgpu::Buffer) -> Result<Readback> {
         let mut buffers: Vec<&wgpu::Buffer> = self.readback.iter().collect();
-        buffers.extend(counters);
+        buffers.push(counters);
         buffers.extend(self.timestamps.as_ref().map(|(_, _, r)| r));
         let mut bytes = read_buffers(&gpu.device, &buffers)?.into_iter();
         let mut next = || bytes.next().unwrap_or_default();
@@ -256,10 +269,8 @@ impl Targets {
         let normal_half = self.unpad(next(), 8);
         let ids = self.unpad(next(), 4);
         let depth = bytemuck::cast_slice(&next()).to_vec();
-        let counters = counters.map(|_| {
-            let c: Vec<u32> = bytemuck::cast_slice(&next()).to_vec();
-            [c[0], c[1]]
-        });
+        let counts: Vec<u32> = bytemuck::cast_slice(&next()).to_vec();
+        let counters = [counts[0], counts[1]];
         let gpu_ms = self.timestamps.as_ref().map(|_| {
             let ticks: Vec<u64> = bytemuck::cast_slice(&next()).to_vec();
             let period = gpu.queue.get_timestamp_period() as f64;

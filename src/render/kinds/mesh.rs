@@ -10,7 +10,7 @@ use glam::{DMat3, DMat4, DVec3};
 use wgpu::util::DeviceExt;
 
 use super::{DrawCall, FrameView, Kind, Tally, UploadCache};
-use crate::error::Result;
+use crate::error::{GeomtexError, Result};
 use crate::mesh::Mesh;
 use crate::render::cull::DepthRange;
 use crate::render::device::Gpu;
@@ -161,6 +161,23 @@ impl Kind for MeshKind {
             vertices: u.count,
             instances: 1,
         })
+    }
+
+    fn trace(
+        &self,
+        _gpu: &Gpu,
+        _view_from_world: DMat4,
+        placed: &SceneObject,
+        _first_id: &mut i32,
+    ) -> Result<Option<super::TraceCall>> {
+        match &placed.object {
+            Object::Mesh(_) => Err(GeomtexError::Parameter(
+                "ray queries through meshes are not supported yet; query the texture sets, or \
+                 use trimesh's ray queries for the meshes"
+                    .into(),
+            )),
+            _ => Ok(None),
+        }
     }
 
     fn purge(&mut self) {

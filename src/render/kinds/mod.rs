@@ -1,6 +1,7 @@
 //! Object kinds. A kind uploads its objects (cached for as long as they live), widens the
-//! scene's depth range by their bounds, and makes each object's draw call for a frame; the camera,
-//! targets, group 0 (frame_bindings.rs) and readback are shared by all kinds.
+//! scene's depth range by their bounds, and makes each object's draw call for a frame and its
+//! dispatch for a ray query (query.rs); the camera, targets, group 0 (frame_bindings.rs) and
+//! readback are shared by all kinds.
 //!
 //! Adding a kind: a module here (its pass, group-1 layout and upload cache) with its shader files
 //! and a function in shaders.rs, a variant of `Object` (scene.rs), and one line in `registered`.
@@ -23,13 +24,15 @@ use super::scene::{Object, SceneObject};
 use super::search::SearchOptions;
 use crate::error::Result;
 
-/// Every kind the renderer draws, each built once with the frame's group-0 layout.
+/// Every kind the renderer draws, each built once with the frame's group-0 layout and the ray
+/// queries' group-2 layout.
 pub(crate) fn registered(
     device: &wgpu::Device,
     frame_layout: &wgpu::BindGroupLayout,
+    query_layout: &wgpu::BindGroupLayout,
 ) -> Vec<Box<dyn Kind>> {
     vec![
-        Box::new(gtex::GtexKind::new(device, frame_layout)),
+        Box::new(gtex::GtexKind::new(device, frame_layout, query_layout)),
         Box::new(mesh::MeshKind::new(device, frame_layout)),
     ]
 }
@@ -56,8 +59,26 @@ pub(crate) trait Kind: Send {
         tally: &mut Tally,
     ) -> Option<DrawCall>;
 
+    /// The ray-query dispatch of an object this kind uploaded, its records placed by
+    /// `view_from_world` (the query's frame); `None` when it holds nothing to hit. Patch ids
+    /// continue from `first_id`, which it advances. An error for kinds that cannot be traced.
+    fn trace(
+        &self,
+        gpu: &Gpu,
+        view_from_world: DMat4,
+        placed: &SceneObject,
+        first_id: &mut i32,
+    ) -> Result<Option<TraceCall>>;
+
     /// Drops the uploads of objects that no longer exist.
     fn purge(&mut self);
+}
+
+/// One object's ray-query dispatch, after groups 0 and 2 are bound.
+pub(crate) struct TraceCall {
+    pub pipeline: wgpu::ComputePipeline,
+    /// Group 1: the kind's records, resources and hierarchy for this object.
+    pub group: wgpu::BindGroup,
 }
 
 /// What every kind needs to know about the frame being drawn.

@@ -1,0 +1,84 @@
+"""Ray queries on the GPU, shaped like trimesh's ``RayMeshIntersector`` so a trimesh user can swap
+them in: ``intersects_first`` (everything about each ray's nearest hit), ``intersects_location``
+and ``intersects_any``. They trace through a hierarchy over thin pieces of the patches' boxes
+(see the README's "Ray queries"); meshes in a scene cannot be traced yet.
+
+Attached as methods of ``GeometryTextureSet`` and ``Scene`` by ``geomtex/__init__.py``.
+"""
+
+from __future__ import annotations
+
+import threading
+from typing import Any, NamedTuple
+
+import numpy as np
+import numpy.typing as npt
+
+from . import _core
+
+_lock = threading.Lock()
+_renderer: _core.Renderer | None = None
+
+
+def _query_renderer() -> _core.Renderer:
+    """One renderer kept for queries (its device and uploaded sets are reused between calls)."""
+    global _renderer
+    with _lock:
+        if _renderer is None:
+            _renderer = _core.Renderer(1, 1)
+        return _renderer
+
+
+class RayHits(NamedTuple):
+    """Per ray: hit point (NaN on a miss), distance along the unit direction (inf), patch id
+    (-1), world unit normal (0) and whether it hit."""
+
+    locations: npt.NDArray[np.float64]
+    distances: npt.NDArray[np.float64]
+    patch_ids: npt.NDArray[np.int32]
+    normals: npt.NDArray[np.float32]
+    hit: npt.NDArray[np.bool_]
+
+
+def _rays(origins: npt.ArrayLike, directions: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    o = np.ascontiguousarray(origins, dtype=np.float64)
+    d = np.ascontiguousarray(directions, dtype=np.float64)
+    if o.ndim == 1 and o.shape == (3,):
+        o = np.broadcast_to(o, d.shape if d.ndim == 2 else (1, 3)).copy()
+    if o.ndim != 2 or o.shape[1:] != (3,) or d.shape != o.shape:
+        raise _core.ParameterError(
+            f"origins and directions must both be (N, 3); got {o.shape} and {d.shape}")
+    return o, d
+
+
+# The first parameter is `self`: these become methods of GeometryTextureSet and Scene.
+def intersects_first(self: Any, origins: npt.ArrayLike, directions: npt.ArrayLike, *,
+                     quality: str | None = None, method: str | None = None) -> RayHits:
+    """The nearest hit of every ray (``quality`` "exact" by default)."""
+    o, d = _rays(origins, directions)
+    dist, ids, normals = _query_renderer().intersect(self, o, d, quality=quality, method=method)
+    hit = ids >= 0
+    unit = d / np.linalg.norm(d, axis=1, keepdims=True)
+    with np.errstate(invalid="ignore"):
+        locations = np.where(hit[:, None], o + unit * np.where(hit, dist, 0.0)[:, None], np.nan)
+    return RayHits(locations, dist, ids, normals, hit)
+
+
+def intersects_location(self: Any, ray_origins: npt.ArrayLike, ray_directions: npt.ArrayLike,
+                        multiple_hits: bool = False, **options: Any
+                        ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.int32]]:
+    """Like trimesh's: (hit locations (M, 3), index of the ray of each (M,), patch id of each
+    (M,)) for the rays that hit; the nearest hit only."""
+    if multiple_hits:
+        raise _core.ParameterError("multiple_hits=True is not supported: only the nearest hit is traced")
+    hits = intersects_first(self, ray_origins, ray_directions, **options)
+    index = np.flatnonzero(hits.hit)
+    return hits.locations[index], index, hits.patch_ids[index]
+
+
+def intersects_any(self: Any, ray_origins: npt.ArrayLike, ray_directions: npt.ArrayLike,
+                   **options: Any) -> npt.NDArray[np.bool_]:
+    """Whether each ray hits anything (each stops at the first hit found)."""
+    o, d = _rays(ray_origins, ray_directions)
+    _, ids, _ = _query_renderer().intersect(self, o, d, any_hit=True, **options)
+    return ids >= 0

@@ -1,0 +1,73 @@
+// A ray against one piece of a patch's box (gtex_types.wgsl's PatchBox: the part over one node
+// of the patch's min-max pyramid, as tall as the heights under it): the height-field search
+// (heightfield_functions.wgsl) over just the stretch of the ray inside the piece, and what a hit
+// there shows. Shared by the raster pass (one piece per fragment) and the tracer (pieces in
+// front-to-back order).
+//
+// Spaces: rays in the space `patch_from_view` maps from (camera-relative view space for frames,
+// a translated world space for ray queries); patch-local inside a piece (the unit cube, x/y
+// texture u/v, z height). A ray parameter t means the same point in both (the map between them
+// is affine).
+
+// Piece searches this invocation started: the measure of overdraw (frame.stats).
+var<private> searches: u32 = 0u;
+
+// 1 / d with rays parallel to an axis sent to a huge finite slope instead of dividing by zero.
+fn safe_inverse(d: vec3<f32>) -> vec3<f32> {
+    let tiny = 1e-30;
+    let s = select(vec3<f32>(-1.0), vec3<f32>(1.0), d >= vec3<f32>(0.0));
+    return 1.0 / select(d, s * tiny, abs(d) < vec3<f32>(tiny));
+}
+
+// Where the ray o + t d is inside the box [lo, hi]: (enter, exit), enter > exit on a miss.
+fn slab(lo: vec3<f32>, hi: vec3<f32>, o: vec3<f32>, inv: vec3<f32>) -> vec2<f32> {
+    let ta = (lo - o) * inv;
+    let tb = (hi - o) * inv;
+    let t0 = min(ta, tb);
+    let t1 = max(ta, tb);
+    return vec2<f32>(max(max(t0.x, t0.y), t0.z), min(min(t1.x, t1.y), t1.z));
+}
+
+// The first hit inside piece `piece` for t in [t_lo, t_hi), or -1.
+fn piece_search(piece: PatchBox, o: vec3<f32>, d: vec3<f32>, t_lo: f32, t_hi: f32) -> f32 {
+    let p = patches[piece.patch_index];
+    let o_p = (p.patch_from_view * vec4<f32>(o, 1.0)).xyz;
+    let d_p = (p.patch_from_view * vec4<f32>(d, 0.0)).xyz;
+    let span = slab(piece.lo, piece.hi, o_p, safe_inverse(d_p));
+    let t_start = max(span.x, t_lo);
+    let t_end = min(span.y, t_hi);
+    if (!(t_end > t_start)) {
+        return -1.0;
+    }
+    searches += 1u;
+    // Search from the box entry: with the ray origin far away, ray positions in texels would be
+    // differences of large f32 numbers.
+    let entry = o_p + d_p * t_start;
+    var t_local: f32;
+    if (search.method.x == 1u) {
+        t_local = maxmip_hit(p, search, entry, d_p, 0.0, t_end - t_start, i32(piece.level));
+    } else {
+        t_local = linear_binary_hit(p, search, entry, d_p, 0.0, t_end - t_start);
+    }
+    return select(-1.0, t_start + t_local, t_local >= 0.0 && t_start + t_local < t_hi);
+}
+
+// What a hit shows: the world normal and base color at the hit of ray o + t d in patch `index`.
+struct Surface {
+    normal: vec3<f32>,
+    color: vec4<f32>,
+}
+
+fn gtex_surface(index: u32, o: vec3<f32>, d: vec3<f32>, t: f32) -> Surface {
+    let p = patches[index];
+    let o_p = (p.patch_from_view * vec4<f32>(o, 1.0)).xyz;
+    let d_p = (p.patch_from_view * vec4<f32>(d, 0.0)).xyz;
+    let hit = o_p + d_p * t;
+    let uv = clamp(hit.xy * p.size, vec2<f32>(0.5), p.size - 0.5);
+    let atlas_size = vec2<f32>(textureDimensions(normals));
+    let coord = (p.atlas_origin + uv) / atlas_size;
+    let n_local = textureSampleLevel(normals, linear_clamp, coord, p.ids.x, 0.0).xyz;
+    let base = textureSampleLevel(colors, linear_clamp, coord, p.ids.x, 0.0);
+    let n_world = normalize((p.world_normal_from_patch * vec4<f32>(n_local, 0.0)).xyz);
+    return Surface(n_world, base);
+}

@@ -1,0 +1,7 @@
+// Group 2 of a ray query: the batch's settings, its rays and their hits.
+//
+// Space: the query's frame (see query_types.wgsl).
+
+@group(2) @binding(0) var<uniform> query: Query;
+@group(2) @binding(1) var<storage, read> rays: array<QueryRay>;
+@group(2) @binding(2) var<storage, read_write> hits: array<QueryHit>;

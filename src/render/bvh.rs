@@ -1,0 +1,274 @@
+//! A bounding-volume hierarchy over boxes (one leaf per box), for the tracer (trace_functions.wgsl).
+//!
+//! The tree's shape is built once per object from its boxes in the object's own space (binned
+//! surface-area heuristic) and kept with the object's upload; each frame only refits the bounds
+//! to the boxes as the view places them, so node bounds are camera-relative and stay precise far
+//! from the world origin. Nodes are stored depth first: a node's left child is the next node.
+//!
+//! Spaces: `build` takes axis-aligned boxes in any one space; `refit` takes each leaf's box
+//! already placed in view space and writes f32 bounds widened outward by rounding.
+
+use bytemuck::{Pod, Zeroable};
+use glam::DVec3;
+
+/// `BvhNode` in trace_types.wgsl: bounds, then (interior) the right child's index and 0, or
+/// (leaf) the box's index and 1.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable, Debug, PartialEq)]
+pub(crate) struct BvhNodeGpu {
+    pub lo: [f32; 3],
+    pub index: u32,
+    pub hi: [f32; 3],
+    pub leaf: u32,
+}
+
+const _: () = assert!(size_of::<BvhNodeGpu>() == 32);
+
+/// An axis-aligned box [lo, hi]; empty when lo > hi on some axis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Aabb {
+    pub lo: DVec3,
+    pub hi: DVec3,
+}
+
+impl Aabb {
+    pub const EMPTY: Aabb = Aabb {
+        lo: DVec3::INFINITY,
+        hi: DVec3::NEG_INFINITY,
+    };
+
+    pub fn of_points(points: impl IntoIterator<Item = DVec3>) -> Aabb {
+        points.into_iter().fold(Aabb::EMPTY, |b, p| Aabb {
+            lo: b.lo.min(p),
+            hi: b.hi.max(p),
+        })
+    }
+
+    fn union(self, other: Aabb) -> Aabb {
+        Aabb {
+            lo: self.lo.min(other.lo),
+            hi: self.hi.max(other.hi),
+        }
+    }
+
+    fn centre(&self) -> DVec3 {
+        0.5 * (self.lo + self.hi)
+    }
+
+    /// Half the surface area (what the heuristic compares); 0 for an empty box.
+    fn half_area(&self) -> f64 {
+        let e = (self.hi - self.lo).max(DVec3::ZERO);
+        e.x * e.y + e.y * e.z + e.z * e.x
+    }
+}
+
+/// The tree's shape: for each node (depth first) its right child, or the box it holds.
+#[derive(Clone, Debug)]
+pub(crate) struct Bvh {
+    nodes: Vec<Shape>,
+}
+
+#[derive(Clone, Copy, Debug)]
+enum Shape {
+    Interior { right: u32 },
+    Leaf { item: u32 },
+}
+
+/// Bins of the surface-area heuristic along the split axis.
+const BINS: usize = 12;
+
+/// Depth below which splits halve the items (at most 2^32 of them: at most 32 more levels).
+const MEDIAN_DEPTH: u32 = 16;
+
+impl Bvh {
+    /// The tree over `boxes` (at least one).
+    pub fn build(boxes: &[Aabb]) -> Bvh {
+        let mut items: Vec<u32> = (0..boxes.len() as u32).collect();
+        let mut nodes = Vec::with_capacity(2 * boxes.len());
+        if !boxes.is_empty() {
+            build_node(boxes, &mut items, &mut nodes, 0);
+        }
+        Bvh { nodes }
+    }
+
+    #[cfg(test)]
+    fn len(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// GPU nodes with the bounds of `placed` (one box per item, in the frame's space; an empty
+    /// box is a leaf no ray enters).
+    pub fn refit(&self, placed: &[Aabb]) -> Vec<BvhNodeGpu> {
+        let mut bounds = vec![Aabb::EMPTY; self.nodes.len()];
+        // Children follow their parent, so walking backwards meets them first.
+        for i in (0..self.nodes.len()).rev() {
+            bounds[i] = match self.nodes[i] {
+                Shape::Leaf { item } => placed[item as usize],
+                Shape::Interior { right } => bounds[i + 1].union(bounds[right as usize]),
+            };
+        }
+        self.nodes
+            .iter()
+            .zip(&bounds)
+            .map(|(shape, b)| {
+                let (index, leaf) = match *shape {
+                    Shape::Interior { right } => (right, 0),
+                    Shape::Leaf { item } => (item, 1),
+                };
+                let (lo, hi) = outward_f32(b);
+                BvhNodeGpu {
+                    lo,
+                    index,
+                    hi,
+                    leaf,
+                }
+            })
+            .collect()
+    }
+}
+
+/// f32 bounds that still contain the f64 box (an empty box stays empty).
+fn outward_f32(b: &Aabb) -> ([f32; 3], [f32; 3]) {
+    if (0..3).any(|k| b.lo[k] > b.hi[k]) {
+        return ([1.0; 3], [-1.0; 3]);
+    }
+    let pad = |v: f64| v.abs() * 1e-6 + 1e-30;
+    let lo = b.lo.to_array().map(|v| (v - pad(v)) as f32);
+    let hi = b.hi.to_array().map(|v| (v + pad(v)) as f32);
+    (lo, hi)
+}
+
+/// Appends the subtree over `items`, depth first (its root is the first node pushed).
+fn build_node(boxes: &[Aabb], items: &mut [u32], nodes: &mut Vec<Shape>, depth: u32) {
+    let at = nodes.len();
+    if items.len() == 1 {
+        nodes.push(Shape::Leaf { item: items[0] });
+        return;
+    }
+    nodes.push(Shape::Interior { right: 0 });
+    // Past MEDIAN_DEPTH only halving: a tree stays shallower than the walk's stack
+    // (STACK_DEPTH = 48 in gtex_trace_functions.wgsl) however the boxes lie.
+    let mid = if depth < MEDIAN_DEPTH {
+        split(boxes, items)
+    } else {
+        median_split(boxes, items)
+    };
+    let (left, right) = items.split_at_mut(mid);
+    build_node(boxes, left, nodes, depth + 1);
+    let right_at = nodes.len() as u32;
+    build_node(boxes, right, nodes, depth + 1);
+    nodes[at] = Shape::Interior { right: right_at };
+}
+
+/// Reorders `items` and returns the split point: the binned surface-area heuristic over the
+/// centres' longest axis, or the median where the centres coincide or no split is better.
+fn split(boxes: &[Aabb], items: &mut [u32]) -> usize {
+    let centres = Aabb::of_points(items.iter().map(|&i| boxes[i as usize].centre()));
+    let extent = centres.hi - centres.lo;
+    let axis = extent.max_position();
+    if extent[axis] <= 0.0 {
+        return median_split(boxes, items);
+    }
+    let bin_of = |i: u32| {
+        let c = boxes[i as usize].centre()[axis];
+        (((c - centres.lo[axis]) / extent[axis] * BINS as f64) as usize).min(BINS - 1)
+    };
+    let mut bins = [(Aabb::EMPTY, 0usize); BINS];
+    for &i in items.iter() {
+        let b = &mut bins[bin_of(i)];
+        *b = (b.0.union(boxes[i as usize]), b.1 + 1);
+    }
+    // Cost of splitting after bin k: left area x count + right area x count.
+    let mut best = (f64::INFINITY, 0);
+    for k in 0..BINS - 1 {
+        let side = |range: &[(Aabb, usize)]| {
+            range
+                .iter()
+                .fold((Aabb::EMPTY, 0), |(a, n), (b, m)| (a.union(*b), n + m))
+        };
+        let (la, ln) = side(&bins[..=k]);
+        let (ra, rn) = side(&bins[k + 1..]);
+        if ln == 0 || rn == 0 {
+            continue;
+        }
+        let cost = la.half_area() * ln as f64 + ra.half_area() * rn as f64;
+        if cost < best.0 {
+            best = (cost, k);
+        }
+    }
+    if !best.0.is_finite() {
+        return median_split(boxes, items);
+    }
+    let mut left = 0;
+    for j in 0..items.len() {
+        if bin_of(items[j]) <= best.1 {
+            items.swap(left, j);
+            left += 1;
+        }
+    }
+    left
+}
+
+/// Halves `items` by their centres along the centres' longest axis.
+fn median_split(boxes: &[Aabb], items: &mut [u32]) -> usize {
+    let centres = Aabb::of_points(items.iter().map(|&i| boxes[i as usize].centre()));
+    let axis = (centres.hi - centres.lo).max_position();
+    let median = items.len() / 2;
+    items.select_nth_unstable_by(median, |a, b| {
+        let ca = boxes[*a as usize].centre()[axis];
+        ca.total_cmp(&boxes[*b as usize].centre()[axis])
+    });
+    median
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn unit_at(x: f64, y: f64, z: f64) -> Aabb {
+        let lo = DVec3::new(x, y, z);
+        Aabb { lo, hi: lo + 1.0 }
+    }
+
+    /// Every box is in exactly one leaf, and every node's bounds hold its children's.
+    #[test]
+    fn refit_bounds_hold_every_leaf_once() {
+        let boxes: Vec<Aabb> = (0..37)
+            .map(|i| unit_at((i % 5) as f64 * 1.5, (i / 5) as f64, ((i * 7) % 3) as f64))
+            .collect();
+        let bvh = Bvh::build(&boxes);
+        assert_eq!(bvh.len(), 2 * boxes.len() - 1);
+        let nodes = bvh.refit(&boxes);
+        let mut seen = vec![0; boxes.len()];
+        for (i, n) in nodes.iter().enumerate() {
+            if n.leaf == 1 {
+                seen[n.index as usize] += 1;
+                let b = boxes[n.index as usize];
+                for k in 0..3 {
+                    assert!(n.lo[k] as f64 <= b.lo[k] && n.hi[k] as f64 >= b.hi[k]);
+                }
+                continue;
+            }
+            for child in [&nodes[i + 1], &nodes[n.index as usize]] {
+                for k in 0..3 {
+                    assert!(n.lo[k] <= child.lo[k] && n.hi[k] >= child.hi[k]);
+                }
+            }
+        }
+        assert!(seen.iter().all(|&s| s == 1), "{seen:?}");
+    }
+
+    /// Coincident centres (no axis to split on) still give a balanced, valid tree; an empty
+    /// placed box stays empty after rounding.
+    #[test]
+    fn coincident_boxes_and_empty_leaves() {
+        let boxes = vec![unit_at(0.0, 0.0, 0.0); 8];
+        let bvh = Bvh::build(&boxes);
+        let mut placed = boxes.clone();
+        placed[3] = Aabb::EMPTY;
+        let nodes = bvh.refit(&placed);
+        let leaf3 = nodes.iter().find(|n| n.leaf == 1 && n.index == 3).unwrap();
+        assert!(leaf3.lo[0] > leaf3.hi[0]);
+        assert!(nodes[0].lo.iter().all(|&v| v <= 0.0) && nodes[0].hi.iter().all(|&v| v >= 1.0));
+    }
+}

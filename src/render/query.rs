@@ -1,0 +1,209 @@
+//! Ray queries: the nearest hit (or any hit) of many rays against a scene's texture sets, traced
+//! on the GPU through each set's hierarchy over the pieces of its patches' boxes (kinds/gtex,
+//! gtex_trace_rays.wgsl), in batches under the adapter's binding and dispatch limits.
+//!
+//! Spaces: rays come in world space (f64). The query's frame is world space translated by the
+//! rays' mean origin, so f32 coordinates stay small near the rays; t is the distance along each
+//! ray's unit direction, in world units.
+
+use glam::{DMat4, DVec3};
+use wgpu::util::DeviceExt;
+
+use super::device::guarded;
+use super::gpu_types::{QueryGpu, QueryHitGpu, QueryRayGpu};
+use super::kinds::TraceCall;
+use super::pipelines::{storage_entry, uniform_entry};
+use super::{Renderer, Scene, SearchOptions};
+use crate::error::{GeomtexError, Result};
+
+/// Rays per batch: 32 MiB of rays and of hits, far under every adapter's binding limit.
+const BATCH: usize = 1 << 20;
+
+/// Invocations per workgroup (gtex_trace_rays.wgsl).
+const WORKGROUP: u32 = 64;
+
+/// What a query found, per ray.
+pub struct RayHits {
+    /// Distance to the hit along the ray's unit direction; +inf for a miss.
+    pub distance: Vec<f64>,
+    /// Patch id (0.. across the scene's texture sets in order); -1 for a miss.
+    pub patch_id: Vec<i32>,
+    /// World-space unit normal at the hit (xyz per ray); 0 for a miss.
+    pub normal: Vec<f32>,
+}
+
+/// Group 2 of ray queries (query_bindings.wgsl).
+pub(crate) fn query_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+    let compute = wgpu::ShaderStages::COMPUTE;
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("ray query"),
+        entries: &[
+            uniform_entry(0, compute),
+            storage_entry(1, compute, true),
+            storage_entry(2, compute, false),
+        ],
+    })
+}
+
+/// Unit directions, or an error naming the first ray that has no direction or is not finite.
+fn checked_rays(rays: &[(DVec3, DVec3)]) -> Result<Vec<(DVec3, DVec3)>> {
+    rays.iter()
+        .enumerate()
+        .map(|(i, &(o, d))| {
+            let length = d.length();
+            let usable = length > 0.0 && length.is_finite();
+            if !o.is_finite() || !d.is_finite() || !usable {
+                return Err(GeomtexError::Parameter(format!(
+                    "ray {i}: origin {o:?} and direction {d:?} must be finite and the direction \
+                     non-zero"
+                )));
+            }
+            Ok((o, d / length))
+        })
+        .collect()
+}
+
+impl Renderer {
+    /// The nearest hit of each ray (origin, direction) against the scene's texture sets, or with
+    /// `any_hit` whether it hits anything (its first hit found, not the nearest). Meshes in the
+    /// scene are an error (they cannot be traced yet).
+    pub fn intersect(
+        &mut self,
+        scene: &Scene,
+        rays: &[(DVec3, DVec3)],
+        search: &SearchOptions,
+        any_hit: bool,
+    ) -> Result<RayHits> {
+        search.validate()?;
+        let rays = checked_rays(rays)?;
+        let device = self.gpu.device.clone();
+        guarded(&device, || {
+            let centre = rays.iter().map(|r| r.0).sum::<DVec3>() / rays.len().max(1) as f64;
+            let traces = self.prepare_query(scene, DMat4::from_translation(-centre), search)?;
+            let mut hits = RayHits {
+                distance: Vec::with_capacity(rays.len()),
+                patch_id: Vec::with_capacity(rays.len()),
+                normal: Vec::with_capacity(3 * rays.len()),
+            };
+            for batch in rays.chunks(BATCH) {
+                let found = self.run_batch(&traces, batch, centre, any_hit)?;
+                for h in found {
+                    let hit = h.id >= 0;
+                    hits.distance
+                        .push(if hit { h.t as f64 } else { f64::INFINITY });
+                    hits.patch_id.push(if hit { h.id } else { -1 });
+                    hits.normal.extend(if hit { h.normal } else { [0.0; 3] });
+                }
+            }
+            Ok(hits)
+        })
+    }
+
+    /// Uploads what is new and makes each object's dispatch in the query's frame.
+    fn prepare_query(
+        &mut self,
+        scene: &Scene,
+        view_from_world: DMat4,
+        search: &SearchOptions,
+    ) -> Result<Vec<TraceCall>> {
+        let mut depth = super::cull::DepthRange::empty();
+        let mut owners = Vec::with_capacity(scene.objects.len());
+        for (index, placed) in scene.objects.iter().enumerate() {
+            placed.check_placement(index)?;
+            let view_from_object = view_from_world * placed.world_from_object;
+            owners.push(self.upload(&placed.object, &view_from_object, &mut depth)?);
+        }
+        self.frame_bindings.write_search(&self.gpu.queue, search);
+        let mut first_id = 0;
+        let mut traces = Vec::new();
+        for (placed, owner) in scene.objects.iter().zip(owners) {
+            let kind = &self.kinds[owner];
+            traces.extend(kind.trace(&self.gpu, view_from_world, placed, &mut first_id)?);
+        }
+        Ok(traces)
+    }
+
+    /// Traces one batch through every object's dispatch in turn (each no further than the
+    /// nearest hit so far) and reads the hits back.
+    fn run_batch(
+        &self,
+        traces: &[TraceCall],
+        rays: &[(DVec3, DVec3)],
+        centre: DVec3,
+        any_hit: bool,
+    ) -> Result<Vec<QueryHitGpu>> {
+        let device = &self.gpu.device;
+        let gpu_rays: Vec<QueryRayGpu> = rays
+            .iter()
+            .map(|&(o, d)| QueryRayGpu {
+                origin: (o - centre).as_vec3().to_array(),
+                t_min: 0.0,
+                dir: d.as_vec3().to_array(),
+                _pad: 0,
+            })
+            .collect();
+        let none = QueryHitGpu {
+            normal: [0.0; 3],
+            t: f32::MAX,
+            id: -1,
+            _pad: [0; 3],
+        };
+        let hits_init = vec![none; rays.len()];
+        let workgroups = (rays.len() as u32).div_ceil(WORKGROUP);
+        let per_row = workgroups.min(device.limits().max_compute_workgroups_per_dimension);
+        let rows = workgroups.div_ceil(per_row.max(1));
+        let settings = QueryGpu {
+            counts: [rays.len() as u32, any_hit as u32, per_row * WORKGROUP, 0],
+        };
+        let buffer = |label, contents: &[u8], usage| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage,
+            })
+        };
+        let storage = wgpu::BufferUsages::STORAGE;
+        let settings = buffer(
+            "query",
+            bytemuck::bytes_of(&settings),
+            wgpu::BufferUsages::UNIFORM,
+        );
+        let rays_buffer = buffer("query rays", bytemuck::cast_slice(&gpu_rays), storage);
+        let hits = buffer(
+            "query hits",
+            bytemuck::cast_slice(&hits_init),
+            storage | wgpu::BufferUsages::COPY_SRC,
+        );
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("ray query"),
+            layout: &self.query_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: settings.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: rays_buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: hits.as_entire_binding(),
+                },
+            ],
+        });
+        let mut encoder = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_bind_group(0, &self.frame_bindings.group, &[]);
+            pass.set_bind_group(2, &group, &[]);
+            for trace in traces {
+                pass.set_pipeline(&trace.pipeline);
+                pass.set_bind_group(1, &trace.group, &[]);
+                pass.dispatch_workgroups(per_row, rows, 1);
+            }
+        }
+        let bytes = super::targets::read_buffer(&self.gpu, encoder, &hits)?;
+        Ok(bytemuck::cast_slice(&bytes).to_vec())
+    }
+}
