@@ -24,7 +24,9 @@ BOUND_S = 1.0
 DELAY_S = 1.5
 
 CHILD = r"""
-import sys, time
+import signal, sys, time
+# A shell may start background jobs with SIGINT ignored, which Python then keeps.
+signal.signal(signal.SIGINT, signal.default_int_handler)
 import numpy as np
 import trimesh
 import geomtex as gt
