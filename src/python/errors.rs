@@ -1,5 +1,6 @@
 //! The one place core errors become Python exceptions, and the one helper every heavy call goes
-//! through (GIL released, panics caught, errors mapped).
+//! through (work on a worker thread with the GIL released, Ctrl-C honoured, panics caught, errors
+//! mapped).
 //!
 //! The exception classes are created here, inside the extension, so the extension never imports
 //! the Python package above it; `geomtex` re-exports them. Each subclass also derives from the
