@@ -30,6 +30,10 @@ pub enum GeomtexError {
     /// The progress callback asked to stop.
     #[error("conversion cancelled during stage '{0}'")]
     Cancelled(String),
+    /// The caller's cancel token was set (Ctrl-C in Python): the binding layer raises the
+    /// signal's own exception (KeyboardInterrupt) in its place.
+    #[error("interrupted while {0}")]
+    Interrupted(String),
 }
 
 pub type Result<T> = std::result::Result<T, GeomtexError>;

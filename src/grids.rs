@@ -112,9 +112,9 @@ pub fn from_grids(
     if grids.is_empty() {
         return Err(GeomtexError::Parameter("no grids given".into()));
     }
-    if !(2..=16384).contains(&tile) {
+    if !(2..=crate::gtex::MAX_PATCH_SIDE as i64).contains(&tile) {
         return Err(GeomtexError::Parameter(format!(
-            "max_resolution must be in [2, 16384], got {tile}"
+            "max_resolution must be in [2, 4096], got {tile}"
         )));
     }
     let bits = match u8::try_from(bits) {
@@ -151,6 +151,9 @@ pub fn from_grids(
     };
     set.stats = grid_stats(grids, &set, bits);
     set.stats.per_patch = vec![("patch_grid".into(), per_patch_grid)];
+    // Heights spanning more than f64 holds (1e308 above -1e308) would make an infinite box.
+    set.validate()
+        .map_err(|e| GeomtexError::Parameter(format!("the grids give no renderable set: {e}")))?;
     Ok(set)
 }
 
@@ -325,11 +328,11 @@ mod tests {
         };
         assert_eq!(
             message(Some(-5), None),
-            "max_resolution must be in [2, 16384], got -5"
+            "max_resolution must be in [2, 4096], got -5"
         );
         assert_eq!(
             message(Some(1 << 40), None),
-            format!("max_resolution must be in [2, 16384], got {}", 1i64 << 40)
+            format!("max_resolution must be in [2, 4096], got {}", 1i64 << 40)
         );
         assert_eq!(
             message(None, Some(12)),

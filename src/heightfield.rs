@@ -195,14 +195,20 @@ pub fn first_hit(p: &Patch, o: DVec3, d: DVec3, t0: f64, t1: f64) -> Option<f64>
 
 /// The nearest exact hit of each world ray (origin, unit direction) over all patches of a set:
 /// (distance along the ray, patch index), or (inf, -1). The CPU reference for the GPU searches.
+/// `cancel` is polled before every ray (Interrupted once set).
 pub fn first_hits(
     set: &crate::gtex::GeometryTextureSet,
     rays: &[(DVec3, DVec3)],
-) -> Vec<(f64, i32)> {
+    cancel: &crate::cancel::Cancel,
+) -> crate::error::Result<Vec<(f64, i32)>> {
     use rayon::prelude::*;
-    rays.par_iter()
+    let hits = rays
+        .par_iter()
         .map(|&(origin, dir)| {
             let mut best = (f64::INFINITY, -1);
+            if cancel.is_cancelled() {
+                return best; // reported below
+            }
             for (k, p) in set.patches.iter().enumerate() {
                 // Patch-local ray; t keeps its meaning (world distance) since the map is affine.
                 let o = p.world_to_local(origin);
@@ -219,7 +225,9 @@ pub fn first_hits(
             }
             best
         })
-        .collect()
+        .collect();
+    cancel.check("casting rays on the CPU")?;
+    Ok(hits)
 }
 
 /// Min-max pyramid over the cells between texel centres, for skipping what a ray cannot hit:

@@ -4,6 +4,7 @@
 //! `gtex::GeometryTextureSet`, `gtex::file` reads and writes .gtex files. The Python binding layer
 //! lives in `python/` behind the `python` feature.
 
+pub mod cancel;
 pub mod convert;
 pub mod error;
 pub mod filters;
@@ -16,6 +17,7 @@ pub mod render;
 #[cfg(feature = "python")]
 mod python;
 
+pub use cancel::Cancel;
 pub use convert::{
     convert, ConvertArgs, ConvertOptions, ErrorScope, InPlane, NormalSource, Progress,
 };

@@ -74,7 +74,7 @@ def test_bunny_meets_the_issue_targets(bunny: Converted) -> None:
     st = bunny.gts.stats
     assert st["folding_charts"] == 0 and st["inverted_triangles"] == 0
     check_no_folding(bunny)
-    assert st["empty_fraction"] <= 0.30, f"{st['empty_fraction']:.3f} empty (paper: 0.388)"
+    assert st["empty_fraction"] <= 0.30, f"{st['empty_fraction']:.3f} empty (measured 0.287; paper: 0.388)"
     # Empty fraction recounted from the maps themselves.
     heights = [bunny.gts.patch(i)["height"] for i in range(len(bunny.gts))]
     recount = sum(int((h == 0).sum()) for h in heights) / sum(h.size for h in heights)
@@ -107,11 +107,11 @@ def test_generated_meshes(name: str) -> None:
 
 def test_open_sheet_heights_follow_the_surface() -> None:
     """Texel points of z = 0.15 sin 3x cos 2y lie on the analytic surface up to the mesh's own
-    piecewise-linear error (grid spacing 1/30: |f''| h^2 / 8 ~ 6e-4)."""
+    piecewise-linear error (grid spacing 1/30: |f''| h^2 / 8 ~ 6e-4; measured 2.7e-4)."""
     c = converted("open_sheet")
     x, y, z = c.points.T
     err = np.abs(z - 0.15 * np.sin(3 * x) * np.cos(2 * y))
-    assert err.max() < 1.5e-3
+    assert err.max() < 8e-4
 
 
 def test_normals_agree_with_the_mesh(bunny: Converted) -> None:
@@ -126,7 +126,7 @@ def test_normals_agree_with_the_mesh(bunny: Converted) -> None:
     n = bunny.normals[pick].astype(np.float64)
     assert np.allclose(np.linalg.norm(n, axis=1), 1.0, atol=1e-5)
     angle = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", n, tm.face_normals[tri]), -1, 1)))
-    assert np.median(angle) < 5.0, f"median normal error {np.median(angle):.2f} degrees"
+    assert np.median(angle) < 5.0, f"median normal error {np.median(angle):.2f} degrees (measured 3.18)"
 
 
 def test_min_area_frames_waste_no_more_than_pca(bunny: Converted) -> None:
@@ -148,9 +148,11 @@ def test_far_from_origin_keeps_detail(bunny: Converted) -> None:
     d = reference.points_to_mesh(points[rng.choice(len(points), 5000, replace=False)] - offset, bunny.mesh)
     rms = np.sqrt(np.mean(d**2)) / diag
     # f32 anywhere on the way would cost ~1e6 * 6e-8 = 0.06 world units here (~0.2 of the
-    # diagonal); the f64 core stays at the origin's level (1e-7 to 1e-6, set by border lips).
-    assert rms <= 1e-5, rms
-    assert d.max() <= 0.75 * gts.texel_size  # the conservative-coverage lip bound, as at the origin
+    # diagonal); the f64 core stays at the origin's level (measured 8.0e-8 of the diagonal).
+    assert rms <= 2.5e-7, rms
+    assert d.max() <= 2e-3 * gts.texel_size  # measured 5.6e-4 texel (the lip bound is 0.75)
+    # Measured: one texel in 3.07 M (the same partition); left loose for the other partition
+    # the docstring allows.
     assert abs(len(points) / len(bunny.points) - 1) < 0.15
     assert gts.stats["folding_charts"] == 0
 

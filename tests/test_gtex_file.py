@@ -94,3 +94,53 @@ def test_overwrite_replaces_atomically(sheet: Converted, tmp_path) -> None:
     sheet.gts.save(path)
     assert gt.load(path).stats == sheet.gts.stats
     assert sorted(os.listdir(tmp_path)) == ["x.gtex"]
+
+
+def _first_patch_offset(data: bytes) -> int:
+    """Offset of patch 0's origin in a version-3 .gtex file (the layout in src/gtex/file.rs)."""
+    at = 32 + 8
+    for _ in range(2):  # stats, then stage seconds: count, then (name, f64)
+        count = int.from_bytes(data[at:at + 4], "little")
+        at += 4
+        for _ in range(count):
+            at += 2 + int.from_bytes(data[at:at + 2], "little") + 8
+    count = int.from_bytes(data[at:at + 4], "little")  # per-patch stats: (name, n, f64[n])
+    at += 4
+    for _ in range(count):
+        at += 2 + int.from_bytes(data[at:at + 2], "little")
+        at += 4 + 8 * int.from_bytes(data[at:at + 4], "little")
+    return at + 4  # past the patch count
+
+
+def _resealed(data: bytes, at: int, value: bytes) -> bytes:
+    """``value`` written at ``at``, with the header's checksum recomputed: only content checks
+    can catch it."""
+    import zlib
+
+    body = bytearray(data)
+    body[at:at + len(value)] = value
+    payload = bytes(body[32:])
+    return bytes(body[:24]) + zlib.crc32(payload).to_bytes(4, "little") + bytes(body[28:32]) + payload
+
+
+def test_impossible_content_with_a_valid_checksum_is_a_format_error(sheet: Converted, tmp_path) -> None:
+    path = tmp_path / "s.gtex"
+    sheet.gts.save(path)
+    data = path.read_bytes()
+    p0 = _first_patch_offset(data)
+    nan, zero3 = np.float64(np.nan).tobytes(), bytes(24)
+    sizes = p0 + 15 * 8  # width, height, height bits, face count, ring face count (u32 each)
+    first_face = sizes + 5 * 4
+    cases = {
+        "NaN origin": (p0, nan, "patch 0: origin is not finite"),
+        "zero axis": (p0 + 6 * 8, zero3, r"patch 0: axis 1 is not unit length \(\|a\| = 0\)"),
+        "negative extent": (p0 + 12 * 8, np.float64(-1.0).tobytes(), "patch 0: extent 0 must be positive"),
+        "zero width": (sizes, bytes(4), "patch 0: width is 0 texels"),
+        "huge height": (sizes + 4, (1 << 31).to_bytes(4, "little"), "patch 0: height is 2147483648 texels"),
+        "face past the mesh": (first_face, (10**9).to_bytes(4, "little"), "patch 0: face id 1000000000 is past"),
+    }
+    for name, (at, value, message) in cases.items():
+        bad = tmp_path / f"{name.replace(' ', '_')}.gtex"
+        bad.write_bytes(_resealed(data, at, value))
+        with pytest.raises(gt.FormatError, match=message):
+            gt.load(bad)

@@ -33,7 +33,7 @@ use figures::StageFigures;
 use frame::ChartFrame;
 use options::ERROR_DRIVEN_CHART_ERRORS;
 use overlap::Ring;
-use progress::{each_chart, report, Stages};
+use progress::{each_chart, Stages};
 use repair::Folding;
 
 /// Converts a mesh to geometry textures. With `max_error` and neither `chart_error` nor
@@ -97,8 +97,9 @@ struct Prepared<'m> {
 
 /// The geometry stage. Charts are grown from face normals, so reversed triangles would split
 /// them into thousands of slivers: every face is wound like its neighbours first.
-fn prepare(mesh: &Mesh) -> Result<Prepared<'_>> {
+fn prepare<'m>(mesh: &'m Mesh, progress: Progress) -> Result<Prepared<'m>> {
     let geo = MeshGeometry::new(mesh);
+    progress.check("geometry")?;
     let inconsistent_edges = geo.edge_counts.inconsistent;
     let flips = geo.winding_flips();
     let flipped_faces = flips.iter().filter(|&&f| f).count();
@@ -145,7 +146,7 @@ fn chart_stages(
 ) -> Result<Charted> {
     let (mesh, geo) = (prepared.mesh.as_ref(), &prepared.geo);
     stages.begin("partition")?;
-    let partition = vsa::partition_mesh(geo, &prepared.active, opts);
+    let partition = vsa::partition_mesh(geo, &prepared.active, opts, stages.progress.cancel)?;
     stages.end("partition");
 
     stages.begin("repair")?;
@@ -245,7 +246,7 @@ fn convert_once(
 ) -> Result<GeometryTextureSet> {
     let mut stages = Stages::new(progress);
     stages.begin("geometry")?;
-    let prepared = prepare(mesh)?;
+    let prepared = prepare(mesh, progress)?;
     let (mesh, geo) = (prepared.mesh.as_ref(), &prepared.geo);
     stages.end("geometry");
 
@@ -299,7 +300,9 @@ fn convert_once(
     };
     set.stats = figures::stats(mesh, geo, opts, &set, figures);
     set.stats.seconds = stages.into_seconds();
-    report(progress, "done", 1.0)?;
+    set.validate()
+        .map_err(|e| GeomtexError::Internal(format!("conversion made an impossible set: {e}")))?;
+    progress.report("done", 1.0)?;
     Ok(set)
 }
 
@@ -346,7 +349,7 @@ mod tests {
     #[test]
     fn sphere_converts_without_folding_and_on_the_surface() {
         let mesh = uv_sphere(24, 48);
-        let set = convert(&mesh, &ConvertOptions::default(), &|_, _| true).unwrap();
+        let set = convert(&mesh, &ConvertOptions::default(), Progress::silent()).unwrap();
         let geo = MeshGeometry::new(&mesh);
         assert!(set.patches.len() >= 2);
         let mut seen = vec![0u32; mesh.faces.len()];
@@ -401,7 +404,7 @@ mod tests {
                     height_bits: bits,
                     ..Default::default()
                 };
-                let set = convert(&mesh, &opts, &|_, _| true).unwrap();
+                let set = convert(&mesh, &opts, Progress::silent()).unwrap();
                 for p in &set.patches {
                     let filled = p.heights.iter().filter(|&&q| q > 0);
                     assert!(
@@ -417,16 +420,25 @@ mod tests {
     #[test]
     fn cancel_and_bad_options_are_errors() {
         let mesh = uv_sphere(8, 16);
-        let e = convert(&mesh, &ConvertOptions::default(), &|stage, _| {
-            stage != "raster"
-        });
+        let stop_at_raster = |stage: &str, _| stage != "raster";
+        let progress = Progress::new(&stop_at_raster, &crate::cancel::NEVER);
+        let e = convert(&mesh, &ConvertOptions::default(), progress);
         assert!(matches!(e, Err(GeomtexError::Cancelled(s)) if s == "raster"));
+        // A token set before the call stops it at the first poll.
+        let token = crate::cancel::Cancel::new();
+        token.cancel();
+        let e = convert(
+            &mesh,
+            &ConvertOptions::default(),
+            Progress::new(&|_, _| true, &token),
+        );
+        assert!(matches!(e, Err(GeomtexError::Interrupted(_))));
         let opts = ConvertOptions {
             max_resolution: Some(1),
             ..Default::default()
         };
         assert!(matches!(
-            convert(&mesh, &opts, &|_, _| true),
+            convert(&mesh, &opts, Progress::silent()),
             Err(GeomtexError::Parameter(_))
         ));
     }
@@ -438,7 +450,7 @@ mod tests {
             charts: Some(12),
             ..Default::default()
         };
-        let set = convert(&mesh, &opts, &|_, _| true).unwrap();
+        let set = convert(&mesh, &opts, Progress::silent()).unwrap();
         assert_eq!(set.stats.get("vsa_charts"), Some(12.0));
         let splits = set.stats.get("repair_splits").unwrap();
         assert_eq!(set.patches.len() as f64, 12.0 + splits);

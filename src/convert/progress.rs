@@ -8,18 +8,49 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
+use crate::cancel::{Cancel, NEVER};
 use crate::error::{GeomtexError, Result};
 
-/// Progress: called with a stage name and its completed fraction in [0, 1]; returning false
-/// cancels the conversion. May be called from worker threads.
-pub type Progress<'a> = &'a (dyn Fn(&str, f64) -> bool + Sync);
+/// Progress of one conversion: `callback(stage, fraction)` with the completed fraction in
+/// [0, 1] (returning false cancels; may be called from worker threads), and the caller's cancel
+/// token, which long loops poll far more often than they report.
+#[derive(Clone, Copy)]
+pub struct Progress<'a> {
+    pub callback: &'a (dyn Fn(&str, f64) -> bool + Sync),
+    pub cancel: &'a Cancel,
+}
 
-/// Reports `fraction` of `stage`; Cancelled if the callback says stop.
-pub fn report(progress: Progress, stage: &str, fraction: f64) -> Result<()> {
-    if progress(stage, fraction) {
-        Ok(())
-    } else {
-        Err(GeomtexError::Cancelled(stage.into()))
+fn always(_: &str, _: f64) -> bool {
+    true
+}
+
+impl<'a> Progress<'a> {
+    pub fn new(callback: &'a (dyn Fn(&str, f64) -> bool + Sync), cancel: &'a Cancel) -> Self {
+        Progress { callback, cancel }
+    }
+
+    /// No reports and no cancellation.
+    pub fn silent() -> Progress<'static> {
+        Progress {
+            callback: &always,
+            cancel: &NEVER,
+        }
+    }
+
+    /// Interrupted if the token is set.
+    pub fn check(&self, stage: &str) -> Result<()> {
+        self.cancel.check(&format!("converting (stage '{stage}')"))
+    }
+
+    /// Reports `fraction` of `stage`; Cancelled if the callback says stop, Interrupted if the
+    /// token is set.
+    pub fn report(&self, stage: &str, fraction: f64) -> Result<()> {
+        self.check(stage)?;
+        if (self.callback)(stage, fraction) {
+            Ok(())
+        } else {
+            Err(GeomtexError::Cancelled(stage.into()))
+        }
     }
 }
 
@@ -46,7 +77,7 @@ impl<'a> Stages<'a> {
 
     /// Reports that `stage` begins.
     pub fn begin(&self, stage: &str) -> Result<()> {
-        report(self.progress, stage, 0.0)
+        self.progress.report(stage, 0.0)
     }
 
     /// Records the seconds since the previous stage ended as `stage`'s.
@@ -66,7 +97,7 @@ impl<'a> Stages<'a> {
 }
 
 /// `work` on every item in parallel, reporting progress as `stage` and stopping early when the
-/// callback cancels.
+/// callback cancels or the token is set (polled before every item).
 pub fn each_chart<J: Sync, T: Send>(
     items: &[J],
     progress: Progress,
@@ -78,17 +109,18 @@ pub fn each_chart<J: Sync, T: Send>(
     let out: Vec<Option<T>> = items
         .par_iter()
         .map(|item| {
-            if cancelled.load(Ordering::Relaxed) {
+            if cancelled.load(Ordering::Relaxed) || progress.cancel.is_cancelled() {
                 return None;
             }
             let t = work(item);
             let k = done.fetch_add(1, Ordering::Relaxed) + 1;
-            if k.is_multiple_of(16) && !progress(stage, k as f64 / items.len() as f64) {
+            if k.is_multiple_of(16) && !(progress.callback)(stage, k as f64 / items.len() as f64) {
                 cancelled.store(true, Ordering::Relaxed);
             }
             Some(t)
         })
         .collect();
+    progress.check(stage)?;
     if cancelled.load(Ordering::Relaxed) {
         return Err(GeomtexError::Cancelled(stage.into()));
     }

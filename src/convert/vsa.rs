@@ -14,6 +14,8 @@ use std::collections::BinaryHeap;
 use glam::DVec3;
 
 use super::options::ConvertOptions;
+use crate::cancel::{Cancel, NEVER};
+use crate::error::Result;
 use crate::mesh::{Csr, MeshGeometry};
 
 pub const NONE: u32 = u32::MAX;
@@ -136,7 +138,12 @@ pub struct MeshPartition {
 }
 
 /// Partitions the mesh's `active` (non-degenerate) faces as the options say.
-pub fn partition_mesh(geo: &MeshGeometry, active: &[u32], opts: &ConvertOptions) -> MeshPartition {
+pub fn partition_mesh(
+    geo: &MeshGeometry,
+    active: &[u32],
+    opts: &ConvertOptions,
+    cancel: &Cancel,
+) -> Result<MeshPartition> {
     let mut scratch = vec![NONE; geo.degenerate.len()];
     let set = FaceSet::new(geo, active, &mut scratch);
     let target = match opts.charts {
@@ -146,11 +153,17 @@ pub fn partition_mesh(geo: &MeshGeometry, active: &[u32], opts: &ConvertOptions)
             max_charts: opts.max_charts,
         },
     };
-    let part = partition(&set, target, opts.lloyd_iterations, opts.compactness);
-    MeshPartition {
+    let part = partition(
+        &set,
+        target,
+        opts.lloyd_iterations,
+        opts.compactness,
+        cancel,
+    )?;
+    Ok(MeshPartition {
         groups: part.groups(&set),
         mean_error: part.mean_error,
-    }
+    })
 }
 
 #[derive(PartialEq)]
@@ -185,6 +198,8 @@ struct Solver<'a> {
     seeds: Vec<u32>,
     labels: Vec<u32>,
     heap: BinaryHeap<Candidate>,
+    /// Polled before every Lloyd iteration (one flood of the mesh, ~0.2 s on 330k faces).
+    cancel: &'a Cancel,
 }
 
 impl<'a> Solver<'a> {
@@ -199,6 +214,7 @@ impl<'a> Solver<'a> {
             seeds,
             labels: vec![NONE; set.len()],
             heap: BinaryHeap::new(),
+            cancel: &NEVER,
         }
     }
 
@@ -305,6 +321,9 @@ impl<'a> Solver<'a> {
 
     fn lloyd(&mut self, iterations: usize) {
         for _ in 0..iterations.max(1) {
+            if self.cancel.is_cancelled() {
+                return; // the caller's check reports it
+            }
             self.flood();
             self.fit_and_reseed();
         }
@@ -401,13 +420,14 @@ pub fn partition(
     target: ChartTarget,
     lloyd_iterations: usize,
     compactness: f64,
-) -> Partition {
+    cancel: &Cancel,
+) -> Result<Partition> {
     if set.is_empty() {
-        return Partition {
+        return Ok(Partition {
             labels: vec![],
             proxies: vec![],
             mean_error: 0.0,
-        };
+        });
     }
     let total_area: f64 = set.areas.iter().sum::<f64>().max(f64::MIN_POSITIVE);
     let (want, tolerance, cap) = match target {
@@ -426,9 +446,11 @@ pub fn partition(
         ChartTarget::MeanError { .. } => 1,
     };
     let mut solver = Solver::new(set, initial_seeds(set, first), 0.0);
+    solver.cancel = cancel;
     solver.compactness = scaled(solver.proxies.len());
     solver.lloyd(3);
     loop {
+        cancel.check("partitioning the mesh")?;
         let regions = solver.region_errors();
         let mean = regions.iter().map(|r| r.0).sum::<f64>() / total_area;
         let count = solver.proxies.len();
@@ -454,7 +476,8 @@ pub fn partition(
         }
     }
     solver.lloyd(lloyd_iterations);
-    solver.into_partition()
+    cancel.check("partitioning the mesh")?;
+    Ok(solver.into_partition())
 }
 
 /// Splits a (connected) chart in two: seeds at the face that fits `z` worst and the one that fits
@@ -517,7 +540,7 @@ mod tests {
         let all: Vec<u32> = (0..m.faces.len() as u32).collect();
         let mut scratch = vec![NONE; m.faces.len()];
         let set = FaceSet::new(&geo, &all, &mut scratch);
-        let p = partition(&set, ChartTarget::Count(6), 10, 0.0);
+        let p = partition(&set, ChartTarget::Count(6), 10, 0.0, &NEVER).unwrap();
         assert_eq!(p.proxies.len(), 6);
         for (f, &l) in p.labels.iter().enumerate() {
             assert!(
@@ -542,7 +565,9 @@ mod tests {
             },
             5,
             0.0,
-        );
+            &NEVER,
+        )
+        .unwrap();
         assert!(
             p.proxies.len() >= 6 && p.proxies.len() <= 12,
             "{}",

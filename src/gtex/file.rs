@@ -11,6 +11,9 @@
 //!          ring face ids u32[] | heights u8[w*h] or u16[w*h] | normals i8[w*h*4] |
 //!          colors u8[w*h*4]
 //! ```
+//! A file whose bytes pass the checksum must still hold a possible set
+//! (`GeometryTextureSet::validate`: finite orthonormal frames, positive extents, 1 to 4096 texels a
+//! side, codes within their bits, face ids within the "faces" stat, per-patch stats per patch).
 //! Version 2 is the same without the per-patch stats; version 1 also lacks the height-bits field
 //! (every patch has 16-bit heights).
 //! Written by hand (not serde/bincode) so the layout is fixed, documented and readable from any
@@ -166,6 +169,60 @@ impl<'a> Reader<'a> {
     }
 }
 
+/// Patch `k` of a file of format `version`; its size is checked before its maps are read.
+fn read_patch(r: &mut Reader, k: usize, version: u32) -> Result<Patch, String> {
+    let what = format!("patch {k}");
+    let origin = r.vec3(&what)?;
+    let axes = [r.vec3(&what)?, r.vec3(&what)?, r.vec3(&what)?];
+    let extent = r.vec3(&what)?;
+    let (w, h) = (r.u32(&what)?, r.u32(&what)?);
+    super::validate::check_size(w, h).map_err(|e| format!("{what}: {e}"))?;
+    let height_bits = if version >= 2 {
+        match r.u32(&what)? {
+            b @ (8 | 16) => b as u8,
+            b => return Err(format!("{what}: height bits must be 8 or 16, found {b}")),
+        }
+    } else {
+        16
+    };
+    let (nf, nr) = (r.u32(&what)? as usize, r.u32(&what)? as usize);
+    let texels = w as usize * h as usize;
+    let ids = r.take((nf + nr) * 4, &format!("{what} face ids"))?;
+    let ids: Vec<u32> = ids
+        .chunks_exact(4)
+        .map(|c| u32::from_le_bytes(c.try_into().unwrap()))
+        .collect();
+    let code_bytes = height_bits as usize / 8;
+    let heights = r.take(texels * code_bytes, &format!("{what} heights"))?;
+    let heights = if code_bytes == 1 {
+        heights.iter().map(|&q| q as u16).collect()
+    } else {
+        heights
+            .chunks_exact(2)
+            .map(|c| u16::from_le_bytes([c[0], c[1]]))
+            .collect()
+    };
+    let normals =
+        bytemuck::cast_slice::<u8, [i8; 4]>(r.take(texels * 4, &format!("{what} normals"))?)
+            .to_vec();
+    let colors =
+        bytemuck::cast_slice::<u8, [u8; 4]>(r.take(texels * 4, &format!("{what} colors"))?)
+            .to_vec();
+    Ok(Patch {
+        origin,
+        axes,
+        extent,
+        width: w,
+        height: h,
+        height_bits,
+        heights,
+        normals,
+        colors,
+        faces: ids[..nf].to_vec(),
+        ring_faces: ids[nf..].to_vec(),
+    })
+}
+
 pub fn decode(bytes: &[u8]) -> Result<GeometryTextureSet, String> {
     if bytes.len() < HEADER || &bytes[..8] != MAGIC {
         return Err("not a .gtex file (bad magic number or shorter than its header)".into());
@@ -205,55 +262,7 @@ pub fn decode(bytes: &[u8]) -> Result<GeometryTextureSet, String> {
     let n = r.u32("patch count")? as usize;
     let mut patches = Vec::with_capacity(n.min(1 << 16));
     for k in 0..n {
-        let what = format!("patch {k}");
-        let origin = r.vec3(&what)?;
-        let axes = [r.vec3(&what)?, r.vec3(&what)?, r.vec3(&what)?];
-        let extent = r.vec3(&what)?;
-        let (w, h) = (r.u32(&what)?, r.u32(&what)?);
-        let height_bits = if version >= 2 {
-            match r.u32(&what)? {
-                b @ (8 | 16) => b as u8,
-                b => return Err(format!("{what}: height bits must be 8 or 16, found {b}")),
-            }
-        } else {
-            16
-        };
-        let (nf, nr) = (r.u32(&what)? as usize, r.u32(&what)? as usize);
-        let texels = w as usize * h as usize;
-        let ids = r.take((nf + nr) * 4, &format!("{what} face ids"))?;
-        let ids: Vec<u32> = ids
-            .chunks_exact(4)
-            .map(|c| u32::from_le_bytes(c.try_into().unwrap()))
-            .collect();
-        let code_bytes = height_bits as usize / 8;
-        let heights = r.take(texels * code_bytes, &format!("{what} heights"))?;
-        let heights = if code_bytes == 1 {
-            heights.iter().map(|&q| q as u16).collect()
-        } else {
-            heights
-                .chunks_exact(2)
-                .map(|c| u16::from_le_bytes([c[0], c[1]]))
-                .collect()
-        };
-        let normals =
-            bytemuck::cast_slice::<u8, [i8; 4]>(r.take(texels * 4, &format!("{what} normals"))?)
-                .to_vec();
-        let colors =
-            bytemuck::cast_slice::<u8, [u8; 4]>(r.take(texels * 4, &format!("{what} colors"))?)
-                .to_vec();
-        patches.push(Patch {
-            origin,
-            axes,
-            extent,
-            width: w,
-            height: h,
-            height_bits,
-            heights,
-            normals,
-            colors,
-            faces: ids[..nf].to_vec(),
-            ring_faces: ids[nf..].to_vec(),
-        });
+        patches.push(read_patch(&mut r, k, version)?);
     }
     if r.pos != payload.len() {
         return Err(format!(
@@ -261,11 +270,13 @@ pub fn decode(bytes: &[u8]) -> Result<GeometryTextureSet, String> {
             payload.len() - r.pos
         ));
     }
-    Ok(GeometryTextureSet {
+    let set = GeometryTextureSet {
         patches,
         texel_size,
         stats,
-    })
+    };
+    set.validate()?;
+    Ok(set)
 }
 
 impl GeometryTextureSet {
@@ -317,6 +328,7 @@ mod tests {
         };
         let mut stats = Stats::default();
         stats.set("charts", 1.0);
+        stats.set("faces", 10.0);
         stats.seconds.push(("raster".into(), 0.5));
         GeometryTextureSet {
             patches: vec![patch],
@@ -352,8 +364,8 @@ mod tests {
         assert!(s.stats.per_patch.is_empty());
         // Version 1: no per-patch stats (an empty list: its count u32) after the seconds and no
         // height-bits field after width and height.
-        // texel size, stats and seconds (count + one entry each), patch count, 15 f64, w, h.
-        let stats_end = HEADER + 8 + (4 + 2 + 6 + 8) * 2;
+        // texel size, stats ("charts", "faces") and seconds ("raster"), patch count, 15 f64, w, h.
+        let stats_end = HEADER + 8 + (4 + 2 + 6 + 8) * 2 + (2 + 5 + 8);
         let at = stats_end + 4 + 4 + 15 * 8 + 2 * 4;
         let mut payload = v3[HEADER..stats_end].to_vec();
         payload.extend_from_slice(&v3[stats_end + 4..at]);

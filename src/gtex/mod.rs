@@ -14,6 +14,11 @@
 use glam::{DMat4, DVec3, DVec4};
 
 pub mod file;
+#[cfg(test)]
+mod fuzz_tests;
+pub mod validate;
+
+pub use validate::MAX_PATCH_SIDE;
 
 /// Bits per height code a patch may use.
 pub const HEIGHT_BITS: [u8; 2] = [8, 16];

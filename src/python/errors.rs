@@ -1,18 +1,21 @@
 //! The one place core errors become Python exceptions, and the one helper every heavy call goes
-//! through (GIL released, panics caught, errors mapped).
+//! through (work on a worker thread with the GIL released, Ctrl-C honoured, panics caught, errors
+//! mapped).
 //!
 //! The exception classes are created here, inside the extension, so the extension never imports
 //! the Python package above it; `geomtex` re-exports them. Each subclass also derives from the
 //! built-in its users expect to catch (`except ValueError` keeps working for bad input).
 
 use std::ffi::CStr;
-use std::panic::AssertUnwindSafe;
+use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
+use std::time::Duration;
 
-use pyo3::exceptions::{PyException, PyOSError, PyRuntimeError, PyValueError};
+use pyo3::exceptions::{PyException, PyKeyboardInterrupt, PyOSError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
 use pyo3::types::{PyDict, PyTuple, PyType};
 
+use crate::cancel::{catching_panics, Cancel};
 use crate::error::GeomtexError;
 
 /// Which built-in a class also derives from, besides `GeomtexError`.
@@ -126,6 +129,8 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 impl From<GeomtexError> for PyErr {
     fn from(e: GeomtexError) -> PyErr {
         let index = match &e {
+            // Only reaches Python if a token was set without a signal; raised as Ctrl-C would be.
+            GeomtexError::Interrupted(_) => return PyKeyboardInterrupt::new_err(e.to_string()),
             GeomtexError::Mesh(_) => 1,
             GeomtexError::Parameter(_) => 2,
             GeomtexError::Format(_) => 3,
@@ -144,28 +149,66 @@ pub fn parameter_error(message: String) -> PyErr {
     GeomtexError::Parameter(message).into()
 }
 
-fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
-    payload
-        .downcast_ref::<String>()
-        .cloned()
-        .or_else(|| payload.downcast_ref::<&str>().map(|s| s.to_string()))
-        .unwrap_or_else(|| "unknown panic".into())
-}
+/// How often the calling thread takes the GIL to look for Ctrl-C (and other signals) while a
+/// heavy call runs: well inside the 1 s a user waits for KeyboardInterrupt.
+const SIGNAL_POLL: Duration = Duration::from_millis(50);
 
-/// Runs `work` with the GIL released; a panic inside it becomes an `InternalError` naming `what`
-/// instead of crossing into Python, and core errors become their exception classes.
+/// Runs `work` on a worker thread with the GIL released, while this thread takes the GIL every
+/// `SIGNAL_POLL` to run Python's signal handlers: when one raises (Ctrl-C: KeyboardInterrupt),
+/// the cancel token handed to `work` is set, the worker is awaited (the core's long loops poll
+/// the token, so it stops within a fraction of a second) and the handler's exception is raised.
+/// A panic inside `work` becomes an `InternalError` naming `what` instead of crossing into
+/// Python, and core errors become their exception classes.
 pub fn heavy<T: Send>(
     py: Python<'_>,
     what: &str,
-    work: impl FnOnce() -> crate::error::Result<T> + Send,
+    work: impl FnOnce(&Cancel) -> crate::error::Result<T> + Send,
 ) -> PyResult<T> {
-    py.detach(|| {
-        std::panic::catch_unwind(AssertUnwindSafe(work)).unwrap_or_else(|payload| {
-            Err(GeomtexError::Internal(format!(
-                "internal error while {what}: {}",
-                panic_message(payload.as_ref())
-            )))
-        })
+    let cancel = Cancel::new();
+    let (sender, receiver) = mpsc::channel();
+    std::thread::scope(|scope| {
+        let worker = std::thread::Builder::new()
+            .name("geomtex-worker".into())
+            // As much stack as a main thread gets, where the work ran before.
+            .stack_size(8 << 20)
+            .spawn_scoped(scope, || {
+                let result = catching_panics(what, || work(&cancel));
+                let _ = sender.send(result);
+            });
+        if let Err(e) = worker {
+            return Err(GeomtexError::Internal(format!(
+                "cannot start a worker thread for {what}: {e}"
+            ))
+            .into());
+        }
+        wait_for(py, receiver, &cancel)?.map_err(PyErr::from)
     })
-    .map_err(PyErr::from)
+}
+
+/// The worker's result, or the exception a signal handler raised meanwhile (after setting
+/// `cancel` and waiting for the worker to stop, so nothing runs on after the call returns).
+fn wait_for<R: Send>(py: Python<'_>, receiver: Receiver<R>, cancel: &Cancel) -> PyResult<R> {
+    let mut receiver = receiver;
+    loop {
+        // The receiver travels into the GIL-free closure and back (it is Send, not Sync).
+        let (back, got) = py.detach(move || {
+            let got = receiver.recv_timeout(SIGNAL_POLL);
+            (receiver, got)
+        });
+        receiver = back;
+        match got {
+            Ok(result) => return Ok(result),
+            Err(RecvTimeoutError::Timeout) => {}
+            Err(RecvTimeoutError::Disconnected) => {
+                return Err(GeomtexError::Internal("a worker thread vanished".into()).into())
+            }
+        }
+        if let Err(signal) = py.check_signals() {
+            cancel.cancel();
+            py.detach(move || {
+                let _ = receiver.recv();
+            });
+            return Err(signal);
+        }
+    }
 }

@@ -16,7 +16,7 @@ use pyo3::types::PyDict;
 use super::arrays::{flat, image, mat4_to_numpy, matrix, rays_from_numpy, rows, ArrayPair};
 use super::errors::heavy;
 use super::mesh::PyMesh;
-use crate::convert::{ConvertArgs, ConvertOptions};
+use crate::convert::{ConvertArgs, ConvertOptions, Progress};
 use crate::filters::MapFilter;
 use crate::grids::HeightGrid;
 use crate::gtex::{GeometryTextureSet, Patch, StatValue};
@@ -114,8 +114,10 @@ impl PyGeometryTextureSet {
     }
 
     /// (M,) int32: the patch holding each source face, -1 for degenerate faces left out.
-    fn face_patch<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<i32>> {
-        PyArray1::from_vec(py, self.inner.face_patch())
+    fn face_patch<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<i32>>> {
+        let inner = self.inner.clone();
+        let faces = heavy(py, "listing face patches", move |_| Ok(inner.face_patch()))?;
+        Ok(PyArray1::from_vec(py, faces))
     }
 
     /// One patch's maps and frame as numpy arrays: height (H, W) codes, uint16 or uint8 as
@@ -137,7 +139,11 @@ impl PyGeometryTextureSet {
     /// normals).
     fn to_points<'py>(&self, py: Python<'py>) -> ArrayPair<'py, PyArray2<f64>, PyArray2<f32>> {
         let inner = self.inner.clone();
-        let (p, n) = heavy(py, "collecting texel points", move || Ok(inner.to_points()))?;
+        let (p, n) = heavy(
+            py,
+            "collecting texel points",
+            move |_| Ok(inner.to_points()),
+        )?;
         let k = p.len();
         Ok((
             matrix(py, p.into_flattened(), k, 3),
@@ -156,8 +162,8 @@ impl PyGeometryTextureSet {
     ) -> ArrayPair<'py, PyArray1<f64>, PyArray1<i32>> {
         let rays = rays_from_numpy(&origins, &directions)?;
         let inner = self.inner.clone();
-        let hits = heavy(py, "casting rays on the CPU", move || {
-            Ok(crate::heightfield::first_hits(&inner, &rays))
+        let hits = heavy(py, "casting rays on the CPU", move |cancel| {
+            crate::heightfield::first_hits(&inner, &rays, cancel)
         })?;
         let (t, k): (Vec<f64>, Vec<i32>) = hits.into_iter().unzip();
         Ok((PyArray1::from_vec(py, t), PyArray1::from_vec(py, k)))
@@ -166,7 +172,7 @@ impl PyGeometryTextureSet {
     /// Writes a .gtex file atomically (no half file is ever left behind).
     fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
         let inner = self.inner.clone();
-        heavy(py, "saving", move || inner.save(&path))
+        heavy(py, "saving", move |_| inner.save(&path))
     }
 
     /// A copy with every height map filtered: "gaussian" (low-pass) or "high_pass" (unsharp
@@ -181,8 +187,8 @@ impl PyGeometryTextureSet {
     ) -> PyResult<Self> {
         let filter = MapFilter::from_name(kind, gain)?;
         let inner = self.inner.clone();
-        let set = heavy(py, "filtering", move || {
-            crate::filters::filtered(&inner, filter, sigma)
+        let set = heavy(py, "filtering", move |cancel| {
+            crate::filters::filtered(&inner, filter, sigma, cancel)
         })?;
         Ok(Self::wrap(set))
     }
@@ -195,8 +201,8 @@ impl PyGeometryTextureSet {
         mesh: &Bound<'py, PyMesh>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
         let (inner, m) = (self.inner.clone(), mesh.get().inner.clone());
-        let gaps = heavy(py, "measuring seam gaps", move || {
-            crate::filters::seam_gaps(&inner, &m)
+        let gaps = heavy(py, "measuring seam gaps", move |cancel| {
+            crate::filters::seam_gaps(&inner, &m, cancel)
         })?;
         Ok(PyArray1::from_vec(py, gaps))
     }
@@ -212,7 +218,7 @@ impl PyGeometryTextureSet {
         height_bits: Option<i64>,
     ) -> PyResult<Self> {
         let grids: Vec<HeightGrid> = prepared.iter().map(height_grid).collect();
-        let set = heavy(py, "building patches from height grids", move || {
+        let set = heavy(py, "building patches from height grids", move |_| {
             crate::grids::from_grids(&grids, max_resolution, height_bits)
         })?;
         Ok(Self::wrap(set))
@@ -259,7 +265,7 @@ fn height_grid((z, (x0, y0, dx, dy), colors): &PreparedGrid<'_>) -> HeightGrid {
 /// Loads a .gtex file; FormatError if it is not one, is truncated, corrupt or of another version.
 #[pyfunction]
 pub fn load(py: Python<'_>, path: PathBuf) -> PyResult<PyGeometryTextureSet> {
-    let set = heavy(py, "loading", move || GeometryTextureSet::load(&path))?;
+    let set = heavy(py, "loading", move |_| GeometryTextureSet::load(&path))?;
     Ok(PyGeometryTextureSet::wrap(set))
 }
 
@@ -335,8 +341,8 @@ fn convert_reporting(
             }
         })
     };
-    let result = heavy(py, "converting", || {
-        crate::convert::convert(&mesh, options, &report)
+    let result = heavy(py, "converting", |cancel| {
+        crate::convert::convert(&mesh, options, Progress::new(&report, cancel))
     });
     let raised = callback_error
         .into_inner()

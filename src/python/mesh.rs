@@ -36,7 +36,7 @@ impl PyMesh {
             flat(&faces),
             vertex_colors.as_ref().map(flat),
         );
-        let mesh = heavy(py, "validating the mesh", || {
+        let mesh = heavy(py, "validating the mesh", |_| {
             Mesh::from_flat(&v, &f, c.as_deref())
         })?;
         Ok(PyMesh {

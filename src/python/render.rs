@@ -109,7 +109,7 @@ impl PyCamera {
         height: u32,
     ) -> ArrayPair<'py, PyArray3<f64>, PyArray3<f64>> {
         let camera = self.inner;
-        let (origins, directions) = heavy(py, "computing camera rays", move || {
+        let (origins, directions) = heavy(py, "computing camera rays", move |_| {
             camera.pixel_rays(width, height)
         })?;
         let shape = (height as usize, width as usize, 3);
@@ -244,7 +244,7 @@ impl PyRenderer {
                 "image size {width}x{height} must be positive"
             )));
         };
-        let renderer = heavy(py, "creating the renderer", move || Renderer::new(w, h))?;
+        let renderer = heavy(py, "creating the renderer", move |_| Renderer::new(w, h))?;
         Ok(PyRenderer {
             inner: Mutex::new(renderer),
             width: w,
@@ -313,7 +313,7 @@ impl PyRenderer {
         let scene = scene_of(obj)?;
         let camera = camera.inner;
         let background = background.map(|b| [b.0, b.1, b.2, b.3]);
-        let frame = heavy(py, "rendering", || {
+        let frame = heavy(py, "rendering", |_| {
             let mut renderer = self.renderer();
             renderer.set_background(background);
             renderer.render(&scene, &camera, &search)
@@ -350,9 +350,9 @@ impl PyRenderer {
         .resolve()?;
         let scene = scene_of(obj)?;
         let rays = rays_from_numpy(&origins, &directions)?;
-        let hits = heavy(py, "tracing rays", || {
+        let hits = heavy(py, "tracing rays", |cancel| {
             self.renderer()
-                .intersect(&scene, &rays, &search, any_hit.unwrap_or(false))
+                .intersect(&scene, &rays, &search, any_hit.unwrap_or(false), cancel)
         })?;
         let n = hits.patch_id.len();
         Ok((

@@ -14,10 +14,13 @@ use super::gpu_types::{QueryGpu, QueryHitGpu, QueryRayGpu};
 use super::kinds::TraceCall;
 use super::pipelines::{storage_entry, uniform_entry};
 use super::{Renderer, Scene, SearchOptions};
+use crate::cancel::Cancel;
 use crate::error::{GeomtexError, Result};
 
-/// Rays per batch: 32 MiB of rays and of hits, far under every adapter's binding limit.
-const BATCH: usize = 1 << 20;
+/// Rays per batch: 2 MiB of rays and of hits, far under every adapter's binding limit, and
+/// short enough on a software adapter (about half a second) that the cancel token, checked
+/// between batches, answers Ctrl-C within a second.
+const BATCH: usize = 1 << 16;
 
 /// Invocations per workgroup (gtex_trace_rays.wgsl).
 const WORKGROUP: u32 = 64;
@@ -66,13 +69,14 @@ fn checked_rays(rays: &[(DVec3, DVec3)]) -> Result<Vec<(DVec3, DVec3)>> {
 impl Renderer {
     /// The nearest hit of each ray (origin, direction) against the scene's texture sets, or with
     /// `any_hit` whether it hits anything (its first hit found, not the nearest). Meshes in the
-    /// scene are an error (they cannot be traced yet).
+    /// scene are an error (they cannot be traced yet). `cancel` is checked between batches.
     pub fn intersect(
         &mut self,
         scene: &Scene,
         rays: &[(DVec3, DVec3)],
         search: &SearchOptions,
         any_hit: bool,
+        cancel: &Cancel,
     ) -> Result<RayHits> {
         search.validate()?;
         let rays = checked_rays(rays)?;
@@ -86,6 +90,7 @@ impl Renderer {
                 normal: Vec::with_capacity(3 * rays.len()),
             };
             for batch in rays.chunks(BATCH) {
+                cancel.check("tracing rays")?;
                 let found = self.run_batch(&traces, batch, centre, any_hit)?;
                 for h in found {
                     let hit = h.id >= 0;
