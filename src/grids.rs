@@ -112,9 +112,10 @@ pub fn from_grids(
     if grids.is_empty() {
         return Err(GeomtexError::Parameter("no grids given".into()));
     }
-    if !(2..=16384).contains(&tile) {
+    let longest = i64::from(crate::gtex::MAX_PATCH_SIDE);
+    if !(2..=longest).contains(&tile) {
         return Err(GeomtexError::Parameter(format!(
-            "max_resolution must be in [2, 16384], got {tile}"
+            "max_resolution must be in [2, {longest}], got {tile}"
         )));
     }
     let bits = match u8::try_from(bits) {
@@ -325,11 +326,11 @@ mod tests {
         };
         assert_eq!(
             message(Some(-5), None),
-            "max_resolution must be in [2, 16384], got -5"
+            "max_resolution must be in [2, 4096], got -5"
         );
         assert_eq!(
             message(Some(1 << 40), None),
-            format!("max_resolution must be in [2, 16384], got {}", 1i64 << 40)
+            format!("max_resolution must be in [2, 4096], got {}", 1i64 << 40)
         );
         assert_eq!(
             message(None, Some(12)),

@@ -43,7 +43,7 @@ pub const DEFAULT_MAX_RESOLUTION: u32 = 256;
 /// the cap only bounds a chart's memory (10 MiB at 1024²).
 pub const ERROR_DRIVEN_MAX_RESOLUTION: u32 = 1024;
 /// The range `max_resolution` must lie in.
-pub const MAX_RESOLUTION_RANGE: std::ops::RangeInclusive<u32> = 2..=16384;
+pub const MAX_RESOLUTION_RANGE: std::ops::RangeInclusive<u32> = 2..=crate::gtex::MAX_PATCH_SIDE;
 /// VSA's target mean error when none is given.
 pub const DEFAULT_CHART_ERROR: f64 = 0.1;
 /// Partitions tried when `max_error` is given without `chart_error` or `charts`: with a texel
@@ -172,7 +172,8 @@ impl ConvertOptions {
     fn validate_resolution(&self) -> Result<()> {
         if !MAX_RESOLUTION_RANGE.contains(&self.resolution_cap()) {
             return parameter(format!(
-                "max_resolution must be in [2, 16384], got {}",
+                "max_resolution must be in [2, {}], got {}",
+                MAX_RESOLUTION_RANGE.end(),
                 self.resolution_cap()
             ));
         }
@@ -295,7 +296,10 @@ impl ConvertArgs {
             .max_resolution
             .map(|r| {
                 u32::try_from(r).or_else(|_| {
-                    parameter(format!("max_resolution must be in [2, 16384], got {r}"))
+                    parameter(format!(
+                        "max_resolution must be in [2, {}], got {r}",
+                        MAX_RESOLUTION_RANGE.end()
+                    ))
                 })
             })
             .transpose()?;
@@ -387,14 +391,14 @@ mod tests {
                 max_resolution: Some(-5),
                 ..Default::default()
             }),
-            "max_resolution must be in [2, 16384], got -5"
+            "max_resolution must be in [2, 4096], got -5"
         );
         assert_eq!(
             bad(ConvertArgs {
                 max_resolution: Some(1),
                 ..Default::default()
             }),
-            "max_resolution must be in [2, 16384], got 1"
+            "max_resolution must be in [2, 4096], got 1"
         );
         assert_eq!(
             bad(ConvertArgs {

@@ -245,6 +245,10 @@ pub enum StatValue {
     Absent,
 }
 
+/// Longest side of any patch's maps, in texels: the renderer packs maps into 4096² atlas pages
+/// (`render/atlas.rs`), so a longer patch could be built but never drawn.
+pub const MAX_PATCH_SIDE: u32 = 4096;
+
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct GeometryTextureSet {
     pub patches: Vec<Patch>,

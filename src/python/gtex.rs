@@ -3,7 +3,6 @@
 //! `grids::from_grids`); the notebook helpers (`_repr_png_`, `from_heightmaps`) are Python,
 //! attached by the package.
 
-use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 
 use glam::{DVec2, DVec3};
@@ -13,7 +12,8 @@ use numpy::{
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use super::arrays::{expect_columns, flat, image, mat4_to_numpy, matrix, rows, ArrayPair};
+use super::args::{integer, opt_integer, opt_real, opt_text, path, real, real_array};
+use super::arrays::{flat, image, mat4_to_numpy, matrix, rows, ArrayPair};
 use super::errors::{heavy, parameter_error};
 use super::mesh::PyMesh;
 use crate::convert::{ConvertArgs, ConvertOptions};
@@ -92,7 +92,13 @@ impl PyGeometryTextureSet {
         }
         d.set_item("seconds", seconds)?;
         for (name, v) in &stats.per_patch {
-            d.set_item(name, PyArray1::from_slice(py, v))?;
+            if name == "patch_resolution" {
+                // Texel counts, stored as f64 like every per-patch figure.
+                let counts: Vec<u32> = v.iter().map(|&r| r as u32).collect();
+                d.set_item(name, PyArray1::from_vec(py, counts))?;
+            } else {
+                d.set_item(name, PyArray1::from_slice(py, v))?;
+            }
         }
         Ok(d)
     }
@@ -123,8 +129,13 @@ impl PyGeometryTextureSet {
     /// `height_bits` says (0 = empty, else h = (code - 1) / (2**height_bits - 2)), normal
     /// (H, W, 4) int8 (patch-local xyz/127), color (H, W, 4) uint8, world_from_patch (4, 4),
     /// origin (3,), axes (3, 3) (rows x, y, z), extent (3,), faces and ring_faces (uint32).
-    fn patch<'py>(&self, py: Python<'py>, index: isize) -> PyResult<Bound<'py, PyDict>> {
-        let n = self.inner.patches.len() as isize;
+    fn patch<'py>(
+        &self,
+        py: Python<'py>,
+        index: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let index = integer(index, "index", i64::MIN..=i64::MAX)?;
+        let n = self.inner.patches.len() as i64;
         let i = if index < 0 { index + n } else { index };
         if !(0..n).contains(&i) {
             return Err(pyo3::exceptions::PyIndexError::new_err(format!(
@@ -152,10 +163,13 @@ impl PyGeometryTextureSet {
     fn first_hits<'py>(
         &self,
         py: Python<'py>,
-        origins: PyReadonlyArray2<'py, f64>,
-        directions: PyReadonlyArray2<'py, f64>,
+        origins: &Bound<'py, PyAny>,
+        directions: &Bound<'py, PyAny>,
     ) -> ArrayPair<'py, PyArray1<f64>, PyArray1<i32>> {
-        expect_columns(&origins, 3, "origins", GeomtexError::Parameter)?;
+        let origins: PyReadonlyArray2<'py, f64> =
+            real_array(origins, "origins", &[None, Some(3)])?.extract()?;
+        let directions: PyReadonlyArray2<'py, f64> =
+            real_array(directions, "directions", &[None, Some(3)])?.extract()?;
         if directions.shape() != origins.shape() {
             return Err(parameter_error(format!(
                 "origins and directions must both be (N, 3); got {:?} and {:?}",
@@ -178,7 +192,8 @@ impl PyGeometryTextureSet {
     }
 
     /// Writes a .gtex file atomically (no half file is ever left behind).
-    fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+    fn save(&self, py: Python<'_>, path: &Bound<'_, PyAny>) -> PyResult<()> {
+        let path = self::path(path, "path")?;
         let inner = self.inner.clone();
         heavy(py, "saving", move || inner.save(&path))
     }
@@ -189,11 +204,13 @@ impl PyGeometryTextureSet {
     fn filtered(
         &self,
         py: Python<'_>,
-        kind: &str,
-        sigma: f64,
-        gain: Option<f64>,
+        kind: &Bound<'_, PyAny>,
+        sigma: &Bound<'_, PyAny>,
+        gain: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        let filter = MapFilter::from_name(kind, gain)?;
+        let kind = opt_text(Some(kind), "kind")?.unwrap_or_default();
+        let filter = MapFilter::from_name(&kind, opt_real(gain, "gain")?)?;
+        let sigma = real(sigma, "sigma")?;
         let inner = self.inner.clone();
         let set = heavy(py, "filtering", move || {
             crate::filters::filtered(&inner, filter, sigma)
@@ -202,13 +219,20 @@ impl PyGeometryTextureSet {
     }
 
     /// Gaps (world units, float64) between neighbouring patches at points along their charts'
-    /// shared edges of `mesh` (the mesh the set was converted from).
+    /// shared edges of `mesh` (the mesh the set was converted from; another mesh is refused).
     fn seam_gaps<'py>(
         &self,
         py: Python<'py>,
-        mesh: &Bound<'py, PyMesh>,
+        mesh: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let mesh = mesh.cast::<PyMesh>().map_err(|_| {
+            GeomtexError::Mesh(format!(
+                "mesh must be a geomtex.Mesh, got {}",
+                mesh.get_type().name().map_or("?".into(), |n| n.to_string())
+            ))
+        })?;
         let (inner, m) = (self.inner.clone(), mesh.get().inner.clone());
+        check_source(&inner, &m)?;
         let gaps = heavy(py, "measuring seam gaps", move || {
             crate::filters::seam_gaps(&inner, &m)
         })?;
@@ -222,9 +246,12 @@ impl PyGeometryTextureSet {
     fn _from_prepared_grids(
         py: Python<'_>,
         prepared: Vec<PreparedGrid<'_>>,
-        max_resolution: Option<i64>,
-        height_bits: Option<i64>,
+        max_resolution: Option<&Bound<'_, PyAny>>,
+        height_bits: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
+        let any = i64::MIN..=i64::MAX;
+        let max_resolution = opt_integer(max_resolution, "max_resolution", any.clone())?;
+        let height_bits = opt_integer(height_bits, "height_bits", any)?;
         let grids: Vec<HeightGrid> = prepared.iter().map(height_grid).collect();
         let set = heavy(py, "building patches from height grids", move || {
             crate::grids::from_grids(&grids, max_resolution, height_bits)
@@ -270,9 +297,58 @@ fn height_grid((z, (x0, y0, dx, dy), colors): &PreparedGrid<'_>) -> HeightGrid {
     }
 }
 
+/// Refuses a mesh that is not the set's source: another face count, or a bounding box that
+/// is not where the patch boxes are (within 5% of the diagonal: boxes reach a few texels past
+/// the surface, and a filter moves it by about sigma).
+fn check_source(set: &GeometryTextureSet, mesh: &crate::mesh::Mesh) -> PyResult<()> {
+    let Some(faces) = set.stats.get("faces") else {
+        return Err(GeomtexError::Mesh(
+            "this set was not converted from a mesh (no source face count): seam_gaps needs the \
+             source mesh"
+                .into(),
+        )
+        .into());
+    };
+    if faces as usize != mesh.faces.len() {
+        return Err(GeomtexError::Mesh(format!(
+            "mesh has {} faces but the set was converted from a mesh of {faces}: not its source",
+            mesh.faces.len()
+        ))
+        .into());
+    }
+    let (lo, hi) = mesh.bounds();
+    let (box_lo, box_hi) =
+        set.patches
+            .iter()
+            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| {
+                let m = p.world_from_patch();
+                (0..8).fold((lo, hi), |(lo, hi), c| {
+                    let corner =
+                        DVec3::new((c & 1) as f64, (c >> 1 & 1) as f64, (c >> 2 & 1) as f64);
+                    let w = m.transform_point3(corner);
+                    (lo.min(w), hi.max(w))
+                })
+            });
+    let off = (lo - box_lo).abs().max((hi - box_hi).abs()).max_element();
+    let diagonal = (hi - lo).length();
+    if off.is_nan() || off > 0.05 * diagonal {
+        return Err(GeomtexError::Mesh(format!(
+            "mesh bounds {:?}..{:?} are {off:.3e} away from the patch boxes' {:?}..{:?} \
+             (more than 5% of its diagonal): not the set's source",
+            lo.to_array(),
+            hi.to_array(),
+            box_lo.to_array(),
+            box_hi.to_array()
+        ))
+        .into());
+    }
+    Ok(())
+}
+
 /// Loads a .gtex file; FormatError if it is not one, is truncated, corrupt or of another version.
 #[pyfunction]
-pub fn load(py: Python<'_>, path: PathBuf) -> PyResult<PyGeometryTextureSet> {
+pub fn load(py: Python<'_>, path: &Bound<'_, PyAny>) -> PyResult<PyGeometryTextureSet> {
+    let path = self::path(path, "path")?;
     let set = heavy(py, "loading", move || GeometryTextureSet::load(&path))?;
     Ok(PyGeometryTextureSet::wrap(set))
 }
@@ -292,7 +368,7 @@ pub fn convert(
     texel_size: Option<f64>,
     max_error: Option<f64>,
     max_error_rel: Option<f64>,
-    error_scope: Option<&str>,
+    error_scope: Option<&Bound<'_, PyAny>>,
     charts: Option<i64>,
     chart_error: Option<f64>,
     max_charts: Option<i64>,
@@ -300,8 +376,8 @@ pub fn convert(
     lloyd_iterations: Option<i64>,
     overlap_rings: Option<i64>,
     dilation: Option<i64>,
-    frame: Option<&str>,
-    normals: Option<&str>,
+    frame: Option<&Bound<'_, PyAny>>,
+    normals: Option<&Bound<'_, PyAny>>,
     height_bits: Option<i64>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<PyGeometryTextureSet> {
@@ -310,7 +386,9 @@ pub fn convert(
         texel_size,
         max_error,
         max_error_rel,
-        error_scope: error_scope.map(str::parse).transpose()?,
+        error_scope: opt_text(error_scope, "error_scope")?
+            .map(|s| s.parse())
+            .transpose()?,
         charts,
         chart_error,
         max_charts,
@@ -318,8 +396,10 @@ pub fn convert(
         lloyd_iterations,
         overlap_rings,
         dilation,
-        frame: frame.map(str::parse).transpose()?,
-        normals: normals.map(str::parse).transpose()?,
+        frame: opt_text(frame, "frame")?.map(|s| s.parse()).transpose()?,
+        normals: opt_text(normals, "normals")?
+            .map(|s| s.parse())
+            .transpose()?,
         height_bits,
     }
     .into_options()?;
