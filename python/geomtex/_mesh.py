@@ -80,7 +80,11 @@ class Mesh(_core.Mesh):
 
     @classmethod
     def from_trimesh(cls, mesh: Any) -> "Mesh":
-        """From a ``trimesh.Trimesh`` (vertex colors kept when it has them)."""
+        """From a ``trimesh.Trimesh`` (vertex colors kept when it has them), or a
+        ``trimesh.Scene`` (what ``trimesh.load`` returns for GLB and multi-object files),
+        flattened with its node transforms into one mesh."""
+        if _is_trimesh_scene(mesh):
+            mesh = _flatten_scene(mesh)
         colors = None
         visual = getattr(mesh, "visual", None)
         if visual is not None and getattr(visual, "kind", None) == "vertex":
@@ -92,6 +96,21 @@ class Mesh(_core.Mesh):
         import trimesh
 
         return trimesh.Trimesh(self.vertices, self.faces, vertex_colors=self.vertex_colors, process=False)
+
+
+def _is_trimesh_scene(obj: Any) -> bool:
+    return any(c.__module__.startswith("trimesh") and c.__name__ == "Scene" for c in type(obj).__mro__)
+
+
+def _flatten_scene(scene: Any) -> Any:
+    """The scene's triangle meshes, each moved by its node's transform, as one Trimesh."""
+    import trimesh
+
+    meshes = [g for g in scene.dump() if isinstance(g, trimesh.Trimesh) and len(g.faces)]
+    if not meshes:
+        kinds = sorted({type(g).__name__ for g in scene.geometry.values()}) or ["nothing"]
+        raise MeshError(f"the trimesh.Scene holds no triangles (it holds {', '.join(kinds)})")
+    return meshes[0] if len(meshes) == 1 else trimesh.util.concatenate(meshes)
 
 
 def load_mesh(path: str | os.PathLike[str]) -> Mesh:
@@ -115,11 +134,11 @@ def load_mesh(path: str | os.PathLike[str]) -> Mesh:
 
 
 def as_mesh(obj: Any) -> _core.Mesh:
-    """A geomtex Mesh from a Mesh, a trimesh.Trimesh or a path."""
+    """A geomtex Mesh from a Mesh, a trimesh.Trimesh, a trimesh.Scene (flattened) or a path."""
     if isinstance(obj, _core.Mesh):
         return obj
     if isinstance(obj, (str, os.PathLike)):
         return load_mesh(obj)
-    if hasattr(obj, "vertices") and hasattr(obj, "faces"):
+    if _is_trimesh_scene(obj) or (hasattr(obj, "vertices") and hasattr(obj, "faces")):
         return Mesh.from_trimesh(obj)
-    raise MeshError(f"expected a geomtex.Mesh, trimesh.Trimesh or a path; got {type(obj).__name__}")
+    raise MeshError(f"expected a geomtex.Mesh, trimesh.Trimesh, trimesh.Scene or a path; got {type(obj).__name__}")
