@@ -80,7 +80,7 @@ def test_all_degenerate_mesh_is_an_error() -> None:
 @pytest.mark.parametrize(
     "kwargs, match",
     [
-        (dict(max_resolution=1), r"max_resolution must be in \[2, 16384\], got 1"),
+        (dict(max_resolution=1), r"max_resolution must be in \[2, 4096\], got 1"),
         (dict(max_resolution=-5), r"max_resolution"),
         (dict(max_resolution=10**6), r"max_resolution"),
         (dict(max_resolution=2.5), r"max_resolution must be an integer"),

@@ -91,9 +91,10 @@ def _number(name: str, value: Any, kind: type) -> Any:
     wanted = numbers.Integral if kind is int else numbers.Real
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, wanted):
         raise ParameterError(f"{name} must be {'a number' if kind is float else 'an integer'}, got {value!r}")
-    if kind is int and not -(2**63) <= value < 2**63:
+    number = kind(value)
+    if kind is int and not -(2**63) <= number < 2**63:  # past what the core's i64 holds
         raise ParameterError(f"{name} is out of range, got {value!r}")
-    return kind(value)
+    return number
 
 
 def convert(

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import os
 import secrets
-from typing import Any, Callable, BinaryIO
+from typing import Any, BinaryIO, Callable
 
 from ._errors import FileError, ParameterError
 
