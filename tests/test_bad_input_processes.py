@@ -28,8 +28,8 @@ import pytest
 import geomtex as gt
 from geomtex.testing.shapes import wavy_sheet
 
-# Every child starts with this: the sheet the shared .gtex was converted from (4 charts), a camera that sees
-# it, and helpers to rewrite a .gtex payload with a valid checksum.
+# Every child starts with this: the sheet the shared .gtex was converted from (4 charts), a
+# camera that sees it, and helpers to rewrite a .gtex payload with a valid checksum.
 PRELUDE = """
 import json, os, struct, sys, zlib
 import numpy as np
@@ -147,6 +147,8 @@ CASES = [
     bad("file_gtex_over_a_folder", "os.mkdir(D + '/taken.gtex'); gt.load(GTEX).save(D + '/taken.gtex')",
         "FileError", r"taken.gtex"),
     bad("file_path_not_a_path", "gt.load(3)", "ParameterError", r"path must be a str or os.PathLike, got 3"),
+    bad("file_mesh_path_not_a_path", "gt.load_mesh(3.5)", "ParameterError", r"path must be .*got 3.5"),
+    bad("mesh_from_trimesh_of_a_number", "gt.Mesh.from_trimesh(7)", "MeshError", r"expected a trimesh.*got int"),
     bad("file_mesh_garbage", "open(D + '/g.obj', 'wb').write(bytes(range(256)) * 20); gt.load_mesh(D + '/g.obj')",
         "FormatError", r"g.obj"),
     # --- cameras

@@ -357,7 +357,7 @@ def test_bad_render_input_is_a_clear_error(r256: gt.Renderer) -> None:
     scene.add(sphere.gts, world_from_object=np.zeros((4, 4)))
     with pytest.raises(gt.ParameterError, match="invertible"):
         r256.render(scene, cam)
-    with pytest.raises(gt.ParameterError, match=r"world_from_object must be an array of real numbers of shape \(4, 4\)"):
+    with pytest.raises(gt.ParameterError, match=r"world_from_object must be an array .* shape \(4, 4\)"):
         gt.Scene().add(sphere.gts, world_from_object=np.eye(3))
 
 

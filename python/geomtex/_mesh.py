@@ -9,7 +9,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._errors import FileError, FormatError, MeshError
+from ._errors import FileError, FormatError, MeshError, ParameterError
 
 
 def _as_real_array(a: Any, name: str, cols: int) -> npt.NDArray[Any]:
@@ -85,6 +85,8 @@ class Mesh(_core.Mesh):
         flattened with its node transforms into one mesh."""
         if _is_trimesh_scene(mesh):
             mesh = _flatten_scene(mesh)
+        if not (hasattr(mesh, "vertices") and hasattr(mesh, "faces")):
+            raise MeshError(f"expected a trimesh.Trimesh or trimesh.Scene, got {type(mesh).__name__}")
         colors = None
         visual = getattr(mesh, "visual", None)
         if visual is not None and getattr(visual, "kind", None) == "vertex":
@@ -118,6 +120,8 @@ def load_mesh(path: str | os.PathLike[str]) -> Mesh:
     dropping anything."""
     import trimesh
 
+    if not isinstance(path, (str, os.PathLike)):
+        raise ParameterError(f"path must be a str or os.PathLike, got {path!r}")
     p = os.fspath(path)
     if not os.path.exists(p):
         raise FileError(f"no such mesh file: {p}")
