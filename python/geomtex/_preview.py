@@ -120,7 +120,10 @@ def ray_cast_view(gts: Any, size: int = 512, azimuth_deg: float = 30.0, elevatio
     lo, hi = world.min(axis=0), world.max(axis=0)
     centre, diag = (lo + hi) / 2, float(np.linalg.norm(hi - lo))
     right, up, forward = _view_axes(azimuth_deg, elevation_deg, up_axis)
-    camera = _core.Camera.look_at(centre - forward * 1.2 * diag, centre, up=tuple(up), yfov_deg=40.0)
+    # 1.2 diagonals frame a compact model; a terrain's diagonal lies across the view, so the
+    # whole bounding sphere must fit (radius diag / 2 in a 40 degree cone: 1.46 diagonals).
+    distance = 1.5 * diag if up_axis == "z" else 1.2 * diag
+    camera = _core.Camera.look_at(centre - forward * distance, centre, up=tuple(up), yfov_deg=40.0)
     frame = renderer.render(gts, camera)
     hit = frame.patch_id >= 0
     shade = frame.color[..., :3].astype(np.float64) / 255.0
