@@ -60,7 +60,7 @@ _core_seam_gaps = GeometryTextureSet.seam_gaps
 def _seam_gaps(self: GeometryTextureSet, mesh: Any) -> Any:
     """Gaps (world units, float64) between neighbouring patches at points along their charts'
     shared edges. `mesh`: the mesh the set was converted from, as a Mesh, trimesh or path; a
-    mesh with another face count or elsewhere in space raises MeshError."""
+    mesh with another face count or elsewhere in space raises ParameterError."""
     return _core_seam_gaps(self, as_mesh(mesh))
 
 

@@ -297,12 +297,13 @@ fn height_grid((z, (x0, y0, dx, dy), colors): &PreparedGrid<'_>) -> HeightGrid {
     }
 }
 
-/// Refuses a mesh that is not the set's source: another face count, or faces that do not lie
+/// Refuses (ParameterError) a mesh that is not the set's source: another face count, or faces that do not lie
 /// in the boxes of the patches that list them (sampled, 8 per patch; in-plane only, with a
 /// 10% margin, since a filter refits boxes around a surface it moved).
 fn check_source(set: &GeometryTextureSet, mesh: &crate::mesh::Mesh) -> PyResult<()> {
+    // The mesh itself is fine; as an argument it contradicts the set, as the core words it.
     let not_source = |why: String| -> PyErr {
-        GeomtexError::Mesh(format!("{why}: not the mesh this set was converted from")).into()
+        GeomtexError::Parameter(format!("{why}: not the mesh it was converted from")).into()
     };
     let Some(faces) = set.stats.get("faces") else {
         return Err(not_source(
