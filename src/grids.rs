@@ -112,9 +112,10 @@ pub fn from_grids(
     if grids.is_empty() {
         return Err(GeomtexError::Parameter("no grids given".into()));
     }
-    if !(2..=crate::gtex::MAX_PATCH_SIDE as i64).contains(&tile) {
+    let longest = i64::from(crate::gtex::MAX_PATCH_SIDE);
+    if !(2..=longest).contains(&tile) {
         return Err(GeomtexError::Parameter(format!(
-            "max_resolution must be in [2, 4096], got {tile}"
+            "max_resolution must be in [2, {longest}], got {tile}"
         )));
     }
     let bits = match u8::try_from(bits) {

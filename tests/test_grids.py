@@ -82,7 +82,7 @@ def test_round_trip_keeps_everything(stack, tmp_path: Path) -> None:  # type: ig
     ((np.zeros(5),), {}, "must be 2-D"),
     (([np.zeros((3, 3)), np.zeros(4)],), {}, r"grids\[1\] must be 2-D"),
     ((np.zeros((3, 3)),), {"properties": np.zeros((3, 4))}, "match the grids"),
-    ((np.zeros((3, 3)),), {"properties": np.zeros((3, 3)), "cmap": "no-such-map"}, "unknown matplotlib colormap"),
+    ((np.zeros((3, 3)),), {"properties": np.zeros((3, 3)), "cmap": "no-such-map"}, "cmap must be a matplotlib"),
     ((np.zeros((3, 3)),), {"max_resolution": 1}, "max_resolution"),
     ((np.zeros((3, 3)),), {"height_bits": 12}, "height_bits"),
 ])

@@ -332,7 +332,7 @@ def test_bad_render_input_is_a_clear_error(r256: gt.Renderer) -> None:
     sphere = converted("sphere")
     cam = look_from(sphere.mesh, (0, 0, 1), up=Y_UP)
     for w, h in [(0, 10), (10, -1), (10**6, 10)]:
-        with pytest.raises(gt.ParameterError, match="image size"):
+        with pytest.raises(gt.ParameterError, match=r"(width|height) must be an integer in \[1, 16384\]"):
             gt.Renderer(w, h)
     with pytest.raises(gt.ParameterError, match="same point"):
         gt.Camera.look_at([1, 1, 1], [1, 1, 1])
@@ -342,7 +342,7 @@ def test_bad_render_input_is_a_clear_error(r256: gt.Renderer) -> None:
         gt.Camera.look_at([0, 0, 1], [0, 0, 0], yfov_deg=0)
     with pytest.raises(gt.ParameterError, match="finite"):
         gt.Camera.look_at([0, 0, np.nan], [0, 0, 0])
-    with pytest.raises(gt.ParameterError, match="K must be 3x3"):
+    with pytest.raises(gt.ParameterError, match=r"K must be an array of real numbers of shape \(3, 3\)"):
         gt.Camera.from_intrinsics(np.eye(2), np.eye(4), 256, 256)
     with pytest.raises(gt.ParameterError, match="rigid"):
         gt.Camera.from_intrinsics(np.diag([100.0, 100, 1]), np.diag([2.0, 2, 2, 1]), 256, 256)
@@ -357,7 +357,7 @@ def test_bad_render_input_is_a_clear_error(r256: gt.Renderer) -> None:
     scene.add(sphere.gts, world_from_object=np.zeros((4, 4)))
     with pytest.raises(gt.ParameterError, match="invertible"):
         r256.render(scene, cam)
-    with pytest.raises(gt.ParameterError, match="4x4"):
+    with pytest.raises(gt.ParameterError, match=r"world_from_object must be an array .* shape \(4, 4\)"):
         gt.Scene().add(sphere.gts, world_from_object=np.eye(3))
 
 

@@ -56,11 +56,22 @@ __all__ = [
     "load_mesh",
 ]
 
-# Methods written in Python (pictures, files, grid preparation), attached to the extension's
-# classes here so that the extension never imports this package.
+_core_seam_gaps = GeometryTextureSet.seam_gaps
+
+
+def _seam_gaps(self: GeometryTextureSet, mesh: Any) -> Any:
+    """Gaps (world units, float64) between neighbouring patches at points along their charts'
+    shared edges. `mesh`: the mesh the set was converted from, as a Mesh, trimesh or path; a
+    mesh with another face count or elsewhere in space raises ParameterError."""
+    return _core_seam_gaps(self, as_mesh(mesh))
+
+
+# Methods written in Python (pictures, files, grid preparation, mesh input), attached to the
+# extension's classes here so that the extension never imports this package.
 for _cls, _name, _method in [
     *[(_cls, _query.__name__, _query) for _cls in (GeometryTextureSet, _core.Scene)
       for _query in (_rays.intersects_first, _rays.intersects_location, _rays.intersects_any)],
+    (GeometryTextureSet, "seam_gaps", _seam_gaps),
     (GeometryTextureSet, "_repr_png_", _preview.set_png),
     (GeometryTextureSet, "from_heightmaps", staticmethod(_grids.from_heightmaps)),
     (Frame, "_repr_png_", _preview.frame_png),
@@ -84,7 +95,10 @@ def _number(name: str, value: Any, kind: type) -> Any:
     wanted = numbers.Integral if kind is int else numbers.Real
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, wanted):
         raise ParameterError(f"{name} must be {'a number' if kind is float else 'an integer'}, got {value!r}")
-    return kind(value)
+    number = kind(value)
+    if kind is int and not -(2**63) <= number < 2**63:  # past what the core's i64 holds
+        raise ParameterError(f"{name} is out of range, got {value!r}")
+    return number
 
 
 def convert(
@@ -185,6 +199,8 @@ def convert(
 def load(path: str | os.PathLike[str]) -> GeometryTextureSet:
     """Reads a .gtex file. Raises FormatError for anything that is not an intact .gtex file
     (version 1, 2 or 3)."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise ParameterError(f"path must be a str or os.PathLike, got {path!r}")
     p = os.fspath(path)
     if not os.path.exists(p):
         raise FileError(f"no such file: {p}")

@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 
 import geomtex as gt
+from geomtex._files import save_image
 from geomtex._preview import overview
 
 
@@ -71,7 +72,7 @@ def main(argv: list[str] | None = None) -> int:
         os.makedirs(out, exist_ok=True)
         gtex, png = out / f"{path.stem}.gtex", out / f"{path.stem}.png"
         gts.save(gtex)
-        overview(gts, 512, title=path.name).save(png)
+        save_image(overview(gts, 512, title=path.name), png)
     except gt.GeomtexError as e:
         print(f"geomtex: {type(e).__name__}: {e}", file=sys.stderr)
         return 2

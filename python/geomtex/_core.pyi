@@ -22,6 +22,12 @@ _HeightBits = Literal[8, 16]
 _Quality = Literal["fast", "balanced", "exact"]
 _Method = Literal["linear_binary", "maxmip"]
 _MapFilter = Literal["gaussian", "high_pass"]
+# Arguments are converted once at the boundary: any array-like of a real dtype (lists, tuples,
+# float32/int arrays) where a vector or matrix is taken, numpy scalars where a number is.
+_Vec3 = npt.ArrayLike
+_Matrix = npt.ArrayLike
+_Int = int | np.integer[Any]
+_Real = float | np.floating[Any] | _Int
 
 class GeomtexError(Exception): ...
 class MeshError(GeomtexError, ValueError): ...
@@ -63,9 +69,9 @@ class GeometryTextureSet:
         extent: Sequence[float] | Sequence[Sequence[float]] | npt.ArrayLike,
         *,
         properties: npt.ArrayLike | Sequence[npt.ArrayLike] | None = None,
-        cmap: str = "viridis",
+        cmap: Any = "viridis",
         property_range: tuple[float, float] | None = None,
-        max_resolution: int | None = None,
+        max_resolution: _Int | None = None,
         height_bits: _HeightBits | None = None,
     ) -> GeometryTextureSet: ...
     @staticmethod
@@ -74,12 +80,12 @@ class GeometryTextureSet:
             tuple[npt.NDArray[np.float64], tuple[float, float, float, float], npt.NDArray[np.uint8] | None]
         ],
         *,
-        max_resolution: int | None = None,
-        height_bits: int | None = None,
+        max_resolution: _Int | None = None,
+        height_bits: _Int | None = None,
     ) -> GeometryTextureSet: ...
     def __len__(self) -> int: ...
-    def filtered(self, kind: _MapFilter, sigma: float, *, gain: float | None = None) -> GeometryTextureSet: ...
-    def seam_gaps(self, mesh: Mesh) -> npt.NDArray[np.float64]: ...
+    def filtered(self, kind: _MapFilter, sigma: _Real, *, gain: _Real | None = None) -> GeometryTextureSet: ...
+    def seam_gaps(self, mesh: Any) -> npt.NDArray[np.float64]: ...
     @property
     def stats(self) -> dict[str, Any]: ...
     @property
@@ -87,10 +93,10 @@ class GeometryTextureSet:
     @property
     def world_from_patch(self) -> npt.NDArray[np.float64]: ...
     def face_patch(self) -> npt.NDArray[np.int32]: ...
-    def patch(self, index: int) -> dict[str, Any]: ...
+    def patch(self, index: _Int) -> dict[str, Any]: ...
     def to_points(self) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float32]]: ...
     def first_hits(
-        self, origins: npt.NDArray[np.float64], directions: npt.NDArray[np.float64]
+        self, origins: _Matrix, directions: _Matrix
     ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int32]]: ...
     def save(self, path: str | os.PathLike[str]) -> None: ...
     def _repr_png_(self) -> bytes: ...
@@ -132,24 +138,22 @@ def load(path: str | os.PathLike[str]) -> GeometryTextureSet: ...
 class Camera:
     @staticmethod
     def look_at(
-        eye: Any,
-        target: Any,
-        up: Sequence[float] | None = None,
-        yfov_deg: float | None = None,
-        near: float | None = None,
+        eye: _Vec3,
+        target: _Vec3,
+        up: _Vec3 | None = None,
+        yfov_deg: _Real | None = None,
+        near: _Real | None = None,
     ) -> Camera: ...
     @staticmethod
     def from_intrinsics(
-        K: npt.NDArray[np.float64],
-        world_from_camera: npt.NDArray[np.float64],
-        width: int,
-        height: int,
-        near: float | None = None,
+        K: _Matrix,
+        world_from_camera: _Matrix,
+        width: _Int,
+        height: _Int,
+        near: _Real | None = None,
     ) -> Camera: ...
     @staticmethod
-    def orthographic(
-        world_from_camera: npt.NDArray[np.float64], ymag: float, near: float | None = None
-    ) -> Camera: ...
+    def orthographic(world_from_camera: _Matrix, ymag: _Real, near: _Real | None = None) -> Camera: ...
     @property
     def world_from_camera(self) -> npt.NDArray[np.float64]: ...
     @property
@@ -157,13 +161,13 @@ class Camera:
     @property
     def forward(self) -> list[float]: ...
     def rays(
-        self, width: int, height: int
+        self, width: _Int, height: _Int
     ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
 
 @disjoint_base
 class Scene:
     def __new__(cls) -> Scene: ...
-    def add(self, obj: Any, world_from_object: npt.NDArray[np.float64] | None = None) -> int: ...
+    def add(self, obj: Any, world_from_object: _Matrix | None = None) -> int: ...
     def __len__(self) -> int: ...
     def intersects_first(
         self, origins: npt.ArrayLike, directions: npt.ArrayLike, *, quality: _Quality | None = None,
@@ -194,7 +198,7 @@ class Frame:
 
 @disjoint_base
 class Renderer:
-    def __new__(cls, width: int, height: int) -> Renderer: ...
+    def __new__(cls, width: _Int, height: _Int) -> Renderer: ...
     @property
     def width(self) -> int: ...
     @property
@@ -208,20 +212,20 @@ class Renderer:
         *,
         quality: _Quality | None = None,
         method: _Method | None = None,
-        steps_per_texel: float | None = None,
-        min_linear_steps: int | None = None,
-        max_linear_steps: int | None = None,
-        binary_steps: int | None = None,
-        max_traversal_steps: int | None = None,
-        count_fetches: bool | None = None,
-        lod: bool | None = None,
-        background: tuple[int, int, int, int] | None = None,
+        steps_per_texel: _Real | None = None,
+        min_linear_steps: _Int | None = None,
+        max_linear_steps: _Int | None = None,
+        binary_steps: _Int | None = None,
+        max_traversal_steps: _Int | None = None,
+        count_fetches: bool | np.bool_ | None = None,
+        lod: bool | np.bool_ | None = None,
+        background: npt.ArrayLike | None = None,
     ) -> Frame: ...
     def intersect(
         self,
         obj: Any,
-        origins: npt.NDArray[np.float64],
-        directions: npt.NDArray[np.float64],
+        origins: npt.ArrayLike,
+        directions: npt.ArrayLike,
         *,
         any_hit: bool | None = None,
         quality: _Quality | None = None,

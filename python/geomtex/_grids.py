@@ -48,9 +48,14 @@ def _grid_list(grids: Any, what: str) -> list[npt.NDArray[np.float64]]:
     return out
 
 
-def prepare(grids: Any, extent: Any, properties: Any, cmap: str, property_range: Any) -> list[Prepared]:
+def prepare(grids: Any, extent: Any, properties: Any, cmap: Any, property_range: Any) -> list[Prepared]:
     zs = _grid_list(grids, "grids")
-    ext = np.asarray(extent, dtype=np.float64)
+    try:
+        ext = np.asarray(extent, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ParameterError(f"extent must be (x0, x1, y0, y1) numbers, got {extent!r}") from None
+    if not np.all(np.isfinite(ext)):
+        raise ParameterError(f"extent must be finite, got {extent!r}")
     if ext.shape == (4,):
         ext = np.broadcast_to(ext, (len(zs), 4))
     if ext.shape != (len(zs), 4):
@@ -70,19 +75,26 @@ def prepare(grids: Any, extent: Any, properties: Any, cmap: str, property_range:
     return out
 
 
-def _colorize(props: Sequence[npt.NDArray[np.float64]], cmap: str, property_range: Any) -> list[npt.NDArray[np.uint8]]:
+def _colorize(props: Sequence[npt.NDArray[np.float64]], cmap: Any, property_range: Any) -> list[npt.NDArray[np.uint8]]:
     import matplotlib
+    from matplotlib.colors import Colormap
 
-    try:
-        colormap = matplotlib.colormaps[cmap]
-    except KeyError:
-        raise ParameterError(f"unknown matplotlib colormap {cmap!r}") from None
+    if isinstance(cmap, Colormap):
+        colormap = cmap
+    else:
+        try:
+            colormap = matplotlib.colormaps[cmap]
+        except (KeyError, TypeError):
+            raise ParameterError(f"cmap must be a matplotlib colormap or its name, got {cmap!r}") from None
     if property_range is None:
         finite = [p[np.isfinite(p)] for p in props]
         values = np.concatenate(finite) if finite else np.zeros(0)
         lo, hi = (float(values.min()), float(values.max())) if values.size else (0.0, 1.0)
     else:
-        lo, hi = (float(v) for v in property_range)
+        try:
+            lo, hi = (float(v) for v in property_range)
+        except (TypeError, ValueError):
+            lo = hi = float("nan")
         if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
             raise ParameterError(f"property_range must be two finite numbers, low < high, got {property_range!r}")
     scale = 1.0 / (hi - lo) if hi > lo else 0.0
@@ -90,7 +102,7 @@ def _colorize(props: Sequence[npt.NDArray[np.float64]], cmap: str, property_rang
             for p in props]
 
 
-def from_heightmaps(grids: Any, extent: Any, *, properties: Any = None, cmap: str = "viridis",
+def from_heightmaps(grids: Any, extent: Any, *, properties: Any = None, cmap: Any = "viridis",
                     property_range: Any = None, max_resolution: int | None = None,
                     height_bits: int | None = None) -> Any:
     """Builds a GeometryTextureSet straight from regular height grids (horizons, terrain).
@@ -98,7 +110,8 @@ def from_heightmaps(grids: Any, extent: Any, *, properties: Any = None, cmap: st
     grids: one (rows, columns) array, a stack of them, or a sequence of arrays of any shapes;
         NaN marks missing samples. extent: ``(x0, x1, y0, y1)`` for all grids or one per grid.
     properties: optional arrays of the grids' shapes, colored through the matplotlib colormap
-        `cmap` over `property_range` (default: their finite min and max).
+        `cmap` (a name or a ``matplotlib.colors.Colormap``) over `property_range` (default:
+        their finite min and max).
     max_resolution: samples per tile side (default 256); tiles share their border samples, so
         the surface has no cracks. height_bits: 16 (default) or 8.
     The tiling runs in Rust with the GIL released.

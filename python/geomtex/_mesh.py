@@ -9,7 +9,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._errors import FileError, FormatError, MeshError
+from ._errors import FileError, FormatError, MeshError, ParameterError
 
 
 def _as_real_array(a: Any, name: str, cols: int) -> npt.NDArray[Any]:
@@ -80,7 +80,13 @@ class Mesh(_core.Mesh):
 
     @classmethod
     def from_trimesh(cls, mesh: Any) -> "Mesh":
-        """From a ``trimesh.Trimesh`` (vertex colors kept when it has them)."""
+        """From a ``trimesh.Trimesh`` (vertex colors kept when it has them), or a
+        ``trimesh.Scene`` (what ``trimesh.load`` returns for GLB and multi-object files),
+        flattened with its node transforms into one mesh."""
+        if _is_trimesh_scene(mesh):
+            mesh = _flatten_scene(mesh)
+        if not (hasattr(mesh, "vertices") and hasattr(mesh, "faces")):
+            raise MeshError(f"expected a trimesh.Trimesh or trimesh.Scene, got {type(mesh).__name__}")
         colors = None
         visual = getattr(mesh, "visual", None)
         if visual is not None and getattr(visual, "kind", None) == "vertex":
@@ -94,11 +100,28 @@ class Mesh(_core.Mesh):
         return trimesh.Trimesh(self.vertices, self.faces, vertex_colors=self.vertex_colors, process=False)
 
 
+def _is_trimesh_scene(obj: Any) -> bool:
+    return any(c.__module__.startswith("trimesh") and c.__name__ == "Scene" for c in type(obj).__mro__)
+
+
+def _flatten_scene(scene: Any) -> Any:
+    """The scene's triangle meshes, each moved by its node's transform, as one Trimesh."""
+    import trimesh
+
+    meshes = [g for g in scene.dump() if isinstance(g, trimesh.Trimesh) and len(g.faces)]
+    if not meshes:
+        kinds = sorted({type(g).__name__ for g in scene.geometry.values()}) or ["nothing"]
+        raise MeshError(f"the trimesh.Scene holds no triangles (it holds {', '.join(kinds)})")
+    return meshes[0] if len(meshes) == 1 else trimesh.util.concatenate(meshes)
+
+
 def load_mesh(path: str | os.PathLike[str]) -> Mesh:
     """Reads OBJ/PLY/STL/OFF (anything trimesh reads) into a :class:`Mesh`, without merging or
     dropping anything."""
     import trimesh
 
+    if not isinstance(path, (str, os.PathLike)):
+        raise ParameterError(f"path must be a str or os.PathLike, got {path!r}")
     p = os.fspath(path)
     if not os.path.exists(p):
         raise FileError(f"no such mesh file: {p}")
@@ -115,11 +138,11 @@ def load_mesh(path: str | os.PathLike[str]) -> Mesh:
 
 
 def as_mesh(obj: Any) -> _core.Mesh:
-    """A geomtex Mesh from a Mesh, a trimesh.Trimesh or a path."""
+    """A geomtex Mesh from a Mesh, a trimesh.Trimesh, a trimesh.Scene (flattened) or a path."""
     if isinstance(obj, _core.Mesh):
         return obj
     if isinstance(obj, (str, os.PathLike)):
         return load_mesh(obj)
-    if hasattr(obj, "vertices") and hasattr(obj, "faces"):
+    if _is_trimesh_scene(obj) or (hasattr(obj, "vertices") and hasattr(obj, "faces")):
         return Mesh.from_trimesh(obj)
-    raise MeshError(f"expected a geomtex.Mesh, trimesh.Trimesh or a path; got {type(obj).__name__}")
+    raise MeshError(f"expected a geomtex.Mesh, trimesh.Trimesh, trimesh.Scene or a path; got {type(obj).__name__}")

@@ -2,7 +2,9 @@
 a point-splat view of every texel, colored by patch and shaded by its normal, beside a mosaic of
 the largest height maps.
 
-Image space: row 0 at the top; the view looks at the model's centre from azimuth/elevation.
+Image space: row 0 at the top; the view looks at the model's centre from azimuth/elevation,
+about +Y, or about +Z for a height grid (every patch's height axis along Z: terrain seen from
+above rather than as a wall).
 """
 
 from __future__ import annotations
@@ -20,17 +22,40 @@ _PALETTE = np.array(
      [152, 223, 138], [255, 152, 150], [197, 176, 213], [196, 156, 148]], dtype=np.float64)
 
 
-def _view_axes(azimuth_deg: float, elevation_deg: float) -> tuple[npt.NDArray[np.float64], ...]:
+# (up, the horizontal axis seen at azimuth 0) for models standing on Y and for Z-up grids.
+_FRAMES = {"y": (np.array([0.0, 1.0, 0.0]), np.array([0.0, 0.0, 1.0])),
+           "z": (np.array([0.0, 0.0, 1.0]), np.array([0.0, -1.0, 0.0]))}
+
+
+def _view_axes(azimuth_deg: float, elevation_deg: float, up_axis: str = "y") -> tuple[npt.NDArray[np.float64], ...]:
+    world_up, front = _FRAMES[up_axis]
+    side = np.cross(world_up, front)
     az, el = np.radians(azimuth_deg), np.radians(elevation_deg)
-    forward = -np.array([np.cos(el) * np.sin(az), np.sin(el), np.cos(el) * np.cos(az)])  # towards model
-    right = np.cross(forward, [0.0, 1.0, 0.0])
+    eye_dir = np.cos(el) * (np.sin(az) * side + np.cos(az) * front) + np.sin(el) * world_up
+    forward = -eye_dir  # towards the model
+    right = np.cross(forward, world_up)
     right /= np.linalg.norm(right)
     up = np.cross(right, forward)
     return right, up, forward
 
 
+def _up_axis(gts: Any) -> str:
+    """"z" when every patch's height axis lies along Z (a height grid), else "y"."""
+    heights = np.asarray(gts.world_from_patch)[:, :3, 2]
+    if len(heights) == 0:
+        return "y"
+    cosines = np.abs(heights[:, 2]) / np.maximum(np.linalg.norm(heights, axis=1), 1e-300)
+    return "z" if bool(np.all(cosines > 0.99)) else "y"
+
+
+def _view(gts: Any) -> tuple[float, float, str]:
+    """Azimuth, elevation and up axis that show the set: terrain from well above."""
+    up_axis = _up_axis(gts)
+    return (30.0, 55.0, up_axis) if up_axis == "z" else (30.0, 20.0, up_axis)
+
+
 def splat(gts: Any, size: int = 512, azimuth_deg: float = 30.0, elevation_deg: float = 20.0,
-          max_points: int = 3_000_000) -> Image.Image:
+          max_points: int = 3_000_000, up_axis: str = "y") -> Image.Image:
     """Orthographic point-splat image of the texel points (nearest point wins per pixel)."""
     points, normals = gts.to_points()
     counts = [int((gts.patch(i)["height"] > 0).sum()) for i in range(len(gts))]
@@ -41,7 +66,7 @@ def splat(gts: Any, size: int = 512, azimuth_deg: float = 30.0, elevation_deg: f
     img = np.full((size, size, 3), 255, np.uint8)
     if len(points) == 0:
         return Image.fromarray(img)
-    right, up, forward = _view_axes(azimuth_deg, elevation_deg)
+    right, up, forward = _view_axes(azimuth_deg, elevation_deg, up_axis)
     centre = 0.5 * (points.min(axis=0) + points.max(axis=0))
     rel = points - centre
     x, y, depth = rel @ right, rel @ up, rel @ forward
@@ -79,8 +104,8 @@ def height_mosaic(gts: Any, size: int = 512, tiles: int = 36) -> Image.Image:
 _renderers: dict[int, Any] = {}
 
 
-def ray_cast_view(gts: Any, size: int = 512, azimuth_deg: float = 30.0,
-                  elevation_deg: float = 20.0) -> tuple[Image.Image, Any] | None:
+def ray_cast_view(gts: Any, size: int = 512, azimuth_deg: float = 30.0, elevation_deg: float = 20.0,
+                  up_axis: str = "y") -> tuple[Image.Image, Any] | None:
     """The set ray cast on the GPU (one renderer kept per size), tinted by patch; None when no
     GPU adapter (not even lavapipe) is available."""
     from . import _core
@@ -94,8 +119,11 @@ def ray_cast_view(gts: Any, size: int = 512, azimuth_deg: float = 30.0,
     world = np.einsum("pij,cj->pci", gts.world_from_patch, corners)[..., :3].reshape(-1, 3)
     lo, hi = world.min(axis=0), world.max(axis=0)
     centre, diag = (lo + hi) / 2, float(np.linalg.norm(hi - lo))
-    right, up, forward = _view_axes(azimuth_deg, elevation_deg)
-    camera = _core.Camera.look_at(centre - forward * 1.2 * diag, centre, up=tuple(up), yfov_deg=40.0)
+    right, up, forward = _view_axes(azimuth_deg, elevation_deg, up_axis)
+    # 1.2 diagonals frame a compact model; a terrain's diagonal lies across the view, so the
+    # whole bounding sphere must fit (radius diag / 2 in a 40 degree cone: 1.46 diagonals).
+    distance = 1.5 * diag if up_axis == "z" else 1.2 * diag
+    camera = _core.Camera.look_at(centre - forward * distance, centre, up=tuple(up), yfov_deg=40.0)
     frame = renderer.render(gts, camera)
     hit = frame.patch_id >= 0
     shade = frame.color[..., :3].astype(np.float64) / 255.0
@@ -104,17 +132,28 @@ def ray_cast_view(gts: Any, size: int = 512, azimuth_deg: float = 30.0,
     return Image.fromarray(rgb.astype(np.uint8)), frame
 
 
+def _summary(gts: Any) -> str:
+    """Patches, texels, empty share and bytes, counted from the maps themselves: sets built from
+    grids, filtered or reloaded carry different stats than a conversion's."""
+    texels = empty = size = 0
+    for i in range(len(gts)):
+        p = gts.patch(i)
+        n = p["height"].size
+        texels, empty = texels + n, empty + int((p["height"] == 0).sum())
+        size += n * (p["height_bits"] // 8 + 8)  # height + normal (4) + color (4) bytes
+    return (f"{len(gts)} patches  {texels:,} texels  {100 * empty / max(texels, 1):.1f}% empty  "
+            f"{size / 1e6:.1f} MB")
+
+
 def overview(gts: Any, size: int = 512, title: str | None = None) -> Image.Image:
     """Left: the set ray cast on the GPU, tinted by patch (texel points splatted on the CPU if
     there is no GPU adapter). Right: the largest height maps."""
-    st = gts.stats
-    caption = title or ""
-    caption += (f"  {st['charts']} patches  {st['texels']:,} texels  "
-                f"{100 * st['empty_fraction']:.1f}% empty  {st['bytes'] / 1e6:.1f} MB")
+    caption = (title or "") + "  " + _summary(gts)
     canvas = Image.new("RGB", (2 * size, size + 24), (255, 255, 255))
-    view = ray_cast_view(gts, size)
+    azimuth, elevation, up_axis = _view(gts)
+    view = ray_cast_view(gts, size, azimuth, elevation, up_axis)
     if view is None:
-        canvas.paste(splat(gts, size), (0, 24))
+        canvas.paste(splat(gts, size, azimuth, elevation, up_axis=up_axis), (0, 24))
         caption += "  (no GPU adapter: texel points splatted)"
     else:
         canvas.paste(view[0], (0, 24))
@@ -150,18 +189,8 @@ def frame_png(self: Any) -> bytes:
 
 
 def save_frame(self: Any, path: Any) -> None:
-    """Frame.save: writes the color image as a PNG via a temporary file and a rename (no half
-    file is ever left behind)."""
-    import os
-    import tempfile
+    """Frame.save: writes the color image over white (what ``_repr_png_`` shows) in the format
+    the extension names (.png, .jpg, ...), atomically: no half file is ever left behind."""
+    from ._files import save_image
 
-    target = os.fspath(path)
-    folder = os.path.dirname(os.path.abspath(target))
-    fd, tmp = tempfile.mkstemp(suffix=".png", dir=folder)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(frame_png(self))
-        os.replace(tmp, target)
-    except BaseException:
-        os.unlink(tmp)
-        raise
+    save_image(frame_image(self), path)

@@ -23,8 +23,9 @@ class Scene(_core.Scene):
     """Geometry-texture sets and meshes (geomtex, trimesh or a file path), each placed by a
     ``world_from_object`` 4x4 matrix."""
 
-    def add(self, obj: Any, world_from_object: npt.NDArray[Any] | None = None) -> int:
-        """Adds `obj` placed by `world_from_object` (default identity); returns its index."""
+    def add(self, obj: Any, world_from_object: npt.ArrayLike | None = None) -> int:
+        """Adds `obj` (a set, Mesh, trimesh, trimesh.Scene or mesh path) placed by
+        `world_from_object` (any 4x4 array-like, default identity); returns its index."""
         return super().add(renderable(obj), world_from_object)
 
 

@@ -42,8 +42,7 @@ pub const DEFAULT_MAX_RESOLUTION: u32 = 256;
 /// `max_resolution` when none is given with `max_error`: the error sets each chart's texel and
 /// the cap only bounds a chart's memory (10 MiB at 1024²).
 pub const ERROR_DRIVEN_MAX_RESOLUTION: u32 = 1024;
-/// The range `max_resolution` must lie in: a patch's side is at most what the renderer's atlas
-/// holds (`gtex::MAX_PATCH_SIDE`).
+/// The range `max_resolution` must lie in.
 pub const MAX_RESOLUTION_RANGE: std::ops::RangeInclusive<u32> = 2..=crate::gtex::MAX_PATCH_SIDE;
 /// VSA's target mean error when none is given.
 pub const DEFAULT_CHART_ERROR: f64 = 0.1;
@@ -173,7 +172,8 @@ impl ConvertOptions {
     fn validate_resolution(&self) -> Result<()> {
         if !MAX_RESOLUTION_RANGE.contains(&self.resolution_cap()) {
             return parameter(format!(
-                "max_resolution must be in [2, 4096], got {}",
+                "max_resolution must be in [2, {}], got {}",
+                MAX_RESOLUTION_RANGE.end(),
                 self.resolution_cap()
             ));
         }
@@ -295,8 +295,12 @@ impl ConvertArgs {
         let max_resolution = self
             .max_resolution
             .map(|r| {
-                u32::try_from(r)
-                    .or_else(|_| parameter(format!("max_resolution must be in [2, 4096], got {r}")))
+                u32::try_from(r).or_else(|_| {
+                    parameter(format!(
+                        "max_resolution must be in [2, {}], got {r}",
+                        MAX_RESOLUTION_RANGE.end()
+                    ))
+                })
             })
             .transpose()?;
         let height_bits = match self.height_bits {

@@ -289,7 +289,13 @@ impl GeometryTextureSet {
             _ => Path::new("."),
         };
         let ctx = |what: &str| format!("{what} {}", path.display());
-        let mut tmp = tempfile::NamedTempFile::new_in(dir)
+        let mut builder = tempfile::Builder::new();
+        // mkstemp's 0600 would survive the rename; ask for 0666 and let the umask trim it, as
+        // for any file the user creates.
+        #[cfg(unix)]
+        builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
+        let mut tmp = builder
+            .tempfile_in(dir)
             .map_err(|e| GeomtexError::io(ctx("cannot create a temporary file to write"), e))?;
         tmp.write_all(&bytes)
             .map_err(|e| GeomtexError::io(ctx("cannot write"), e))?;

@@ -9,7 +9,6 @@ use numpy::{
 };
 use pyo3::prelude::*;
 
-use super::errors::parameter_error;
 use crate::error::GeomtexError;
 
 /// Two arrays returned together, as a Python tuple.
@@ -75,45 +74,6 @@ pub fn expect_columns<T: Element>(
         a.shape()
     ))
     .into())
-}
-
-/// Rays from (N, 3) origins and directions of the same shape.
-pub fn rays_from_numpy(
-    origins: &PyReadonlyArray2<'_, f64>,
-    directions: &PyReadonlyArray2<'_, f64>,
-) -> PyResult<Vec<(glam::DVec3, glam::DVec3)>> {
-    expect_columns(origins, 3, "origins", GeomtexError::Parameter)?;
-    if directions.shape() != origins.shape() {
-        return Err(parameter_error(format!(
-            "origins and directions must both be (N, 3); got {:?} and {:?}",
-            origins.shape(),
-            directions.shape()
-        )));
-    }
-    let points = |a: Vec<f64>| -> Vec<glam::DVec3> {
-        a.chunks_exact(3).map(glam::DVec3::from_slice).collect()
-    };
-    Ok(points(flat(origins))
-        .into_iter()
-        .zip(points(flat(directions)))
-        .collect())
-}
-
-/// A 4x4 matrix from numpy (row-major: column c is a[.., c]); identity when absent.
-pub fn mat4_from_numpy(a: Option<PyReadonlyArray2<'_, f64>>, what: &str) -> PyResult<DMat4> {
-    let Some(a) = a else {
-        return Ok(DMat4::IDENTITY);
-    };
-    if a.shape() != [4, 4] {
-        return Err(parameter_error(format!(
-            "{what} must be a 4x4 matrix, got shape {:?}",
-            a.shape()
-        )));
-    }
-    let a = a.as_array();
-    Ok(DMat4::from_cols_array_2d(&std::array::from_fn(|c| {
-        std::array::from_fn(|r| a[[r, c]])
-    })))
 }
 
 /// A 4x4 matrix as numpy's row-major (4, 4) float64.

@@ -3,20 +3,21 @@
 //! `grids::from_grids`); the notebook helpers (`_repr_png_`, `from_heightmaps`) are Python,
 //! attached by the package.
 
-use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 
-use glam::DVec2;
+use glam::{DVec2, DVec3};
 use numpy::{
     PyArray1, PyArray2, PyArray3, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods,
 };
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use super::arrays::{flat, image, mat4_to_numpy, matrix, rays_from_numpy, rows, ArrayPair};
+use super::args::{integer, opt_integer, opt_real, opt_text, path, rays, real};
+use super::arrays::{flat, image, mat4_to_numpy, matrix, rows, ArrayPair};
 use super::errors::heavy;
 use super::mesh::PyMesh;
 use crate::convert::{ConvertArgs, ConvertOptions, Progress};
+use crate::error::GeomtexError;
 use crate::filters::MapFilter;
 use crate::grids::HeightGrid;
 use crate::gtex::{GeometryTextureSet, Patch, StatValue};
@@ -91,7 +92,13 @@ impl PyGeometryTextureSet {
         }
         d.set_item("seconds", seconds)?;
         for (name, v) in &stats.per_patch {
-            d.set_item(name, PyArray1::from_slice(py, v))?;
+            if name == "patch_resolution" {
+                // Texel counts, stored as f64 like every per-patch figure.
+                let counts: Vec<u32> = v.iter().map(|&r| r as u32).collect();
+                d.set_item(name, PyArray1::from_vec(py, counts))?;
+            } else {
+                d.set_item(name, PyArray1::from_slice(py, v))?;
+            }
         }
         Ok(d)
     }
@@ -124,8 +131,13 @@ impl PyGeometryTextureSet {
     /// `height_bits` says (0 = empty, else h = (code - 1) / (2**height_bits - 2)), normal
     /// (H, W, 4) int8 (patch-local xyz/127), color (H, W, 4) uint8, world_from_patch (4, 4),
     /// origin (3,), axes (3, 3) (rows x, y, z), extent (3,), faces and ring_faces (uint32).
-    fn patch<'py>(&self, py: Python<'py>, index: isize) -> PyResult<Bound<'py, PyDict>> {
-        let n = self.inner.patches.len() as isize;
+    fn patch<'py>(
+        &self,
+        py: Python<'py>,
+        index: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let index = integer(index, "index", i64::MIN..=i64::MAX)?;
+        let n = self.inner.patches.len() as i64;
         let i = if index < 0 { index + n } else { index };
         if !(0..n).contains(&i) {
             return Err(pyo3::exceptions::PyIndexError::new_err(format!(
@@ -157,10 +169,10 @@ impl PyGeometryTextureSet {
     fn first_hits<'py>(
         &self,
         py: Python<'py>,
-        origins: PyReadonlyArray2<'py, f64>,
-        directions: PyReadonlyArray2<'py, f64>,
+        origins: &Bound<'py, PyAny>,
+        directions: &Bound<'py, PyAny>,
     ) -> ArrayPair<'py, PyArray1<f64>, PyArray1<i32>> {
-        let rays = rays_from_numpy(&origins, &directions)?;
+        let rays = rays(origins, directions)?;
         let inner = self.inner.clone();
         let hits = heavy(py, "casting rays on the CPU", move |cancel| {
             crate::heightfield::first_hits(&inner, &rays, cancel)
@@ -170,7 +182,8 @@ impl PyGeometryTextureSet {
     }
 
     /// Writes a .gtex file atomically (no half file is ever left behind).
-    fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+    fn save(&self, py: Python<'_>, path: &Bound<'_, PyAny>) -> PyResult<()> {
+        let path = self::path(path, "path")?;
         let inner = self.inner.clone();
         heavy(py, "saving", move |_| inner.save(&path))
     }
@@ -181,11 +194,13 @@ impl PyGeometryTextureSet {
     fn filtered(
         &self,
         py: Python<'_>,
-        kind: &str,
-        sigma: f64,
-        gain: Option<f64>,
+        kind: &Bound<'_, PyAny>,
+        sigma: &Bound<'_, PyAny>,
+        gain: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        let filter = MapFilter::from_name(kind, gain)?;
+        let kind = opt_text(Some(kind), "kind")?.unwrap_or_default();
+        let filter = MapFilter::from_name(&kind, opt_real(gain, "gain")?)?;
+        let sigma = real(sigma, "sigma")?;
         let inner = self.inner.clone();
         let set = heavy(py, "filtering", move |cancel| {
             crate::filters::filtered(&inner, filter, sigma, cancel)
@@ -194,13 +209,20 @@ impl PyGeometryTextureSet {
     }
 
     /// Gaps (world units, float64) between neighbouring patches at points along their charts'
-    /// shared edges of `mesh` (the mesh the set was converted from).
+    /// shared edges of `mesh` (the mesh the set was converted from; another mesh is refused).
     fn seam_gaps<'py>(
         &self,
         py: Python<'py>,
-        mesh: &Bound<'py, PyMesh>,
+        mesh: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let mesh = mesh.cast::<PyMesh>().map_err(|_| {
+            GeomtexError::Mesh(format!(
+                "mesh must be a geomtex.Mesh, got {}",
+                mesh.get_type().name().map_or("?".into(), |n| n.to_string())
+            ))
+        })?;
         let (inner, m) = (self.inner.clone(), mesh.get().inner.clone());
+        check_source(&inner, &m)?;
         let gaps = heavy(py, "measuring seam gaps", move |cancel| {
             crate::filters::seam_gaps(&inner, &m, cancel)
         })?;
@@ -214,9 +236,12 @@ impl PyGeometryTextureSet {
     fn _from_prepared_grids(
         py: Python<'_>,
         prepared: Vec<PreparedGrid<'_>>,
-        max_resolution: Option<i64>,
-        height_bits: Option<i64>,
+        max_resolution: Option<&Bound<'_, PyAny>>,
+        height_bits: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
+        let any = i64::MIN..=i64::MAX;
+        let max_resolution = opt_integer(max_resolution, "max_resolution", any.clone())?;
+        let height_bits = opt_integer(height_bits, "height_bits", any)?;
         let grids: Vec<HeightGrid> = prepared.iter().map(height_grid).collect();
         let set = heavy(py, "building patches from height grids", move |_| {
             crate::grids::from_grids(&grids, max_resolution, height_bits)
@@ -262,9 +287,58 @@ fn height_grid((z, (x0, y0, dx, dy), colors): &PreparedGrid<'_>) -> HeightGrid {
     }
 }
 
+/// Refuses (ParameterError) a mesh that is not the set's source: another face count, or faces that do not lie
+/// in the boxes of the patches that list them (sampled, 8 per patch; in-plane only, with a
+/// 10% margin, since a filter refits boxes around a surface it moved).
+fn check_source(set: &GeometryTextureSet, mesh: &crate::mesh::Mesh) -> PyResult<()> {
+    // The mesh itself is fine; as an argument it contradicts the set, as the core words it.
+    let not_source = |why: String| -> PyErr {
+        GeomtexError::Parameter(format!("{why}: not the mesh it was converted from")).into()
+    };
+    let Some(faces) = set.stats.get("faces") else {
+        return Err(not_source(
+            "the set holds no source face count (built from grids?)".into(),
+        ));
+    };
+    if faces as usize != mesh.faces.len() {
+        return Err(not_source(format!(
+            "mesh has {} faces, the set's source had {faces}",
+            mesh.faces.len()
+        )));
+    }
+    let (mut sampled, mut outside) = (0usize, Vec::new());
+    for (k, p) in set.patches.iter().enumerate() {
+        for &f in p.faces.iter().step_by(p.faces.len().div_ceil(8).max(1)) {
+            let Some(face) = mesh.faces.get(f as usize) else {
+                continue;
+            };
+            let centroid = face
+                .iter()
+                .map(|&v| mesh.positions[v as usize])
+                .sum::<DVec3>()
+                / 3.0;
+            let l = p.world_to_local(centroid);
+            sampled += 1;
+            if !((-0.1..=1.1).contains(&l.x) && (-0.1..=1.1).contains(&l.y)) {
+                outside.push((f, k));
+            }
+        }
+    }
+    if outside.len() * 10 > sampled {
+        let (f, k) = outside[0];
+        return Err(not_source(format!(
+            "{} of {sampled} sampled faces lie outside the boxes of the patches that hold them \
+             (face {f}, patch {k})",
+            outside.len()
+        )));
+    }
+    Ok(())
+}
+
 /// Loads a .gtex file; FormatError if it is not one, is truncated, corrupt or of another version.
 #[pyfunction]
-pub fn load(py: Python<'_>, path: PathBuf) -> PyResult<PyGeometryTextureSet> {
+pub fn load(py: Python<'_>, path: &Bound<'_, PyAny>) -> PyResult<PyGeometryTextureSet> {
+    let path = self::path(path, "path")?;
     let set = heavy(py, "loading", move |_| GeometryTextureSet::load(&path))?;
     Ok(PyGeometryTextureSet::wrap(set))
 }
@@ -284,7 +358,7 @@ pub fn convert(
     texel_size: Option<f64>,
     max_error: Option<f64>,
     max_error_rel: Option<f64>,
-    error_scope: Option<&str>,
+    error_scope: Option<&Bound<'_, PyAny>>,
     charts: Option<i64>,
     chart_error: Option<f64>,
     max_charts: Option<i64>,
@@ -292,8 +366,8 @@ pub fn convert(
     lloyd_iterations: Option<i64>,
     overlap_rings: Option<i64>,
     dilation: Option<i64>,
-    frame: Option<&str>,
-    normals: Option<&str>,
+    frame: Option<&Bound<'_, PyAny>>,
+    normals: Option<&Bound<'_, PyAny>>,
     height_bits: Option<i64>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<PyGeometryTextureSet> {
@@ -302,7 +376,9 @@ pub fn convert(
         texel_size,
         max_error,
         max_error_rel,
-        error_scope: error_scope.map(str::parse).transpose()?,
+        error_scope: opt_text(error_scope, "error_scope")?
+            .map(|s| s.parse())
+            .transpose()?,
         charts,
         chart_error,
         max_charts,
@@ -310,8 +386,10 @@ pub fn convert(
         lloyd_iterations,
         overlap_rings,
         dilation,
-        frame: frame.map(str::parse).transpose()?,
-        normals: normals.map(str::parse).transpose()?,
+        frame: opt_text(frame, "frame")?.map(|s| s.parse()).transpose()?,
+        normals: opt_text(normals, "normals")?
+            .map(|s| s.parse())
+            .transpose()?,
         height_bits,
     }
     .into_options()?;

@@ -2,6 +2,7 @@
 //! core, numpy in and out, heavy work through `errors::heavy` (GIL released, panics caught,
 //! errors mapped). It never imports the Python package above it: the package imports this.
 
+mod args;
 mod arrays;
 mod errors;
 mod gtex;

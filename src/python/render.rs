@@ -5,11 +5,14 @@
 use std::sync::{Mutex, MutexGuard};
 
 use glam::{DMat4, DVec3};
-use numpy::{PyArray1, PyArray2, PyArray3, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{PyArray1, PyArray2, PyArray3, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use super::arrays::{image, mat4_from_numpy, mat4_to_numpy, matrix, rays_from_numpy, ArrayPair};
+use super::args::{
+    image_size, mat3, mat4, opt_flag, opt_real, opt_text, opt_u32, rays, real, rgba8, vec3,
+};
+use super::arrays::{image, mat4_to_numpy, matrix, ArrayPair};
 use super::errors::{heavy, parameter_error};
 use super::gtex::{set_stats, PyGeometryTextureSet};
 use super::mesh::PyMesh;
@@ -29,20 +32,21 @@ impl PyCamera {
     #[staticmethod]
     #[pyo3(signature = (eye, target, up = None, yfov_deg = None, near = None))]
     fn look_at(
-        eye: [f64; 3],
-        target: [f64; 3],
-        up: Option<[f64; 3]>,
-        yfov_deg: Option<f64>,
-        near: Option<f64>,
+        eye: &Bound<'_, PyAny>,
+        target: &Bound<'_, PyAny>,
+        up: Option<&Bound<'_, PyAny>>,
+        yfov_deg: Option<&Bound<'_, PyAny>>,
+        near: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
+        let up: Option<DVec3> = up.map(|u| vec3(u, "up")).transpose()?;
         let camera = Camera::look_at(
-            DVec3::from_array(eye),
-            DVec3::from_array(target),
-            up.map_or(Camera::DEFAULT_UP, DVec3::from_array),
-            yfov_deg.unwrap_or(Camera::DEFAULT_YFOV_DEG),
+            vec3(eye, "eye")?,
+            vec3(target, "target")?,
+            up.unwrap_or(Camera::DEFAULT_UP),
+            opt_real(yfov_deg, "yfov_deg")?.unwrap_or(Camera::DEFAULT_YFOV_DEG),
         )?;
         Ok(PyCamera {
-            inner: camera.with_near(near)?,
+            inner: camera.with_near(opt_real(near, "near")?)?,
         })
     }
 
@@ -52,24 +56,17 @@ impl PyCamera {
     #[pyo3(signature = (K, world_from_camera, width, height, near = None))]
     #[allow(non_snake_case)] // K is the name every OpenCV user knows
     fn from_intrinsics(
-        K: PyReadonlyArray2<'_, f64>,
-        world_from_camera: PyReadonlyArray2<'_, f64>,
-        width: u32,
-        height: u32,
-        near: Option<f64>,
+        K: &Bound<'_, PyAny>,
+        world_from_camera: &Bound<'_, PyAny>,
+        width: &Bound<'_, PyAny>,
+        height: &Bound<'_, PyAny>,
+        near: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        if K.shape() != [3, 3] {
-            return Err(parameter_error(format!(
-                "K must be 3x3, got shape {:?}",
-                K.shape()
-            )));
-        }
-        let k = K.as_array();
-        let k: [[f64; 3]; 3] = std::array::from_fn(|r| std::array::from_fn(|c| k[[r, c]]));
-        let world_from_camera = mat4_from_numpy(Some(world_from_camera), "world_from_camera")?;
-        let camera = Camera::from_intrinsics(k, world_from_camera, width, height)?;
+        let world_from_camera = mat4(Some(world_from_camera), "world_from_camera")?;
+        let (width, height) = image_size(width, height)?;
+        let camera = Camera::from_intrinsics(mat3(K, "K")?, world_from_camera, width, height)?;
         Ok(PyCamera {
-            inner: camera.with_near(near)?,
+            inner: camera.with_near(opt_real(near, "near")?)?,
         })
     }
 
@@ -77,14 +74,14 @@ impl PyCamera {
     #[staticmethod]
     #[pyo3(signature = (world_from_camera, ymag, near = None))]
     fn orthographic(
-        world_from_camera: PyReadonlyArray2<'_, f64>,
-        ymag: f64,
-        near: Option<f64>,
+        world_from_camera: &Bound<'_, PyAny>,
+        ymag: &Bound<'_, PyAny>,
+        near: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        let world_from_camera = mat4_from_numpy(Some(world_from_camera), "world_from_camera")?;
-        let camera = Camera::orthographic(world_from_camera, ymag)?;
+        let world_from_camera = mat4(Some(world_from_camera), "world_from_camera")?;
+        let camera = Camera::orthographic(world_from_camera, real(ymag, "ymag")?)?;
         Ok(PyCamera {
-            inner: camera.with_near(near)?,
+            inner: camera.with_near(opt_real(near, "near")?)?,
         })
     }
 
@@ -102,12 +99,14 @@ impl PyCamera {
 
     /// World rays through every pixel centre of a width x height image: origins and unit
     /// directions, each (height, width, 3) float64, row 0 at the top. The renderer's own rays.
+    /// At most 2^26 rays (8192 x 8192) per call.
     fn rays<'py>(
         &self,
         py: Python<'py>,
-        width: u32,
-        height: u32,
+        width: &Bound<'py, PyAny>,
+        height: &Bound<'py, PyAny>,
     ) -> ArrayPair<'py, PyArray3<f64>, PyArray3<f64>> {
+        let (width, height) = image_size(width, height)?;
         let camera = self.inner;
         let (origins, directions) = heavy(py, "computing camera rays", move |_| {
             camera.pixel_rays(width, height)
@@ -150,7 +149,7 @@ fn scene_object(obj: &Bound<'_, PyAny>, world_from_object: DMat4) -> PyResult<Sc
         Object::Mesh(m.get().inner.clone())
     } else {
         return Err(parameter_error(format!(
-            "expected a GeometryTextureSet or a Mesh, got {}",
+            "expected a GeometryTextureSet, a Mesh or a trimesh, got {}",
             obj.get_type().name()?
         )));
     };
@@ -173,9 +172,9 @@ impl PyScene {
     fn add(
         &mut self,
         obj: &Bound<'_, PyAny>,
-        world_from_object: Option<PyReadonlyArray2<'_, f64>>,
+        world_from_object: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<usize> {
-        let world_from_object = mat4_from_numpy(world_from_object, "world_from_object")?;
+        let world_from_object = mat4(world_from_object, "world_from_object")?;
         self.inner
             .objects
             .push(scene_object(obj, world_from_object)?);
@@ -238,12 +237,8 @@ impl PyRenderer {
 #[pymethods]
 impl PyRenderer {
     #[new]
-    fn new(py: Python<'_>, width: i64, height: i64) -> PyResult<Self> {
-        let (Ok(w), Ok(h)) = (u32::try_from(width), u32::try_from(height)) else {
-            return Err(parameter_error(format!(
-                "image size {width}x{height} must be positive"
-            )));
-        };
+    fn new(py: Python<'_>, width: &Bound<'_, PyAny>, height: &Bound<'_, PyAny>) -> PyResult<Self> {
+        let (w, h) = image_size(width, height)?;
         let renderer = heavy(py, "creating the renderer", move |_| Renderer::new(w, h))?;
         Ok(PyRenderer {
             inner: Mutex::new(renderer),
@@ -286,33 +281,48 @@ impl PyRenderer {
         &self,
         py: Python<'_>,
         obj: &Bound<'_, PyAny>,
-        camera: &PyCamera,
-        quality: Option<&str>,
-        method: Option<&str>,
-        steps_per_texel: Option<f32>,
-        min_linear_steps: Option<u32>,
-        max_linear_steps: Option<u32>,
-        binary_steps: Option<u32>,
-        max_traversal_steps: Option<u32>,
-        count_fetches: Option<bool>,
-        lod: Option<bool>,
-        background: Option<(u8, u8, u8, u8)>,
+        camera: &Bound<'_, PyAny>,
+        quality: Option<&Bound<'_, PyAny>>,
+        method: Option<&Bound<'_, PyAny>>,
+        steps_per_texel: Option<&Bound<'_, PyAny>>,
+        min_linear_steps: Option<&Bound<'_, PyAny>>,
+        max_linear_steps: Option<&Bound<'_, PyAny>>,
+        binary_steps: Option<&Bound<'_, PyAny>>,
+        max_traversal_steps: Option<&Bound<'_, PyAny>>,
+        count_fetches: Option<&Bound<'_, PyAny>>,
+        lod: Option<&Bound<'_, PyAny>>,
+        background: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<PyFrame> {
+        let steps = 0..=i64::from(u32::MAX);
         let search = SearchOverrides {
-            quality: quality.map(str::parse).transpose()?,
-            method: method.map(str::parse).transpose()?,
-            steps_per_texel,
-            min_linear_steps,
-            max_linear_steps,
-            binary_steps,
-            max_traversal_steps,
-            count_fetches,
-            lod,
+            quality: opt_text(quality, "quality")?
+                .map(|q| q.parse())
+                .transpose()?,
+            method: opt_text(method, "method")?.map(|m| m.parse()).transpose()?,
+            steps_per_texel: opt_real(steps_per_texel, "steps_per_texel")?.map(|v| v as f32),
+            min_linear_steps: opt_u32(min_linear_steps, "min_linear_steps", steps.clone())?,
+            max_linear_steps: opt_u32(max_linear_steps, "max_linear_steps", steps.clone())?,
+            binary_steps: opt_u32(binary_steps, "binary_steps", steps.clone())?,
+            max_traversal_steps: opt_u32(max_traversal_steps, "max_traversal_steps", steps)?,
+            count_fetches: opt_flag(count_fetches, "count_fetches")?,
+            lod: opt_flag(lod, "lod")?,
         }
         .resolve()?;
+        let camera = camera
+            .cast::<PyCamera>()
+            .map_err(|_| {
+                parameter_error(format!(
+                    "camera must be a geomtex.Camera, got {}",
+                    camera
+                        .get_type()
+                        .name()
+                        .map_or("?".into(), |n| n.to_string())
+                ))
+            })?
+            .get()
+            .inner;
+        let background = background.map(|b| rgba8(b, "background")).transpose()?;
         let scene = scene_of(obj)?;
-        let camera = camera.inner;
-        let background = background.map(|b| [b.0, b.1, b.2, b.3]);
         let frame = heavy(py, "rendering", |_| {
             let mut renderer = self.renderer();
             renderer.set_background(background);
@@ -331,28 +341,32 @@ impl PyRenderer {
         &self,
         py: Python<'py>,
         obj: &Bound<'py, PyAny>,
-        origins: PyReadonlyArray2<'py, f64>,
-        directions: PyReadonlyArray2<'py, f64>,
-        any_hit: Option<bool>,
-        quality: Option<&str>,
-        method: Option<&str>,
+        origins: &Bound<'py, PyAny>,
+        directions: &Bound<'py, PyAny>,
+        any_hit: Option<&Bound<'py, PyAny>>,
+        quality: Option<&Bound<'py, PyAny>>,
+        method: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<RayHitArrays<'py>> {
+        let quality = opt_text(quality, "quality")?;
+        let method = opt_text(method, "method")?;
         let search = SearchOverrides {
             quality: Some(
                 quality
+                    .as_deref()
                     .map(str::parse)
                     .transpose()?
                     .unwrap_or(Quality::Exact),
             ),
-            method: method.map(str::parse).transpose()?,
+            method: method.as_deref().map(str::parse).transpose()?,
             ..Default::default()
         }
         .resolve()?;
+        let any_hit = opt_flag(any_hit, "any_hit")?.unwrap_or(false);
         let scene = scene_of(obj)?;
-        let rays = rays_from_numpy(&origins, &directions)?;
+        let rays = rays(origins, directions)?;
         let hits = heavy(py, "tracing rays", |cancel| {
             self.renderer()
-                .intersect(&scene, &rays, &search, any_hit.unwrap_or(false), cancel)
+                .intersect(&scene, &rays, &search, any_hit, cancel)
         })?;
         let n = hits.patch_id.len();
         Ok((
