@@ -9,12 +9,15 @@ Attached as methods of ``GeometryTextureSet`` and ``Scene`` by ``geomtex/__init_
 from __future__ import annotations
 
 import threading
-from typing import Any, NamedTuple
+from typing import Any, Literal, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
 
 from . import _core
+
+_Quality = Literal["fast", "balanced", "exact"]
+_Method = Literal["linear_binary", "maxmip"]
 
 _lock = threading.Lock()
 _renderer: _core.Renderer | None = None
@@ -53,7 +56,7 @@ def _rays(origins: npt.ArrayLike, directions: npt.ArrayLike) -> tuple[np.ndarray
 
 # The first parameter is `self`: these become methods of GeometryTextureSet and Scene.
 def intersects_first(self: Any, origins: npt.ArrayLike, directions: npt.ArrayLike, *,
-                     quality: str | None = None, method: str | None = None) -> RayHits:
+                     quality: _Quality | None = None, method: _Method | None = None) -> RayHits:
     """The nearest hit of every ray (``quality`` "exact" by default)."""
     o, d = _rays(origins, directions)
     dist, ids, normals = _query_renderer().intersect(self, o, d, quality=quality, method=method)
