@@ -1,0 +1,126 @@
+"""Benchmark of ray queries: geomtex's GPU tracer against trimesh + embree with its intersector
+kept (``mesh.ray`` caches its BVH; ``reference.RayCaster`` does the same), in one run.
+
+Rays: from random points on a sphere (radius one diagonal) around the Stanford bunny toward
+random points in its bounding box, as in tests/test_rays.py. Per ray count: wall time of
+``gts.intersects_first`` (nearest hit, "exact" quality) and of ``gts.intersects_any``, embree's
+first hits with locations, the throughput of each (million rays per second), hit/miss agreement
+and the distance error against embree (fraction of the bounding-box diagonal).
+
+Results: ``bench/results/rays.json`` and ``bench/results/rays.png``.
+
+Run from the repository root::
+
+    python bench/rays.py            # 10k, 100k and 1M rays (~1 min)
+    python bench/rays.py --quick    # 10k and 100k
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+import geomtex as gt
+from render import BUNNY, ForeignCpu, machine_info, ray_caster, wait_idle  # type: ignore[import-not-found]
+
+REPO = Path(__file__).resolve().parents[1]
+OUT = REPO / "bench" / "results"
+COUNTS_FULL = (10_000, 100_000, 1_000_000)
+COUNTS_QUICK = (10_000, 100_000)
+
+
+def sphere_rays(lo: np.ndarray, hi: np.ndarray, n: int, seed: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    diag = float(np.linalg.norm(hi - lo))
+    u = rng.normal(size=(n, 3))
+    origins = (lo + hi) / 2 + u / np.linalg.norm(u, axis=1, keepdims=True) * diag
+    d = lo + rng.random((n, 3)) * (hi - lo) - origins
+    return origins, d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
+def timed(call: Callable[[], Any], repeats: int) -> tuple[Any, float]:
+    """The last result and the median wall time (ms) of ``repeats`` calls after a warm-up."""
+    result = call()
+    walls = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        result = call()
+        walls.append(1e3 * (time.perf_counter() - t0))
+    return result, float(np.median(walls))
+
+
+def measure(gts: Any, caster: Any, lo: np.ndarray, hi: np.ndarray, n: int) -> dict[str, Any]:
+    origins, dirs = sphere_rays(lo, hi, n)
+    diag = float(np.linalg.norm(hi - lo))
+    repeats = 3 if n <= 100_000 else 1
+    foreign = ForeignCpu()
+    foreign.start()
+    hits, gt_ms = timed(lambda: gts.intersects_first(origins, dirs), repeats)
+    _, any_ms = timed(lambda: gts.intersects_any(origins, dirs), repeats)
+    (locations, index, _), embree_ms = timed(lambda: caster.first_hits(origins, dirs), repeats)
+    busy = foreign.stop()
+    ref = np.full(n, np.inf)
+    ref[index] = np.linalg.norm(locations - origins[index], axis=1)
+    both = hits.hit & np.isfinite(ref)
+    err = np.abs(hits.distances[both] - ref[both]) / diag
+    return {
+        "rays": n, "geomtex_first_ms": gt_ms, "geomtex_any_ms": any_ms, "embree_ms": embree_ms,
+        "geomtex_mrays_s": n / gt_ms / 1e3, "embree_mrays_s": n / embree_ms / 1e3,
+        "embree_over_geomtex": gt_ms / embree_ms,
+        "hit_agreement": float(np.mean(hits.hit == np.isfinite(ref))),
+        "hits": int(hits.hit.sum()), "reference_hits": int(np.isfinite(ref).sum()),
+        "distance_p99": float(np.percentile(err, 99)), "distance_median": float(np.median(err)),
+        "distance_max": float(err.max()), "other_processes_cpu_s": busy,
+    }
+
+
+def plot(records: list[dict[str, Any]], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    n = [r["rays"] for r in records]
+    fig, ax = plt.subplots(figsize=(6, 4))
+    ax.loglog(n, [r["geomtex_first_ms"] for r in records], "o-", label="geomtex intersects_first (lavapipe)")
+    ax.loglog(n, [r["geomtex_any_ms"] for r in records], "s--", label="geomtex intersects_any")
+    ax.loglog(n, [r["embree_ms"] for r in records], "^-", label="trimesh + embree, intersector kept")
+    ax.set_xlabel("rays per call")
+    ax.set_ylabel("wall time (ms)")
+    ax.set_title("Ray queries, Stanford bunny (256-texel maps)")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--wait-idle", type=float, default=30.0)
+    args = parser.parse_args()
+    mesh = gt.load_mesh(str(BUNNY))
+    gts = gt.convert(mesh, max_resolution=256)
+    caster, build_s = ray_caster(mesh)
+    lo, hi = mesh.bounds
+    records = []
+    for n in COUNTS_QUICK if args.quick else COUNTS_FULL:
+        wait_idle(args.wait_idle)
+        records.append(measure(gts, caster, np.asarray(lo), np.asarray(hi), n))
+        r = records[-1]
+        print(f"{n:>9,} rays: geomtex {r['geomtex_first_ms']:8.1f} ms (any {r['geomtex_any_ms']:8.1f}), "
+              f"embree {r['embree_ms']:7.1f} ms, embree {r['embree_over_geomtex']:.1f}x faster; agreement "
+              f"{r['hit_agreement']:.5f}, p99 {r['distance_p99']:.1e} of the diagonal")
+    OUT.mkdir(parents=True, exist_ok=True)
+    result = {"machine": machine_info(), "embree_build_and_first_cast_s": build_s, "records": records}
+    (OUT / "rays.json").write_text(json.dumps(result, indent=2))
+    plot(records, OUT / "rays.png")
+
+
+if __name__ == "__main__":
+    main()
