@@ -143,14 +143,21 @@ def test_far_from_origin_keeps_detail(bunny: Converted) -> None:
     moved = gt.Mesh(bunny.mesh.vertices + offset, bunny.mesh.faces)
     gts = gt.convert(moved)
     diag = bunny.mesh.diagonal
-    rng = np.random.default_rng(3)
     points, _ = gts.to_points()
-    d = reference.points_to_mesh(points[rng.choice(len(points), 5000, replace=False)] - offset, bunny.mesh)
-    rms = np.sqrt(np.mean(d**2)) / diag
+
+    def distances(pts: np.ndarray) -> np.ndarray:
+        sample = pts[np.random.default_rng(3).choice(len(pts), 5000, replace=False)]
+        return reference.points_to_mesh(sample, bunny.mesh)
+
+    d = distances(points - offset)
+    d0 = distances(bunny.points)
+    rms, rms0 = (np.sqrt(np.mean(x**2)) / diag for x in (d, d0))
     # f32 anywhere on the way would cost ~1e6 * 6e-8 = 0.06 world units here (~0.2 of the
-    # diagonal); the f64 core stays at the origin's level (measured 8.0e-8 of the diagonal).
-    assert rms <= 2.5e-7, rms
-    assert d.max() <= 2e-3 * gts.texel_size  # measured 5.6e-4 texel (the lip bound is 0.75)
+    # diagonal); the f64 core stays at the origin's level. Measured moved / at the origin: RMS
+    # 2.1e-6 / 2.4e-6 of the diagonal and max 0.24 / 0.28 texel (pymeshlab bunny); 8.0e-8 / 3.5e-6
+    # and 5.6e-4 / 0.41 texel (Stanford bunny, whose moved partition differs).
+    assert rms <= 2.0 * rms0, (rms, rms0)
+    assert d.max() <= 2.0 * d0.max(), (d.max(), d0.max())
     # Measured: one texel in 3.07 M (the same partition); left loose for the other partition
     # the docstring allows.
     assert abs(len(points) / len(bunny.points) - 1) < 0.15
