@@ -289,33 +289,38 @@ pub fn min_max_pyramid(p: &Patch) -> Vec<(u32, u32, Vec<u32>)> {
     levels
 }
 
+/// A w x h patch over the unit cube with heights `f(i, j)` (None: empty texel), for tests.
+#[cfg(test)]
+pub(crate) fn test_patch(w: u32, h: u32, bits: u8, f: impl Fn(u32, u32) -> Option<f64>) -> Patch {
+    let heights = (0..h)
+        .flat_map(|j| (0..w).map(move |i| (i, j)))
+        .map(|(i, j)| f(i, j).map_or(0, |v| crate::gtex::encode_height(v, bits)))
+        .collect();
+    Patch {
+        origin: DVec3::ZERO,
+        axes: [DVec3::X, DVec3::Y, DVec3::Z],
+        extent: DVec3::ONE,
+        width: w,
+        height: h,
+        height_bits: bits,
+        heights,
+        normals: vec![[0, 0, 127, 0]; (w * h) as usize],
+        colors: vec![[0; 4]; (w * h) as usize],
+        faces: vec![],
+        ring_faces: vec![],
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gtex::encode_height;
 
     fn patch(w: u32, h: u32, f: impl Fn(u32, u32) -> Option<f64>) -> Patch {
         patch_bits(w, h, 16, f)
     }
 
     fn patch_bits(w: u32, h: u32, bits: u8, f: impl Fn(u32, u32) -> Option<f64>) -> Patch {
-        let heights = (0..h)
-            .flat_map(|j| (0..w).map(move |i| (i, j)))
-            .map(|(i, j)| f(i, j).map_or(0, |v| encode_height(v, bits)))
-            .collect();
-        Patch {
-            origin: DVec3::ZERO,
-            axes: [DVec3::X, DVec3::Y, DVec3::Z],
-            extent: DVec3::ONE,
-            width: w,
-            height: h,
-            height_bits: bits,
-            heights,
-            normals: vec![[0, 0, 127, 0]; (w * h) as usize],
-            colors: vec![[0; 4]; (w * h) as usize],
-            faces: vec![],
-            ring_faces: vec![],
-        }
+        test_patch(w, h, bits, f)
     }
 
     #[test]

@@ -91,32 +91,14 @@ pub(crate) fn placed(b: &PatchBoxGpu, to_space: &DMat4) -> Aabb {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gtex::encode_height;
-    use crate::heightfield::{height_at, min_max_pyramid};
+    use crate::heightfield::{height_at, min_max_pyramid, test_patch};
 
     /// A w x h patch of waves over the unit square, empty in one corner.
     fn wavy_patch(w: u32, h: u32) -> Patch {
-        let height = |i: u32, j: u32| {
+        test_patch(w, h, 16, |i, j| {
             let (x, y) = (i as f64 / w as f64, j as f64 / h as f64);
             (x + y > 0.3).then(|| 0.5 + 0.4 * (9.0 * x).sin() * (7.0 * y).cos())
-        };
-        let heights = (0..h)
-            .flat_map(|j| (0..w).map(move |i| (i, j)))
-            .map(|(i, j)| height(i, j).map_or(0, |v| encode_height(v, 16)))
-            .collect();
-        Patch {
-            origin: DVec3::ZERO,
-            axes: [DVec3::X, DVec3::Y, DVec3::Z],
-            extent: DVec3::ONE,
-            width: w,
-            height: h,
-            height_bits: 16,
-            heights,
-            normals: vec![[0, 0, 127, 0]; (w * h) as usize],
-            colors: vec![[0; 4]; (w * h) as usize],
-            faces: vec![],
-            ring_faces: vec![],
-        }
+        })
     }
 
     /// Every surface point of a patch lies in one of its pieces, and the pieces are thinner
