@@ -1,11 +1,15 @@
-"""Benchmark of ray queries: geomtex's GPU tracer against trimesh + embree with its intersector
-kept (``mesh.ray`` caches its BVH; ``reference.RayCaster`` does the same), in one run.
+"""Benchmark of ray queries and shadows: geomtex's GPU tracer against trimesh + embree with its
+intersector kept (``mesh.ray`` caches its BVH; ``reference.RayCaster`` does the same), in one run.
 
 Rays: from random points on a sphere (radius one diagonal) around the Stanford bunny toward
 random points in its bounding box, as in tests/test_rays.py. Per ray count: wall time of
 ``gts.intersects_first`` (nearest hit, "exact" quality) and of ``gts.intersects_any``, embree's
 first hits with locations, the throughput of each (million rays per second), hit/miss agreement
 and the distance error against embree (fraction of the bounding-box diagonal).
+
+Shadows: the bunny on a ground plane (a mesh) at 512², three directional lights: the frame with
+and without ``light=``, and the shadow mask against embree's shadow rays cast from embree's own
+hits (tests/test_shadows.py at 128²).
 
 Results: ``bench/results/rays.json`` and ``bench/results/rays.png``.
 
@@ -79,6 +83,40 @@ def measure(gts: Any, caster: Any, lo: np.ndarray, hi: np.ndarray, n: int) -> di
     }
 
 
+SHADOW_SIZE = 512
+LIGHTS = ((0.3, -1.0, 0.2), (1.0, -0.6, -0.4), (-0.5, -1.0, 0.8))
+
+
+def shadows(gts: Any, mesh: gt.Mesh) -> list[dict[str, Any]]:
+    import sys
+
+    sys.path.insert(0, str(REPO / "tests"))
+    import test_shadows as ts  # type: ignore[import-not-found]
+
+    ts.SIZE = SHADOW_SIZE
+    bunny = type("Converted", (), {"mesh": mesh, "gts": gts})()
+    scene, whole, camera, diag = ts.bunny_on_ground(bunny)
+    r = gt.Renderer(SHADOW_SIZE, SHADOW_SIZE)
+    records = []
+    for direction in LIGHTS:
+        light = gt.DirectionalLight(direction)
+        plain, plain_ms = timed(lambda: r.render(scene, camera), 3)
+        lit, lit_ms = timed(lambda: r.render(scene, camera, light=light), 3)
+        hit, ref = ts.embree_shadow(whole, camera, np.asarray(direction, float), diag)
+        both = hit & np.isfinite(lit.depth)
+        wrong = (lit.shadow != ref) & both
+        records.append({
+            "light": direction, "frame_ms": plain_ms, "lit_frame_ms": lit_ms, "lit_over_plain": lit_ms / plain_ms,
+            "shadow_rays": int(np.isfinite(lit.depth).sum()), "agreement": float(1 - wrong.sum() / both.sum()),
+            "off_edge_disagreements": int((wrong & ~ts.near_edge(ref)).sum()),
+            "shadowed": int(lit.shadow.sum()), "embree_shadowed": int(ref[both].sum()),
+        })
+        q = records[-1]
+        print(f"light {direction}: frame {plain_ms:.0f} ms, with shadows {lit_ms:.0f} ms ({q['lit_over_plain']:.1f}x); "
+              f"agreement {q['agreement']:.4f}, off-edge {q['off_edge_disagreements']}")
+    return records
+
+
 def plot(records: list[dict[str, Any]], path: Path) -> None:
     import matplotlib
 
@@ -116,8 +154,10 @@ def main() -> None:
         print(f"{n:>9,} rays: geomtex {r['geomtex_first_ms']:8.1f} ms (any {r['geomtex_any_ms']:8.1f}), "
               f"embree {r['embree_ms']:7.1f} ms, embree {r['embree_over_geomtex']:.1f}x faster; agreement "
               f"{r['hit_agreement']:.5f}, p99 {r['distance_p99']:.1e} of the diagonal")
+    shadow_records = shadows(gts, mesh)
     OUT.mkdir(parents=True, exist_ok=True)
-    result = {"machine": machine_info(), "embree_build_and_first_cast_s": build_s, "records": records}
+    result = {"machine": machine_info(), "embree_build_and_first_cast_s": build_s, "records": records,
+              "shadows": shadow_records}
     (OUT / "rays.json").write_text(json.dumps(result, indent=2))
     plot(records, OUT / "rays.png")
 

@@ -31,13 +31,14 @@ from ._errors import (  # noqa: E402
 )
 from ._mesh import Mesh, as_mesh, load_mesh  # noqa: E402
 from ._rays import RayHits  # noqa: E402
-from ._render import Renderer, Scene  # noqa: E402
+from ._render import DirectionalLight, PointLight, Renderer, Scene  # noqa: E402
 
 __all__ = [
     "Camera",
     "CancelledError",
     "DeviceError",
     "FileError",
+    "DirectionalLight",
     "FormatError",
     "Frame",
     "GeometryTextureSet",
@@ -46,6 +47,7 @@ __all__ = [
     "Mesh",
     "MeshError",
     "ParameterError",
+    "PointLight",
     "RayHits",
     "Renderer",
     "Scene",

@@ -184,6 +184,8 @@ class Scene:
 @final
 class Frame:
     @property
+    def shadow(self) -> npt.NDArray[np.bool_] | None: ...
+    @property
     def color(self) -> npt.NDArray[np.uint8]: ...
     @property
     def depth(self) -> npt.NDArray[np.float32]: ...
@@ -220,6 +222,7 @@ class Renderer:
         count_fetches: bool | np.bool_ | None = None,
         lod: bool | np.bool_ | None = None,
         background: npt.ArrayLike | None = None,
+        light: Any | None = None,
     ) -> Frame: ...
     def intersect(
         self,

@@ -4,8 +4,10 @@ objects, mesh files) besides geomtex objects, turning it into a Mesh before the 
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
 import numpy.typing as npt
 
 from . import _core
@@ -17,6 +19,27 @@ _NATIVE = (_core.Scene, _core.GeometryTextureSet, _core.Mesh)
 def renderable(obj: Any) -> Any:
     """`obj` itself if the extension draws it, else a Mesh made from it."""
     return obj if isinstance(obj, _NATIVE) else as_mesh(obj)
+
+
+@dataclass(frozen=True)
+class DirectionalLight:
+    """Parallel light travelling along ``direction`` (world space, any length but zero): pass it
+    as ``render(..., light=...)`` for shadows."""
+
+    direction: npt.ArrayLike
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "direction", np.asarray(self.direction, dtype=np.float64).copy())
+
+
+@dataclass(frozen=True)
+class PointLight:
+    """Light from ``position`` (world space): pass it as ``render(..., light=...)`` for shadows."""
+
+    position: npt.ArrayLike
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "position", np.asarray(self.position, dtype=np.float64).copy())
 
 
 class Scene(_core.Scene):

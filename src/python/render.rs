@@ -16,7 +16,9 @@ use super::arrays::{image, mat4_to_numpy, matrix, ArrayPair};
 use super::errors::{heavy, parameter_error};
 use super::gtex::{set_stats, PyGeometryTextureSet};
 use super::mesh::PyMesh;
-use crate::render::{Camera, Object, Quality, Renderer, Scene, SceneObject, SearchOverrides};
+use crate::render::{
+    Camera, Light, Object, Quality, Renderer, Scene, SceneObject, SearchOverrides,
+};
 
 /// A camera: OpenGL-style pose (looks down -Z, +Y up) as pyrender and trimesh use; see
 /// `look_at`, `from_intrinsics` (OpenCV) and `orthographic`.
@@ -214,6 +216,25 @@ type RayHitArrays<'py> = (
     Bound<'py, PyArray2<f32>>,
 );
 
+/// A light from any object with a `direction` (parallel light) or a `position` (point light)
+/// attribute, as geomtex.DirectionalLight and geomtex.PointLight have.
+fn light_of(obj: &Bound<'_, PyAny>) -> PyResult<Light> {
+    if let Ok(direction) = obj.getattr("direction") {
+        return Ok(Light::Directional {
+            direction: vec3(&direction, "light.direction")?,
+        });
+    }
+    if let Ok(position) = obj.getattr("position") {
+        return Ok(Light::Point {
+            position: vec3(&position, "light.position")?,
+        });
+    }
+    Err(parameter_error(format!(
+        "light must be a geomtex.DirectionalLight or PointLight, got {}",
+        obj.get_type().name().map_or("?".into(), |n| n.to_string())
+    )))
+}
+
 /// A Scene as given, or a scene of one object placed at the origin.
 fn scene_of(obj: &Bound<'_, PyAny>) -> PyResult<Scene> {
     Ok(match obj.cast::<PyScene>() {
@@ -271,11 +292,13 @@ impl PyRenderer {
     ///
     /// `quality` picks measured settings ("fast", "balanced" (default) or "exact"); `method`
     /// and the step keywords override them. `count_fetches` uses a counting build of the pipeline
-    /// and reports height fetches per ray-cast fragment in `frame.stats`. `lod` (max-pyramid
-    /// search only) stops each patch's descent where its nodes are about a pixel.
+    /// and reports height fetches in `frame.stats`. `lod` (max-pyramid search only) stops each
+    /// patch's descent where its nodes are about a pixel. `light` (a DirectionalLight or a
+    /// PointLight) casts shadows: `frame.shadow`, and shadowed pixels at half brightness.
     #[pyo3(signature = (obj, camera, *, quality = None, method = None, steps_per_texel = None,
         min_linear_steps = None, max_linear_steps = None, binary_steps = None,
-        max_traversal_steps = None, count_fetches = None, lod = None, background = None))]
+        max_traversal_steps = None, count_fetches = None, lod = None, background = None,
+        light = None))]
     #[allow(clippy::too_many_arguments)] // one per keyword of Renderer.render
     fn render(
         &self,
@@ -292,6 +315,7 @@ impl PyRenderer {
         count_fetches: Option<&Bound<'_, PyAny>>,
         lod: Option<&Bound<'_, PyAny>>,
         background: Option<&Bound<'_, PyAny>>,
+        light: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<PyFrame> {
         let steps = 0..=i64::from(u32::MAX);
         let search = SearchOverrides {
@@ -323,10 +347,15 @@ impl PyRenderer {
             .inner;
         let background = background.map(|b| rgba8(b, "background")).transpose()?;
         let scene = scene_of(obj)?;
-        let frame = heavy(py, "rendering", |_| {
+        let light = light.map(light_of).transpose()?;
+        let frame = heavy(py, "rendering", |cancel| {
             let mut renderer = self.renderer();
             renderer.set_background(background);
-            renderer.render(&scene, &camera, &search)
+            let mut frame = renderer.render(&scene, &camera, &search)?;
+            if let Some(light) = &light {
+                renderer.cast_shadows(&scene, &camera, &search, light, &mut frame, cancel)?;
+            }
+            Ok(frame)
         })?;
         PyFrame::new(py, frame)
     }
@@ -388,6 +417,7 @@ impl PyRenderer {
 /// One rendered image: numpy arrays, row 0 at the top.
 #[pyclass(name = "Frame", module = "geomtex._core", frozen)]
 pub struct PyFrame {
+    shadow: Option<Py<PyArray2<bool>>>,
     color: Py<PyArray3<u8>>,
     depth: Py<PyArray2<f32>>,
     normal: Py<PyArray3<f32>>,
@@ -401,6 +431,7 @@ impl PyFrame {
         let stats = PyDict::new(py);
         set_stats(&stats, &frame.stats())?;
         Ok(PyFrame {
+            shadow: (frame.shadow).map(|s| matrix(py, s, h, w).unbind()),
             color: image(py, frame.color, (h, w, 4)).unbind(),
             depth: matrix(py, frame.depth, h, w).unbind(),
             normal: image(py, frame.normal, (h, w, 3)).unbind(),
@@ -412,6 +443,12 @@ impl PyFrame {
 
 #[pymethods]
 impl PyFrame {
+    /// (H, W) bool, true where the render's light cannot see the surface; None without a light.
+    #[getter]
+    fn shadow(&self, py: Python<'_>) -> Option<Py<PyArray2<bool>>> {
+        self.shadow.as_ref().map(|s| s.clone_ref(py))
+    }
+
     /// (H, W, 4) uint8 RGBA, headlight-shaded; the background on a miss.
     #[getter]
     fn color(&self, py: Python<'_>) -> Py<PyArray3<u8>> {

@@ -33,6 +33,10 @@ pub struct Frame {
     pub searches: u64,
     /// With `count_fetches`: height-map and pyramid reads.
     pub fetches: Option<u64>,
+    /// With a light (shadow.rs): per pixel, true where the light cannot see the surface.
+    pub shadow: Option<Vec<bool>>,
+    /// With a light: milliseconds the shadow rays took.
+    pub shadow_ms: Option<f64>,
 }
 
 impl Frame {
@@ -62,6 +66,13 @@ impl Frame {
             ("searches", StatValue::Int(self.searches as i64)),
             ("searches_per_pixel", per_pixel(self.searches)),
         ];
+        if let Some(ms) = self.shadow_ms {
+            let shadowed = self.shadow.iter().flatten().filter(|&&s| s).count();
+            stats.extend([
+                ("shadow_ms", StatValue::Float(ms)),
+                ("shadowed_pixels", count(shadowed)),
+            ]);
+        }
         if let Some(fetches) = self.fetches {
             stats.extend([
                 ("fetches", StatValue::Int(fetches as i64)),
@@ -97,6 +108,8 @@ mod tests {
             method: Method::MaxMip,
             searches: 0,
             fetches,
+            shadow: None,
+            shadow_ms: None,
         }
     }
 

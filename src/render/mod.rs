@@ -25,6 +25,7 @@ mod query;
 mod scene;
 mod search;
 pub mod shaders;
+mod shadow;
 mod targets;
 
 use std::time::Instant;
@@ -35,6 +36,7 @@ pub use frame::Frame;
 pub use query::RayHits;
 pub use scene::{Object, Scene, SceneObject};
 pub use search::{Method, Quality, SearchOptions, SearchOverrides};
+pub use shadow::Light;
 
 use crate::error::{GeomtexError, Result};
 use cull::DepthRange;
@@ -244,6 +246,8 @@ impl Renderer {
             method: search.method,
             searches: searches as u64,
             fetches: search.count_fetches.then_some(fetches as u64),
+            shadow: None,
+            shadow_ms: None,
         }
     }
 }

@@ -78,8 +78,22 @@ impl Renderer {
         any_hit: bool,
         cancel: &Cancel,
     ) -> Result<RayHits> {
-        search.validate()?;
         let rays = checked_rays(rays)?;
+        self.trace_rays(scene, &rays, None, search, any_hit, cancel)
+    }
+
+    /// `intersect` for rays with unit directions, each counting hits only for t in its
+    /// (t_min, t_max) when `ranges` are given (shadow rays).
+    pub(crate) fn trace_rays(
+        &mut self,
+        scene: &Scene,
+        rays: &[(DVec3, DVec3)],
+        ranges: Option<&[(f64, f64)]>,
+        search: &SearchOptions,
+        any_hit: bool,
+        cancel: &Cancel,
+    ) -> Result<RayHits> {
+        search.validate()?;
         let device = self.gpu.device.clone();
         guarded(&device, || {
             let centre = rays.iter().map(|r| r.0).sum::<DVec3>() / rays.len().max(1) as f64;
@@ -89,9 +103,10 @@ impl Renderer {
                 patch_id: Vec::with_capacity(rays.len()),
                 normal: Vec::with_capacity(3 * rays.len()),
             };
-            for batch in rays.chunks(BATCH) {
+            for (k, batch) in rays.chunks(BATCH).enumerate() {
                 cancel.check("tracing rays")?;
-                let found = self.run_batch(&traces, batch, centre, any_hit)?;
+                let batch_ranges = ranges.map(|r| &r[k * BATCH..k * BATCH + batch.len()]);
+                let found = self.run_batch(&traces, batch, batch_ranges, centre, any_hit)?;
                 for h in found {
                     let hit = h.id >= 0;
                     hits.distance
@@ -134,26 +149,31 @@ impl Renderer {
         &self,
         traces: &[TraceCall],
         rays: &[(DVec3, DVec3)],
+        ranges: Option<&[(f64, f64)]>,
         centre: DVec3,
         any_hit: bool,
     ) -> Result<Vec<QueryHitGpu>> {
         let device = &self.gpu.device;
+        let range = |i: usize| ranges.map_or((0.0, f32::MAX), |r| (r[i].0 as f32, r[i].1 as f32));
         let gpu_rays: Vec<QueryRayGpu> = rays
             .iter()
-            .map(|&(o, d)| QueryRayGpu {
+            .enumerate()
+            .map(|(i, &(o, d))| QueryRayGpu {
                 origin: (o - centre).as_vec3().to_array(),
-                t_min: 0.0,
+                t_min: range(i).0,
                 dir: d.as_vec3().to_array(),
                 _pad: 0,
             })
             .collect();
-        let none = QueryHitGpu {
-            normal: [0.0; 3],
-            t: f32::MAX,
-            id: -1,
-            _pad: [0; 3],
-        };
-        let hits_init = vec![none; rays.len()];
+        // Each ray's far bound is where its search stops: no hit beyond it counts.
+        let hits_init: Vec<QueryHitGpu> = (0..rays.len())
+            .map(|i| QueryHitGpu {
+                normal: [0.0; 3],
+                t: range(i).1,
+                id: -1,
+                _pad: [0; 3],
+            })
+            .collect();
         let workgroups = (rays.len() as u32).div_ceil(WORKGROUP);
         let per_row = workgroups.min(device.limits().max_compute_workgroups_per_dimension);
         let rows = workgroups.div_ceil(per_row.max(1));

@@ -1,0 +1,153 @@
+//! Shadows: after a frame is drawn, one shadow ray per pixel it hit, from the hit (moved off the
+//! surface) toward a light, traced through the scene's texture sets with the ray-query tracer
+//! (query.rs, any hit). Texture sets cast and receive shadows; meshes receive them but cannot
+//! cast yet (the tracer does not trace triangles).
+//!
+//! Spaces: world (f64): hit points are rebuilt from each pixel's world ray and its z-depth, the
+//! light is given in world space, and normals are the frame's world normals.
+
+use glam::DVec3;
+
+use super::{Camera, Frame, Object, Renderer, Scene, SearchOptions};
+use crate::cancel::Cancel;
+use crate::error::{GeomtexError, Result};
+
+/// A light that casts shadows.
+#[derive(Clone, Copy, Debug)]
+pub enum Light {
+    /// Parallel light travelling along `direction` (world space; any length but zero).
+    Directional { direction: DVec3 },
+    /// Light from a point (world space).
+    Point { position: DVec3 },
+}
+
+/// What shadowed pixels keep of their color.
+const SHADOW_BRIGHTNESS: f64 = 0.5;
+
+/// Texels a shadow ray starts off its surface (along the normal, and again along the ray), so
+/// that it does not hit the surface it starts on (stored twice near chart borders, by the
+/// overlap rings). Against embree's shadow rays on the bunny: 2 texels lose 8% of the shadowed
+/// pixels (near the terminator), a quarter texel agrees on 99.87–99.89% of the pixels.
+const OFFSET_TEXELS: f64 = 0.25;
+
+impl Light {
+    pub fn validate(&self) -> Result<()> {
+        let (what, v) = match self {
+            Light::Directional { direction } => ("light direction", *direction),
+            Light::Point { position } => ("light position", *position),
+        };
+        let zero = matches!(self, Light::Directional { .. }) && v.length_squared() == 0.0;
+        if !v.is_finite() || zero {
+            return Err(GeomtexError::Parameter(format!(
+                "{what} must be finite{}; got {v:?}",
+                if zero { " and non-zero" } else { "" }
+            )));
+        }
+        Ok(())
+    }
+
+    /// The unit direction from `point` toward the light, and how far the light is.
+    fn toward(&self, point: DVec3) -> (DVec3, f64) {
+        match *self {
+            Light::Directional { direction } => (-direction.normalize(), f64::MAX),
+            Light::Point { position } => {
+                let to = position - point;
+                let distance = to.length();
+                (to / distance.max(f64::MIN_POSITIVE), distance)
+            }
+        }
+    }
+}
+
+/// The largest texel of the scene's texture sets in world units (a placement's largest scale
+/// applied); 0 when it holds none.
+fn largest_texel(scene: &Scene) -> f64 {
+    scene
+        .objects
+        .iter()
+        .filter_map(|placed| match &placed.object {
+            Object::Textures(set) => {
+                let m = placed.world_from_object;
+                let scale = [m.x_axis, m.y_axis, m.z_axis]
+                    .iter()
+                    .map(|c| c.truncate().length())
+                    .fold(0.0, f64::max);
+                Some(set.texel_size * scale)
+            }
+            Object::Mesh(_) => None,
+        })
+        .fold(0.0, f64::max)
+}
+
+impl Renderer {
+    /// Marks the frame's pixels that `light` cannot see and darkens them; `frame.shadow` is
+    /// set (true where shadowed).
+    pub fn cast_shadows(
+        &mut self,
+        scene: &Scene,
+        camera: &Camera,
+        search: &SearchOptions,
+        light: &Light,
+        frame: &mut Frame,
+        cancel: &Cancel,
+    ) -> Result<()> {
+        light.validate()?;
+        let start = std::time::Instant::now();
+        let casters = Scene {
+            objects: (scene.objects.iter())
+                .filter(|placed| matches!(placed.object, Object::Textures(_)))
+                .cloned()
+                .collect(),
+        };
+        let offset = OFFSET_TEXELS * largest_texel(&casters);
+        let (pixels, rays, ranges) = shadow_rays(camera, frame, light, offset)?;
+        let mut shadow = vec![false; frame.depth.len()];
+        if !rays.is_empty() && !casters.objects.is_empty() {
+            let hits = self.trace_rays(&casters, &rays, Some(&ranges), search, true, cancel)?;
+            for (&i, &id) in pixels.iter().zip(&hits.patch_id) {
+                shadow[i] = id >= 0;
+            }
+        }
+        for (i, _) in shadow.iter().enumerate().filter(|(_, s)| **s) {
+            for c in &mut frame.color[4 * i..4 * i + 3] {
+                *c = (f64::from(*c) * SHADOW_BRIGHTNESS).round() as u8;
+            }
+        }
+        frame.shadow = Some(shadow);
+        frame.shadow_ms = Some(start.elapsed().as_secs_f64() * 1e3);
+        Ok(())
+    }
+}
+
+/// Pixels hit (their index), and from each the shadow ray (start moved `offset` off the surface,
+/// unit direction toward the light) with the stretch that counts (`offset`, the light's
+/// distance).
+#[allow(clippy::type_complexity)] // three parallel lists, one entry per hit pixel
+fn shadow_rays(
+    camera: &Camera,
+    frame: &Frame,
+    light: &Light,
+    offset: f64,
+) -> Result<(Vec<usize>, Vec<(DVec3, DVec3)>, Vec<(f64, f64)>)> {
+    let lens = camera.lens(frame.width, frame.height, 1.0, 2.0)?;
+    let forward = camera.forward();
+    let (mut pixels, mut rays, mut ranges) = (Vec::new(), Vec::new(), Vec::new());
+    for (i, &depth) in frame.depth.iter().enumerate() {
+        if !depth.is_finite() {
+            continue;
+        }
+        let (x, y) = (i % frame.width as usize, i / frame.width as usize);
+        let (o, d) = camera.pixel_ray(&lens, x as f64 + 0.5, y as f64 + 0.5);
+        let point = o + d * (f64::from(depth) / d.dot(forward));
+        let [nx, ny, nz] = [0, 1, 2].map(|k| f64::from(frame.normal[3 * i + k]));
+        let n = DVec3::new(nx, ny, nz);
+        // The side of the surface the camera sees.
+        let n = if n.dot(d) > 0.0 { -n } else { n };
+        let start = point + n * offset;
+        let (toward, distance) = light.toward(start);
+        pixels.push(i);
+        rays.push((start, toward));
+        ranges.push((offset, distance));
+    }
+    Ok((pixels, rays, ranges))
+}

@@ -1,0 +1,96 @@
+"""Shadows (`render(..., light=...)`): the shadow mask against embree's shadow rays cast from
+embree's own hits on the original mesh, for the bunny on a ground plane (a mesh in the scene)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+
+import geomtex as gt
+from geomtex import reference
+
+from conftest import Converted
+
+SIZE = 128
+
+
+def bunny_on_ground(bunny: Converted) -> tuple[gt.Scene, trimesh.Trimesh, gt.Camera, float]:
+    v = np.asarray(bunny.mesh.vertices)
+    lo, hi = v.min(0), v.max(0)
+    diag = float(np.linalg.norm(hi - lo))
+    centre = (lo + hi) / 2
+    ground = trimesh.creation.box(extents=[3 * diag, 0.01 * diag, 3 * diag])
+    ground.apply_translation([centre[0], lo[1] - 0.005 * diag, centre[2]])
+    scene = gt.Scene()
+    scene.add(bunny.gts)
+    scene.add(ground)
+    whole = trimesh.util.concatenate([trimesh.Trimesh(v, np.asarray(bunny.mesh.faces), process=False), ground])
+    camera = gt.Camera.look_at(centre + np.array([1.0, 0.9, 1.3]) * diag * 1.2, centre, yfov_deg=40)
+    return scene, whole, camera, diag
+
+
+def embree_shadow(whole: trimesh.Trimesh, camera: gt.Camera, direction: np.ndarray, diag: float
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Embree's hit mask and, from its own hits (moved 1e-4 diagonal off the surface), whether
+    each hit sees the light."""
+    caster = reference.RayCaster(whole)
+    ref = caster.cast(camera, SIZE, SIZE)
+    o, d = (a.reshape(-1, 3) for a in camera.rays(SIZE, SIZE))
+    depth = ref["depth"].reshape(-1)
+    hit = np.isfinite(depth)
+    points = o[hit] + d[hit] * (depth[hit] / (d[hit] @ np.asarray(camera.forward)))[:, None]
+    n = ref["normal"].reshape(-1, 3)[hit]
+    n = np.where(((n * d[hit]).sum(1) > 0)[:, None], -n, n)
+    to_light = -direction / np.linalg.norm(direction)
+    _, index, _ = caster.first_hits(points + n * 1e-4 * diag, np.tile(to_light, (len(points), 1)))
+    shadow = np.zeros(SIZE * SIZE, bool)
+    shadow[np.flatnonzero(hit)[index]] = True
+    return hit.reshape(SIZE, SIZE), shadow.reshape(SIZE, SIZE)
+
+
+def near_edge(mask: np.ndarray) -> np.ndarray:
+    """Pixels within one pixel of a change in `mask`."""
+    edge = np.zeros_like(mask)
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            edge |= np.roll(np.roll(mask, dy, 0), dx, 1) != mask
+    return edge
+
+
+@pytest.mark.parametrize("direction", [(0.3, -1.0, 0.2), (1.0, -0.6, -0.4), (-0.5, -1.0, 0.8)])
+def test_shadows_agree_with_embree(bunny: Converted, direction: tuple[float, float, float]) -> None:
+    scene, whole, camera, diag = bunny_on_ground(bunny)
+    r = gt.Renderer(SIZE, SIZE)
+    plain = r.render(scene, camera)
+    lit = r.render(scene, camera, light=gt.DirectionalLight(direction))
+    assert plain.shadow is None and lit.shadow is not None
+    hit, ref = embree_shadow(whole, camera, np.asarray(direction, float), diag)
+    both = hit & np.isfinite(lit.depth)
+    wrong = (lit.shadow != ref) & both
+    agreement = 1 - wrong.sum() / both.sum()
+    off_edge = int((wrong & ~near_edge(ref)).sum())
+    # Measured at 128² on the Stanford / pymeshlab bunny over the three lights: agreement
+    # 0.9987-0.9990 / 0.9989-0.9995, off-edge disagreements 0-2 / 0 pixels.
+    assert agreement >= 0.996, agreement
+    assert off_edge <= 6, off_edge
+    # Shadowed pixels are darker, the rest unchanged.
+    dark = lit.shadow & both
+    assert np.all(lit.color[dark][:, :3] <= plain.color[dark][:, :3])
+    assert np.array_equal(lit.color[~lit.shadow], plain.color[~lit.shadow])
+    assert lit.stats["shadowed_pixels"] == int(lit.shadow.sum())
+
+
+def test_point_light_and_bad_lights(bunny: Converted) -> None:
+    scene, _, camera, diag = bunny_on_ground(bunny)
+    r = gt.Renderer(32, 32)
+    v = np.asarray(bunny.mesh.vertices)
+    above = (v.min(0) + v.max(0)) / 2 + [0, 2 * diag, 0]
+    lit = r.render(scene, camera, light=gt.PointLight(above))
+    assert lit.shadow is not None and 0 < lit.shadow.sum() < np.isfinite(lit.depth).sum()
+    with pytest.raises(gt.ParameterError, match="non-zero"):
+        r.render(scene, camera, light=gt.DirectionalLight([0, 0, 0]))
+    with pytest.raises(gt.ParameterError, match="light.position"):
+        r.render(scene, camera, light=gt.PointLight([np.nan, 0, 0]))
+    with pytest.raises(gt.ParameterError, match="DirectionalLight or PointLight"):
+        r.render(scene, camera, light="sun")
