@@ -10,5 +10,5 @@
 @group(1) @binding(2) var normals: texture_2d_array<f32>;
 @group(1) @binding(3) var colors: texture_2d_array<f32>;
 @group(1) @binding(4) var linear_clamp: sampler;
-// Every patch's min-max pyramid (src/heightfield.rs), from Patch.pyramid_at.x on.
+// Every patch's min-max pyramid (src/heightfield.rs), from PatchMaps.pyramid_at.x on.
 @group(1) @binding(5) var<storage, read> pyramid: array<u32>;

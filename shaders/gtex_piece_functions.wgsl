@@ -30,9 +30,9 @@ fn slab(lo: vec3<f32>, hi: vec3<f32>, o: vec3<f32>, inv: vec3<f32>) -> vec2<f32>
 
 // The first hit inside piece `piece` for t in [t_lo, t_hi), or -1.
 fn piece_search(piece: PatchBox, o: vec3<f32>, d: vec3<f32>, t_lo: f32, t_hi: f32) -> f32 {
-    let p = patches[piece.patch_index];
-    let o_p = (p.patch_from_view * vec4<f32>(o, 1.0)).xyz;
-    let d_p = (p.patch_from_view * vec4<f32>(d, 0.0)).xyz;
+    let patch_from_view = patches[piece.patch_index].patch_from_view;
+    let o_p = (patch_from_view * vec4<f32>(o, 1.0)).xyz;
+    let d_p = (patch_from_view * vec4<f32>(d, 0.0)).xyz;
     let span = slab(piece.lo, piece.hi, o_p, safe_inverse(d_p));
     let t_start = max(span.x, t_lo);
     let t_end = min(span.y, t_hi);
@@ -40,6 +40,7 @@ fn piece_search(piece: PatchBox, o: vec3<f32>, d: vec3<f32>, t_lo: f32, t_hi: f3
         return -1.0;
     }
     searches += 1u;
+    let p = patches[piece.patch_index].maps;
     // Search from the box entry: with the ray origin far away, ray positions in texels would be
     // differences of large f32 numbers.
     let entry = o_p + d_p * t_start;
@@ -59,15 +60,16 @@ struct Surface {
 }
 
 fn gtex_surface(index: u32, o: vec3<f32>, d: vec3<f32>, t: f32) -> Surface {
-    let p = patches[index];
-    let o_p = (p.patch_from_view * vec4<f32>(o, 1.0)).xyz;
-    let d_p = (p.patch_from_view * vec4<f32>(d, 0.0)).xyz;
+    let patch_from_view = patches[index].patch_from_view;
+    let p = patches[index].maps;
+    let o_p = (patch_from_view * vec4<f32>(o, 1.0)).xyz;
+    let d_p = (patch_from_view * vec4<f32>(d, 0.0)).xyz;
     let hit = o_p + d_p * t;
     let uv = clamp(hit.xy * p.size, vec2<f32>(0.5), p.size - 0.5);
     let atlas_size = vec2<f32>(textureDimensions(normals));
     let coord = (p.atlas_origin + uv) / atlas_size;
     let n_local = textureSampleLevel(normals, linear_clamp, coord, p.ids.x, 0.0).xyz;
     let base = textureSampleLevel(colors, linear_clamp, coord, p.ids.x, 0.0);
-    let n_world = normalize((p.world_normal_from_patch * vec4<f32>(n_local, 0.0)).xyz);
+    let n_world = normalize((patches[index].world_normal_from_patch * vec4<f32>(n_local, 0.0)).xyz);
     return Surface(n_world, base);
 }

@@ -54,7 +54,7 @@ fn fs_main(in: VsOut) -> FsOut {
     var out: FsOut;
     out.color = vec4<f32>(headlight(camera, surface.color.rgb, surface.normal, ray.dir), surface.color.a);
     out.normal = vec4<f32>(surface.normal, 0.0);
-    out.id = patches[piece.patch_index].ids.y;
+    out.id = patches[piece.patch_index].maps.ids.y;
     // View distance along -Z equals t for both projections (camera_ray's directions have z = -1).
     out.depth = depth_from_distance(camera, t_hit);
     return out;

@@ -18,5 +18,5 @@ fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let index = u32(found.patch_index);
     let surface = gtex_surface(index, ray.origin, ray.dir, found.t);
-    hits[i] = QueryHit(surface.normal, found.t, patches[index].ids.y, 0u, 0u, 0u);
+    hits[i] = QueryHit(surface.normal, found.t, patches[index].maps.ids.y, 0u, 0u, 0u);
 }

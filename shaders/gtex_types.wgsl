@@ -3,11 +3,9 @@
 // Spaces: view (camera-relative, see camera_types.wgsl), patch-local (the box is the unit cube,
 // x/y are texture u/v, z is height), world for normals, atlas texels for the maps.
 
-struct Patch {
-    view_from_patch: mat4x4<f32>,
-    patch_from_view: mat4x4<f32>,
-    // Patch-local normal → world normal.
-    world_normal_from_patch: mat4x4<f32>,
+// Where a patch's maps are: all a height-field search reads (kept apart from the matrices so a
+// search loads 48 bytes, not the whole record).
+struct PatchMaps {
     // Texel origin of the patch in its atlas layer, and its size in texels.
     atlas_origin: vec2<f32>,
     size: vec2<f32>,
@@ -16,6 +14,14 @@ struct Patch {
     // x: first pyramid value of this patch in `pyramid`, y: pyramid levels, z: the largest
     // height code (255 or 65535), w: level-of-detail stop level (0 = exact).
     pyramid_at: vec4<u32>,
+}
+
+struct Patch {
+    view_from_patch: mat4x4<f32>,
+    patch_from_view: mat4x4<f32>,
+    // Patch-local normal → world normal.
+    world_normal_from_patch: mat4x4<f32>,
+    maps: PatchMaps,
 }
 
 // A piece of a patch's box (src/render/kinds/gtex/boxes.rs): the part over one node of the

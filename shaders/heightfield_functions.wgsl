@@ -11,7 +11,7 @@
 // Counting build: this fragment's height and pyramid reads (see COUNT_FETCHES).
 var<private> fetches: u32 = 0u;
 
-fn load_code(p: Patch, texel: vec2<i32>) -> f32 {
+fn load_code(p: PatchMaps, texel: vec2<i32>) -> f32 {
     if (COUNT_FETCHES) {
         fetches += 1u;
     }
@@ -20,12 +20,12 @@ fn load_code(p: Patch, texel: vec2<i32>) -> f32 {
     return f32(textureLoad(heights, vec2<i32>(p.atlas_origin) + t, p.ids.x, 0).x);
 }
 
-fn decode(p: Patch, code: f32) -> f32 {
+fn decode(p: PatchMaps, code: f32) -> f32 {
     return (code - 1.0) / (f32(p.pyramid_at.z) - 1.0);
 }
 
 // The four corner codes of the cell with lower-left texel ij (indices clamped).
-fn corner_codes(p: Patch, ij: vec2<i32>) -> vec4<f32> {
+fn corner_codes(p: PatchMaps, ij: vec2<i32>) -> vec4<f32> {
     return vec4<f32>(
         load_code(p, ij),
         load_code(p, ij + vec2<i32>(1, 0)),
@@ -36,7 +36,7 @@ fn corner_codes(p: Patch, ij: vec2<i32>) -> vec4<f32> {
 
 // Surface height at patch-local (u, v): bilinear where all four texels around hold surface;
 // < 0 where there is none.
-fn height_at(p: Patch, uv: vec2<f32>) -> f32 {
+fn height_at(p: PatchMaps, uv: vec2<f32>) -> f32 {
     let x = uv * p.size - 0.5;
     let base = floor(x);
     let f = x - base;
@@ -48,7 +48,7 @@ fn height_at(p: Patch, uv: vec2<f32>) -> f32 {
 }
 
 // +1 above the surface, -1 on or below it, 0 where there is no surface.
-fn side(p: Patch, point: vec3<f32>) -> f32 {
+fn side(p: PatchMaps, point: vec3<f32>) -> f32 {
     let h = height_at(p, point.xy);
     if (h < 0.0) {
         return 0.0;
@@ -57,7 +57,7 @@ fn side(p: Patch, point: vec3<f32>) -> f32 {
 }
 
 // The paper's search: linear steps balanced by slant, then bisection. Returns t or -1.
-fn linear_binary_hit(p: Patch, search: Search, o: vec3<f32>, d: vec3<f32>, t_start: f32, t_end: f32) -> f32 {
+fn linear_binary_hit(p: PatchMaps, search: Search, o: vec3<f32>, d: vec3<f32>, t_start: f32, t_end: f32) -> f32 {
     let span = abs(d.xy * (t_end - t_start)) * p.size;
     let n = u32(clamp(ceil(max(span.x, span.y) * search.steps.x), search.steps.y, search.steps.z));
     var t_prev = t_start;
@@ -128,7 +128,7 @@ fn first_root(a: f32, b: f32, c: f32, len: f32, graze: f32) -> f32 {
 // texels at the node's corners: at scale 1 (a level-0 cell) that is the exact surface; at scale
 // 2^L (level of detail) the map subsampled to every 2^L-th texel. The height along the ray is a
 // quadratic in t there. -2 when a corner texel is empty (no surface known at this scale).
-fn node_hit(p: Patch, o: vec3<f32>, d: vec3<f32>, node: vec2<f32>, scale: f32, ta: f32, tb: f32) -> f32 {
+fn node_hit(p: PatchMaps, o: vec3<f32>, d: vec3<f32>, node: vec2<f32>, scale: f32, ta: f32, tb: f32) -> f32 {
     let g0 = vec2<f32>(o.x * p.size.x + 0.5, o.y * p.size.y + 0.5);
     let dg = d.xy * p.size / scale;
     let lo = vec2<i32>(node * scale) - 1;
@@ -160,7 +160,7 @@ fn node_hit(p: Patch, o: vec3<f32>, d: vec3<f32>, node: vec2<f32>, scale: f32, t
 // one node of it): a node is skipped whole when the ray over it stays above its highest surface
 // or below its lowest (no crossing is possible); a level-0 cell is solved in closed form. Node
 // values pack the max code (high 16 bits) and min code (low).
-fn maxmip_hit(p: Patch, search: Search, o: vec3<f32>, d: vec3<f32>, t_start: f32, t_end: f32, top: i32) -> f32 {
+fn maxmip_hit(p: PatchMaps, search: Search, o: vec3<f32>, d: vec3<f32>, t_start: f32, t_end: f32, top: i32) -> f32 {
     let levels = i32(p.pyramid_at.y);
     // Level-of-detail stop level (0: exact, down to the bilinear cells), never above `top`: a
     // coarser node's surface could leave the piece being searched.
