@@ -30,21 +30,13 @@ from typing import Any, Callable
 import numpy as np
 
 import geomtex as gt
+from geomtex.testing.views import rays_around
 from render import BUNNY, ForeignCpu, machine_info, ray_caster, wait_idle  # type: ignore[import-not-found]
 
 REPO = Path(__file__).resolve().parents[1]
 OUT = REPO / "bench" / "results"
 COUNTS_FULL = (10_000, 100_000, 1_000_000)
 COUNTS_QUICK = (10_000, 100_000)
-
-
-def sphere_rays(lo: np.ndarray, hi: np.ndarray, n: int, seed: int = 3) -> tuple[np.ndarray, np.ndarray]:
-    rng = np.random.default_rng(seed)
-    diag = float(np.linalg.norm(hi - lo))
-    u = rng.normal(size=(n, 3))
-    origins = (lo + hi) / 2 + u / np.linalg.norm(u, axis=1, keepdims=True) * diag
-    d = lo + rng.random((n, 3)) * (hi - lo) - origins
-    return origins, d / np.linalg.norm(d, axis=1, keepdims=True)
 
 
 def timed(call: Callable[[], Any], repeats: int) -> tuple[Any, float]:
@@ -58,18 +50,17 @@ def timed(call: Callable[[], Any], repeats: int) -> tuple[Any, float]:
     return result, float(np.median(walls))
 
 
-def measure(gts: Any, caster: Any, lo: np.ndarray, hi: np.ndarray, n: int) -> dict[str, Any]:
-    origins, dirs = sphere_rays(lo, hi, n)
-    diag = float(np.linalg.norm(hi - lo))
+def measure(gts: Any, caster: Any, mesh: gt.Mesh, n: int) -> dict[str, Any]:
+    origins, dirs = rays_around(mesh, n)
+    diag = mesh.diagonal
     repeats = 3 if n <= 100_000 else 1
     foreign = ForeignCpu()
     foreign.start()
     hits, gt_ms = timed(lambda: gts.intersects_first(origins, dirs), repeats)
     _, any_ms = timed(lambda: gts.intersects_any(origins, dirs), repeats)
-    (locations, index, _), embree_ms = timed(lambda: caster.first_hits(origins, dirs), repeats)
+    _, embree_ms = timed(lambda: caster.first_hits(origins, dirs), repeats)
     busy = foreign.stop()
-    ref = np.full(n, np.inf)
-    ref[index] = np.linalg.norm(locations - origins[index], axis=1)
+    ref = caster.first_distances(origins, dirs)
     both = hits.hit & np.isfinite(ref)
     err = np.abs(hits.distances[both] - ref[both]) / diag
     return {
@@ -145,11 +136,10 @@ def main() -> None:
     mesh = gt.load_mesh(str(BUNNY))
     gts = gt.convert(mesh, max_resolution=256)
     caster, build_s = ray_caster(mesh)
-    lo, hi = mesh.bounds
     records = []
     for n in COUNTS_QUICK if args.quick else COUNTS_FULL:
         wait_idle(args.wait_idle)
-        records.append(measure(gts, caster, np.asarray(lo), np.asarray(hi), n))
+        records.append(measure(gts, caster, mesh, n))
         r = records[-1]
         print(f"{n:>9,} rays: geomtex {r['geomtex_first_ms']:8.1f} ms (any {r['geomtex_any_ms']:8.1f}), "
               f"embree {r['embree_ms']:7.1f} ms, embree {r['embree_over_geomtex']:.1f}x faster; agreement "

@@ -8,36 +8,18 @@ import pytest
 
 import geomtex as gt
 from geomtex import reference
+from geomtex.testing.views import rays_around
 
 from conftest import Converted
 
 RAYS = 20_000
 
 
-def sphere_rays(mesh: gt.Mesh, n: int, seed: int = 3) -> tuple[np.ndarray, np.ndarray, float]:
-    """Rays from random points on a sphere (radius one diagonal) around the mesh toward random
-    points in its box, as in bench/rays.py; and the diagonal."""
-    v = np.asarray(mesh.vertices)
-    lo, hi = v.min(0), v.max(0)
-    diag = float(np.linalg.norm(hi - lo))
-    rng = np.random.default_rng(seed)
-    u = rng.normal(size=(n, 3))
-    origins = (lo + hi) / 2 + u / np.linalg.norm(u, axis=1, keepdims=True) * diag
-    d = lo + rng.random((n, 3)) * (hi - lo) - origins
-    return origins, d / np.linalg.norm(d, axis=1, keepdims=True), diag
-
-
-def reference_distances(mesh: gt.Mesh, origins: np.ndarray, dirs: np.ndarray) -> np.ndarray:
-    locations, index, _ = reference.RayCaster(mesh).first_hits(origins, dirs)
-    t = np.full(len(origins), np.inf)
-    t[index] = np.linalg.norm(locations - origins[index], axis=1)
-    return t
-
-
 def test_first_hits_agree_with_trimesh(bunny: Converted) -> None:
-    origins, dirs, diag = sphere_rays(bunny.mesh, RAYS)
+    origins, dirs = rays_around(bunny.mesh, RAYS)
+    diag = bunny.mesh.diagonal
     hits = bunny.gts.intersects_first(origins, dirs)
-    ref = reference_distances(bunny.mesh, origins, dirs)
+    ref = reference.RayCaster(bunny.mesh).first_distances(origins, dirs)
     agree = float(np.mean(hits.hit == np.isfinite(ref)))
     both = hits.hit & np.isfinite(ref)
     err = np.abs(hits.distances[both] - ref[both]) / diag
@@ -58,7 +40,7 @@ def test_first_hits_agree_with_trimesh(bunny: Converted) -> None:
 
 
 def test_location_and_any_match_first(bunny: Converted) -> None:
-    origins, dirs, _ = sphere_rays(bunny.mesh, 2_000, seed=5)
+    origins, dirs = rays_around(bunny.mesh, 2_000, seed=5)
     first = bunny.gts.intersects_first(origins, dirs)
     locations, index_ray, index_patch = bunny.gts.intersects_location(origins, dirs)
     np.testing.assert_array_equal(index_ray, np.flatnonzero(first.hit))

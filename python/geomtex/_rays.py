@@ -62,8 +62,7 @@ def intersects_first(self: Any, origins: npt.ArrayLike, directions: npt.ArrayLik
     dist, ids, normals = _query_renderer().intersect(self, o, d, quality=quality, method=method)
     hit = ids >= 0
     unit = d / np.linalg.norm(d, axis=1, keepdims=True)
-    with np.errstate(invalid="ignore"):
-        locations = np.where(hit[:, None], o + unit * np.where(hit, dist, 0.0)[:, None], np.nan)
+    locations = np.where(hit[:, None], o + unit * np.where(hit, dist, 0.0)[:, None], np.nan)
     return RayHits(locations, dist, ids, normals, hit)
 
 

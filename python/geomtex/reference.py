@@ -82,6 +82,14 @@ class RayCaster:
             (o - self.centre) * self.scale, np.asarray(directions, dtype=np.float64), multiple_hits=False)
         return locations / self.scale + self.centre, ray_index, tri_index
 
+    def first_distances(self, origins: npt.ArrayLike, directions: npt.ArrayLike) -> npt.NDArray[np.float64]:
+        """(N,) distance from each origin to its first hit along a unit direction; inf on a miss."""
+        o = np.asarray(origins, dtype=np.float64)
+        locations, ray_index, _ = self.first_hits(o, directions)
+        t = np.full(len(o), np.inf)
+        t[ray_index] = np.linalg.norm(locations - o[ray_index], axis=1)
+        return t
+
     def cast(self, camera: Any, width: int, height: int) -> dict[str, npt.NDArray[Any]]:
         """First hits of the camera's pixel rays; see ``raycast`` for what comes back."""
         origins, directions = camera.rays(width, height)

@@ -1,6 +1,7 @@
-//! Headless rendering of geometry textures (per-pixel ray casting through thin pieces of their
-//! patches' boxes) and ordinary meshes (rasterization) into one reversed-Z depth buffer, read back
-//! as numpy-ready arrays; and ray queries through a hierarchy over the same pieces (`query`).
+//! Headless rendering of geometry textures (per-pixel ray casting in their patches' boxes) and
+//! ordinary meshes (rasterization) into one reversed-Z depth buffer, read back as numpy-ready
+//! arrays; ray queries through a hierarchy over thin pieces of the same boxes (`query`), and
+//! shadows cast with them (`shadow`).
 //!
 //! A render is three steps: prepare (upload what is new, choose the near plane, make each
 //! object's draw call), encode the passes (the scene pass, then copies into readback buffers),
@@ -143,17 +144,8 @@ impl Renderer {
         camera: &Camera,
         search: &SearchOptions,
     ) -> Result<Prepared> {
-        for kind in &mut self.kinds {
-            kind.purge();
-        }
         let view_from_world = camera.view_from_world();
-        let mut depth = DepthRange::empty();
-        let mut owners = Vec::with_capacity(scene.objects.len());
-        for (index, placed) in scene.objects.iter().enumerate() {
-            placed.check_placement(index)?;
-            let view_from_object = view_from_world * placed.world_from_object;
-            owners.push(self.upload(&placed.object, &view_from_object, &mut depth)?);
-        }
+        let (owners, depth) = self.upload_scene(scene, view_from_world)?;
         let (width, height) = self.size();
         let (z_min, z_max) = depth.or_default();
         let lens = camera.lens(width, height, z_min, z_max)?;
@@ -175,6 +167,26 @@ impl Renderer {
             })
             .collect();
         Ok(Prepared { lens, draws, tally })
+    }
+
+    /// Drops the uploads of objects gone, uploads what is new; each object's kind (its index) and
+    /// the depth range the scene occupies under `view_from_world`.
+    fn upload_scene(
+        &mut self,
+        scene: &Scene,
+        view_from_world: glam::DMat4,
+    ) -> Result<(Vec<usize>, DepthRange)> {
+        for kind in &mut self.kinds {
+            kind.purge();
+        }
+        let mut depth = DepthRange::empty();
+        let mut owners = Vec::with_capacity(scene.objects.len());
+        for (index, placed) in scene.objects.iter().enumerate() {
+            placed.check_placement(index)?;
+            let view_from_object = view_from_world * placed.world_from_object;
+            owners.push(self.upload(&placed.object, &view_from_object, &mut depth)?);
+        }
+        Ok((owners, depth))
     }
 
     /// Uploads an object through the kind it belongs to; that kind's index.

@@ -126,13 +126,7 @@ impl Renderer {
         view_from_world: DMat4,
         search: &SearchOptions,
     ) -> Result<Vec<TraceCall>> {
-        let mut depth = super::cull::DepthRange::empty();
-        let mut owners = Vec::with_capacity(scene.objects.len());
-        for (index, placed) in scene.objects.iter().enumerate() {
-            placed.check_placement(index)?;
-            let view_from_object = view_from_world * placed.world_from_object;
-            owners.push(self.upload(&placed.object, &view_from_object, &mut depth)?);
-        }
+        let (owners, _) = self.upload_scene(scene, view_from_world)?;
         self.frame_bindings.write_search(&self.gpu.queue, search);
         let mut first_id = 0;
         let mut traces = Vec::new();

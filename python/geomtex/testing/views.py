@@ -1,4 +1,5 @@
-"""Cameras placed relative to a mesh, for tests and benchmarks that look at it from a direction."""
+"""Cameras and rays placed relative to a mesh, for tests and benchmarks that look at it from a
+direction or cast rays at it."""
 
 from __future__ import annotations
 
@@ -21,3 +22,14 @@ def look_from(mesh: Mesh, direction: npt.ArrayLike, distance: float = 1.7, yfov_
         up = (0.0, 0.0, 1.0) if abs(d[2]) < 0.9 else (0.0, 1.0, 0.0)
     return Camera.look_at(centre + d * distance * mesh.diagonal, centre, up=tuple(np.asarray(up, np.float64)),
                           yfov_deg=yfov_deg)
+
+
+def rays_around(mesh: Mesh, n: int, seed: int = 3) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """``n`` rays from random points on a sphere (radius one diagonal) about the bounding-box
+    centre toward random points in the box: (origins, unit directions), each (n, 3)."""
+    lo, hi = (np.asarray(b, np.float64) for b in mesh.bounds)
+    rng = np.random.default_rng(seed)
+    u = rng.normal(size=(n, 3))
+    origins = (lo + hi) / 2 + u / np.linalg.norm(u, axis=1, keepdims=True) * mesh.diagonal
+    d = lo + rng.random((n, 3)) * (hi - lo) - origins
+    return origins, d / np.linalg.norm(d, axis=1, keepdims=True)

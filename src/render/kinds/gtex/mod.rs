@@ -1,14 +1,18 @@
-//! Geometry-texture sets, traced per pixel (gtex_trace_camera.wgsl): a hierarchy (bvh.rs, its
-//! shape built once per set) over thin pieces of the patches' boxes (boxes.rs) is walked front
-//! to back, and a piece the ray enters before the nearest hit so far gets a search of its
-//! patch's height map over the stretch inside it.
+//! Geometry-texture sets. Frames ray cast them per pixel in their patches' boxes
+//! (gtex_raycast.wgsl: one instance of the unit cube per visible patch, the fragment shader
+//! searching the patch's height map). Ray queries trace them (gtex_trace_rays.wgsl): a hierarchy
+//! (bvh.rs) over thin pieces of the patches' boxes (boxes.rs), both made on the first query of a
+//! set, is walked front to back, and a piece a ray enters before its nearest hit so far gets a
+//! search of its patch's height map over the stretch inside it.
 //!
 //! Spaces: the set's object space (placed by `world_from_object`; the hierarchy's shape is built
 //! there), each patch's own (`world_from_patch` of the set's space: the box is the unit cube, x/y
 //! are texture u/v, z is height), view (camera-relative: the patch records and the refitted
-//! bounds) and clip (the lens's, for culling).
+//! bounds; for queries, world space translated near the rays) and clip (the lens's, for culling).
 
 mod boxes;
+
+use std::sync::OnceLock;
 
 use bytemuck::Zeroable;
 use glam::{DMat3, DMat4, DVec3};
@@ -31,13 +35,18 @@ use crate::render::shaders;
 
 use boxes::{patch_boxes, placed as placed_box, PatchBoxGpu};
 
-/// The unit cube as 12 triangles (gtex_raycast.wgsl's CUBE), one per drawn piece.
+/// The unit cube as 12 triangles (gtex_raycast.wgsl's CUBE), one instance per drawn patch.
 const CUBE_VERTICES: u32 = 36;
 
-/// A set on the GPU: its maps and pyramids, the pieces of its boxes (on the GPU and here) and
-/// the shape of the hierarchy over them.
+/// A set on the GPU: its maps and pyramids, and what ray queries walk (made on the first
+/// query, so sets that are only drawn never pay for it).
 pub(crate) struct GtexUpload {
     atlas: Atlas,
+    tracing: OnceLock<Tracing>,
+}
+
+/// The pieces of a set's boxes (here and on the GPU) and the shape of the hierarchy over them.
+struct Tracing {
     pieces: Vec<PatchBoxGpu>,
     pieces_buffer: wgpu::Buffer,
     bvh: Bvh,
@@ -46,36 +55,43 @@ pub(crate) struct GtexUpload {
 impl GtexUpload {
     fn new(gpu: &Gpu, set: &GeometryTextureSet) -> Result<GtexUpload> {
         let pyramids: Vec<Pyramid> = set.patches.iter().map(min_max_pyramid).collect();
-        let atlas = Atlas::upload(gpu, set, &pyramids)?;
+        Ok(GtexUpload {
+            atlas: Atlas::upload(gpu, set, &pyramids)?,
+            tracing: OnceLock::new(),
+        })
+    }
+
+    fn tracing(&self, gpu: &Gpu, set: &GeometryTextureSet) -> &Tracing {
+        self.tracing.get_or_init(|| Tracing::new(gpu, set))
+    }
+}
+
+impl Tracing {
+    fn new(gpu: &Gpu, set: &GeometryTextureSet) -> Tracing {
         let pieces: Vec<PatchBoxGpu> = (0..)
-            .zip(set.patches.iter().zip(&pyramids))
-            .flat_map(|(i, (p, pyramid))| patch_boxes(i, p, pyramid))
+            .zip(&set.patches)
+            .flat_map(|(i, p)| patch_boxes(i, p, &min_max_pyramid(p)))
             .collect();
-        let world_from_patch: Vec<DMat4> =
-            set.patches.iter().map(|p| p.world_from_patch()).collect();
         let bounds: Vec<Aabb> = pieces
             .iter()
-            .map(|b| placed_box(b, &world_from_patch[b.patch_index as usize]))
+            .map(|b| placed_box(b, &set.patches[b.patch_index as usize].world_from_patch()))
             .collect();
-        // A set with no surface at all still gets one (empty) piece, so the hierarchy has a root.
+        // A set with no surface at all still binds one (empty) piece; it is never traced.
         let contents: &[PatchBoxGpu] = if pieces.is_empty() {
             &[PatchBoxGpu::zeroed()]
         } else {
             &pieces
         };
-        let pieces_buffer = gpu
-            .device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("patch box pieces"),
-                contents: bytemuck::cast_slice(contents),
-                usage: wgpu::BufferUsages::STORAGE,
-            });
-        Ok(GtexUpload {
-            atlas,
+        let pieces_buffer = storage_buffer(
+            &gpu.device,
+            "patch box pieces",
+            bytemuck::cast_slice(contents),
+        );
+        Tracing {
             bvh: Bvh::build(&bounds),
             pieces,
             pieces_buffer,
-        })
+        }
     }
 }
 
@@ -172,7 +188,7 @@ impl GtexKind {
                 source: shaders::gtex_raycast(),
                 layouts: &[Some(frame_layout), Some(&layout)],
                 vertex_buffers: &[],
-                // Back faces of each piece: a camera inside one still gets its fragments.
+                // Back faces of each box: a camera inside a box still gets its fragments.
                 cull: Some(wgpu::Face::Front),
                 constants,
             }
@@ -355,24 +371,22 @@ impl Kind for GtexKind {
             first_id: *first_id,
         };
         *first_id += set.patches.len() as i32;
-        if upload.pieces.is_empty() {
+        let tracing = upload.tracing(gpu, set);
+        if tracing.pieces.is_empty() {
             return Ok(None);
         }
+        // No lens: every patch is placed (none culled).
         let (records, placements) = Self::records(&placing, set, &upload.atlas);
-        let bounds: Vec<Aabb> = upload
-            .pieces
-            .iter()
-            .map(|b| match &placements[b.patch_index as usize] {
-                Some(view_from_patch) => placed_box(b, view_from_patch),
-                None => Aabb::EMPTY,
-            })
+        let view_from_patch: Vec<DMat4> = placements.into_iter().flatten().collect();
+        let bounds: Vec<Aabb> = (tracing.pieces.iter())
+            .map(|b| placed_box(b, &view_from_patch[b.patch_index as usize]))
             .collect();
-        let nodes = upload.bvh.refit(&bounds);
+        let nodes = tracing.bvh.refit(&bounds);
         let device = &gpu.device;
         let nodes = storage_buffer(device, "piece hierarchy", bytemuck::cast_slice(&nodes));
         let extra = vec![
             (6, nodes.as_entire_binding()),
-            (7, upload.pieces_buffer.as_entire_binding()),
+            (7, tracing.pieces_buffer.as_entire_binding()),
         ];
         Ok(Some(TraceCall {
             pipeline: self.trace_pipeline.clone(),
