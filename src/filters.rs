@@ -7,7 +7,11 @@
 //! the neighbours' offsets along each point's normal), so the same place gets the same
 //! displacement whichever patch it is stored in; each displacement then goes back into its
 //! patch as a height change (divided by the cosine between the normal and the patch's z axis).
-//! Normal maps are rebuilt from the new heights by central differences.
+//! Normals are filtered by the same weights in world space (the mean neighbour normal, or for
+//! high-pass the normal pushed away from it), so a place gets one normal whichever patch holds
+//! it and a tiny sigma leaves normals as they were. Rebuilding them per patch from the new
+//! heights by finite differences had given patch-shaped shading steps and, at sigma -> 0, a
+//! median change of 3 degrees (differences of quantized heights are not the mesh's normals).
 //!
 //! Space: world for the filter (points, normals, sigma), patch-local for the maps.
 
@@ -19,7 +23,7 @@ use crate::error::{parse_choice, GeomtexError, Result};
 use crate::gtex::{
     decode_snorm8, encode_height, encode_snorm8, vertical_extent, GeometryTextureSet, Patch,
 };
-use crate::heightfield::{grid_normal, height_at};
+use crate::heightfield::height_at;
 use crate::mesh::{Mesh, MeshGeometry};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -38,6 +42,11 @@ impl MapFilter {
     /// the high-pass filter's and is checked when the filter runs.
     pub fn from_name(kind: &str, gain: Option<f64>) -> Result<MapFilter> {
         let high_pass = parse_choice("kind", kind, &[("gaussian", false), ("high_pass", true)])?;
+        if let (false, Some(g)) = (high_pass, gain) {
+            return Err(GeomtexError::Parameter(format!(
+                "gain applies only to kind='high_pass' (a Gaussian has none), got gain={g} with kind='gaussian'"
+            )));
+        }
         Ok(if high_pass {
             MapFilter::HighPass {
                 gain: gain.unwrap_or(DEFAULT_GAIN),
@@ -71,18 +80,19 @@ fn check_reach(near: &[(usize, usize)], points: usize, sigma: f64) -> Result<()>
     )))
 }
 
-/// Offsets along the normal that a Gaussian of `sigma` (world units) would move each texel
-/// point by: the weighted mean of (q - p)·n over neighbours q within 3 sigma facing the same way.
+/// What a Gaussian of `sigma` (world units) makes of each texel point: the offset along its
+/// normal (the weighted mean of (q - p)·n over neighbours q within 3 sigma facing the same way)
+/// and the weighted mean of those neighbours' normals (not normalized).
 /// Neighbours come from a uniform grid of 3-sigma cells (sorted keys, no hash map needed). The
 /// grid already is the spatial index a k-d tree would be (a sphere query would test ~3x fewer
 /// candidates than 27 cells on a surface, the same order of work), so far reaches are refused
 /// (`check_reach`) rather than made faster. `cancel` is polled once per point.
-fn normal_offsets(
+fn neighbour_means(
     points: &[DVec3],
     normals: &[DVec3],
     sigma: f64,
     cancel: &Cancel,
-) -> Result<Vec<f64>> {
+) -> Result<Vec<(f64, DVec3)>> {
     let r = 3.0 * sigma;
     let cell = |p: DVec3| (p / r).floor().as_i64vec3().to_array();
     // Keys computed once and sorted on all cores: a sequential sort by a computed key took
@@ -121,7 +131,7 @@ fn normal_offsets(
         .collect();
     check_reach(&counts, points.len(), sigma)?;
     cancel.check("filtering")?;
-    let per_cell: Vec<Vec<(u32, f64)>> = starts
+    let per_cell: Vec<Vec<(u32, (f64, DVec3))>> = starts
         .par_windows(2)
         .map(|w| {
             if cancel.is_cancelled() {
@@ -134,36 +144,59 @@ fn normal_offsets(
             order[w[0]..w[1]]
                 .iter()
                 .map(|&k| {
-                    if cancel.is_cancelled() {
-                        return (k, 0.0); // a dense cell can take seconds; dropped below
-                    }
                     let (p, n) = (points[k as usize], normals[k as usize]);
-                    let (mut num, mut den) = (0.0, 0.0);
+                    if cancel.is_cancelled() {
+                        return (k, (0.0, n)); // a dense cell can take seconds; dropped below
+                    }
+                    let (mut num, mut den, mut normal_sum) = (0.0, 0.0, DVec3::ZERO);
                     for &q in &near {
                         let d = points[q as usize] - p;
                         let d2 = d.length_squared();
-                        if d2 <= r * r && normals[q as usize].dot(n) > 0.5 {
+                        let nq = normals[q as usize];
+                        if d2 <= r * r && nq.dot(n) > 0.5 {
                             let w = (-d2 / (2.0 * sigma * sigma)).exp();
                             num += w * d.dot(n);
                             den += w;
+                            normal_sum += w * nq;
                         }
                     }
-                    (k, if den > 0.0 { num / den } else { 0.0 })
+                    // The point itself always counts (w = 1), so den >= 1.
+                    (k, (num / den, normal_sum / den))
                 })
                 .collect()
         })
         .collect();
     cancel.check("filtering")?;
-    let mut out = vec![0.0; points.len()];
-    for (k, d) in per_cell.into_iter().flatten() {
-        out[k as usize] = d;
+    let mut out = vec![(0.0, DVec3::ZERO); points.len()];
+    for (k, m) in per_cell.into_iter().flatten() {
+        out[k as usize] = m;
     }
     Ok(out)
 }
 
+/// Below this cosine between a texel's normal and its patch's z axis the texel is steep: its
+/// vertical line runs nearly along the surface, and a move along the normal divided by the
+/// cosine (exact for a plane) magnifies a curved rim's offset up to 5x into hair-like spikes.
+/// A steep texel takes its neighbours' vertical moves instead.
+const STEEP_COS: f64 = 0.5;
+
+/// Farthest (Chebyshev, texels) a steep texel looks for neighbours that are not steep.
+const STEEP_REACH: usize = 3;
+
+/// What the filter does to one filled texel: its move along its normal (world units) and its
+/// new world unit normal, with the cosine between its old normal and the patch's z axis.
+#[derive(Clone, Copy, Debug)]
+struct TexelMove {
+    along_normal: f64,
+    /// The move itself: `along_normal` times the old normal (world).
+    displacement: DVec3,
+    normal: DVec3,
+    cos: f64,
+}
+
 /// The set with its surface filtered (`sigma` in world units): every patch's heights moved by
-/// the world-space filter, boxes refitted to the new height range, normals rebuilt; colors and
-/// faces kept. `cancel` stops it (Interrupted) within a point's work.
+/// the world-space filter, boxes refitted to the new height range, normals filtered in world
+/// space too; colors and faces kept. `cancel` stops it (Interrupted) within a point's work.
 pub fn filtered(
     set: &GeometryTextureSet,
     filter: MapFilter,
@@ -199,32 +232,28 @@ pub fn filtered(
             };
             points.push(point);
             normals.push(normal);
-            slots.push((k as u32, t as u32, normal.dot(p.axes[2])));
+            slots.push((k, t));
         }
     }
-    // Gaussian: move each point onto its neighbours' average (offset d); high-pass: away from it.
     cancel.check("filtering")?;
-    let offsets = normal_offsets(&points, &normals, sigma, cancel)?;
-    let mut moved: Vec<Vec<f64>> = set
-        .patches
-        .iter()
-        .map(|p| {
-            p.heights
-                .iter()
-                .map(|&q| p.decode_height(q as f64) * p.extent.z)
-                .collect()
-        })
-        .collect();
-    for (&(k, t, cos), &d) in slots.iter().zip(&offsets) {
-        // Along the normal by -gain * d is along the patch's z by that over cos (kept >= 0.2
-        // so a point on a steep part cannot be thrown out of its patch).
-        moved[k as usize][t as usize] += -gain * d / cos.max(0.2);
+    let means = neighbour_means(&points, &normals, sigma, cancel)?;
+    let mut moves: Vec<Vec<Option<TexelMove>>> =
+        set.patches.iter().map(|p| vec![None; p.texels()]).collect();
+    for ((&(k, t), &n), &(offset, mean_normal)) in slots.iter().zip(&normals).zip(&means) {
+        // Gaussian (gain -1): onto the neighbours' mean; high-pass: away from it, by gain.
+        let normal = (n - gain * (mean_normal - n)).normalize_or(n);
+        moves[k][t] = Some(TexelMove {
+            along_normal: -gain * offset,
+            displacement: -gain * offset * n,
+            normal,
+            cos: n.dot(set.patches[k].axes[2]),
+        });
     }
     let patches = set
         .patches
-        .iter()
-        .zip(moved)
-        .map(|(p, z)| refit(p, &z))
+        .par_iter()
+        .zip(&moves)
+        .map(|(p, m)| refit(p, m))
         .collect();
     let mut out = GeometryTextureSet {
         patches,
@@ -238,11 +267,121 @@ pub fn filtered(
     Ok(out)
 }
 
-/// A patch with new heights `z` (world units above its box's bottom; only filled texels count):
-/// the box refitted to their range, heights re-encoded, normals rebuilt.
-fn refit(p: &Patch, new: &[f64]) -> Patch {
+/// The mean of `value` over the nearest square ring around texel `t` of a `w` x `h` map (reach
+/// 1, 2, ... `reach` texels) where it gives any, or None.
+fn nearest_ring_mean<T>(
+    (w, h): (usize, usize),
+    t: usize,
+    reach: usize,
+    value: impl Fn(usize) -> Option<T>,
+) -> Option<T>
+where
+    T: Copy + std::iter::Sum + std::ops::Div<f64, Output = T>,
+{
+    let (i, j) = (t % w, t / w);
+    (1..=reach).find_map(|r| {
+        let (i0, j0) = (i.saturating_sub(r), j.saturating_sub(r));
+        let (i1, j1) = ((i + r).min(w - 1), (j + r).min(h - 1));
+        let found: Vec<T> = (j0..=j1)
+            .flat_map(|y| (i0..=i1).map(move |x| y * w + x))
+            .filter_map(&value)
+            .collect();
+        (!found.is_empty()).then(|| found.iter().copied().sum::<T>() / found.len() as f64)
+    })
+}
+
+/// Vertical moves (world units along the patch's z) of a patch's filled texels: a move along
+/// the normal over the cosine where the texel is not steep; where it is, the mean of the nearest
+/// ring (up to `STEEP_REACH`) of such moves, or the move over `STEEP_COS` if none is near.
+fn vertical_moves(p: &Patch, moves: &[Option<TexelMove>]) -> Vec<f64> {
+    let size = (p.width as usize, p.height as usize);
+    let direct = |m: &TexelMove| m.along_normal / m.cos.max(STEEP_COS);
+    let steady = |t: usize| moves[t].filter(|m| m.cos >= STEEP_COS).map(|m| direct(&m));
+    (0..moves.len())
+        .map(|t| match moves[t] {
+            None => 0.0,
+            Some(m) if m.cos >= STEEP_COS => direct(&m),
+            Some(m) => {
+                nearest_ring_mean(size, t, STEEP_REACH, steady).unwrap_or_else(|| direct(&m))
+            }
+        })
+        .collect()
+}
+
+/// Largest miss (texels, in the patch plane) of a warped texel accepted by `moved_heights`.
+const WARP_TOLERANCE: f64 = 0.05;
+
+/// New heights (world units above the box floor) of a patch's texels once every filled texel's
+/// point has moved by its displacement. The moved points form a warped grid; the height over
+/// texel centre c is found where that grid passes over c: the source point s with
+/// s + move(s) = c (fixed-point iteration on the bilinear blend of the texels' moves, as the
+/// surface rule blends heights). This stays right on curved parts, where a move along the normal
+/// divided by the cosine (`vertical_moves`, exact only for a plane) opens seams between patches;
+/// that is the fallback where the warped point leaves the filled cells or does not settle.
+fn moved_heights(p: &Patch, moves: &[Option<TexelMove>]) -> Vec<f64> {
     let (w, h) = (p.width as usize, p.height as usize);
-    let texel = (p.extent.x / w as f64, p.extent.y / h as f64);
+    let texel = DVec3::new(p.extent.x / w as f64, p.extent.y / h as f64, 1.0);
+    // Per filled texel: (move in texel units x, y and world z, old height in world units).
+    let field: Vec<Option<glam::DVec4>> = p
+        .heights
+        .iter()
+        .zip(moves)
+        .map(|(&q, m)| {
+            m.map(|m| {
+                let d = m.displacement;
+                let local = DVec3::new(d.dot(p.axes[0]), d.dot(p.axes[1]), d.dot(p.axes[2]));
+                (local / texel).extend(p.decode_height(q as f64) * p.extent.z)
+            })
+        })
+        .collect();
+    let blend = |x: f64, y: f64| -> Option<glam::DVec4> {
+        let (i, j) = (x.floor(), y.floor());
+        let (fx, fy) = (x - i, y - j);
+        let at = |di: f64, dj: f64| {
+            let (ti, tj) = (
+                (i + di).clamp(0.0, w as f64 - 1.0),
+                (j + dj).clamp(0.0, h as f64 - 1.0),
+            );
+            field[tj as usize * w + ti as usize]
+        };
+        Some(
+            at(0.0, 0.0)? * ((1.0 - fx) * (1.0 - fy))
+                + at(1.0, 0.0)? * (fx * (1.0 - fy))
+                + at(0.0, 1.0)? * ((1.0 - fx) * fy)
+                + at(1.0, 1.0)? * (fx * fy),
+        )
+    };
+    let fallback = vertical_moves(p, moves);
+    (0..w * h)
+        .map(|t| {
+            let old = field[t].map_or(0.0, |f| f.w);
+            let Some(f) = field[t] else {
+                return old;
+            };
+            let target = glam::DVec2::new((t % w) as f64, (t / w) as f64);
+            let mut source = target - f.truncate().truncate();
+            for _ in 0..4 {
+                match blend(source.x, source.y) {
+                    Some(g) => source = target - g.truncate().truncate(),
+                    None => return old + fallback[t],
+                }
+            }
+            match blend(source.x, source.y) {
+                Some(g)
+                    if (source + g.truncate().truncate() - target).length() < WARP_TOLERANCE =>
+                {
+                    g.w + g.z
+                }
+                _ => old + fallback[t],
+            }
+        })
+        .collect()
+}
+
+/// A patch with its filled texels moved (`moves`, indexed by texel; None where empty): the box
+/// refitted to the new height range, heights re-encoded, normals replaced by the filtered ones.
+fn refit(p: &Patch, moves: &[Option<TexelMove>]) -> Patch {
+    let new = moved_heights(p, moves);
     let mask: Vec<bool> = p.heights.iter().map(|&q| q > 0).collect();
     let filled = || new.iter().zip(&mask).filter(|(_, &m)| m).map(|(&v, _)| v);
     let lo = filled().fold(f64::INFINITY, f64::min);
@@ -267,31 +406,87 @@ fn refit(p: &Patch, new: &[f64]) -> Patch {
             }
         })
         .collect();
-    // Normals by central differences of the filtered heights (one-sided next to empty texels).
-    let at = |i: usize, j: usize| mask[j * w + i].then(|| new[j * w + i]);
-    for j in 0..h {
-        for i in 0..w {
-            if mask[j * w + i] {
-                q.normals[j * w + i] = encode_snorm8(grid_normal(at, (w, h), (i, j), texel));
-            }
+    // Only filled texels: the surface exists where a cell's four texels are filled, so the
+    // dilated normals around it are never blended into what is shown.
+    for (stored, m) in q.normals.iter_mut().zip(moves) {
+        if let Some(m) = m {
+            let n = m.normal;
+            let local = DVec3::new(n.dot(p.axes[0]), n.dot(p.axes[1]), n.dot(p.axes[2]));
+            // The fourth byte is not the normal's: keep it.
+            let code = encode_snorm8(local);
+            stored[..3].copy_from_slice(&code[..3]);
         }
     }
     q
 }
 
-/// The texel (column, row) holding patch-local (u, v).
-fn texel_at(p: &Patch, u: f64, v: f64) -> (usize, usize) {
-    let i = ((u * p.width as f64) as usize).min(p.width as usize - 1);
-    let j = ((v * p.height as f64) as usize).min(p.height as usize - 1);
-    (i, j)
+/// The world unit normal patch `p` shows at patch-local (u, v): its normal map blended
+/// bilinearly between texel centres (clamped at the border), as the renderer samples it.
+fn normal_at(p: &Patch, u: f64, v: f64) -> DVec3 {
+    let (w, h) = (p.width as i64, p.height as i64);
+    let (x, y) = (u * w as f64 - 0.5, v * h as f64 - 0.5);
+    let (i, j) = (x.floor(), y.floor());
+    let (fx, fy) = (x - i, y - j);
+    let at = |di: i64, dj: i64| {
+        let (ti, tj) = (
+            (i as i64 + di).clamp(0, w - 1),
+            (j as i64 + dj).clamp(0, h - 1),
+        );
+        decode_snorm8(p.normals[(tj * w + ti) as usize])
+    };
+    let local = at(0, 0) * (1.0 - fx) * (1.0 - fy)
+        + at(1, 0) * fx * (1.0 - fy)
+        + at(0, 1) * (1.0 - fx) * fy
+        + at(1, 1) * fx * fy;
+    (p.axes[0] * local.x + p.axes[1] * local.y + p.axes[2] * local.z).normalize_or_zero()
 }
 
-/// Gaps between neighbouring patches along their charts' shared edges (world units): at points
-/// on each edge shared by faces of two different patches, the distance from the first patch's
-/// surface point to the second patch's surface (its tangent plane there), both ways. Points
-/// where either patch has no surface are skipped (none, on a clean conversion). `cancel` is
-/// polled every 4096 faces.
-pub fn seam_gaps(set: &GeometryTextureSet, mesh: &Mesh, cancel: &Cancel) -> Result<Vec<f64>> {
+/// What neighbouring patches do where they meet, measured at points on each edge of the source
+/// mesh shared by faces of two different patches.
+#[derive(Clone, Debug, Default)]
+pub struct Seams {
+    /// World distance from one patch's surface point to the other patch's surface (its tangent
+    /// plane there), both ways.
+    pub gaps: Vec<f64>,
+    /// Angle (degrees) between the normals the two patches show there: a shading step.
+    pub normal_steps: Vec<f64>,
+}
+
+/// Where patch `p`'s surface passes over world point `x`: its patch-local (u, v, h).
+fn surface_over(p: &Patch, x: DVec3) -> Option<DVec3> {
+    let l = p.world_to_local(x);
+    ((0.0..=1.0).contains(&l.x) && (0.0..=1.0).contains(&l.y))
+        .then(|| height_at(p, l.x, l.y).map(|h| DVec3::new(l.x, l.y, h)))
+        .flatten()
+}
+
+impl Seams {
+    /// Adds the figures of patch `pa` against `pb` at world point `x` on their shared edge
+    /// (nothing where either patch has no surface there: none, on a clean conversion).
+    fn measure(&mut self, pa: &Patch, pb: &Patch, x: DVec3) {
+        let Some(a) = surface_over(pa, x) else {
+            return;
+        };
+        let on_a = pa.local_to_world(a);
+        let Some(b) = surface_over(pb, on_a) else {
+            return;
+        };
+        let (na, nb) = (normal_at(pa, a.x, a.y), normal_at(pb, b.x, b.y));
+        // Vertical gap times the cosine of b's surface slope: the distance to b's tangent plane
+        // (a vertical gap alone grows without bound on steep parts).
+        let slope_cos = nb.dot(pb.axes[2]).abs();
+        self.gaps
+            .push((b.z - pb.world_to_local(on_a).z).abs() * pb.extent.z * slope_cos);
+        self.normal_steps
+            .push(na.dot(nb).clamp(-1.0, 1.0).acos().to_degrees());
+    }
+}
+
+/// Gaps and normal steps between neighbouring patches along their charts' shared edges: at a
+/// quarter, half and three quarters of each edge shared by faces of two different patches, both
+/// ways. `mesh` must be the set's source (a patch listing a face it lacks is refused). `cancel`
+/// is polled every 4096 faces.
+pub fn seams(set: &GeometryTextureSet, mesh: &Mesh, cancel: &Cancel) -> Result<Seams> {
     let mut owner = vec![u32::MAX; mesh.faces.len()];
     for (k, p) in set.patches.iter().enumerate() {
         for &f in &p.faces {
@@ -305,16 +500,10 @@ pub fn seam_gaps(set: &GeometryTextureSet, mesh: &Mesh, cancel: &Cancel) -> Resu
         }
     }
     let geo = MeshGeometry::new(mesh);
-    let surface_point = |p: &Patch, x: DVec3| -> Option<(f64, f64, f64)> {
-        let l = p.world_to_local(x);
-        ((0.0..=1.0).contains(&l.x) && (0.0..=1.0).contains(&l.y))
-            .then(|| height_at(p, l.x, l.y).map(|h| (l.x, l.y, h)))
-            .flatten()
-    };
-    let mut gaps = Vec::new();
+    let mut seams = Seams::default();
     for f in 0..mesh.faces.len() {
         if f % 4096 == 0 {
-            cancel.check("measuring seam gaps")?;
+            cancel.check("measuring seams")?;
         }
         let a = owner[f];
         if a == u32::MAX {
@@ -338,29 +527,15 @@ pub fn seam_gaps(set: &GeometryTextureSet, mesh: &Mesh, cancel: &Cancel) -> Resu
                 mesh.positions[shared[0] as usize],
                 mesh.positions[shared[1] as usize],
             );
+            let (pa, pb) = (&set.patches[a as usize], &set.patches[b as usize]);
             for t in [0.25, 0.5, 0.75] {
                 let x = e0.lerp(e1, t);
-                for (pa, pb) in [(a, b), (b, a)] {
-                    let (pa, pb) = (&set.patches[pa as usize], &set.patches[pb as usize]);
-                    let Some((u, v, h)) = surface_point(pa, x) else {
-                        continue;
-                    };
-                    let on_a = pa.local_to_world(DVec3::new(u, v, h));
-                    let Some((ub, vb, hb)) = surface_point(pb, on_a) else {
-                        continue;
-                    };
-                    let hb_of_a = pb.world_to_local(on_a).z;
-                    // Vertical gap times the cosine of b's surface slope: the distance to b's
-                    // tangent plane (a vertical gap alone grows without bound on steep parts).
-                    let (i, j) = texel_at(pb, ub, vb);
-                    let n = decode_snorm8(pb.normals[j * pb.width as usize + i]);
-                    let slope_cos = n.normalize_or_zero().z.abs();
-                    gaps.push((hb - hb_of_a).abs() * pb.extent.z * slope_cos);
-                }
+                seams.measure(pa, pb, x);
+                seams.measure(pb, pa, x);
             }
         }
     }
-    Ok(gaps)
+    Ok(seams)
 }
 
 #[cfg(test)]

@@ -59,13 +59,22 @@ __all__ = [
 ]
 
 _core_seam_gaps = GeometryTextureSet.seam_gaps
+_core_seam_normal_steps = GeometryTextureSet.seam_normal_steps
 
 
 def _seam_gaps(self: GeometryTextureSet, mesh: Any) -> Any:
     """Gaps (world units, float64) between neighbouring patches at points along their charts'
-    shared edges. `mesh`: the mesh the set was converted from, as a Mesh, trimesh or path; a
-    mesh with another face count or elsewhere in space raises ParameterError."""
+    shared edges (a quarter, half and three quarters along each, both ways). `mesh`: the mesh
+    the set was converted from, as a Mesh, trimesh or path; a mesh with another face count or
+    elsewhere in space raises ParameterError."""
     return _core_seam_gaps(self, as_mesh(mesh))
+
+
+def _seam_normal_steps(self: GeometryTextureSet, mesh: Any) -> Any:
+    """Angles (degrees, float64) between the normals two neighbouring patches show at the points
+    of `seam_gaps`: the shading step a viewer would see where the patches meet. `mesh` as for
+    `seam_gaps`."""
+    return _core_seam_normal_steps(self, as_mesh(mesh))
 
 
 # Methods written in Python (pictures, files, grid preparation, mesh input), attached to the
@@ -74,6 +83,7 @@ for _cls, _name, _method in [
     *[(_cls, _query.__name__, _query) for _cls in (GeometryTextureSet, _core.Scene)
       for _query in (_rays.intersects_first, _rays.intersects_location, _rays.intersects_any)],
     (GeometryTextureSet, "seam_gaps", _seam_gaps),
+    (GeometryTextureSet, "seam_normal_steps", _seam_normal_steps),
     (GeometryTextureSet, "_repr_png_", _preview.set_png),
     (GeometryTextureSet, "from_heightmaps", staticmethod(_grids.from_heightmaps)),
     (Frame, "_repr_png_", _preview.frame_png),

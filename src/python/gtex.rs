@@ -34,6 +34,22 @@ impl PyGeometryTextureSet {
             inner: Arc::new(set),
         }
     }
+
+    /// Gaps and normal steps along the charts' shared edges of `mesh` (a geomtex.Mesh that must
+    /// be the set's source), measured with the GIL released.
+    fn seams(&self, py: Python<'_>, mesh: &Bound<'_, PyAny>) -> PyResult<crate::filters::Seams> {
+        let mesh = mesh.cast::<PyMesh>().map_err(|_| {
+            GeomtexError::Mesh(format!(
+                "mesh must be a geomtex.Mesh, got {}",
+                mesh.get_type().name().map_or("?".into(), |n| n.to_string())
+            ))
+        })?;
+        let (inner, m) = (self.inner.clone(), mesh.get().inner.clone());
+        check_source(&inner, &m)?;
+        Ok(heavy(py, "measuring seams", move |cancel| {
+            crate::filters::seams(&inner, &m, cancel)
+        })?)
+    }
 }
 
 /// Puts typed figures into a dict (counts as int, lengths as float, None where not measured).
@@ -189,7 +205,8 @@ impl PyGeometryTextureSet {
     }
 
     /// A copy with every height map filtered: "gaussian" (low-pass) or "high_pass" (unsharp
-    /// masking, h + gain (h - gaussian h)); `sigma` in world units; normals rebuilt.
+    /// masking, h + gain (h - gaussian h); `gain` is refused for "gaussian"); `sigma` in world
+    /// units. Normals are filtered by the same weights in world space.
     #[pyo3(signature = (kind, sigma, *, gain = None))]
     fn filtered(
         &self,
@@ -215,18 +232,19 @@ impl PyGeometryTextureSet {
         py: Python<'py>,
         mesh: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let mesh = mesh.cast::<PyMesh>().map_err(|_| {
-            GeomtexError::Mesh(format!(
-                "mesh must be a geomtex.Mesh, got {}",
-                mesh.get_type().name().map_or("?".into(), |n| n.to_string())
-            ))
-        })?;
-        let (inner, m) = (self.inner.clone(), mesh.get().inner.clone());
-        check_source(&inner, &m)?;
-        let gaps = heavy(py, "measuring seam gaps", move |cancel| {
-            crate::filters::seam_gaps(&inner, &m, cancel)
-        })?;
-        Ok(PyArray1::from_vec(py, gaps))
+        let seams = self.seams(py, mesh)?;
+        Ok(PyArray1::from_vec(py, seams.gaps))
+    }
+
+    /// Angles (degrees, float64) between the normals two neighbouring patches show at the same
+    /// points as `seam_gaps`: the shading step where they meet.
+    fn seam_normal_steps<'py>(
+        &self,
+        py: Python<'py>,
+        mesh: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let seams = self.seams(py, mesh)?;
+        Ok(PyArray1::from_vec(py, seams.normal_steps))
     }
 
     /// Builds a set from height grids already checked and colored by `geomtex._grids.prepare`
