@@ -106,8 +106,9 @@ def test_no_spikes_at_rims() -> None:
     move along its normal by a cosine near 0.2: it takes its neighbours' vertical moves. At 6
     texels on the bunny (64-texel maps) the largest move of any texel point is 2.2x the p99
     move; dividing by the cosine had grown hair-like spikes along the ears' rims, 5.7x."""
-    import pymeshlab
     from pathlib import Path
+
+    import pymeshlab
 
     mesh = gt.load_mesh(Path(pymeshlab.__file__).parent / "tests" / "sample_meshes" / "bunny.obj")
     gts = gt.convert(mesh, max_resolution=64)
