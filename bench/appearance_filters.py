@@ -88,17 +88,21 @@ def measure(size: int = 512) -> dict[str, Any]:
 
 
 def pictures(out_dir: Path, size: int = 512, tag: str = "") -> list[Path]:
-    """The bunny's head from the side and from above, unfiltered and filtered at
-    ``PICTURE_SIGMA`` texels, as one PNG per view (left: unfiltered, right: filtered)."""
+    """The bunny's ears close up from two sides, unfiltered and filtered at ``PICTURE_SIGMA``
+    texels, as one PNG per view (left: unfiltered, right: filtered)."""
     from PIL import Image
 
     _, mesh = bunny()
     gts = gt.convert(mesh)
     filtered = gts.filtered("gaussian", PICTURE_SIGMA * gts.texel_size)
     renderer = gt.Renderer(size, size)
+    lo, hi = (np.asarray(b, np.float64) for b in mesh.bounds)
+    # The ears stand at the top of the (y-up) scan, towards its back.
+    ears = np.array([0.5 * (lo[0] + hi[0]), lo[1] + 0.85 * (hi[1] - lo[1]), lo[2] + 0.35 * (hi[2] - lo[2])])
     paths = []
-    for view, direction in [("side", (1.0, 0.3, 0.2)), ("top", (0.2, 1.0, 0.6))]:
-        cam = look_from(mesh, direction, distance=1.1, up=(0.0, 1.0, 0.0))
+    for view, direction in [("ears_front", (0.2, 0.3, 1.0)), ("ears_side", (1.0, 0.2, -0.2))]:
+        d = np.asarray(direction) / np.linalg.norm(direction)
+        cam = gt.Camera.look_at(ears + 0.5 * mesh.diagonal * d, ears, up=(0.0, 1.0, 0.0), yfov_deg=35.0)
         pair = [renderer.render(g, cam).color for g in (gts, filtered)]
         path = out_dir / f"appearance_filter_{view}{tag}.png"
         Image.fromarray(np.concatenate(pair, axis=1)).save(path)
