@@ -163,6 +163,10 @@ def test_what_cannot_be_carried_warns(sphere: gt.Mesh) -> None:
     tm.visual = trimesh.visual.TextureVisuals(uv=sphere.uv, material=trimesh.visual.material.SimpleMaterial())
     with pytest.warns(gt.AppearanceWarning, match="without a texture image"):
         gt.Mesh.from_trimesh(tm)
+    # An OBJ with texture coordinates but no material: trimesh's 2 x 2 gray stand-in is no color.
+    tm.visual = trimesh.visual.TextureVisuals(uv=sphere.uv)
+    with pytest.warns(gt.AppearanceWarning, match="without a texture image"):
+        assert gt.Mesh.from_trimesh(tm).face_colors is None
     with pytest.warns(gt.AppearanceWarning, match="rasterized mesh"):
         gt.Renderer(16, 16).render(sphere, look_from(sphere, VIEWS[0]))
 

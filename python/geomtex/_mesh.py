@@ -88,7 +88,8 @@ def _uv(a: Any, n_vertices: int, n_faces: int) -> npt.NDArray[np.float64]:
         raise MeshError(f"uv must hold real numbers; got dtype {arr.dtype}")
     if arr.shape == (n_vertices, 2) or arr.shape == (n_faces, 3, 2):
         return np.ascontiguousarray(arr, dtype=np.float64)
-    raise MeshError(f"uv must have shape ({n_vertices}, 2) (per vertex) or ({n_faces}, 3, 2) (per face corner); got {arr.shape}")
+    raise MeshError(f"uv must have shape ({n_vertices}, 2) (per vertex) or ({n_faces}, 3, 2) (per face corner); "
+                    f"got {arr.shape}")
 
 
 def _image(image: Any) -> npt.NDArray[np.uint8]:
@@ -167,11 +168,11 @@ class Mesh(_core.Mesh):
 
         tm = trimesh.Trimesh(self.vertices, self.faces, vertex_colors=self.vertex_colors,
                              face_colors=self.face_colors, process=False)
-        uv = self.uv
-        if uv is not None and uv.ndim == 2:
+        uv, texture = self.uv, self.texture
+        if uv is not None and texture is not None and uv.ndim == 2:
             from PIL import Image
 
-            tm.visual = trimesh.visual.TextureVisuals(uv=uv, image=Image.fromarray(self.texture))
+            tm.visual = trimesh.visual.TextureVisuals(uv=uv, image=Image.fromarray(texture))
         elif uv is not None:
             _warn("per-corner texture coordinates are not carried to trimesh")
         return tm
@@ -213,7 +214,17 @@ def _material_image(material: Any) -> tuple[Any, Any]:
             rgba = np.round(rgba * (np.asarray(factor, dtype=np.float64) / 255.0)).astype(np.uint8)
         return rgba, flat
     image = getattr(material, "image", None)
+    if image is not None and _is_placeholder(image):
+        return None, None
     return (None if image is None else _image(image)), flat
+
+
+def _is_placeholder(image: Any) -> bool:
+    """Whether `image` is the 2 x 2 gray trimesh invents for texture coordinates that came
+    without a material (an OBJ with `vt` lines but no .mtl): no color source at all."""
+    if getattr(image, "size", None) != (2, 2):
+        return False
+    return bool(np.all(np.asarray(image.convert("RGBA")) == [100, 100, 100, 255]))
 
 
 def _is_trimesh_scene(obj: Any) -> bool:

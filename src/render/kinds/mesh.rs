@@ -80,9 +80,9 @@ fn upload(gpu: &Gpu, mesh: &Mesh) -> UploadedMesh {
             .normalize_or_zero()
             .as_vec3()
             .to_array();
-        for k in 0..3 {
+        for (k, corner) in p.iter().enumerate() {
             vertices.push(MeshVertex {
-                position: (p[k] - centre).as_vec3().to_array(),
+                position: (*corner - centre).as_vec3().to_array(),
                 normal: n,
                 // A texture is only sampled at the corners (the Python layer warns).
                 color: colors.at(std::array::from_fn(|c| f64::from(u8::from(c == k)))),
