@@ -192,10 +192,11 @@ def _trimesh_colors(visual: Any, n_faces: int) -> dict[str, Any]:
     uv = getattr(visual, "uv", None)
     if image is not None and uv is not None and len(uv):
         return {"uv": np.asarray(uv), "texture": image}
+    instead = "the material's flat color is used" if flat is not None else "no color is carried"
     if image is not None:
-        _warn("the material's texture image has no texture coordinates; its flat color is used")
+        _warn(f"the material's texture image has no texture coordinates; {instead}")
     elif uv is not None and len(uv):
-        _warn("texture coordinates without a texture image; the material's flat color is used")
+        _warn(f"texture coordinates without a texture image; {instead}")
     if flat is None:
         return {}
     return {"face_colors": np.tile(np.asarray(flat, dtype=np.uint8)[:4], (n_faces, 1))}
