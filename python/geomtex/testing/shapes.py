@@ -131,10 +131,10 @@ def textured_sphere(rings: int = 48, segments: int = 96, texture_size: int = 256
 
 
 def face_colored(mesh: Mesh) -> Mesh:
-    """``mesh`` with face colors from its face centroids' position in the bounding box (a smooth
-    field, so each face differs a little from its neighbours)."""
+    """``mesh`` with face colors from its face centroids' position in the bounding box: about
+    three cycles of a sine per channel across the box, so neighbouring faces differ a little."""
     v, f = arrays(mesh)
     lo, hi = (np.asarray(b) for b in mesh.bounds)
     c = (v[f].mean(axis=1) - lo) / np.maximum(hi - lo, 1e-300)
-    rgb = 0.5 + 0.5 * np.sin(np.stack([6.0 * c[:, 0], 5.0 * c[:, 1] + 1.0, 4.0 * c[:, 2] + 2.0], axis=1))
+    rgb = 0.5 + 0.5 * np.sin(np.stack([17.0 * c[:, 0], 13.0 * c[:, 1] + 1.0, 11.0 * c[:, 2] + 2.0], axis=1))
     return Mesh(v, f, face_colors=np.round(rgb * 255).astype(np.uint8))
