@@ -9,7 +9,7 @@ Figure: mean absolute RGB difference (0-255 units) on interior pixels (both hit,
 from any silhouette against the background), and its p99. Issue target: mean ≤ 3/255.
 
 Results: ``bench/results/appearance_colors.json`` and, per mesh, a PNG pair (top row ours, bottom
-row the reference) ``bench/results/appearance_colors_<mesh>.png``.
+row the reference; halved above 256²) ``bench/results/appearance_colors_<mesh>.png``.
 
 Run from the repository root::
 
@@ -87,9 +87,11 @@ def save_pair(path: Path, ours: list[Any], theirs: list[Any]) -> None:
         alpha = rgba[..., 3:] / 255.0
         return rgba[..., :3] * alpha + 255.0 * (1.0 - alpha)
 
-    picture = np.concatenate([row(ours), row(theirs)], axis=0)
+    picture = Image.fromarray(np.round(np.concatenate([row(ours), row(theirs)], axis=0)).astype(np.uint8))
+    if ours[0].shape[0] > 256:  # keeps the files small; the figures come from the full frames
+        picture = picture.resize((picture.width // 2, picture.height // 2), Image.Resampling.BOX)
     path.parent.mkdir(parents=True, exist_ok=True)
-    Image.fromarray(np.round(picture).astype(np.uint8)).save(path)
+    picture.save(path, optimize=True)
 
 
 def main() -> None:
