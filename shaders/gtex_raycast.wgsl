@@ -32,6 +32,8 @@ struct FsOut {
     @location(0) color: vec4<f32>,
     @location(1) normal: vec4<f32>,
     @location(2) id: i32,
+    // The unshaded base color.
+    @location(3) albedo: vec4<f32>,
     @builtin(frag_depth) depth: f32,
 }
 
@@ -55,6 +57,7 @@ fn fs_main(in: VsOut) -> FsOut {
     out.color = vec4<f32>(headlight(camera, surface.color.rgb, surface.normal, ray.dir), surface.color.a);
     out.normal = vec4<f32>(surface.normal, 0.0);
     out.id = patches[piece.patch_index].maps.ids.y;
+    out.albedo = surface.color;
     // View distance along -Z equals t for both projections (camera_ray's directions have z = -1).
     out.depth = depth_from_distance(camera, t_hit);
     return out;

@@ -1,5 +1,5 @@
 // Entry points of the mesh pass: ordinary triangle meshes, rasterized into the same
-// color/normal/id/depth targets as the geometry-texture patches so the nearer surface wins at
+// color/normal/id/albedo/depth targets as the geometry-texture patches so the nearer surface wins at
 // every pixel.
 //
 // Spaces: object space (vertices relative to the mesh's own centre, f32), view space
@@ -29,6 +29,7 @@ struct FsOut {
     @location(0) color: vec4<f32>,
     @location(1) normal: vec4<f32>,
     @location(2) id: i32,
+    @location(3) albedo: vec4<f32>,
 }
 
 @fragment
@@ -38,5 +39,6 @@ fn fs_main(in: VsOut) -> FsOut {
     out.color = vec4<f32>(headlight(camera, in.color.rgb, n, in.view_pos), in.color.a);
     out.normal = vec4<f32>(n, 0.0);
     out.id = object.ids.x;
+    out.albedo = in.color;
     return out;
 }

@@ -4,6 +4,7 @@
 //! `gtex::GeometryTextureSet`, `gtex::file` reads and writes .gtex files. The Python binding layer
 //! lives in `python/` behind the `python` feature.
 
+pub mod appearance;
 pub mod cancel;
 pub mod convert;
 pub mod error;

@@ -4,6 +4,7 @@
 
 use glam::DVec3;
 
+use crate::appearance::Appearance;
 use crate::error::{GeomtexError, Result};
 
 /// A validated triangle mesh. Positions are f64 so large offsets keep their detail.
@@ -13,6 +14,8 @@ pub struct Mesh {
     pub faces: Vec<[u32; 3]>,
     /// Optional RGBA8 color per vertex.
     pub colors: Option<Vec<[u8; 4]>>,
+    /// Face colors and texture (appearance.rs, which also gives the color at a face's point).
+    pub appearance: Appearance,
 }
 
 impl Mesh {
@@ -95,6 +98,7 @@ impl Mesh {
             positions: pos,
             faces: tris,
             colors,
+            appearance: Appearance::default(),
         })
     }
 
@@ -107,6 +111,7 @@ impl Mesh {
                 .zip(flips)
                 .map(|(&[a, b, c], &flip)| if flip { [a, c, b] } else { [a, b, c] })
                 .collect(),
+            appearance: self.appearance.rewound(flips),
             ..self.clone()
         }
     }
@@ -496,6 +501,7 @@ mod tests {
                 .collect(),
             faces: (0..32).map(|f| [3 * f, 3 * f + 1, 3 * f + 2]).collect(),
             colors: None,
+            appearance: Appearance::default(),
         };
         let welded = MeshGeometry::new(&soup);
         assert_eq!(welded.duplicate_vertices, 96 - 25);

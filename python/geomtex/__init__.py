@@ -29,11 +29,12 @@ from ._errors import (  # noqa: E402
     MeshError,
     ParameterError,
 )
-from ._mesh import Mesh, as_mesh, load_mesh  # noqa: E402
+from ._mesh import AppearanceWarning, Mesh, as_mesh, load_mesh  # noqa: E402
 from ._rays import RayHits  # noqa: E402
 from ._render import DirectionalLight, PointLight, Renderer, Scene  # noqa: E402
 
 __all__ = [
+    "AppearanceWarning",
     "Camera",
     "CancelledError",
     "DeviceError",

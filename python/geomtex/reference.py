@@ -194,3 +194,76 @@ def agreement(renderer: Any, gts: Any, mesh: Any, camera: Any, **render_options:
     m = compare(frame, raycast(tm, camera, renderer.width, renderer.height), diagonal(tm))
     m["nan"] = m["nan_depth"] + m["nan_normal"]
     return m
+
+
+def _bilinear(image: npt.NDArray[np.uint8], uv: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    """Bilinear samples (N, 4) of an (H, W, 4) image (row 0 at the top) at texture coordinates
+    (N, 2) with (0, 0) at the bottom-left corner, repeating; pixel centres at +0.5."""
+    h, w = image.shape[:2]
+    x = uv[:, 0] * w - 0.5
+    y = (1.0 - uv[:, 1]) * h - 0.5
+    x0, y0 = np.floor(x), np.floor(y)
+    fx, fy = (x - x0)[:, None], (y - y0)[:, None]
+    i0, j0 = x0.astype(np.int64), y0.astype(np.int64)
+    img = image.astype(np.float64)
+
+    def at(i: npt.NDArray[np.int64], j: npt.NDArray[np.int64]) -> npt.NDArray[np.float64]:
+        return img[np.mod(j, h), np.mod(i, w)]
+
+    top = at(i0, j0) * (1 - fx) + at(i0 + 1, j0) * fx
+    bottom = at(i0, j0 + 1) * (1 - fx) + at(i0 + 1, j0 + 1) * fx
+    return top * (1 - fy) + bottom * fy
+
+
+def base_colors(mesh: Any, faces: npt.ArrayLike, points: npt.ArrayLike) -> npt.NDArray[np.uint8]:
+    """(N, 4) uint8 base color of a geomtex Mesh at ``points`` on ``faces``: the texture sampled
+    bilinearly at the point's texture coordinate (barycentric interpolation of the face's), else
+    the face color, else the interpolated vertex colors, else geomtex's neutral gray — computed
+    here with numpy and trimesh from the mesh's arrays, never by geomtex."""
+    import trimesh
+
+    f = np.asarray(faces, dtype=np.int64)
+    tri = np.asarray(mesh.faces, dtype=np.int64)[f]
+    corners = np.asarray(mesh.vertices)[tri]
+    bary = trimesh.triangles.points_to_barycentric(corners, np.asarray(points, dtype=np.float64))
+    uv, texture = mesh.uv, mesh.texture
+    if uv is not None and texture is not None:
+        corner_uv = uv[tri] if uv.ndim == 2 else uv[f]
+        rgba = _bilinear(texture, np.einsum("nk,nkc->nc", bary, corner_uv))
+    elif mesh.face_colors is not None:
+        rgba = mesh.face_colors[f].astype(np.float64)
+    elif mesh.vertex_colors is not None:
+        rgba = np.einsum("nk,nkc->nc", bary, mesh.vertex_colors[tri].astype(np.float64))
+    else:
+        rgba = np.tile([200.0, 200.0, 200.0, 255.0], (len(f), 1))
+    return np.clip(np.round(rgba), 0, 255).astype(np.uint8)
+
+
+def raycast_albedo(mesh: Any, camera: Any, width: int, height: int) -> dict[str, npt.NDArray[Any]]:
+    """trimesh ray casting of a geomtex Mesh: ``albedo`` (H, W, 4) uint8, the base color at each
+    pixel's first hit (``base_colors``; 0 on a miss), ``hit`` (H, W) bool and ``triangle``."""
+    caster = RayCaster(mesh)
+    origins, directions = camera.rays(width, height)
+    locations, ray_index, tri_index = caster.first_hits(origins.reshape(-1, 3), directions.reshape(-1, 3))
+    albedo = np.zeros((width * height, 4), dtype=np.uint8)
+    triangle = np.full(width * height, -1, dtype=np.int64)
+    if len(ray_index):
+        albedo[ray_index] = base_colors(mesh, tri_index, locations)
+        triangle[ray_index] = tri_index
+    return {"albedo": albedo.reshape(height, width, 4), "hit": (triangle >= 0).reshape(height, width),
+            "triangle": triangle.reshape(height, width)}
+
+
+def albedo_difference(frame_albedo: npt.ArrayLike, ref: dict[str, npt.NDArray[Any]], frame_hit: npt.ArrayLike,
+                      erode: int = 2) -> dict[str, float]:
+    """Mean and p99 absolute RGB difference (0-255 units) between a frame's albedo and
+    ``raycast_albedo``'s, on interior pixels: both hit and every pixel within ``erode`` pixels
+    hits in both (silhouettes, where a pixel's colour comes from another surface, left out)."""
+    both = np.asarray(frame_hit) & ref["hit"]
+    interior = both
+    for _ in range(erode):
+        interior = np.logical_and.reduce(_neighbours(interior, False))
+    d = np.abs(np.asarray(frame_albedo)[..., :3].astype(np.float64) - ref["albedo"][..., :3])[interior]
+    return {"mean": float(d.mean()) if d.size else float("nan"),
+            "p99": float(np.percentile(d.max(axis=1), 99)) if d.size else float("nan"),
+            "interior_px": int(interior.sum())}

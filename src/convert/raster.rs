@@ -8,6 +8,7 @@
 use glam::{DVec2, DVec3};
 
 use super::options::NormalSource;
+use crate::appearance::FaceColor;
 use crate::gtex::{encode_height, encode_snorm8, Patch};
 use crate::mesh::{Mesh, MeshGeometry};
 
@@ -151,20 +152,27 @@ impl LocalFace {
 }
 
 /// The normals and colors a face gives the points of its surface.
-struct FaceShading {
+struct FaceShading<'m> {
     normals: [DVec3; 3],
-    colors: Option<[[u8; 4]; 3]>,
+    colors: FaceColor<'m>,
 }
 
-impl FaceShading {
-    fn new(mesh: &Mesh, geo: &MeshGeometry, f: u32, source: NormalSource) -> FaceShading {
+impl<'m> FaceShading<'m> {
+    /// `face` places the face on the texel grid, so a texture is averaged over a texel.
+    fn new(
+        mesh: &'m Mesh,
+        geo: &MeshGeometry,
+        f: u32,
+        source: NormalSource,
+        face: &LocalFace,
+    ) -> FaceShading<'m> {
         let tri = mesh.faces[f as usize];
         FaceShading {
             normals: match source {
                 NormalSource::Smooth => tri.map(|v| geo.vertex_normals[v as usize]),
                 NormalSource::Flat => [geo.face_normals[f as usize]; 3],
             },
-            colors: mesh.colors.as_ref().map(|cs| tri.map(|v| cs[v as usize])),
+            colors: mesh.face_color(f, Some(face.flat())),
         }
     }
 
@@ -174,15 +182,8 @@ impl FaceShading {
         (vn[0] * la + vn[1] * lb + vn[2] * lc).normalize_or_zero()
     }
 
-    fn color(&self, [la, lb, lc]: [f64; 3]) -> [u8; 4] {
-        match self.colors {
-            Some([ca, cb, cc]) => std::array::from_fn(|k| {
-                (la * ca[k] as f64 + lb * cb[k] as f64 + lc * cc[k] as f64)
-                    .round()
-                    .clamp(0.0, 255.0) as u8
-            }),
-            None => crate::gtex::NEUTRAL_COLOR,
-        }
+    fn color(&self, l: [f64; 3]) -> [u8; 4] {
+        self.colors.at(l)
     }
 }
 
@@ -283,7 +284,7 @@ impl<'a> Canvas<'a> {
             return;
         };
         self.measure_corners(&face, span);
-        let shading = FaceShading::new(mesh, geo, f, source);
+        let shading = FaceShading::new(mesh, geo, f, source, &face);
         for j in span.j0..=span.j1 {
             let py = j as f64 + 0.5;
             for i in span.i0..=span.i1 {
@@ -305,7 +306,7 @@ impl<'a> Canvas<'a> {
         face: &LocalFace,
         here: Coverage,
         l: [f64; 3],
-        shading: &FaceShading,
+        shading: &FaceShading<'_>,
     ) {
         let [a, b, c] = face.corners;
         let [la, lb, lc] = l;

@@ -2,15 +2,20 @@
 
 use std::sync::Arc;
 
-use numpy::{PyArray2, PyReadonlyArray2};
+use numpy::{
+    PyArray2, PyArray3, PyArrayDyn, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3,
+    PyReadonlyArrayDyn, PyUntypedArrayMethods,
+};
 use pyo3::prelude::*;
 
-use super::arrays::{expect_columns, flat, matrix, rows};
+use super::arrays::{expect_columns, flat, image, matrix, rows};
 use super::errors::heavy;
+use crate::appearance::{TextureCoords, TextureInput};
 use crate::error::GeomtexError;
 use crate::mesh::Mesh;
 
-/// A validated triangle mesh (f64 positions, u32 faces, optional RGBA8 vertex colors).
+/// A validated triangle mesh (f64 positions, u32 faces, optional RGBA8 vertex or face colors, or
+/// texture coordinates and an RGBA8 texture).
 #[pyclass(name = "Mesh", module = "geomtex._core", subclass, frozen)]
 pub struct PyMesh {
     pub(crate) inner: Arc<Mesh>,
@@ -19,25 +24,71 @@ pub struct PyMesh {
 #[pymethods]
 impl PyMesh {
     #[new]
-    #[pyo3(signature = (vertices, faces, vertex_colors = None))]
+    /// `uv` is (N, 2) per vertex or (M, 3, 2) per face corner; `texture` (H, W, 4), row 0 at
+    /// the top. Both or neither (the Python layer warns and drops a lone one).
+    #[pyo3(signature = (vertices, faces, vertex_colors = None, face_colors = None, uv = None, texture = None))]
     fn new(
         py: Python<'_>,
         vertices: PyReadonlyArray2<'_, f64>,
         faces: PyReadonlyArray2<'_, i64>,
         vertex_colors: Option<PyReadonlyArray2<'_, u8>>,
+        face_colors: Option<PyReadonlyArray2<'_, u8>>,
+        uv: Option<PyReadonlyArrayDyn<'_, f64>>,
+        texture: Option<PyReadonlyArray3<'_, u8>>,
     ) -> PyResult<Self> {
         expect_columns(&vertices, 3, "vertices", GeomtexError::Mesh)?;
         expect_columns(&faces, 3, "faces", GeomtexError::Mesh)?;
-        if let Some(c) = &vertex_colors {
-            expect_columns(c, 4, "vertex_colors", GeomtexError::Mesh)?;
+        for (c, name) in [
+            (&vertex_colors, "vertex_colors"),
+            (&face_colors, "face_colors"),
+        ] {
+            if let Some(c) = c {
+                expect_columns(c, 4, name, GeomtexError::Mesh)?;
+            }
+        }
+        let uv_shape = uv.as_ref().map(|a| a.shape().to_vec());
+        let per_corner = match uv_shape.as_deref() {
+            None | Some([_, 2]) => false,
+            Some([_, 3, 2]) => true,
+            Some(s) => {
+                return Err(GeomtexError::Mesh(format!(
+                    "uv must have shape (N, 2) or (M, 3, 2); got {s:?}"
+                ))
+                .into())
+            }
+        };
+        let tex_shape = texture.as_ref().map(|a| a.shape().to_vec());
+        if let Some(s) = &tex_shape {
+            if s[2] != 4 {
+                return Err(GeomtexError::Mesh(format!(
+                    "texture must have shape (H, W, 4); got {s:?}"
+                ))
+                .into());
+            }
+        }
+        if uv.is_some() != texture.is_some() {
+            return Err(GeomtexError::Mesh(
+                "uv and texture come together: pass both or neither".into(),
+            )
+            .into());
         }
         let (v, f, c) = (
             flat(&vertices),
             flat(&faces),
             vertex_colors.as_ref().map(flat),
         );
+        let fc = face_colors.as_ref().map(flat);
+        let (coords, pixels) = (uv.as_ref().map(flat), texture.as_ref().map(flat));
         let mesh = heavy(py, "validating the mesh", |_| {
-            Mesh::from_flat(&v, &f, c.as_deref())
+            let textured = coords.as_deref().zip(pixels.as_deref()).zip(tex_shape);
+            let texture = textured.map(|((coords, pixels), s)| TextureInput {
+                coords,
+                per_corner,
+                width: s[1],
+                height: s[0],
+                pixels,
+            });
+            Mesh::from_flat(&v, &f, c.as_deref())?.with_appearance(fc.as_deref(), texture)
         })?;
         Ok(PyMesh {
             inner: Arc::new(mesh),
@@ -61,6 +112,46 @@ impl PyMesh {
     #[getter]
     fn vertex_colors<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<u8>>> {
         self.inner.colors.as_ref().map(|c| rows(py, c))
+    }
+
+    /// (M, 4) uint8 RGBA face colors, or None.
+    #[getter]
+    fn face_colors<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<u8>>> {
+        self.inner
+            .appearance
+            .face_colors
+            .as_ref()
+            .map(|c| rows(py, c))
+    }
+
+    /// float64 texture coordinates, (N, 2) per vertex or (M, 3, 2) per face corner, or None.
+    #[getter]
+    fn uv<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArrayDyn<f64>>> {
+        let t = self.inner.appearance.texture.as_ref()?;
+        Some(match &t.coords {
+            TextureCoords::PerVertex(uv) => {
+                let flat = uv.iter().flat_map(|p| p.to_array()).collect();
+                matrix(py, flat, uv.len(), 2).to_dyn().clone()
+            }
+            TextureCoords::PerCorner(uv) => {
+                let flat = uv.iter().flatten().flat_map(|p| p.to_array()).collect();
+                image(py, flat, (uv.len(), 3, 2)).to_dyn().clone()
+            }
+        })
+    }
+
+    /// Whether the mesh carries texture coordinates and a texture image.
+    #[getter]
+    fn textured(&self) -> bool {
+        self.inner.appearance.texture.is_some()
+    }
+
+    /// (H, W, 4) uint8 RGBA texture image (row 0 at the top), or None.
+    #[getter]
+    fn texture<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray3<u8>>> {
+        let t = self.inner.appearance.texture.as_ref()?;
+        let pixels = t.image.pixels().iter().flatten().copied().collect();
+        Some(image(py, pixels, (t.image.height(), t.image.width(), 4)))
     }
 
     #[getter]
@@ -87,7 +178,12 @@ impl PyMesh {
     }
 
     fn __repr__(&self) -> String {
-        let colored = if self.inner.colors.is_some() {
+        let appearance = &self.inner.appearance;
+        let colored = if appearance.texture.is_some() {
+            ", textured"
+        } else if appearance.face_colors.is_some() {
+            ", face-colored"
+        } else if self.inner.colors.is_some() {
             ", colored"
         } else {
             ""

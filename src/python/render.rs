@@ -419,6 +419,7 @@ impl PyRenderer {
 pub struct PyFrame {
     shadow: Option<Py<PyArray2<bool>>>,
     color: Py<PyArray3<u8>>,
+    albedo: Py<PyArray3<u8>>,
     depth: Py<PyArray2<f32>>,
     normal: Py<PyArray3<f32>>,
     patch_id: Py<PyArray2<i32>>,
@@ -433,6 +434,7 @@ impl PyFrame {
         Ok(PyFrame {
             shadow: (frame.shadow).map(|s| matrix(py, s, h, w).unbind()),
             color: image(py, frame.color, (h, w, 4)).unbind(),
+            albedo: image(py, frame.albedo, (h, w, 4)).unbind(),
             depth: matrix(py, frame.depth, h, w).unbind(),
             normal: image(py, frame.normal, (h, w, 3)).unbind(),
             patch_id: matrix(py, frame.patch_id, h, w).unbind(),
@@ -453,6 +455,13 @@ impl PyFrame {
     #[getter]
     fn color(&self, py: Python<'_>) -> Py<PyArray3<u8>> {
         self.color.clone_ref(py)
+    }
+
+    /// (H, W, 4) uint8 RGBA unshaded base color (the surface's own color: no light, no
+    /// shadow); 0 (transparent black) on a miss, whatever the background.
+    #[getter]
+    fn albedo(&self, py: Python<'_>) -> Py<PyArray3<u8>> {
+        self.albedo.clone_ref(py)
     }
 
     /// (H, W) float32 z-depth: distance along the camera's forward axis in world units, +inf on

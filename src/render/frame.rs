@@ -13,6 +13,9 @@ pub struct Frame {
     pub height: u32,
     /// RGBA8, shaded with a headlight; the background where nothing was hit.
     pub color: Vec<u8>,
+    /// RGBA8 unshaded base color (the surface's own color, no light or shadow); transparent
+    /// black (0) where nothing was hit.
+    pub albedo: Vec<u8>,
     /// z-depth: distance along the camera's forward axis in world units; +inf on a miss.
     pub depth: Vec<f32>,
     /// World-space unit normals (xyz), 0 on a miss.
@@ -96,6 +99,7 @@ mod tests {
             width: 1,
             height: 1,
             color: vec![0; 4],
+            albedo: vec![0; 4],
             depth: vec![f32::INFINITY],
             normal: vec![0.0; 3],
             patch_id: vec![-1],

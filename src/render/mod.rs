@@ -246,6 +246,7 @@ impl Renderer {
             width,
             height,
             color: readback.color,
+            albedo: readback.albedo,
             depth,
             normal: readback.normal,
             patch_id: readback.patch_id,

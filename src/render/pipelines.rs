@@ -134,6 +134,7 @@ impl RasterPipeline<'_> {
                     target(COLOR_FORMAT),
                     target(NORMAL_FORMAT),
                     target(ID_FORMAT),
+                    target(COLOR_FORMAT), // albedo
                 ],
             }),
             multiview_mask: None,

@@ -1,4 +1,4 @@
-//! Render targets shared by every object kind (color, normal, id and reversed-Z depth), and
+//! Render targets shared by every object kind (color, normal, id, albedo and reversed-Z depth), and
 //! reading them back: one image size, made once and reused by every frame.
 //!
 //! Spaces: framebuffer pixels, row-major with row 0 at the top; depth values are reversed Z
@@ -25,12 +25,14 @@ pub(crate) struct Targets {
     color: wgpu::Texture,
     normal: wgpu::Texture,
     id: wgpu::Texture,
+    /// The unshaded base color (RGBA8), beside the shaded `color`.
+    albedo: wgpu::Texture,
     depth: wgpu::Texture,
     /// The depth texture copied to a buffer by the depth copy pass (see depth_copy.wgsl).
     depth_values: wgpu::Buffer,
     depth_copy_group: wgpu::BindGroup,
-    /// Color, normal, id (rows padded) and depth.
-    readback: [wgpu::Buffer; 4],
+    /// Color, normal, id, albedo (rows padded) and depth.
+    readback: [wgpu::Buffer; 5],
     timestamps: Option<Timestamps>,
 }
 
@@ -40,6 +42,7 @@ pub(crate) struct Readback {
     /// Unit normals, xyz per pixel.
     pub normal: Vec<f32>,
     pub patch_id: Vec<i32>,
+    pub albedo: Vec<u8>,
     /// Reversed-Z depth values.
     pub depth: Vec<f32>,
     pub gpu_ms: Option<f64>,
@@ -135,6 +138,7 @@ impl Targets {
         let color = render_texture(device, "color", size, COLOR_FORMAT, copied);
         let normal = render_texture(device, "normal", size, NORMAL_FORMAT, copied);
         let id = render_texture(device, "id", size, ID_FORMAT, copied);
+        let albedo = render_texture(device, "albedo", size, COLOR_FORMAT, copied);
         let bound = wgpu::TextureUsages::TEXTURE_BINDING;
         let depth = render_texture(device, "depth", size, DEPTH_FORMAT, bound);
         let depth_bytes = (width as u64) * (height as u64) * 4;
@@ -150,6 +154,7 @@ impl Targets {
             map_buffer(device, "color readback", rows(4)),
             map_buffer(device, "normal readback", rows(8)),
             map_buffer(device, "id readback", rows(4)),
+            map_buffer(device, "albedo readback", rows(4)),
             map_buffer(device, "depth readback", depth_bytes),
         ];
         Targets {
@@ -158,6 +163,7 @@ impl Targets {
             color,
             normal,
             id,
+            albedo,
             depth,
             depth_values,
             depth_copy_group,
@@ -167,7 +173,8 @@ impl Targets {
     }
 
     /// The pass every object kind draws in: all targets cleared (color to `background`, ids to
-    /// -1, depth to 0 = nothing in reversed Z), timed when the adapter can.
+    /// -1, albedo to transparent black, depth to 0 = nothing in reversed Z), timed when the
+    /// adapter can.
     pub fn begin_scene_pass<'e>(
         &self,
         encoder: &'e mut wgpu::CommandEncoder,
@@ -184,9 +191,14 @@ impl Targets {
             b: 0.0,
             a: 0.0,
         };
-        let clears = [wgpu::Color { r, g, b, a }, wgpu::Color::TRANSPARENT, no_id];
-        let views =
-            [&self.color, &self.normal, &self.id].map(|t| t.create_view(&Default::default()));
+        let clears = [
+            wgpu::Color { r, g, b, a },
+            wgpu::Color::TRANSPARENT,
+            no_id,
+            wgpu::Color::TRANSPARENT,
+        ];
+        let views = [&self.color, &self.normal, &self.id, &self.albedo]
+            .map(|t| t.create_view(&Default::default()));
         let attachments: Vec<_> = views
             .iter()
             .zip(clears)
@@ -231,6 +243,7 @@ impl Targets {
             (&self.color, &self.readback[0], 4),
             (&self.normal, &self.readback[1], 8),
             (&self.id, &self.readback[2], 4),
+            (&self.albedo, &self.readback[3], 4),
         ] {
             encoder.copy_texture_to_buffer(
                 wgpu::TexelCopyTextureInfo {
@@ -251,7 +264,7 @@ impl Targets {
             );
         }
         let depth_size = self.depth_values.size();
-        encoder.copy_buffer_to_buffer(&self.depth_values, 0, &self.readback[3], 0, depth_size);
+        encoder.copy_buffer_to_buffer(&self.depth_values, 0, &self.readback[4], 0, depth_size);
         if let Some((set, resolve, readback)) = &self.timestamps {
             encoder.resolve_query_set(set, 0..2, resolve, 0);
             encoder.copy_buffer_to_buffer(resolve, 0, readback, 0, 16);
@@ -268,6 +281,7 @@ impl Targets {
         let color = self.unpad(next(), 4);
         let normal_half = self.unpad(next(), 8);
         let ids = self.unpad(next(), 4);
+        let albedo = self.unpad(next(), 4);
         let depth = bytemuck::cast_slice(&next()).to_vec();
         let counts: Vec<u32> = bytemuck::cast_slice(&next()).to_vec();
         let counters = [counts[0], counts[1]];
@@ -284,6 +298,7 @@ impl Targets {
             color,
             normal,
             patch_id: bytemuck::cast_slice(&ids).to_vec(),
+            albedo,
             depth,
             gpu_ms,
             counters,

@@ -97,3 +97,44 @@ def subdivided(mesh: Mesh, min_faces: int) -> Mesh:
         ms.meshing_surface_subdivision_loop(iterations=1, threshold=pymeshlab.PercentageValue(0))
     m = ms.current_mesh()
     return Mesh(m.vertex_matrix(), m.face_matrix())
+
+
+def textured_sphere(rings: int = 48, segments: int = 96, texture_size: int = 256) -> Mesh:
+    """A unit UV sphere with latitude-longitude texture coordinates per vertex (the seam's
+    vertices doubled, the poles one vertex per segment) and a generated texture: a smooth hue
+    gradient under an 8 x 4 checker of darker squares (``texture_size`` x ``texture_size / 2``)."""
+    theta = np.linspace(0.0, np.pi, rings + 1)  # from the north pole
+    phi = np.linspace(0.0, 2.0 * np.pi, segments + 1)  # the last column repeats the first
+    t, p = np.meshgrid(theta, phi, indexing="ij")
+    vertices = np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], axis=-1).reshape(-1, 3)
+    uv = np.stack([p / (2.0 * np.pi), 1.0 - t / np.pi], axis=-1).reshape(-1, 2)
+    row = segments + 1
+    faces = []
+    for i in range(rings):
+        for j in range(segments):
+            a, b = i * row + j, i * row + j + 1
+            c, d = a + row, b + row
+            if i > 0:
+                faces.append([a, c, b])
+            if i < rings - 1:
+                faces.append([b, c, d])
+    w, h = texture_size, texture_size // 2
+    y, x = np.mgrid[0:h, 0:w]
+    image = np.empty((h, w, 4), np.uint8)
+    image[..., 0] = 40 + 200 * x / w
+    image[..., 1] = 40 + 200 * y / h
+    image[..., 2] = 120
+    image[..., 3] = 255
+    dark = ((x * 8 // w) + (y * 4 // h)) % 2 == 1
+    image[dark, :3] //= 2
+    return Mesh(vertices, np.asarray(faces), uv=uv, texture=image)
+
+
+def face_colored(mesh: Mesh) -> Mesh:
+    """``mesh`` with face colors from its face centroids' position in the bounding box: about
+    three cycles of a sine per channel across the box, so neighbouring faces differ a little."""
+    v, f = arrays(mesh)
+    lo, hi = (np.asarray(b) for b in mesh.bounds)
+    c = (v[f].mean(axis=1) - lo) / np.maximum(hi - lo, 1e-300)
+    rgb = 0.5 + 0.5 * np.sin(np.stack([17.0 * c[:, 0], 13.0 * c[:, 1] + 1.0, 11.0 * c[:, 2] + 2.0], axis=1))
+    return Mesh(v, f, face_colors=np.round(rgb * 255).astype(np.uint8))

@@ -66,26 +66,26 @@ impl MeshKind {
     }
 }
 
-/// De-indexed vertices with face normals (flat, like a ray caster's hits) and colors.
+/// De-indexed vertices with face normals (flat, like a ray caster's hits) and base colors
+/// (vertex or face colors; a texture's color at each corner).
 fn upload(gpu: &Gpu, mesh: &Mesh) -> UploadedMesh {
     let (lo, hi) = mesh.bounds();
     let centre = 0.5 * (lo + hi);
     let mut vertices = Vec::with_capacity(mesh.faces.len() * 3);
-    for t in &mesh.faces {
+    for (f, t) in mesh.faces.iter().enumerate() {
+        let colors = mesh.face_color(f as u32, None);
         let p = t.map(|v| mesh.positions[v as usize]);
         let n = (p[1] - p[0])
             .cross(p[2] - p[0])
             .normalize_or_zero()
             .as_vec3()
             .to_array();
-        for k in 0..3 {
+        for (k, corner) in p.iter().enumerate() {
             vertices.push(MeshVertex {
-                position: (p[k] - centre).as_vec3().to_array(),
+                position: (*corner - centre).as_vec3().to_array(),
                 normal: n,
-                color: mesh
-                    .colors
-                    .as_ref()
-                    .map_or(crate::gtex::NEUTRAL_COLOR, |c| c[t[k] as usize]),
+                // A texture is only sampled at the corners (the Python layer warns).
+                color: colors.at(std::array::from_fn(|c| f64::from(u8::from(c == k)))),
             });
         }
     }
