@@ -57,13 +57,9 @@ def check_each(bounds: RenderBounds, results: list, index: int, *context) -> Non
 def pixelwise_p99(a: gt.Frame, b: gt.Frame) -> float:
     """p99 of the angle between two frames' normals where both hit."""
     both = np.isfinite(a.depth) & np.isfinite(b.depth)
-    # Frame normals are stored at half precision: renormalize before comparing.
-    na, nb = (f.normal[both].astype(np.float64) for f in (a, b))
-    cos = np.sum(na * nb, axis=1) / (np.linalg.norm(na, axis=1) * np.linalg.norm(nb, axis=1))
-    return float(np.percentile(np.degrees(np.arccos(np.clip(cos, -1, 1))), 99))
+    return float(np.percentile(reference.normal_angles(a.normal, b.normal, both), 99))
 
 
-# Bounds (~3x the worst view measured at 128², in the comments).
 # The frames' normals are half floats (0.013° from the reference is their rounding).
 BOX_SET = RenderBounds(normal_deg_median=0.04, normal_deg_p99=0.04)  # 0.013°, 0.013°
 BOX_RASTER = RenderBounds(normal_deg_median=0.04, normal_deg_p99=0.04)  # 0.013°, 0.013°

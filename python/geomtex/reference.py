@@ -213,6 +213,15 @@ def _dilate(mask: npt.NDArray[np.bool_]) -> npt.NDArray[np.bool_]:
     return np.logical_or.reduce(_neighbours(mask, False))
 
 
+def normal_angles(a: npt.ArrayLike, b: npt.ArrayLike, mask: npt.NDArray[np.bool_]) -> npt.NDArray[np.float64]:
+    """Degrees between two (H, W, 3) normal images on the pixels of ``mask``, each normal
+    renormalized first (frames store half floats)."""
+    n0 = np.asarray(a)[mask].astype(np.float64)
+    n1 = np.asarray(b)[mask].astype(np.float64)
+    cos = np.sum(n0 * n1, axis=1) / np.maximum(np.linalg.norm(n0, axis=1) * np.linalg.norm(n1, axis=1), 1e-30)
+    return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+
+
 def _normal_p99_1px(frame: Any, ref_normal: npt.ArrayLike, both: npt.NDArray[np.bool_]) -> float:
     """p99 over ``both`` of the angle between each frame normal and the closest reference normal
     in its 3 x 3 neighbourhood (degrees)."""
@@ -273,10 +282,7 @@ def compare(frame: Any, ref: dict[str, npt.NDArray[Any]], diagonal: float,
     else:
         out.update(depth_median=float("nan"), depth_p99=float("nan"), depth_max=float("nan"),
                    depth_p99_1px=float("nan"))
-    n0 = np.asarray(frame.normal)[both].astype(np.float64)
-    n1 = np.asarray(ref["normal"] if ref_normal is None else ref_normal)[both].astype(np.float64)
-    cos = np.sum(n0 * n1, axis=1) / np.maximum(np.linalg.norm(n0, axis=1) * np.linalg.norm(n1, axis=1), 1e-30)
-    ang = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+    ang = normal_angles(frame.normal, ref["normal"] if ref_normal is None else ref_normal, both)
     out["normal_deg_median"] = float(np.median(ang)) if len(ang) else float("nan")
     out["normal_deg_p99"] = float(np.percentile(ang, 99)) if len(ang) else float("nan")
     out["normal_deg_p99_1px"] = _normal_p99_1px(frame, ref_normal if ref_normal is not None else ref["normal"], both)
