@@ -86,10 +86,10 @@ def test_box_with_defaults_is_flat_shaded_like_its_raster(r128: gt.Renderer) -> 
 # describes (rays hitting the other chart's lip: an outline error, not a normal one), so only
 # its median is bounded here.
 CAD_BOUNDS = {
-    "chamfered_box": RenderBounds(normal_deg_median=0.04, normal_deg_p99=5.5),  # 0.00°, 1.8°
+    "chamfered_box": RenderBounds(normal_deg_median=0.04, normal_deg_p99=0.6),  # 0.00°, 0.21°
     "cylinder": RenderBounds(normal_deg_median=0.3, normal_deg_p99=3.7),  # 0.096°, 1.2°
-    "fandisk": RenderBounds(normal_deg_median=0.35),  # 0.115°
-    "rocker-arm": RenderBounds(normal_deg_median=0.39, normal_deg_p99=29),  # 0.13°, 9.6°
+    "fandisk": RenderBounds(normal_deg_median=0.35),  # 0.114°
+    "rocker-arm": RenderBounds(normal_deg_median=0.39, normal_deg_p99=15),  # 0.128°, 4.9°
 }
 
 
@@ -113,20 +113,18 @@ def test_cad_shapes_match_crease_split_reference(name: str, r128: gt.Renderer) -
     check_each(RenderBounds(normal_deg_p99=0.1), results, 1, name, "rasterized")  # <= 0.02°
 
 
-# Three views at 128², default vs crease-split reference (p99 worst view) and "smooth" vs
-# trimesh's vertex normals: Stanford scan median 0.114°, p99 5.9° (smooth 0.113°, 0.32°);
-# pymeshlab's bunny 0.114°, 0.325° (smooth 0.113°, 0.259°).
-SCAN_DEFAULT = {"stanford-bunny": RenderBounds(normal_deg_median=0.35, normal_deg_p99=18),
-                "pymeshlab-bunny": RenderBounds(normal_deg_median=0.35, normal_deg_p99=1.0)}
+# Three views at 128², default vs crease-split reference (worst view) and "smooth" vs trimesh's
+# vertex normals: Stanford scan median 0.113°, p99 0.458° (smooth 0.113°, 0.316°); pymeshlab's
+# bunny 0.114°, 0.268° (smooth 0.113°, 0.259°).
+SCAN_DEFAULT = {"stanford-bunny": RenderBounds(normal_deg_median=0.35, normal_deg_p99=1.4),
+                "pymeshlab-bunny": RenderBounds(normal_deg_median=0.35, normal_deg_p99=0.8)}
 
 
 def test_scan_is_no_worse_than_smooth(bunny: Converted, r128: gt.Renderer) -> None:
-    """A scan's default (crease) conversion: its median normal error against its reference is
-    that of "smooth" against trimesh's smooth vertex normals (within 10%; measured 1.01x). Its
-    p99 is not: 3.4% of the Stanford scan's edges are sharper than 20° (noise), and the normal
-    map, sampled bilinearly at about a texel per pixel here, blurs each such crease over a texel
-    where the reference jumps (p99 up to 19x smooth's in one view, 1.3x on pymeshlab's bunny);
-    bounded at 3x its measurement so it cannot grow unseen."""
+    """A scan's default (crease) conversion is about as close to its reference as "smooth" is to
+    trimesh's smooth vertex normals: median within 10% (measured 1.01x), p99 within 2x (measured
+    up to 1.45x on the Stanford scan, whose noise makes 3.4% of its edges sharper than 20°: the
+    steps the normal map must keep inside its charts)."""
     smooth = gt.convert(bunny.mesh, normals="smooth")
     views = VIEWS[:3]
     crease = frames_against_reference(bunny.mesh, r128, [bunny.gts], views)
@@ -135,6 +133,7 @@ def test_scan_is_no_worse_than_smooth(bunny: Converted, r128: gt.Renderer) -> No
         c, s = crease[k][0][1], smoothed[k][0][1]
         SCAN_DEFAULT[bunny.name].check(c, views[k], "default vs crease-split reference")
         assert c["normal_deg_median"] <= 1.1 * s["normal_deg_median"], (views[k], c, s)
+        assert c["normal_deg_p99"] <= 2 * s["normal_deg_p99"], (views[k], c, s)
 
 
 def test_the_rule_is_chosen_per_mesh_in_a_scene(r128: gt.Renderer) -> None:
