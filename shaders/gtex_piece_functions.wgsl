@@ -59,6 +59,49 @@ struct Surface {
     color: vec4<f32>,
 }
 
+// cos 20°: texels whose normals differ by more are on two sides of a crease.
+const CREASE_COS: f32 = 0.9397;
+
+// The patch-local normal at `uv` (texels; not normalized): bilinear over the four texels around
+// it, leaving out those whose normal differs from the nearest texel's by a crease (a crease
+// inside a chart then stays a step, as in the mesh, instead of a texel-wide ramp). The normal
+// maps do not record the crease angle a set was converted with; 20° (the default) is used.
+fn crease_aware_normal(p: PatchMaps, uv: vec2<f32>) -> vec3<f32> {
+    let f = uv - 0.5;
+    let cell = floor(f);
+    let w = f - cell;
+    let last = vec2<i32>(p.size) - 1;
+    let origin = vec2<i32>(p.atlas_origin);
+    let c0 = vec2<i32>(cell);
+    var texel: array<vec3<f32>, 4>;
+    var weight: array<f32, 4>;
+    for (var k = 0; k < 4; k += 1) {
+        let offset = vec2<i32>(k & 1, k >> 1u);
+        let at = origin + clamp(c0 + offset, vec2<i32>(0), last);
+        texel[k] = textureLoad(normals, at, p.ids.x, 0).xyz;
+        let wx = select(1.0 - w.x, w.x, offset.x == 1);
+        let wy = select(1.0 - w.y, w.y, offset.y == 1);
+        weight[k] = wx * wy;
+    }
+    var nearest = 0;
+    for (var k = 1; k < 4; k += 1) {
+        if (weight[k] > weight[nearest]) {
+            nearest = k;
+        }
+    }
+    // Unit anchor, or zero if the nearest texel holds no normal (then every texel blends).
+    let anchor = texel[nearest] * inverseSqrt(max(dot(texel[nearest], texel[nearest]), 1e-12));
+    var all = vec3<f32>(0.0);
+    var same_side = vec3<f32>(0.0);
+    for (var k = 0; k < 4; k += 1) {
+        all += weight[k] * texel[k];
+        if (dot(texel[k], anchor) >= CREASE_COS * length(texel[k])) {
+            same_side += weight[k] * texel[k];
+        }
+    }
+    return select(all, same_side, dot(same_side, same_side) > 1e-12);
+}
+
 fn gtex_surface(index: u32, o: vec3<f32>, d: vec3<f32>, t: f32) -> Surface {
     let patch_from_view = patches[index].patch_from_view;
     let p = patches[index].maps;
@@ -68,7 +111,7 @@ fn gtex_surface(index: u32, o: vec3<f32>, d: vec3<f32>, t: f32) -> Surface {
     let uv = clamp(hit.xy * p.size, vec2<f32>(0.5), p.size - 0.5);
     let atlas_size = vec2<f32>(textureDimensions(normals));
     let coord = (p.atlas_origin + uv) / atlas_size;
-    let n_local = textureSampleLevel(normals, linear_clamp, coord, p.ids.x, 0.0).xyz;
+    let n_local = crease_aware_normal(p, uv);
     let base = textureSampleLevel(colors, linear_clamp, coord, p.ids.x, 0.0);
     let n_world = normalize((patches[index].world_normal_from_patch * vec4<f32>(n_local, 0.0)).xyz);
     return Surface(n_world, base);

@@ -1,6 +1,7 @@
 // Entry points of the mesh pass: ordinary triangle meshes, rasterized into the same
-// color/normal/id/albedo/depth targets as the geometry-texture patches so the nearer surface wins at
-// every pixel.
+// color/normal/id/albedo/depth targets as the geometry-texture patches so the nearer surface wins
+// at every pixel. Vertices come three per face, each with its corner's normal (flat, smooth or
+// crease-split, chosen on the CPU) and base color.
 //
 // Spaces: object space (vertices relative to the mesh's own centre, f32), view space
 // (camera-relative, see camera_types.wgsl), world for output normals.

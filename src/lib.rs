@@ -24,4 +24,4 @@ pub use convert::{
 };
 pub use error::{GeomtexError, Result};
 pub use gtex::{GeometryTextureSet, Patch, Stats};
-pub use mesh::Mesh;
+pub use mesh::{Mesh, NormalRule};

@@ -1,11 +1,15 @@
-//! Triangle meshes: validation, per-face geometry and adjacency.
+//! Triangle meshes: validation, per-face geometry and adjacency, and the normal rules (flat,
+//! smooth, crease-split) that conversion and the mesh rasterizer share.
 //!
 //! Space: everything here is in the mesh's own (world) coordinates, f64, as given by the user.
 
+use std::str::FromStr;
+
 use glam::DVec3;
+use rayon::prelude::*;
 
 use crate::appearance::Appearance;
-use crate::error::{GeomtexError, Result};
+use crate::error::{parse_choice, GeomtexError, Result};
 
 /// A validated triangle mesh. Positions are f64 so large offsets keep their detail.
 #[derive(Clone, Debug)]
@@ -133,6 +137,81 @@ impl Mesh {
     }
 }
 
+/// Which normal a face's corners take: the keyword `normals` of `convert` and `Scene.add`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NormalSource {
+    /// Smooth within a surface, split across edges sharper than the crease angle.
+    Crease,
+    /// One normal per vertex, averaged over all of its faces.
+    Smooth,
+    /// The face's own normal.
+    Flat,
+}
+
+impl FromStr for NormalSource {
+    type Err = GeomtexError;
+
+    /// "crease" | "smooth" | "flat".
+    fn from_str(s: &str) -> Result<Self> {
+        parse_choice(
+            "normals",
+            s,
+            &[
+                ("crease", NormalSource::Crease),
+                ("smooth", NormalSource::Smooth),
+                ("flat", NormalSource::Flat),
+            ],
+        )
+    }
+}
+
+/// The crease angle (degrees) when none is given: trimesh's `smooth_shade` default.
+pub const DEFAULT_CREASE_ANGLE: f64 = 20.0;
+
+/// How normals vary over a mesh's faces: a source and, for `Crease`, its angle.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NormalRule {
+    pub source: NormalSource,
+    /// Two faces sharing an edge are smoothed across it only if their normals differ by less
+    /// than this many degrees, in (0, 180].
+    pub crease_angle: f64,
+}
+
+impl Default for NormalRule {
+    fn default() -> Self {
+        NormalRule {
+            source: NormalSource::Crease,
+            crease_angle: DEFAULT_CREASE_ANGLE,
+        }
+    }
+}
+
+impl NormalRule {
+    /// The rule the keywords `normals` and `crease_angle` (degrees) give, the default for each
+    /// one not given. `crease_angle` must lie in (0, 180] and goes with `normals="crease"` only.
+    pub fn from_keywords(source: Option<NormalSource>, crease_angle: Option<f64>) -> Result<Self> {
+        let default = NormalRule::default();
+        let source = source.unwrap_or(default.source);
+        if let Some(a) = crease_angle {
+            if !(a > 0.0 && a <= 180.0) {
+                return Err(GeomtexError::Parameter(format!(
+                    "crease_angle must be in (0, 180] degrees, got {a}"
+                )));
+            }
+            if source != NormalSource::Crease {
+                return Err(GeomtexError::Parameter(format!(
+                    "crease_angle is used only with normals='crease', not with normals='{}'",
+                    format!("{source:?}").to_lowercase()
+                )));
+            }
+        }
+        Ok(NormalRule {
+            source,
+            crease_angle: crease_angle.unwrap_or(default.crease_angle),
+        })
+    }
+}
+
 /// Compressed sparse rows: `items[offsets[i]..offsets[i+1]]` belong to row i.
 #[derive(Clone, Debug, Default)]
 pub struct Csr {
@@ -189,7 +268,10 @@ pub struct MeshGeometry {
     pub centroids: Vec<DVec3>,
     /// Faces with (near) zero area or a repeated vertex: no normal, left out of every chart.
     pub degenerate: Vec<bool>,
-    /// Area-weighted unit vertex normals (shared by vertices at the same position).
+    /// Per face, the angle (radians) at each corner; zero for degenerate faces.
+    pub corner_angles: Vec<[f64; 3]>,
+    /// Unit vertex normals weighted by corner angle, as trimesh weights them (shared by vertices
+    /// at the same position).
     pub vertex_normals: Vec<DVec3>,
     /// Per vertex, the lowest index of a vertex at exactly the same position: adjacency is
     /// geometric, so an unwelded triangle soup (STL-style, or a scan split at UV seams) has the
@@ -230,13 +312,24 @@ fn weld(mesh: &Mesh) -> (Vec<u32>, usize) {
     (weld, duplicate_vertices)
 }
 
-/// Normals, areas and centroids of the faces, which are degenerate, and the vertex normals.
+/// Normals, areas, centroids and corner angles of the faces, which are degenerate, and the
+/// vertex normals.
 struct FaceGeometry {
     normals: Vec<DVec3>,
     areas: Vec<f64>,
     centroids: Vec<DVec3>,
+    corner_angles: Vec<[f64; 3]>,
     degenerate: Vec<bool>,
     vertex_normals: Vec<DVec3>,
+}
+
+/// The angle at each corner of triangle (a, b, c), by atan2 so slivers keep their precision.
+fn corner_angles([a, b, c]: [DVec3; 3]) -> [f64; 3] {
+    let angle = |p: DVec3, q: DVec3, r: DVec3| {
+        let (u, v) = (q - p, r - p);
+        u.cross(v).length().atan2(u.dot(v))
+    };
+    [angle(a, b, c), angle(b, c, a), angle(c, a, b)]
 }
 
 impl FaceGeometry {
@@ -248,6 +341,7 @@ impl FaceGeometry {
             normals: vec![DVec3::ZERO; nf],
             areas: vec![0.0; nf],
             centroids: vec![DVec3::ZERO; nf],
+            corner_angles: vec![[0.0; 3]; nf],
             degenerate: vec![false; nf],
             vertex_normals: vec![DVec3::ZERO; nv],
         };
@@ -263,8 +357,9 @@ impl FaceGeometry {
             }
             g.areas[f] = twice_area * 0.5;
             g.normals[f] = cross / twice_area;
-            for &v in t {
-                g.vertex_normals[weld[v as usize] as usize] += cross; // |cross| = 2 area
+            g.corner_angles[f] = corner_angles([a, b, c]);
+            for (&v, angle) in t.iter().zip(g.corner_angles[f]) {
+                g.vertex_normals[weld[v as usize] as usize] += g.normals[f] * angle;
             }
         }
         // In vertex order: a vertex welded to an earlier one takes its (normalized) normal.
@@ -376,6 +471,7 @@ impl MeshGeometry {
             face_normals: faces.normals,
             face_areas: faces.areas,
             centroids: faces.centroids,
+            corner_angles: faces.corner_angles,
             degenerate: faces.degenerate,
             vertex_normals: faces.vertex_normals,
             weld,
@@ -430,6 +526,84 @@ impl MeshGeometry {
             }
         }
         flip
+    }
+
+    /// Per face, the unit normal at each of its corners under `rule` (zero for degenerate
+    /// faces). `Crease`: each corner averages, weighted by corner angle as trimesh weights its
+    /// vertex normals, the faces around its vertex that are reachable from its own face across
+    /// manifold edges sharper by less than the crease angle; trimesh's `smooth_shade` splits the
+    /// same edges. Union-find over the corners: linear in the faces (inverse Ackermann aside).
+    pub fn corner_normals(&self, mesh: &Mesh, rule: NormalRule) -> Vec<[DVec3; 3]> {
+        match rule.source {
+            NormalSource::Flat => self.face_normals.iter().map(|&n| [n; 3]).collect(),
+            NormalSource::Smooth => mesh
+                .faces
+                .par_iter()
+                .map(|t| t.map(|v| self.vertex_normals[v as usize]))
+                .collect(),
+            NormalSource::Crease => self.crease_normals(mesh, rule.crease_angle.to_radians().cos()),
+        }
+    }
+
+    /// `corner_normals` for `Crease`: faces whose normals' dot product exceeds `min_cos` are
+    /// smooth across their shared edge.
+    fn crease_normals(&self, mesh: &Mesh, min_cos: f64) -> Vec<[DVec3; 3]> {
+        let corner_vertex = |c: usize| self.weld[mesh.faces[c / 3][c % 3] as usize];
+        // Corner 3 f + k is corner k of face f; each class is one smooth fan around a vertex.
+        let mut fans = UnionFind::new(3 * mesh.faces.len());
+        for f in 0..mesh.faces.len() {
+            for &item in self.manifold_neighbors.row(f) {
+                let g = (item & !AGREE_BIT) as usize;
+                if g < f || self.face_normals[f].dot(self.face_normals[g]) <= min_cos {
+                    continue;
+                }
+                // The two corners of each face on the shared edge meet their twins.
+                for cf in 3 * f..3 * f + 3 {
+                    for cg in 3 * g..3 * g + 3 {
+                        if corner_vertex(cf) == corner_vertex(cg) {
+                            fans.union(cf, cg);
+                        }
+                    }
+                }
+            }
+        }
+        let mut sums = vec![DVec3::ZERO; 3 * mesh.faces.len()];
+        for c in 0..sums.len() {
+            let (f, k) = (c / 3, c % 3);
+            sums[fans.find(c)] += self.face_normals[f] * self.corner_angles[f][k];
+        }
+        (0..mesh.faces.len())
+            .map(|f| std::array::from_fn(|k| sums[fans.find(3 * f + k)].normalize_or_zero()))
+            .collect()
+    }
+}
+
+/// Disjoint sets of 0..n with path halving. Corners are only ever joined around one vertex,
+/// so a chain is at most one fan long and the whole pass stays linear without ranks.
+struct UnionFind {
+    parent: Vec<u32>,
+}
+
+impl UnionFind {
+    fn new(n: usize) -> UnionFind {
+        UnionFind {
+            parent: (0..n as u32).collect(),
+        }
+    }
+
+    fn find(&mut self, mut x: usize) -> usize {
+        while self.parent[x] as usize != x {
+            let grand = self.parent[self.parent[x] as usize];
+            self.parent[x] = grand;
+            x = grand as usize;
+        }
+        x
+    }
+
+    fn union(&mut self, a: usize, b: usize) {
+        let (ra, rb) = (self.find(a), self.find(b));
+        let (lo, hi) = (ra.min(rb), ra.max(rb));
+        self.parent[hi] = lo as u32;
     }
 }
 
@@ -540,6 +714,152 @@ mod tests {
         assert!((g.face_normals[0] - DVec3::Z).length() < 1e-12);
         assert!((g.face_areas[0] + g.face_areas[1] - 1.0).abs() < 1e-12);
         assert_eq!(g.vertex_faces.row(0).len(), 2);
+    }
+
+    /// The unit cube's 8 corners and 12 faces, wound outwards.
+    fn cube() -> Mesh {
+        let mut positions = Vec::new();
+        for i in 0..8 {
+            positions.extend([(i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64]);
+        }
+        #[rustfmt::skip]
+        let faces = [
+            0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, // z = 0, z = 1
+            0, 1, 4, 1, 5, 4, 2, 6, 3, 3, 6, 7, // y = 0, y = 1
+            0, 4, 2, 2, 4, 6, 1, 3, 5, 3, 7, 5, // x = 0, x = 1
+        ];
+        Mesh::from_flat(&positions, &faces, None).unwrap()
+    }
+
+    /// A UV sphere of radius 1 with `n` segments around and `n / 2` rings.
+    fn sphere(n: usize) -> Mesh {
+        let rings = n / 2;
+        let mut positions = vec![0.0, 0.0, 1.0];
+        for r in 1..rings {
+            let theta = std::f64::consts::PI * r as f64 / rings as f64;
+            for s in 0..n {
+                let phi = std::f64::consts::TAU * s as f64 / n as f64;
+                positions.extend([
+                    theta.sin() * phi.cos(),
+                    theta.sin() * phi.sin(),
+                    theta.cos(),
+                ]);
+            }
+        }
+        positions.extend([0.0, 0.0, -1.0]);
+        let ring = |r: usize, s: usize| (1 + (r - 1) * n + s % n) as i64;
+        let south = (positions.len() / 3 - 1) as i64;
+        let mut faces = Vec::new();
+        for s in 0..n {
+            faces.extend([0, ring(1, s), ring(1, s + 1)]);
+            for r in 1..rings - 1 {
+                let (a, b) = (ring(r, s), ring(r, s + 1));
+                let (c, d) = (ring(r + 1, s), ring(r + 1, s + 1));
+                faces.extend([a, c, d, a, d, b]);
+            }
+            faces.extend([ring(rings - 1, s), south, ring(rings - 1, s + 1)]);
+        }
+        Mesh::from_flat(&positions, &faces, None).unwrap()
+    }
+
+    fn angle_deg(a: DVec3, b: DVec3) -> f64 {
+        a.angle_between(b).to_degrees()
+    }
+
+    #[test]
+    fn crease_normals_of_a_box_are_its_face_normals() {
+        let m = cube();
+        let g = MeshGeometry::new(&m);
+        let crease = g.corner_normals(&m, NormalRule::default());
+        for (f, corners) in crease.iter().enumerate() {
+            for n in corners {
+                assert!(angle_deg(*n, g.face_normals[f]) < 1e-9, "face {f}: {n}");
+            }
+        }
+        // Smooth: angle weights give each corner the exact diagonal, whatever the
+        // triangulation (each square side contributes 90 degrees, split or not).
+        let smooth = g.corner_normals(
+            &m,
+            NormalRule::from_keywords(Some(NormalSource::Smooth), None).unwrap(),
+        );
+        for (f, corners) in smooth.iter().enumerate() {
+            for (k, n) in corners.iter().enumerate() {
+                let p = m.positions[m.faces[f][k] as usize] - DVec3::splat(0.5);
+                assert!(angle_deg(*n, p) < 1e-9, "face {f} corner {k}: {n}");
+            }
+        }
+        // Above the box's 90-degree dihedral every edge is smooth again.
+        let wide = NormalRule::from_keywords(None, Some(91.0)).unwrap();
+        for (a, b) in g.corner_normals(&m, wide).iter().zip(&smooth) {
+            for k in 0..3 {
+                assert!(angle_deg(a[k], b[k]) < 1e-9);
+            }
+        }
+    }
+
+    #[test]
+    fn crease_normals_of_a_fine_sphere_are_smooth() {
+        let m = sphere(64); // 5.6 degrees between neighbouring faces
+        let g = MeshGeometry::new(&m);
+        let crease = g.corner_normals(&m, NormalRule::default());
+        let smooth = g.corner_normals(
+            &m,
+            NormalRule::from_keywords(Some(NormalSource::Smooth), None).unwrap(),
+        );
+        for (f, (c, s)) in crease.iter().zip(&smooth).enumerate() {
+            for k in 0..3 {
+                assert!(angle_deg(c[k], s[k]) < 1e-9, "face {f} corner {k}");
+                let p = m.positions[m.faces[f][k] as usize];
+                assert!(
+                    angle_deg(c[k], p) < 0.5,
+                    "face {f} corner {k}: {} vs {p}",
+                    c[k]
+                );
+            }
+        }
+        // Below the dihedral between neighbouring quads (about 5 degrees near the equator; each
+        // quad's two triangles are coplanar) every quad is shaded flat.
+        let sharp = NormalRule::from_keywords(None, Some(3.0)).unwrap();
+        for (f, c) in g.corner_normals(&m, sharp).iter().enumerate() {
+            let equatorial = m.faces[f]
+                .iter()
+                .all(|&v| m.positions[v as usize].z.abs() < 0.5);
+            if equatorial {
+                assert!(
+                    c.iter().all(|n| angle_deg(*n, g.face_normals[f]) < 1e-4),
+                    "face {f}: {:?}",
+                    c.map(|n| angle_deg(n, g.face_normals[f]))
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn normal_keywords_parse_and_bad_values_say_why() {
+        assert_eq!(
+            "crease".parse::<NormalSource>().unwrap(),
+            NormalSource::Crease
+        );
+        let bad = |s: Option<NormalSource>, a: f64| {
+            NormalRule::from_keywords(s, Some(a))
+                .unwrap_err()
+                .to_string()
+        };
+        for a in [0.0, -5.0, 180.5, f64::NAN] {
+            assert!(
+                bad(None, a).contains("crease_angle must be in (0, 180]"),
+                "{a}"
+            );
+        }
+        assert!(bad(Some(NormalSource::Flat), 30.0).contains("normals='flat'"));
+        let e = "bumpy".parse::<NormalSource>().unwrap_err().to_string();
+        assert!(e.contains("'crease', 'smooth' or 'flat'"), "{e}");
+        assert_eq!(
+            NormalRule::from_keywords(None, Some(180.0))
+                .unwrap()
+                .crease_angle,
+            180.0
+        );
     }
 
     #[test]

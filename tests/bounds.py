@@ -30,6 +30,8 @@ class RenderBounds:
     depth_p99: float | None = None  # 99th percentile |Δdepth| / diagonal, at most
     depth_p99_1px: float | None = None  # the same with a one-pixel silhouette tolerance
     normal_deg_median: float | None = None  # median angle between normals, degrees
+    normal_deg_p99: float | None = None  # 99th percentile angle between normals, degrees
+    normal_deg_p99_1px: float | None = None  # the same with a one-pixel tolerance (reference.compare)
     mask_far_px: int | None = None  # pixels hit by one side only, more than a pixel from the other
     nan: int | None = 0  # NaN pixels in depth or normal
 

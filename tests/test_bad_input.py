@@ -95,7 +95,7 @@ def test_all_degenerate_mesh_is_an_error() -> None:
         (dict(overlap_rings=99), r"overlap_rings must be at most 16"),
         (dict(dilation=1000), r"dilation must be at most 64"),
         (dict(frame="diagonal"), r"frame must be 'min_area' or 'pca'"),
-        (dict(normals="bumpy"), r"normals must be 'smooth' or 'flat'"),
+        (dict(normals="bumpy"), r"normals must be 'crease', 'smooth' or 'flat'"),
         (dict(height_bits=12), r"height_bits must be 8 or 16, got 12"),
         (dict(height_bits=8.0), r"height_bits must be an integer"),
         (dict(progress="yes"), r"progress must be"),

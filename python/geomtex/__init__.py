@@ -130,7 +130,8 @@ def convert(
     overlap_rings: int | None = None,
     dilation: int | None = None,
     frame: Literal["min_area", "pca"] | None = None,
-    normals: Literal["smooth", "flat"] | None = None,
+    normals: Literal["crease", "smooth", "flat"] | None = None,
+    crease_angle: float | None = None,
     height_bits: Literal[8, 16] | None = None,
     progress: bool | ProgressCallback | None = None,
 ) -> GeometryTextureSet:
@@ -167,7 +168,10 @@ def convert(
         borders).
     dilation: texels of normal/color dilation into empty space (default 2).
     frame: in-plane axes from the minimum-area rectangle (default) or 2D PCA (the paper's).
-    normals: interpolated vertex normals (``"smooth"``) or face normals (``"flat"``).
+    normals: ``"crease"`` (default): smooth within a surface, split at edges where the faces'
+        normals differ by ``crease_angle`` degrees or more (default 20, trimesh's
+        ``smooth_shade``; in (0, 180]); ``"smooth"``: vertex normals averaged over every edge;
+        ``"flat"``: face normals. Vertex normals are weighted by corner angle, as trimesh's.
     height_bits: 16 (default) or 8. Eight bits halve the height maps' bytes (a texel then takes
         9 bytes instead of 10) and round each height to 1/254 of its patch's height range;
         ``stats["max_quantization_error"]`` gives the worst rounding in world units.
@@ -182,7 +186,7 @@ def convert(
         ("dilation", dilation), ("height_bits", height_bits)]}
     reals = {name: _number(name, value, float) for name, value in [
         ("texel_size", texel_size), ("max_error", max_error), ("max_error_rel", max_error_rel),
-        ("chart_error", chart_error), ("compactness", compactness)]}
+        ("chart_error", chart_error), ("compactness", compactness), ("crease_angle", crease_angle)]}
     callback: ProgressCallback | None
     bar = None
     if progress is True:

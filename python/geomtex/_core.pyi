@@ -17,7 +17,7 @@ __version__: str
 
 _ErrorScope = Literal["set", "chart"]
 _InPlane = Literal["min_area", "pca"]
-_NormalSource = Literal["smooth", "flat"]
+_NormalSource = Literal["crease", "smooth", "flat"]
 _HeightBits = Literal[8, 16]
 _Quality = Literal["fast", "balanced", "exact"]
 _Method = Literal["linear_binary", "maxmip"]
@@ -141,6 +141,7 @@ def convert(
     dilation: int | None = None,
     frame: _InPlane | None = None,
     normals: _NormalSource | None = None,
+    crease_angle: float | None = None,
     height_bits: int | None = None,
     progress: Callable[[str, float], bool | None] | None = None,
 ) -> GeometryTextureSet: ...
@@ -179,7 +180,10 @@ class Camera:
 @disjoint_base
 class Scene:
     def __new__(cls) -> Scene: ...
-    def add(self, obj: Any, world_from_object: _Matrix | None = None) -> int: ...
+    def add(
+        self, obj: Any, world_from_object: _Matrix | None = None, *, normals: _NormalSource | None = None,
+        crease_angle: float | None = None,
+    ) -> int: ...
     def __len__(self) -> int: ...
     def intersects_first(
         self, origins: npt.ArrayLike, directions: npt.ArrayLike, *, quality: _Quality | None = None,

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -52,10 +52,18 @@ class Scene(_core.Scene):
     """Geometry-texture sets and meshes (geomtex, trimesh or a file path), each placed by a
     ``world_from_object`` 4x4 matrix."""
 
-    def add(self, obj: Any, world_from_object: npt.ArrayLike | None = None) -> int:
+    def add(self, obj: Any, world_from_object: npt.ArrayLike | None = None, *,
+            normals: Literal["crease", "smooth", "flat"] | None = None,
+            crease_angle: float | None = None) -> int:
         """Adds `obj` (a set, Mesh, trimesh, trimesh.Scene or mesh path) placed by
-        `world_from_object` (any 4x4 array-like, default identity); returns its index."""
-        return super().add(renderable(obj), world_from_object)
+        `world_from_object` (any 4x4 array-like, default identity); returns its index.
+
+        A mesh is shaded by the same rule as ``convert``: ``normals="crease"`` (default) smooths
+        within a surface and splits at edges whose faces' normals differ by ``crease_angle``
+        degrees or more (default 20, in (0, 180]); ``"smooth"`` averages across every edge;
+        ``"flat"`` gives each face its own normal. (A set's normals were chosen when it was
+        converted: these keywords are for meshes only.)"""
+        return super().add(renderable(obj), world_from_object, normals=normals, crease_angle=crease_angle)
 
 
 class Renderer(_core.Renderer):

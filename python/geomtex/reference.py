@@ -97,11 +97,13 @@ class RayCaster:
         locations, ray_index, tri_index = self.first_hits(o, directions.reshape(-1, 3))
         depth = np.full(len(o), np.inf)
         normal = np.zeros((len(o), 3))
+        point = np.zeros((len(o), 3))
         triangle = np.full(len(o), -1, dtype=np.int64)
         # z-depth: the hit's distance from the ray's origin along the camera's forward axis (the
         # origin is the eye for perspective cameras and lies on the camera plane for orthographic).
         depth[ray_index] = (locations - o[ray_index]) @ np.asarray(camera.forward)
         normal[ray_index] = self.mesh.face_normals[tri_index]
+        point[ray_index] = locations
         triangle[ray_index] = tri_index
         shape = (height, width)
         return {
@@ -109,6 +111,7 @@ class RayCaster:
             "normal": normal.reshape(shape + (3,)).astype(np.float32),
             "hit": np.isfinite(depth).reshape(shape),
             "triangle": triangle.reshape(shape),
+            "point": point.reshape(shape + (3,)),
         }
 
 
@@ -117,10 +120,85 @@ def raycast(mesh: Any, camera: Any, width: int, height: int) -> dict[str, npt.ND
 
     Same conventions as ``Renderer.render``: row 0 at the top, ``depth`` is z-depth along the
     camera's forward axis (+inf on a miss), ``normal`` the hit triangle's unit normal (0 on a
-    miss), ``hit`` a boolean mask, ``triangle`` the hit face (-1 on a miss). Builds a new
+    miss), ``hit`` a boolean mask, ``triangle`` the hit face (-1 on a miss), ``point`` the world
+    hit point (float64, 0 on a miss). Builds a new
     intersector each call; keep a ``RayCaster`` to cast many times.
     """
     return RayCaster(mesh).cast(camera, width, height)
+
+
+def corner_normals(mesh: Any, normals: str = "crease", crease_angle: float = 20.0,
+                   rule: str = "fan") -> npt.NDArray[np.float64]:
+    """(F, 3, 3) unit normal at each corner of each face, computed by trimesh (and scipy) on a
+    copy of the mesh with coincident vertices merged, faces in the mesh's order.
+
+    ``normals``: ``"flat"`` face normals; ``"smooth"`` trimesh's vertex normals (faces weighted
+    by their corner angle); ``"crease"``: split at edges whose faces' normals differ by
+    ``crease_angle`` degrees or more (trimesh's ``face_adjacency_angles``), by one of two rules:
+    ``rule="fan"`` (default): each corner averages (corner-angle weighted) the faces around its
+    vertex reachable from its own face across smooth edges *around that vertex* (as Blender's
+    auto-smooth splits); ``rule="components"``: trimesh's ``graph.smooth_shade`` (faces of one
+    edge-connected smooth component share their vertices, so a crease that ends inside a
+    smooth region is smoothed over along its whole length).
+    """
+    import trimesh
+
+    tm = _trimesh(mesh).copy()
+    tm.merge_vertices()
+    if normals == "flat":
+        return np.repeat(tm.face_normals[:, None, :], 3, axis=1)
+    if normals == "smooth":
+        return np.asarray(tm.vertex_normals[tm.faces], dtype=np.float64)
+    if normals != "crease":
+        raise ValueError(f"normals must be 'crease', 'smooth' or 'flat', got {normals!r}")
+    if rule == "components":
+        smooth = trimesh.graph.smooth_shade(tm, angle=np.radians(crease_angle), facet_minarea=None)
+        out = np.zeros((len(tm.faces), 3, 3))
+        out[np.hstack(smooth.metadata["original_components"])] = smooth.vertex_normals[smooth.faces]
+        return out
+    if rule != "fan":
+        raise ValueError(f"rule must be 'fan' or 'components', got {rule!r}")
+    return _fan_normals(tm, crease_angle)
+
+
+def _fan_normals(tm: Any, crease_angle: float) -> npt.NDArray[np.float64]:
+    """``corner_normals``' fan rule: corners (3 f + k) joined across smooth edges at their shared
+    vertices, then each connected set of corners takes its angle-weighted mean normal."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    smooth = tm.face_adjacency_angles < np.radians(crease_angle)
+    pairs, edges = tm.face_adjacency[smooth], tm.face_adjacency_edges[smooth]
+    rows, cols = [], []
+    for v in (edges[:, 0], edges[:, 1]):
+        # The corner of each face of a pair that sits on edge vertex v.
+        rows.append(3 * pairs[:, 0] + np.argmax(tm.faces[pairs[:, 0]] == v[:, None], axis=1))
+        cols.append(3 * pairs[:, 1] + np.argmax(tm.faces[pairs[:, 1]] == v[:, None], axis=1))
+    n = 3 * len(tm.faces)
+    r, c = np.concatenate(rows), np.concatenate(cols)
+    graph = coo_matrix((np.ones(len(r)), (r, c)), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
+    weighted = (np.nan_to_num(tm.face_angles)[:, :, None] * tm.face_normals[:, None, :]).reshape(-1, 3)
+    sums = np.zeros((label.max() + 1, 3))
+    np.add.at(sums, label, weighted)
+    length = np.linalg.norm(sums, axis=1, keepdims=True)
+    return (sums / np.maximum(length, 1e-300))[label].reshape(-1, 3, 3)
+
+
+def shading_normals(mesh: Any, corners: npt.NDArray[Any], ref: dict[str, npt.NDArray[Any]]) -> npt.NDArray[np.float64]:
+    """(H, W, 3) unit normals of a ray cast (``raycast``'s dict, with ``point`` and ``triangle``)
+    interpolated from ``corners`` (``corner_normals``) at each hit's barycentric coordinates; 0 on
+    a miss."""
+    import trimesh
+
+    tm = _trimesh(mesh)
+    hit = np.asarray(ref["hit"])
+    tri = np.asarray(ref["triangle"])[hit]
+    bary = trimesh.triangles.points_to_barycentric(tm.triangles[tri], np.asarray(ref["point"])[hit])
+    n = np.einsum("ij,ijk->ik", bary, corners[tri])
+    out = np.zeros(hit.shape + (3,))
+    out[hit] = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    return out
 
 
 def _neighbours(a: npt.NDArray[Any], fill: Any) -> list[npt.NDArray[Any]]:
@@ -135,6 +213,31 @@ def _dilate(mask: npt.NDArray[np.bool_]) -> npt.NDArray[np.bool_]:
     return np.logical_or.reduce(_neighbours(mask, False))
 
 
+def normal_angles(a: npt.ArrayLike, b: npt.ArrayLike, mask: npt.NDArray[np.bool_]) -> npt.NDArray[np.float64]:
+    """Degrees between two (H, W, 3) normal images on the pixels of ``mask``, each normal
+    renormalized first (frames store half floats)."""
+    n0 = np.asarray(a)[mask].astype(np.float64)
+    n1 = np.asarray(b)[mask].astype(np.float64)
+    cos = np.sum(n0 * n1, axis=1) / np.maximum(np.linalg.norm(n0, axis=1) * np.linalg.norm(n1, axis=1), 1e-30)
+    return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+
+
+def _normal_p99_1px(frame: Any, ref_normal: npt.ArrayLike, both: npt.NDArray[np.bool_]) -> float:
+    """p99 over ``both`` of the angle between each frame normal and the closest reference normal
+    in its 3 x 3 neighbourhood (degrees)."""
+    if not both.any():
+        return float("nan")
+    n0 = np.asarray(frame.normal, dtype=np.float64)
+    n0 = n0 / np.maximum(np.linalg.norm(n0, axis=-1, keepdims=True), 1e-30)
+    n1 = np.asarray(ref_normal, dtype=np.float64)
+    n1 = n1 / np.maximum(np.linalg.norm(n1, axis=-1, keepdims=True), 1e-30)
+    best = np.full(both.shape, -1.0)
+    shifted = [np.stack(c, axis=-1) for c in zip(*(_neighbours(n1[..., k], 0.0) for k in range(3)))]
+    for n in shifted:
+        best = np.maximum(best, np.sum(n0 * n, axis=-1))
+    return float(np.percentile(np.degrees(np.arccos(np.clip(best[both], -1.0, 1.0))), 99))
+
+
 def compare(frame: Any, ref: dict[str, npt.NDArray[Any]], diagonal: float,
             ref_normal: npt.NDArray[Any] | None = None) -> dict[str, Any]:
     """How a rendered frame agrees with a reference ray cast (``raycast``'s dict).
@@ -142,7 +245,10 @@ def compare(frame: Any, ref: dict[str, npt.NDArray[Any]], diagonal: float,
     Depth differences are taken on pixels both hit and divided by ``diagonal``: ``depth_median``,
     ``depth_p99``, ``depth_max``. ``iou`` is the hit masks' intersection over union;
     ``normal_deg_median``/``_p99`` the angle between the frame's normals and ``ref_normal``
-    (default: the reference's face normals). ``nan_depth``/``nan_normal`` count NaN pixels.
+    (default: the reference's face normals); ``normal_deg_p99_1px`` its p99 with the same
+    one-pixel tolerance as depth (each pixel's angle to the nearest of the reference's 3 x 3
+    normals: a crease or silhouette that moved by less than a pixel costs nothing).
+    ``nan_depth``/``nan_normal`` count NaN pixels.
     ``depth_p99_1px`` is the p99 with a one-pixel tolerance at depth discontinuities: each pixel's
     difference to the nearest of the reference's 3 x 3 neighbourhood (a silhouette that moved by
     less than a pixel costs nothing; a camera next to a surface sees its silhouette as a whole
@@ -176,12 +282,10 @@ def compare(frame: Any, ref: dict[str, npt.NDArray[Any]], diagonal: float,
     else:
         out.update(depth_median=float("nan"), depth_p99=float("nan"), depth_max=float("nan"),
                    depth_p99_1px=float("nan"))
-    n0 = np.asarray(frame.normal)[both].astype(np.float64)
-    n1 = np.asarray(ref["normal"] if ref_normal is None else ref_normal)[both].astype(np.float64)
-    cos = np.sum(n0 * n1, axis=1) / np.maximum(np.linalg.norm(n0, axis=1) * np.linalg.norm(n1, axis=1), 1e-30)
-    ang = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+    ang = normal_angles(frame.normal, ref["normal"] if ref_normal is None else ref_normal, both)
     out["normal_deg_median"] = float(np.median(ang)) if len(ang) else float("nan")
     out["normal_deg_p99"] = float(np.percentile(ang, 99)) if len(ang) else float("nan")
+    out["normal_deg_p99_1px"] = _normal_p99_1px(frame, ref_normal if ref_normal is not None else ref["normal"], both)
     out["nan_normal"] = int(np.isnan(np.asarray(frame.normal)).any(axis=-1).sum())
     return out
 

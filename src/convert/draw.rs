@@ -7,7 +7,9 @@ use super::accuracy::{self, AreaSample, WeightedError, ERROR_QUANTILE, SAMPLES_P
 use super::frame::ChartFrame;
 use super::options::ConvertOptions;
 use super::raster::{self, Maps, PatchBox};
-use crate::mesh::{Mesh, MeshGeometry};
+use glam::DVec3;
+
+use crate::mesh::Mesh;
 
 /// A chart ready to draw: its own faces then its ring, its frame, and the longer side of its
 /// bounds.
@@ -34,11 +36,12 @@ pub struct Drawn {
     pub error: f64,
 }
 
-/// What every chart is drawn with: the mesh, its geometry, the options, and the set's one texel
+/// What every chart is drawn with: the mesh, its corner normals, the options, and the set's one texel
 /// size (the starting point when each chart gets its own).
 pub struct ChartDrawer<'a> {
     pub mesh: &'a Mesh,
-    pub geo: &'a MeshGeometry,
+    /// Per face, its corners' normals under the conversion's normal rule.
+    pub corner_normals: &'a [[DVec3; 3]],
     pub opts: &'a ConvertOptions,
     pub texel: f64,
     /// Whether each chart gets its own texel size (error-driven resolution).
@@ -88,11 +91,10 @@ impl ChartDrawer<'_> {
             .patch_box(texel, opts.resolution_cap(), opts.height_bits);
         let mut maps = raster::rasterize(
             self.mesh,
-            self.geo,
+            self.corner_normals,
             &job.faces,
             job.chart_faces,
             &bx,
-            opts.normals,
         );
         // The height field as a patch for the error lookups; its heights go back to the maps.
         let probe = bx.into_patch(

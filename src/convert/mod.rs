@@ -21,7 +21,7 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-pub use options::{ConvertArgs, ConvertOptions, ErrorScope, InPlane, NormalSource};
+pub use options::{ConvertArgs, ConvertOptions, ErrorScope, InPlane, NormalRule, NormalSource};
 pub use progress::Progress;
 
 use crate::error::{GeomtexError, Result};
@@ -195,9 +195,10 @@ fn raster_stages(
         .zip(rings)
         .map(|(c, ring)| ChartFrame::new(mesh, &c.faces, &ring.faces, c.z, opts.in_plane))
         .collect();
+    let corner_normals = geo.corner_normals(mesh, opts.normals);
     let drawer = ChartDrawer {
         mesh,
-        geo,
+        corner_normals: &corner_normals,
         opts,
         texel: resolution::common_texel(&frames, opts, geo.diagonal),
         per_chart_texel: max_error.is_some(),

@@ -7,6 +7,7 @@
 use std::str::FromStr;
 
 use crate::error::{parse_choice, GeomtexError, Result};
+pub use crate::mesh::{NormalRule, NormalSource};
 
 /// Whose reconstruction error `max_error` bounds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -26,15 +27,6 @@ pub enum InPlane {
     Pca,
     /// The sides of the minimum-area rectangle around the projected vertices.
     MinAreaRect,
-}
-
-/// Which normal goes into the normal map.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum NormalSource {
-    /// Area-weighted vertex normals interpolated across each face.
-    Smooth,
-    /// The face's own normal (keeps CAD creases sharp).
-    Flat,
 }
 
 /// `max_resolution` when none is given and the texel is one for the whole set.
@@ -85,7 +77,8 @@ pub struct ConvertOptions {
     /// Texels of normal/color dilation into empty space.
     pub dilation: usize,
     pub in_plane: InPlane,
-    pub normals: NormalSource,
+    /// The normals that go into the normal map (crease-split by default).
+    pub normals: NormalRule,
     /// Bits per height code, 8 or 16: 8 halves the height map's bytes and rounds heights to
     /// 1/254 of each patch's height range.
     pub height_bits: u8,
@@ -107,7 +100,7 @@ impl Default for ConvertOptions {
             overlap_rings: 1,
             dilation: 2,
             in_plane: InPlane::MinAreaRect,
-            normals: NormalSource::Smooth,
+            normals: NormalRule::default(),
             height_bits: 16,
         }
     }
@@ -240,22 +233,6 @@ impl FromStr for InPlane {
     }
 }
 
-impl FromStr for NormalSource {
-    type Err = GeomtexError;
-
-    /// "smooth" | "flat".
-    fn from_str(s: &str) -> Result<Self> {
-        parse_choice(
-            "normals",
-            s,
-            &[
-                ("smooth", NormalSource::Smooth),
-                ("flat", NormalSource::Flat),
-            ],
-        )
-    }
-}
-
 /// The keywords of `convert` as a caller (the Python binding) receives them: every one optional,
 /// integers as signed 64-bit. `into_options` fills the defaults and checks the ranges.
 #[derive(Clone, Debug, Default)]
@@ -274,6 +251,8 @@ pub struct ConvertArgs {
     pub dilation: Option<i64>,
     pub frame: Option<InPlane>,
     pub normals: Option<NormalSource>,
+    /// Degrees, with `normals` "crease" (the default).
+    pub crease_angle: Option<f64>,
     pub height_bits: Option<i64>,
 }
 
@@ -326,7 +305,7 @@ impl ConvertArgs {
             overlap_rings: count_or("overlap_rings", self.overlap_rings, default.overlap_rings)?,
             dilation: count_or("dilation", self.dilation, default.dilation)?,
             in_plane: self.frame.unwrap_or(default.in_plane),
-            normals: self.normals.unwrap_or(default.normals),
+            normals: NormalRule::from_keywords(self.normals, self.crease_angle)?,
             height_bits,
         };
         opts.validate()?;
@@ -360,7 +339,7 @@ mod tests {
         );
         assert_eq!(
             message("bumpy".parse::<NormalSource>().unwrap_err()),
-            "normals must be 'smooth' or 'flat', got \"bumpy\""
+            "normals must be 'crease', 'smooth' or 'flat', got \"bumpy\""
         );
     }
 
@@ -379,7 +358,7 @@ mod tests {
         assert_eq!(opts.compactness, 1.0);
         assert_eq!(
             (opts.in_plane, opts.normals),
-            (InPlane::MinAreaRect, NormalSource::Smooth)
+            (InPlane::MinAreaRect, NormalRule::default())
         );
     }
 
@@ -429,6 +408,22 @@ mod tests {
         };
         let opts = given.into_options().unwrap();
         assert_eq!((opts.max_resolution, opts.height_bits), (Some(64), 8));
-        assert_eq!(opts.normals, NormalSource::Flat);
+        assert_eq!(opts.normals.source, NormalSource::Flat);
+        let crease = ConvertArgs {
+            crease_angle: Some(45.0),
+            ..Default::default()
+        };
+        let rule = crease.into_options().unwrap().normals;
+        assert_eq!(
+            (rule.source, rule.crease_angle),
+            (NormalSource::Crease, 45.0)
+        );
+        assert_eq!(
+            bad(ConvertArgs {
+                crease_angle: Some(0.0),
+                ..Default::default()
+            }),
+            "crease_angle must be in (0, 180] degrees, got 0"
+        );
     }
 }

@@ -7,10 +7,9 @@
 
 use glam::{DVec2, DVec3};
 
-use super::options::NormalSource;
 use crate::appearance::FaceColor;
 use crate::gtex::{encode_height, encode_snorm8, Patch};
-use crate::mesh::{Mesh, MeshGeometry};
+use crate::mesh::Mesh;
 
 /// The box a chart is drawn into.
 #[derive(Clone, Copy, Debug)]
@@ -158,20 +157,16 @@ struct FaceShading<'m> {
 }
 
 impl<'m> FaceShading<'m> {
-    /// `face` places the face on the texel grid, so a texture is averaged over a texel.
+    /// Face `f` with its corners' normals (`MeshGeometry::corner_normals`); `face` places it on
+    /// the texel grid, so a texture is averaged over a texel.
     fn new(
         mesh: &'m Mesh,
-        geo: &MeshGeometry,
+        corner_normals: &[[DVec3; 3]],
         f: u32,
-        source: NormalSource,
         face: &LocalFace,
     ) -> FaceShading<'m> {
-        let tri = mesh.faces[f as usize];
         FaceShading {
-            normals: match source {
-                NormalSource::Smooth => tri.map(|v| geo.vertex_normals[v as usize]),
-                NormalSource::Flat => [geo.face_normals[f as usize]; 3],
-            },
+            normals: corner_normals[f as usize],
             colors: mesh.face_color(f, Some(face.flat())),
         }
     }
@@ -268,14 +263,7 @@ impl<'a> Canvas<'a> {
         })
     }
 
-    fn draw_face(
-        &mut self,
-        mesh: &Mesh,
-        geo: &MeshGeometry,
-        f: u32,
-        lips: bool,
-        source: NormalSource,
-    ) {
+    fn draw_face(&mut self, mesh: &Mesh, corner_normals: &[[DVec3; 3]], f: u32, lips: bool) {
         let corners = mesh.faces[f as usize].map(|v| self.to_local(mesh.positions[v as usize]));
         let Some(face) = LocalFace::new(corners) else {
             return;
@@ -284,7 +272,7 @@ impl<'a> Canvas<'a> {
             return;
         };
         self.measure_corners(&face, span);
-        let shading = FaceShading::new(mesh, geo, f, source, &face);
+        let shading = FaceShading::new(mesh, corner_normals, f, &face);
         for j in span.j0..=span.j1 {
             let py = j as f64 + 0.5;
             for i in span.i0..=span.i1 {
@@ -411,18 +399,18 @@ impl<'a> Canvas<'a> {
 /// The overlap-ring faces that follow get no lips: the neighbouring chart covers past them, and
 /// a lip on a ring face that is steep in this frame would stick out as a shelf. Without this,
 /// patches meeting at a sharp crease (where the overlap ring cannot reach, its faces pointing
-/// down) leave a crack of up to a texel that rays fall through.
+/// down) leave a crack of up to a texel that rays fall through. Normals are interpolated from
+/// each face's `corner_normals` (`MeshGeometry::corner_normals`, indexed by face).
 pub fn rasterize(
     mesh: &Mesh,
-    geo: &MeshGeometry,
+    corner_normals: &[[DVec3; 3]],
     faces: &[u32],
     chart_faces: usize,
     bx: &PatchBox,
-    normals: NormalSource,
 ) -> Maps {
     let mut canvas = Canvas::new(bx);
     for (n, &f) in faces.iter().enumerate() {
-        canvas.draw_face(mesh, geo, f, n < chart_faces, normals);
+        canvas.draw_face(mesh, corner_normals, f, n < chart_faces);
     }
     canvas.into_maps()
 }
@@ -497,6 +485,12 @@ pub fn dilate(maps: &mut Maps, width: u32, height: u32, iterations: usize) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mesh::{MeshGeometry, NormalRule, NormalSource};
+
+    fn flat_corners(m: &Mesh) -> Vec<[DVec3; 3]> {
+        let rule = NormalRule::from_keywords(Some(NormalSource::Flat), None).unwrap();
+        MeshGeometry::new(m).corner_normals(m, rule)
+    }
 
     #[test]
     fn a_tilted_plane_is_sampled_exactly_and_dilated() {
@@ -507,7 +501,7 @@ mod tests {
             None,
         )
         .unwrap();
-        let geo = MeshGeometry::new(&m);
+        let flat = flat_corners(&m);
         let bx = PatchBox {
             origin: DVec3::ZERO,
             axes: [DVec3::X, DVec3::Y, DVec3::Z],
@@ -516,7 +510,7 @@ mod tests {
             height: 4,
             height_bits: 16,
         };
-        let mut maps = rasterize(&m, &geo, &[0, 1], 2, &bx, NormalSource::Flat);
+        let mut maps = rasterize(&m, &flat, &[0, 1], 2, &bx);
         for j in 0..4 {
             for i in 0..8 {
                 let q = maps.heights[j * 8 + i];
@@ -529,7 +523,7 @@ mod tests {
             }
         }
         // Only one face: the other half stays empty, then dilation fills its normals.
-        let mut half = rasterize(&m, &geo, &[0], 1, &bx, NormalSource::Flat);
+        let mut half = rasterize(&m, &flat, &[0], 1, &bx);
         let empty = half.heights.iter().filter(|&&q| q == 0).count();
         assert!(empty > 0 && empty < 32);
         dilate(&mut half, 8, 4, 8);
@@ -548,7 +542,7 @@ mod tests {
             None,
         )
         .unwrap();
-        let geo = MeshGeometry::new(&m);
+        let flat = flat_corners(&m);
         let bx = PatchBox {
             origin: DVec3::new(0.0, 0.0, -0.5),
             axes: [DVec3::X, DVec3::Y, DVec3::Z],
@@ -557,7 +551,7 @@ mod tests {
             height: 2,
             height_bits: 16,
         };
-        let one = rasterize(&m, &geo, &[0], 1, &bx, NormalSource::Flat);
+        let one = rasterize(&m, &flat, &[0], 1, &bx);
         assert!(one.heights.iter().all(|&q| q != 0));
         assert_eq!(one.lips.len(), 1);
         assert!((one.lips[0].distance - 2f64.sqrt()).abs() < 1e-9);
@@ -565,7 +559,7 @@ mod tests {
         let worst = one.overhangs.iter().copied().fold(0.0, f64::max);
         assert!((worst - 8f64.sqrt()).abs() < 1e-9, "{:?}", one.overhangs);
         // Both triangles: the square is all mesh, nothing overhangs.
-        let both = rasterize(&m, &geo, &[0, 1], 2, &bx, NormalSource::Flat);
+        let both = rasterize(&m, &flat, &[0, 1], 2, &bx);
         assert!(both.overhangs.is_empty() && both.lips.is_empty());
     }
 }

@@ -367,7 +367,7 @@ pub fn load(py: Python<'_>, path: &Bound<'_, PyAny>) -> PyResult<PyGeometryTextu
 #[pyo3(signature = (mesh, *, max_resolution = None, texel_size = None, max_error = None,
     max_error_rel = None, error_scope = None, charts = None, chart_error = None, max_charts = None,
     compactness = None, lloyd_iterations = None, overlap_rings = None, dilation = None,
-    frame = None, normals = None, height_bits = None, progress = None))]
+    frame = None, normals = None, crease_angle = None, height_bits = None, progress = None))]
 #[allow(clippy::too_many_arguments)] // one per keyword of geomtex.convert
 pub fn convert(
     py: Python<'_>,
@@ -386,6 +386,7 @@ pub fn convert(
     dilation: Option<i64>,
     frame: Option<&Bound<'_, PyAny>>,
     normals: Option<&Bound<'_, PyAny>>,
+    crease_angle: Option<f64>,
     height_bits: Option<i64>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<PyGeometryTextureSet> {
@@ -408,6 +409,7 @@ pub fn convert(
         normals: opt_text(normals, "normals")?
             .map(|s| s.parse())
             .transpose()?,
+        crease_angle,
         height_bits,
     }
     .into_options()?;

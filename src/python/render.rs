@@ -16,6 +16,7 @@ use super::arrays::{image, mat4_to_numpy, matrix, ArrayPair};
 use super::errors::{heavy, parameter_error};
 use super::gtex::{set_stats, PyGeometryTextureSet};
 use super::mesh::PyMesh;
+use crate::mesh::NormalRule;
 use crate::render::{
     Camera, Light, Object, Quality, Renderer, Scene, SceneObject, SearchOverrides,
 };
@@ -144,11 +145,23 @@ pub struct PyScene {
 }
 
 /// A set or a mesh as a scene object; anything else was the Python package's to convert.
-fn scene_object(obj: &Bound<'_, PyAny>, world_from_object: DMat4) -> PyResult<SceneObject> {
+/// `normals` is a mesh's normal rule (the default when None); a set's normals are in its maps.
+fn scene_object(
+    obj: &Bound<'_, PyAny>,
+    world_from_object: DMat4,
+    normals: Option<NormalRule>,
+) -> PyResult<SceneObject> {
     let object = if let Ok(s) = obj.cast::<PyGeometryTextureSet>() {
+        if normals.is_some() {
+            return Err(parameter_error(
+                "normals and crease_angle apply to meshes; a GeometryTextureSet's normals were \
+                 chosen by convert(..., normals=...)"
+                    .into(),
+            ));
+        }
         Object::Textures(s.get().inner.clone())
     } else if let Ok(m) = obj.cast::<PyMesh>() {
-        Object::Mesh(m.get().inner.clone())
+        Object::Mesh(m.get().inner.clone(), normals.unwrap_or_default())
     } else {
         return Err(parameter_error(format!(
             "expected a GeometryTextureSet, a Mesh or a trimesh, got {}",
@@ -169,17 +182,29 @@ impl PyScene {
     }
 
     /// Adds a GeometryTextureSet or a Mesh placed by `world_from_object` (4x4, default identity).
-    /// Returns its index.
-    #[pyo3(signature = (obj, world_from_object = None))]
+    /// A mesh's normals follow `normals` ("crease" (default), "smooth" or "flat") with
+    /// `crease_angle` (degrees, default 20), as in convert. Returns its index.
+    #[pyo3(signature = (obj, world_from_object = None, *, normals = None, crease_angle = None))]
     fn add(
         &mut self,
         obj: &Bound<'_, PyAny>,
         world_from_object: Option<&Bound<'_, PyAny>>,
+        normals: Option<&Bound<'_, PyAny>>,
+        crease_angle: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<usize> {
         let world_from_object = mat4(world_from_object, "world_from_object")?;
+        let rule = match (normals, crease_angle) {
+            (None, None) => None,
+            _ => Some(NormalRule::from_keywords(
+                opt_text(normals, "normals")?
+                    .map(|s| s.parse())
+                    .transpose()?,
+                opt_real(crease_angle, "crease_angle")?,
+            )?),
+        };
         self.inner
             .objects
-            .push(scene_object(obj, world_from_object)?);
+            .push(scene_object(obj, world_from_object, rule)?);
         Ok(self.inner.objects.len() - 1)
     }
 
@@ -240,7 +265,7 @@ fn scene_of(obj: &Bound<'_, PyAny>) -> PyResult<Scene> {
     Ok(match obj.cast::<PyScene>() {
         Ok(s) => s.borrow().inner.clone(),
         Err(_) => Scene {
-            objects: vec![scene_object(obj, DMat4::IDENTITY)?],
+            objects: vec![scene_object(obj, DMat4::IDENTITY, None)?],
         },
     })
 }

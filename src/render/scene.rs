@@ -8,13 +8,14 @@ use glam::DMat4;
 
 use crate::error::{GeomtexError, Result};
 use crate::gtex::GeometryTextureSet;
-use crate::mesh::Mesh;
+use crate::mesh::{Mesh, NormalRule};
 
 /// What a scene holds; each variant is drawn by its module in `render::kinds`.
 #[derive(Clone)]
 pub enum Object {
     Textures(Arc<GeometryTextureSet>),
-    Mesh(Arc<Mesh>),
+    /// A rasterized mesh and the rule its normals follow (the same as `convert`'s).
+    Mesh(Arc<Mesh>, NormalRule),
 }
 
 #[derive(Clone)]

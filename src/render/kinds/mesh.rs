@@ -1,6 +1,7 @@
 //! Ordinary triangle meshes, rasterized (mesh_raster.wgsl) into the same targets as the ray-cast
-//! kinds, so the nearer surface wins at every pixel. Two-sided and flat-shaded, as a ray caster
-//! sees them.
+//! kinds, so the nearer surface wins at every pixel. Two-sided, as a ray caster sees them, and
+//! shaded by the same normal rule as `convert` (crease-split by default, `mesh::NormalRule`).
+//! Vertices go up unwelded, three per face, each with its corner's normal and color.
 //!
 //! Spaces: the mesh's object space (placed by `world_from_object`); its vertices are stored
 //! relative to their bounding box centre ("local", f32) so f32 keeps their detail; view
@@ -11,7 +12,7 @@ use wgpu::util::DeviceExt;
 
 use super::{DrawCall, FrameView, Kind, Tally, UploadCache};
 use crate::error::{GeomtexError, Result};
-use crate::mesh::Mesh;
+use crate::mesh::{Mesh, MeshGeometry, NormalRule};
 use crate::render::cull::DepthRange;
 use crate::render::device::Gpu;
 use crate::render::gpu_types::{gpu_matrix, normal_matrix, MeshObjectGpu, MeshVertex};
@@ -33,7 +34,8 @@ struct UploadedMesh {
 pub(crate) struct MeshKind {
     layout: wgpu::BindGroupLayout,
     pipeline: wgpu::RenderPipeline,
-    uploads: UploadCache<Mesh, UploadedMesh>,
+    /// Per mesh, its uploads under each normal rule it was drawn with.
+    uploads: UploadCache<Mesh, Vec<(NormalRule, UploadedMesh)>>,
 }
 
 impl MeshKind {
@@ -66,24 +68,21 @@ impl MeshKind {
     }
 }
 
-/// De-indexed vertices with face normals (flat, like a ray caster's hits) and base colors
-/// (vertex or face colors; a texture's color at each corner).
-fn upload(gpu: &Gpu, mesh: &Mesh) -> UploadedMesh {
+/// De-indexed vertices, three per face, with their corners' normals under `rule` and base
+/// colors (vertex or face colors; a texture's color at each corner).
+fn upload(gpu: &Gpu, mesh: &Mesh, rule: NormalRule) -> UploadedMesh {
     let (lo, hi) = mesh.bounds();
     let centre = 0.5 * (lo + hi);
+    let normals = MeshGeometry::new(mesh).corner_normals(mesh, rule);
     let mut vertices = Vec::with_capacity(mesh.faces.len() * 3);
-    for (f, t) in mesh.faces.iter().enumerate() {
+    for (f, (t, n)) in mesh.faces.iter().zip(&normals).enumerate() {
         let colors = mesh.face_color(f as u32, None);
-        let p = t.map(|v| mesh.positions[v as usize]);
-        let n = (p[1] - p[0])
-            .cross(p[2] - p[0])
-            .normalize_or_zero()
-            .as_vec3()
-            .to_array();
-        for (k, corner) in p.iter().enumerate() {
+        for k in 0..3 {
             vertices.push(MeshVertex {
-                position: (*corner - centre).as_vec3().to_array(),
-                normal: n,
+                position: (mesh.positions[t[k] as usize] - centre)
+                    .as_vec3()
+                    .to_array(),
+                normal: n[k].as_vec3().to_array(),
                 // A texture is only sampled at the corners (the Python layer warns).
                 color: colors.at(std::array::from_fn(|c| f64::from(u8::from(c == k)))),
             });
@@ -113,10 +112,14 @@ impl Kind for MeshKind {
         view_from_object: &DMat4,
         depth: &mut DepthRange,
     ) -> Result<bool> {
-        let Object::Mesh(mesh) = object else {
+        let Object::Mesh(mesh, rule) = object else {
             return Ok(false);
         };
-        let u = self.uploads.get_or_upload(mesh, |m| Ok(upload(gpu, m)))?;
+        let uploads = self.uploads.entry(mesh);
+        if !uploads.iter().any(|(r, _)| r == rule) {
+            uploads.push((*rule, upload(gpu, mesh, *rule)));
+        }
+        let (_, u) = uploads.iter().find(|(r, _)| r == rule).expect("uploaded");
         depth.include_box(view_from_object, u.lo, u.hi);
         Ok(true)
     }
@@ -128,10 +131,10 @@ impl Kind for MeshKind {
         placed: &SceneObject,
         tally: &mut Tally,
     ) -> Option<DrawCall> {
-        let Object::Mesh(mesh) = &placed.object else {
+        let Object::Mesh(mesh, rule) = &placed.object else {
             return None;
         };
-        let u = self.uploads.get(mesh)?;
+        let (_, u) = self.uploads.get(mesh)?.iter().find(|(r, _)| r == rule)?;
         let view_from_object = frame.view_from_world * placed.world_from_object;
         let view_from_local = view_from_object * DMat4::from_translation(u.centre);
         let record = MeshObjectGpu {
@@ -171,7 +174,7 @@ impl Kind for MeshKind {
         _first_id: &mut i32,
     ) -> Result<Option<super::TraceCall>> {
         match &placed.object {
-            Object::Mesh(_) => Err(GeomtexError::Parameter(
+            Object::Mesh(..) => Err(GeomtexError::Parameter(
                 "ray queries through meshes are not supported yet; query the texture sets, or \
                  use trimesh's ray queries for the meshes"
                     .into(),

@@ -160,6 +160,20 @@ impl<T, U> UploadCache<T, U> {
         Ok(&self.entries[&key].1)
     }
 
+    /// The cached upload of `object`, made empty (`U::default()`) when there is none: for kinds
+    /// that keep several uploads of one object (a mesh under different normal rules).
+    pub fn entry(&mut self, object: &Arc<T>) -> &mut U
+    where
+        U: Default,
+    {
+        let key = Self::key(object);
+        if self.get(object).is_none() {
+            self.entries
+                .insert(key, (Arc::downgrade(object), U::default()));
+        }
+        &mut self.entries.get_mut(&key).expect("just inserted").1
+    }
+
     pub fn purge(&mut self) {
         self.entries.retain(|_, (weak, _)| weak.strong_count() > 0);
     }
