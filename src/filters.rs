@@ -80,9 +80,9 @@ fn check_reach(near: &[(usize, usize)], points: usize, sigma: f64) -> Result<()>
     )))
 }
 
-/// What a Gaussian of `sigma` (world units) makes of each texel point: the offset along its
-/// normal (the weighted mean of (q - p)·n over neighbours q within 3 sigma facing the same way)
-/// and the weighted mean of those neighbours' normals (not normalized).
+/// What a Gaussian of `sigma` (world units) makes of each texel point p with normal n: the
+/// weighted means of q - p and of the normals over neighbours q within 3 sigma facing the same
+/// way (the mean normal not normalized).
 /// Neighbours come from a uniform grid of 3-sigma cells (sorted keys, no hash map needed). The
 /// grid already is the spatial index a k-d tree would be (a sphere query would test ~3x fewer
 /// candidates than 27 cells on a surface, the same order of work), so far reaches are refused
@@ -92,7 +92,7 @@ fn neighbour_means(
     normals: &[DVec3],
     sigma: f64,
     cancel: &Cancel,
-) -> Result<Vec<(f64, DVec3)>> {
+) -> Result<Vec<(DVec3, DVec3)>> {
     let r = 3.0 * sigma;
     let cell = |p: DVec3| (p / r).floor().as_i64vec3().to_array();
     // Keys computed once and sorted on all cores: a sequential sort by a computed key took
@@ -131,7 +131,7 @@ fn neighbour_means(
         .collect();
     check_reach(&counts, points.len(), sigma)?;
     cancel.check("filtering")?;
-    let per_cell: Vec<Vec<(u32, (f64, DVec3))>> = starts
+    let per_cell: Vec<Vec<(u32, (DVec3, DVec3))>> = starts
         .par_windows(2)
         .map(|w| {
             if cancel.is_cancelled() {
@@ -146,28 +146,28 @@ fn neighbour_means(
                 .map(|&k| {
                     let (p, n) = (points[k as usize], normals[k as usize]);
                     if cancel.is_cancelled() {
-                        return (k, (0.0, n)); // a dense cell can take seconds; dropped below
+                        return (k, (DVec3::ZERO, n)); // a dense cell can take seconds; dropped below
                     }
-                    let (mut num, mut den, mut normal_sum) = (0.0, 0.0, DVec3::ZERO);
+                    let (mut offset_sum, mut den, mut normal_sum) = (DVec3::ZERO, 0.0, DVec3::ZERO);
                     for &q in &near {
                         let d = points[q as usize] - p;
                         let d2 = d.length_squared();
                         let nq = normals[q as usize];
                         if d2 <= r * r && nq.dot(n) > 0.5 {
                             let w = (-d2 / (2.0 * sigma * sigma)).exp();
-                            num += w * d.dot(n);
+                            offset_sum += w * d;
                             den += w;
                             normal_sum += w * nq;
                         }
                     }
                     // The point itself always counts (w = 1), so den >= 1.
-                    (k, (num / den, normal_sum / den))
+                    (k, (offset_sum / den, normal_sum / den))
                 })
                 .collect()
         })
         .collect();
     cancel.check("filtering")?;
-    let mut out = vec![(0.0, DVec3::ZERO); points.len()];
+    let mut out = vec![(DVec3::ZERO, DVec3::ZERO); points.len()];
     for (k, m) in per_cell.into_iter().flatten() {
         out[k as usize] = m;
     }
@@ -183,12 +183,13 @@ const STEEP_COS: f64 = 0.5;
 /// Farthest (Chebyshev, texels) a steep texel looks for neighbours that are not steep.
 const STEEP_REACH: usize = 3;
 
-/// What the filter does to one filled texel: its move along its normal (world units) and its
-/// new world unit normal, with the cosine between its old normal and the patch's z axis.
+/// What the filter does to one filled texel: its move along the direction of the move (world
+/// units) and its new world unit normal, with the cosine between that direction and the patch's
+/// z axis.
 #[derive(Clone, Copy, Debug)]
 struct TexelMove {
     along_normal: f64,
-    /// The move itself: `along_normal` times the old normal (world).
+    /// The move itself: `along_normal` times the direction of the move (world).
     displacement: DVec3,
     normal: DVec3,
     cos: f64,
@@ -239,14 +240,18 @@ pub fn filtered(
     let means = neighbour_means(&points, &normals, sigma, cancel)?;
     let mut moves: Vec<Vec<Option<TexelMove>>> =
         set.patches.iter().map(|p| vec![None; p.texels()]).collect();
-    for ((&(k, t), &n), &(offset, mean_normal)) in slots.iter().zip(&normals).zip(&means) {
+    for ((&(k, t), &n), &(mean_offset, mean_normal)) in slots.iter().zip(&normals).zip(&means) {
+        // The move is along the neighbours' mean normal, smooth across creases (a crease-split
+        // shading normal would move two patches' texels at a crease apart).
+        let direction = mean_normal.normalize_or(n);
+        let offset = mean_offset.dot(direction);
         // Gaussian (gain -1): onto the neighbours' mean; high-pass: away from it, by gain.
         let normal = (n - gain * (mean_normal - n)).normalize_or(n);
         moves[k][t] = Some(TexelMove {
             along_normal: -gain * offset,
-            displacement: -gain * offset * n,
+            displacement: -gain * offset * direction,
             normal,
-            cos: n.dot(set.patches[k].axes[2]),
+            cos: direction.dot(set.patches[k].axes[2]),
         });
     }
     let patches = set

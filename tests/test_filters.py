@@ -89,12 +89,15 @@ def test_a_tiny_sigma_keeps_the_shading(bunny: Converted) -> None:
 
 def test_no_patch_border_shading_step(bunny: Converted) -> None:
     """Where two patches meet they show the same normal: the angle between their normals at
-    points of the shared chart edges (``seam_normal_steps``), median and p95. Measured (deg) on
-    pymeshlab's / the Stanford bunny: unfiltered 0.16 / 0.17 and 0.36 / 0.47; at 1 texel 0.16 /
-    0.17 and 0.57 / 0.83; at 2 texels 0.18 / 0.19 and 1.36 / 2.0."""
-    t = bunny.gts.texel_size
-    for sigma, p95_bound in ((None, 1.5), (1.0, 2.5), (2.0, 6.0)):
-        gts = bunny.gts if sigma is None else bunny.gts.filtered("gaussian", sigma * t)
+    points of the shared chart edges (``seam_normal_steps``), median and p95. Measured on a
+    set with smooth normals, since the default crease rule puts an intended step on every edge
+    sharper than 20 degrees (on the scans: p95 8-12 deg unfiltered). Measured (deg) on
+    pymeshlab's / the Stanford bunny: unfiltered median 0.16 / 0.16, p95 0.36 / 0.42; at 1
+    texel 0.16 / 0.17 and 0.56 / 0.78; at 2 texels 0.18 / 0.19 and 1.35 / 1.92."""
+    smooth = gt.convert(bunny.mesh, normals="smooth")
+    t = smooth.texel_size
+    for sigma, p95_bound in ((None, 1.25), (1.0, 2.3), (2.0, 5.5)):
+        gts = smooth if sigma is None else smooth.filtered("gaussian", sigma * t)
         steps = gts.seam_normal_steps(bunny.mesh)
         assert len(steps) == len(gts.seam_gaps(bunny.mesh)) > 10_000
         assert np.median(steps) < 0.5, sigma
