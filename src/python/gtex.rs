@@ -46,9 +46,9 @@ impl PyGeometryTextureSet {
         })?;
         let (inner, m) = (self.inner.clone(), mesh.get().inner.clone());
         check_source(&inner, &m)?;
-        Ok(heavy(py, "measuring seams", move |cancel| {
+        heavy(py, "measuring seams", move |cancel| {
             crate::filters::seams(&inner, &m, cancel)
-        })?)
+        })
     }
 }
 
