@@ -60,14 +60,16 @@ fn corner_codes(p: PatchMaps, ij: vec2<i32>) -> vec4<f32> {
     );
 }
 
-// Surface height at patch-local (u, v): bilinear where all four texels around hold surface and
-// (u, v) lies inside the outline; < 0 where there is none.
+// Height of the bilinear field at patch-local (u, v), where all four texels around hold a
+// height (< 0 elsewhere), before the outline cuts it: the linear search looks for the field's
+// crossings and then keeps those inside the outline, so a ray meeting the surface next to the
+// outline still has a sample on either side of it.
 fn height_at(p: PatchMaps, uv: vec2<f32>) -> f32 {
     let x = uv * p.size - 0.5;
     let base = floor(x);
     let f = x - base;
     let q = corner_codes(p, vec2<i32>(base));
-    if (any(q == vec4<f32>(0.0)) || blend(corner_outlines(p, vec2<i32>(base)), f) < 0.0) {
+    if (any(q == vec4<f32>(0.0))) {
         return -1.0;
     }
     return decode(p, blend(q, f));
@@ -80,7 +82,7 @@ fn inside_outline(p: PatchMaps, uv: vec2<f32>) -> bool {
     return blend(corner_outlines(p, vec2<i32>(base)), x - base) >= 0.0;
 }
 
-// +1 above the surface, -1 on or below it, 0 where there is no surface.
+// +1 above the field, -1 on or below it, 0 where it has no height.
 fn side(p: PatchMaps, point: vec3<f32>) -> f32 {
     let h = height_at(p, point.xy);
     if (h < 0.0) {
@@ -89,8 +91,44 @@ fn side(p: PatchMaps, point: vec3<f32>) -> f32 {
     return select(-1.0, 1.0, point.z > h);
 }
 
+// The crossing between t = a0 (on side s_a of the field) and t = b0 (on the other) by
+// bisection: t, or -1 where it lies outside the outline.
+fn bisect_crossing(p: PatchMaps, search: Search, o: vec3<f32>, d: vec3<f32>, a0: f32, b0: f32, s_a: f32) -> f32 {
+    var a = a0;
+    var b = b0;
+    for (var k = 0u; k < u32(search.steps.w); k += 1u) {
+        let m = 0.5 * (a + b);
+        if (side(p, o + d * m) == s_a) {
+            a = m;
+        } else {
+            b = m;
+        }
+    }
+    let hit = 0.5 * (a + b);
+    return select(-1.0, hit, inside_outline(p, (o + d * hit).xy));
+}
+
+// Where the field's domain (the cells with four heights) begins or ends between t = a0 (side
+// s_a) and t = b0 (one of the two outside it), by bisection: the parameter just inside it.
+fn domain_edge(p: PatchMaps, search: Search, o: vec3<f32>, d: vec3<f32>, a0: f32, b0: f32, s_a: f32) -> f32 {
+    var a = a0;
+    var b = b0;
+    for (var k = 0u; k < u32(search.steps.w); k += 1u) {
+        let m = 0.5 * (a + b);
+        if ((side(p, o + d * m) != 0.0) == (s_a != 0.0)) {
+            a = m;
+        } else {
+            b = m;
+        }
+    }
+    return select(b, a, s_a != 0.0);
+}
+
 // The paper's search: linear steps balanced by slant, then bisection; a crossing it finds
-// outside the outline (the steps straddled a notch of it) is passed over. Returns t or -1.
+// outside the outline (the steps straddled a notch of it) is passed over. Where a step enters
+// or leaves the field's domain (the rim, a texel or so past the outline), the stretch between
+// the domain's edge and the sample inside it is checked for a crossing too: with steps of two
+// texels, the surface next to the outline would otherwise be missed. Returns t or -1.
 fn linear_binary_hit(p: PatchMaps, search: Search, o: vec3<f32>, d: vec3<f32>, t_start: f32, t_end: f32) -> f32 {
     let span = abs(d.xy * (t_end - t_start)) * p.size;
     let n = u32(clamp(ceil(max(span.x, span.y) * search.steps.x), search.steps.y, search.steps.z));
@@ -99,21 +137,21 @@ fn linear_binary_hit(p: PatchMaps, search: Search, o: vec3<f32>, d: vec3<f32>, t
     for (var i = 1u; i <= n; i += 1u) {
         let t = mix(t_start, t_end, f32(i) / f32(n));
         let s = side(p, o + d * t);
+        var hit = -1.0;
         if (s != 0.0 && s_prev != 0.0 && s != s_prev) {
-            var a = t_prev;
-            var b = t;
-            for (var k = 0u; k < u32(search.steps.w); k += 1u) {
-                let m = 0.5 * (a + b);
-                if (side(p, o + d * m) == s_prev) {
-                    a = m;
-                } else {
-                    b = m;
-                }
+            hit = bisect_crossing(p, search, o, d, t_prev, t, s_prev);
+        } else if (s != s_prev) {
+            let edge = domain_edge(p, search, o, d, t_prev, t, s_prev);
+            let s_edge = side(p, o + d * edge);
+            if (s_prev == 0.0 && s_edge != 0.0 && s_edge != s) {
+                hit = bisect_crossing(p, search, o, d, edge, t, s_edge);
             }
-            let hit = 0.5 * (a + b);
-            if (inside_outline(p, (o + d * hit).xy)) {
-                return hit;
+            if (s == 0.0 && s_edge != 0.0 && s_edge != s_prev) {
+                hit = bisect_crossing(p, search, o, d, t_prev, edge, s_prev);
             }
+        }
+        if (hit >= 0.0) {
+            return hit;
         }
         t_prev = t;
         s_prev = s;
