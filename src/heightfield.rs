@@ -39,7 +39,12 @@ impl Cell {
 fn cell_at(p: &Patch, i: i64, j: i64) -> Option<Cell> {
     let (w, h) = (p.width as i64, p.height as i64);
     let index = |x: i64, y: i64| (y.clamp(0, h - 1) * w + x.clamp(0, w - 1)) as usize;
-    let corners = [index(i, j), index(i + 1, j), index(i, j + 1), index(i + 1, j + 1)];
+    let corners = [
+        index(i, j),
+        index(i + 1, j),
+        index(i, j + 1),
+        index(i + 1, j + 1),
+    ];
     let codes = corners.map(|t| p.heights[t] as f64);
     let outline = corners.map(|t| decode_outline(p.outline[t] as f64));
     let some_inside = outline.iter().any(|&d| d >= 0.0);
@@ -137,7 +142,13 @@ fn crossings(a: f64, b: f64, c: f64, lo: f64, hi: f64, graze: f64) -> [f64; 2] {
             return [f64::NAN; 2];
         }
     }
-    let mut kept = roots.map(|t| if t.is_finite() && t >= lo && t <= hi { t } else { f64::NAN });
+    let mut kept = roots.map(|t| {
+        if t.is_finite() && t >= lo && t <= hi {
+            t
+        } else {
+            f64::NAN
+        }
+    });
     if kept[0].is_nan() || kept[1] < kept[0] {
         kept.swap(0, 1);
     }

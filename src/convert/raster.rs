@@ -652,10 +652,17 @@ mod tests {
             assert!(d >= w && d - w < 1.0 / 63.0, "texel {t}: {d} for {w}");
         }
         // The lip's centre is outside, so no lip and no corner reaches past the triangle.
-        assert!(one.lips.is_empty() && one.overhangs.is_empty(), "{:?}", one.overhangs);
+        assert!(
+            one.lips.is_empty() && one.overhangs.is_empty(),
+            "{:?}",
+            one.overhangs
+        );
         // Both triangles: the square is all mesh, every centre 1/2 texel or more inside.
         let both = rasterize(&m, &geo, &[0, 1], 2, &bx, NormalSource::Flat);
         assert!(both.overhangs.is_empty() && both.lips.is_empty());
-        assert!(both.outline.iter().all(|&c| c == crate::gtex::encode_outline(0.5)));
+        assert!(both
+            .outline
+            .iter()
+            .all(|&c| c == crate::gtex::encode_outline(0.5)));
     }
 }

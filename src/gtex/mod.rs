@@ -145,7 +145,8 @@ impl Patch {
 
     /// Every texel holding surface: (index in the maps, world point, world unit normal).
     pub fn surface_texels(&self) -> impl Iterator<Item = (usize, DVec3, DVec3)> + '_ {
-        self.filled_texels().filter(|&(t, _, _)| self.outline[t] >= 0)
+        self.filled_texels()
+            .filter(|&(t, _, _)| self.outline[t] >= 0)
     }
 
     /// Every texel holding a height, inside the outline or not (those outside only shape the
@@ -209,7 +210,9 @@ pub const OUTLINE_INSIDE: i8 = 127;
 /// past it), which keeps patches meeting on a shared edge from leaving a hairline between them.
 #[inline]
 pub fn encode_outline(distance: f64) -> i8 {
-    (distance / OUTLINE_REACH * 127.0).ceil().clamp(-127.0, 127.0) as i8
+    (distance / OUTLINE_REACH * 127.0)
+        .ceil()
+        .clamp(-127.0, 127.0) as i8
 }
 
 /// Outline code (or a blend of codes) → signed distance in texels.
