@@ -80,7 +80,7 @@ def test_bunny_meets_the_issue_targets(bunny: Converted) -> None:
     recount = (sum(int(((p["height"] == 0) | (p["outline"] < 0)).sum()) for p in maps)
                / sum(p["height"].size for p in maps))
     assert recount == pytest.approx(st["empty_fraction"], abs=1e-12)
-    assert max(max(h.shape) for h in heights) <= 256
+    assert max(max(p["height"].shape) for p in maps) <= 256
     check_distances(bunny, n_points=20_000, n_samples=200_000)
 
 
