@@ -147,6 +147,17 @@ impl LocalFace {
         None
     }
 
+    /// Height of the face's plane over (px, py), clamped to the face's own height range: what
+    /// a lip holds, so the cells it is a corner of continue the face (bilinear blends reproduce a
+    /// plane) without a steep face sending it far off.
+    fn plane_z(&self, px: f64, py: f64) -> f64 {
+        let [a, b, c] = self.corners;
+        let wa = (b.x - px) * (c.y - py) - (b.y - py) * (c.x - px);
+        let wb = (c.x - px) * (a.y - py) - (c.y - py) * (a.x - px);
+        let wc = (a.x - px) * (b.y - py) - (a.y - py) * (b.x - px);
+        ((wa * a.z + wb * b.z + wc * c.z) * self.inv_area).clamp(self.lo.z, self.hi.z)
+    }
+
     /// Whether the point q (texel units) lies inside the face's projection.
     fn contains(&self, q: DVec2) -> bool {
         let t = self.flat();
@@ -231,7 +242,7 @@ impl<'a> Canvas<'a> {
             texel: DVec2::new(bx.extent.x / w as f64, bx.extent.y / h as f64),
             depth: vec![f64::NEG_INFINITY; w * h],
             coverage: vec![Coverage::Empty; w * h],
-            lip_distance: vec![0.0; w * h],
+            lip_distance: vec![f64::INFINITY; w * h],
             corner_distance: vec![f64::INFINITY; (w + 1) * (h + 1)],
             normals: vec![[0; 4]; w * h],
             colors: vec![[0; 4]; w * h],
@@ -304,7 +315,7 @@ impl<'a> Canvas<'a> {
 
     /// Texel `t` (centred at `centre`) takes the face's values at barycentric `l` if the face
     /// covers it better than what is there, or as well and higher (a ray coming down the box's
-    /// z sees the highest).
+    /// z sees the highest) or, for a lip, nearer.
     fn cover(
         &mut self,
         t: usize,
@@ -316,16 +327,25 @@ impl<'a> Canvas<'a> {
     ) {
         let [a, b, c] = face.corners;
         let [la, lb, lc] = l;
-        let z = la * a.z + lb * b.z + lc * c.z;
-        if here < self.coverage[t] || (here == self.coverage[t] && z <= self.depth[t]) {
+        let near = a * la + b * lb + c * lc;
+        let lip_distance =
+            DVec2::new((px - near.x) * self.texel.x, (py - near.y) * self.texel.y).length();
+        let z = match here {
+            Coverage::Lip => face.plane_z(px, py),
+            _ => near.z,
+        };
+        // Between lips the nearest face wins (the cells around continue it), else the highest.
+        let worse = match here {
+            Coverage::Lip => lip_distance >= self.lip_distance[t],
+            _ => z <= self.depth[t],
+        };
+        if here < self.coverage[t] || (here == self.coverage[t] && worse) {
             return;
         }
         self.coverage[t] = here;
         self.depth[t] = z;
         if here == Coverage::Lip {
-            let near = a * la + b * lb + c * lc;
-            self.lip_distance[t] =
-                DVec2::new((px - near.x) * self.texel.x, (py - near.y) * self.texel.y).length();
+            self.lip_distance[t] = lip_distance;
         }
         let n = shading.normal(l);
         self.normals[t] = encode_snorm8(self.to_patch_dir(n).normalize_or(DVec3::Z));
@@ -436,9 +456,10 @@ impl<'a> Canvas<'a> {
 ///
 /// Coverage is conservative for the first `chart_faces` faces (the chart's own): a texel within
 /// a texel's width (along x and y) of one but whose centre lies outside every face takes the
-/// values of the face's nearest point (a flat lip at most a texel diagonal wide, never an
-/// extrapolated plane, which a steep face would send far off), so every point of the face lies
-/// in a cell whose four texels are filled. Texels whose centre is covered always win over lips.
+/// height of the face's plane there, clamped to the face's own height range (so a steep face
+/// cannot send it far off), and the normal and color of the face's nearest point: a lip at most
+/// a texel diagonal wide, so every point of the face lies in a cell whose four texels are
+/// filled, and that cell continues the face's plane. Texels whose centre is covered always win over lips.
 /// The overlap-ring faces that follow get no lips: the neighbouring chart covers past them, and
 /// a lip on a ring face that is steep in this frame would bend the cells it is a corner of.
 /// Without lips, patches meeting at a sharp crease (where the overlap ring cannot reach, its

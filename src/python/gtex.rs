@@ -150,8 +150,8 @@ impl PyGeometryTextureSet {
         patch_dict(py, &self.inner.patches[i as usize])
     }
 
-    /// Every non-empty texel as a world point: ((N, 3) float64 points, (N, 3) float32 unit
-    /// normals).
+    /// Every texel holding surface (a height, and its centre inside the outline) as a world
+    /// point: ((N, 3) float64 points, (N, 3) float32 unit normals).
     fn to_points<'py>(&self, py: Python<'py>) -> ArrayPair<'py, PyArray2<f64>, PyArray2<f32>> {
         let inner = self.inner.clone();
         let (p, n) = heavy(
