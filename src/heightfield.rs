@@ -449,9 +449,9 @@ mod tests {
                     let hit = first_hit(&p, o, d, 0.0, 1.0);
                     let (x, y) = (u * 16.0 - 0.5, v * 16.0 - 0.5);
                     let inside = signed(x, y);
-                    if hit.is_some() {
+                    if let Some(t) = hit {
                         hits += 1;
-                        assert!((hit.unwrap() - 0.5).abs() < 1e-4);
+                        assert!((t - 0.5).abs() < 1e-4);
                     }
                     // A point wrongly in or out is at most this far from the outline.
                     if hit.is_some() != (inside >= 0.0) {
