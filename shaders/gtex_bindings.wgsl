@@ -12,3 +12,7 @@
 @group(1) @binding(4) var linear_clamp: sampler;
 // Every patch's min-max pyramid (src/heightfield.rs), from PatchMaps.pyramid_at.x on.
 @group(1) @binding(5) var<storage, read> pyramid: array<u32>;
+// Outline maps (src/gtex/mod.rs, encode_outline): signed distance from each texel centre to the
+// outline of the patch's faces, as snorm (1 = OUTLINE_REACH texels inside), read with textureLoad.
+// (Bindings 6 and 7 are the tracer's, gtex_trace_bindings.wgsl.)
+@group(1) @binding(8) var outlines: texture_2d_array<f32>;

@@ -1,14 +1,16 @@
 // Height-field intersection, shared by the ray-casting passes: the surface rule of
-// src/heightfield.rs (bilinear in cells whose four texels all hold surface; that CPU code is the
-// reference the tests hold this code to), the paper's linear + binary search, and an exact
-// min-max-pyramid traversal. Reads `heights` and `pyramid` (gtex_bindings.wgsl).
+// src/heightfield.rs (bilinear in cells whose four texels all hold surface, where the bilinear
+// blend of the texels' outline distances is not negative; that CPU code is the reference the
+// tests hold this code to), the paper's linear + binary search, and an exact min-max-pyramid
+// traversal. Reads `heights`, `outlines` and `pyramid` (gtex_bindings.wgsl). A crossing outside
+// the outline is no hit: every search goes on past it.
 //
 // Space: patch-local (unit cube, heights h in [0, 1]) and, inside it, texel-centre coordinates
 // x = u W - 1/2 (texel i at x = i) or cell-grid coordinates g = x + 1 (pyramid level-0 cell c spans
 // g in [c, c + 1]). Heights are 8- or 16-bit codes: 0 = empty, else
 // h = (code - 1) / (code_max - 1), code_max (255 or 65535) per patch.
 
-// Counting build: this fragment's height and pyramid reads (see COUNT_FETCHES).
+// Counting build: this fragment's height, outline and pyramid reads (see COUNT_FETCHES).
 var<private> fetches: u32 = 0u;
 
 fn load_code(p: PatchMaps, texel: vec2<i32>) -> f32 {
@@ -18,6 +20,30 @@ fn load_code(p: PatchMaps, texel: vec2<i32>) -> f32 {
     let hi = vec2<i32>(p.size) - 1;
     let t = clamp(texel, vec2<i32>(0), hi);
     return f32(textureLoad(heights, vec2<i32>(p.atlas_origin) + t, p.ids.x, 0).x);
+}
+
+// Outline distance at a texel (indices clamped), in units of OUTLINE_REACH texels.
+fn load_outline(p: PatchMaps, texel: vec2<i32>) -> f32 {
+    if (COUNT_FETCHES) {
+        fetches += 1u;
+    }
+    let t = clamp(texel, vec2<i32>(0), vec2<i32>(p.size) - 1);
+    return textureLoad(outlines, vec2<i32>(p.atlas_origin) + t, p.ids.x, 0).x;
+}
+
+// Outline distances at the corners of the cell with lower-left texel ij, in corner_codes' order.
+fn corner_outlines(p: PatchMaps, ij: vec2<i32>) -> vec4<f32> {
+    return vec4<f32>(
+        load_outline(p, ij),
+        load_outline(p, ij + vec2<i32>(1, 0)),
+        load_outline(p, ij + vec2<i32>(0, 1)),
+        load_outline(p, ij + vec2<i32>(1, 1)),
+    );
+}
+
+// Bilinear blend of a cell's corner values at fractions f in the cell.
+fn blend(q: vec4<f32>, f: vec2<f32>) -> f32 {
+    return mix(mix(q.x, q.y, f.x), mix(q.z, q.w, f.x), f.y);
 }
 
 fn decode(p: PatchMaps, code: f32) -> f32 {
@@ -34,8 +60,10 @@ fn corner_codes(p: PatchMaps, ij: vec2<i32>) -> vec4<f32> {
     );
 }
 
-// Surface height at patch-local (u, v): bilinear where all four texels around hold surface;
-// < 0 where there is none.
+// Height of the bilinear field at patch-local (u, v), where all four texels around hold a
+// height (< 0 elsewhere), before the outline cuts it: the linear search looks for the field's
+// crossings and then keeps those inside the outline, so a ray meeting the surface next to the
+// outline still has a sample on either side of it.
 fn height_at(p: PatchMaps, uv: vec2<f32>) -> f32 {
     let x = uv * p.size - 0.5;
     let base = floor(x);
@@ -44,10 +72,17 @@ fn height_at(p: PatchMaps, uv: vec2<f32>) -> f32 {
     if (any(q == vec4<f32>(0.0))) {
         return -1.0;
     }
-    return decode(p, mix(mix(q.x, q.y, f.x), mix(q.z, q.w, f.x), f.y));
+    return decode(p, blend(q, f));
 }
 
-// +1 above the surface, -1 on or below it, 0 where there is no surface.
+// Whether patch-local (u, v) lies inside the outline (bilinear in its cell).
+fn inside_outline(p: PatchMaps, uv: vec2<f32>) -> bool {
+    let x = uv * p.size - 0.5;
+    let base = floor(x);
+    return blend(corner_outlines(p, vec2<i32>(base)), x - base) >= 0.0;
+}
+
+// +1 above the field, -1 on or below it, 0 where it has no height.
 fn side(p: PatchMaps, point: vec3<f32>) -> f32 {
     let h = height_at(p, point.xy);
     if (h < 0.0) {
@@ -56,7 +91,44 @@ fn side(p: PatchMaps, point: vec3<f32>) -> f32 {
     return select(-1.0, 1.0, point.z > h);
 }
 
-// The paper's search: linear steps balanced by slant, then bisection. Returns t or -1.
+// The crossing between t = a0 (on side s_a of the field) and t = b0 (on the other) by
+// bisection: t, or -1 where it lies outside the outline.
+fn bisect_crossing(p: PatchMaps, search: Search, o: vec3<f32>, d: vec3<f32>, a0: f32, b0: f32, s_a: f32) -> f32 {
+    var a = a0;
+    var b = b0;
+    for (var k = 0u; k < u32(search.steps.w); k += 1u) {
+        let m = 0.5 * (a + b);
+        if (side(p, o + d * m) == s_a) {
+            a = m;
+        } else {
+            b = m;
+        }
+    }
+    let hit = 0.5 * (a + b);
+    return select(-1.0, hit, inside_outline(p, (o + d * hit).xy));
+}
+
+// Where the field's domain (the cells with four heights) begins or ends between t = a0 (side
+// s_a) and t = b0 (one of the two outside it), by bisection: the parameter just inside it.
+fn domain_edge(p: PatchMaps, search: Search, o: vec3<f32>, d: vec3<f32>, a0: f32, b0: f32, s_a: f32) -> f32 {
+    var a = a0;
+    var b = b0;
+    for (var k = 0u; k < u32(search.steps.w); k += 1u) {
+        let m = 0.5 * (a + b);
+        if ((side(p, o + d * m) != 0.0) == (s_a != 0.0)) {
+            a = m;
+        } else {
+            b = m;
+        }
+    }
+    return select(b, a, s_a != 0.0);
+}
+
+// The paper's search: linear steps balanced by slant, then bisection; a crossing it finds
+// outside the outline (the steps straddled a notch of it) is passed over. Where a step enters
+// or leaves the field's domain (the rim, a texel or so past the outline), the stretch between
+// the domain's edge and the sample inside it is checked for a crossing too: with steps of two
+// texels, the surface next to the outline would otherwise be missed. Returns t or -1.
 fn linear_binary_hit(p: PatchMaps, search: Search, o: vec3<f32>, d: vec3<f32>, t_start: f32, t_end: f32) -> f32 {
     let span = abs(d.xy * (t_end - t_start)) * p.size;
     let n = u32(clamp(ceil(max(span.x, span.y) * search.steps.x), search.steps.y, search.steps.z));
@@ -65,18 +137,21 @@ fn linear_binary_hit(p: PatchMaps, search: Search, o: vec3<f32>, d: vec3<f32>, t
     for (var i = 1u; i <= n; i += 1u) {
         let t = mix(t_start, t_end, f32(i) / f32(n));
         let s = side(p, o + d * t);
+        var hit = -1.0;
         if (s != 0.0 && s_prev != 0.0 && s != s_prev) {
-            var a = t_prev;
-            var b = t;
-            for (var k = 0u; k < u32(search.steps.w); k += 1u) {
-                let m = 0.5 * (a + b);
-                if (side(p, o + d * m) == s_prev) {
-                    a = m;
-                } else {
-                    b = m;
-                }
+            hit = bisect_crossing(p, search, o, d, t_prev, t, s_prev);
+        } else if (s != s_prev) {
+            let edge = domain_edge(p, search, o, d, t_prev, t, s_prev);
+            let s_edge = side(p, o + d * edge);
+            if (s_prev == 0.0 && s_edge != 0.0 && s_edge != s) {
+                hit = bisect_crossing(p, search, o, d, edge, t, s_edge);
             }
-            return 0.5 * (a + b);
+            if (s == 0.0 && s_edge != 0.0 && s_edge != s_prev) {
+                hit = bisect_crossing(p, search, o, d, t_prev, edge, s_prev);
+            }
+        }
+        if (hit >= 0.0) {
+            return hit;
         }
         t_prev = t;
         s_prev = s;
@@ -84,12 +159,13 @@ fn linear_binary_hit(p: PatchMaps, search: Search, o: vec3<f32>, d: vec3<f32>, t
     return -1.0;
 }
 
-// Smallest root of a s^2 + b s + c in [0, len], or -1; a dip shallower than `graze` between two
-// roots is no crossing.
-fn first_root(a: f32, b: f32, c: f32, len: f32, graze: f32) -> f32 {
+// The roots of a s^2 + b s + c in [0, len], smaller first, -1 for none; a dip shallower than
+// `graze` between two roots is no crossing.
+fn crossings(a: f32, b: f32, c: f32, len: f32, graze: f32) -> vec2<f32> {
+    let none = vec2<f32>(-1.0);
     let scale = max(max(abs(a), abs(b)), abs(c));
     if (scale == 0.0) {
-        return 0.0;
+        return vec2<f32>(0.0, -1.0);
     }
     var r0 = -1.0;
     var r1 = -1.0;
@@ -100,7 +176,7 @@ fn first_root(a: f32, b: f32, c: f32, len: f32, graze: f32) -> f32 {
     } else {
         let disc = b * b - 4.0 * a * c;
         if (disc < 0.0) {
-            return -1.0;
+            return none;
         }
         let q = -0.5 * (b + select(-1.0, 1.0, b >= 0.0) * sqrt(disc));
         r0 = q / a;
@@ -111,23 +187,23 @@ fn first_root(a: f32, b: f32, c: f32, len: f32, graze: f32) -> f32 {
         // the surface (heights are known to half a code), as in src/heightfield.rs.
         let both = r0 >= 0.0 && r0 <= len && r1 >= 0.0 && r1 <= len;
         if (both && abs(c - b * b / (4.0 * a)) < graze) {
-            return -1.0;
+            return none;
         }
     }
-    var best = -1.0;
-    if (r0 >= 0.0 && r0 <= len) {
-        best = r0;
+    let k0 = select(-1.0, r0, r0 >= 0.0 && r0 <= len);
+    let k1 = select(-1.0, r1, r1 >= 0.0 && r1 <= len);
+    if (k0 < 0.0 || (k1 >= 0.0 && k1 < k0)) {
+        return vec2<f32>(k1, k0);
     }
-    if (r1 >= 0.0 && r1 <= len && (best < 0.0 || r1 < best)) {
-        best = r1;
-    }
-    return best;
+    return vec2<f32>(k0, k1);
 }
 
 // First crossing inside one pyramid node for t in [ta, tb], on the bilinear surface through the
 // texels at the node's corners: at scale 1 (a level-0 cell) that is the exact surface; at scale
 // 2^L (level of detail) the map subsampled to every 2^L-th texel. The height along the ray is a
-// quadratic in t there. -2 when a corner texel is empty (no surface known at this scale).
+// quadratic in t there. The first crossing inside the outline counts (blended from the cell's
+// corners at scale 1; at a coarser scale every corner must be well inside it). -2 when a corner
+// texel is empty or, at a coarser scale, near the outline (no surface known at this scale).
 fn node_hit(p: PatchMaps, o: vec3<f32>, d: vec3<f32>, node: vec2<f32>, scale: f32, ta: f32, tb: f32) -> f32 {
     let g0 = vec2<f32>(o.x * p.size.x + 0.5, o.y * p.size.y + 0.5);
     let dg = d.xy * p.size / scale;
@@ -142,6 +218,15 @@ fn node_hit(p: PatchMaps, o: vec3<f32>, d: vec3<f32>, node: vec2<f32>, scale: f3
     if (any(q == vec4<f32>(0.0))) {
         return -2.0;
     }
+    let rim = vec4<f32>(
+        load_outline(p, lo),
+        load_outline(p, vec2<i32>(hi.x, lo.y)),
+        load_outline(p, vec2<i32>(lo.x, hi.y)),
+        load_outline(p, hi),
+    );
+    if (scale > 1.0 && any(rim < vec4<f32>(1.0))) {
+        return -2.0;
+    }
     let c00 = decode(p, q.x);
     let e = decode(p, q.y) - c00;
     let f = decode(p, q.z) - c00;
@@ -152,8 +237,13 @@ fn node_hit(p: PatchMaps, o: vec3<f32>, d: vec3<f32>, node: vec2<f32>, scale: f3
     let h1 = e * dg.x + f * dg.y + g * (fa.x * dg.y + fa.y * dg.x);
     let h0 = c00 + e * fa.x + f * fa.y + g * fa.x * fa.y;
     let graze = 0.5 / (f32(p.pyramid_at.z) - 1.0);
-    let s = first_root(-h2, d.z - h1, o.z + d.z * ta - h0, tb - ta, graze);
-    return select(-1.0, ta + s, s >= 0.0);
+    let s = crossings(-h2, d.z - h1, o.z + d.z * ta - h0, tb - ta, graze);
+    for (var k = 0; k < 2; k += 1) {
+        if (s[k] >= 0.0 && blend(rim, fa + dg * s[k]) >= 0.0) {
+            return ta + s[k];
+        }
+    }
+    return -1.0;
 }
 
 // Exact first hit by descending the min-max pyramid from level `top` (the ray's stretch lies in

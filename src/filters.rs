@@ -220,12 +220,12 @@ pub fn filtered(
             gain
         }
     };
-    // Every filled texel as a world point with its world normal.
+    // Every filled texel (outline maps carried as they are) as a world point with its normal.
     let mut points = Vec::new();
     let mut normals = Vec::new();
     let mut slots = Vec::new();
     for (k, p) in set.patches.iter().enumerate() {
-        for (t, point, normal) in p.surface_texels() {
+        for (t, point, normal) in p.filled_texels() {
             let normal = if normal == DVec3::ZERO {
                 p.axes[2]
             } else {

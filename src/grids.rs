@@ -12,6 +12,7 @@ use glam::{DVec2, DVec3};
 use crate::error::{GeomtexError, Result};
 use crate::gtex::{
     encode_height, encode_snorm8, vertical_extent, GeometryTextureSet, Patch, Stats, NEUTRAL_COLOR,
+    OUTLINE_INSIDE,
 };
 use crate::heightfield::grid_normal;
 
@@ -192,6 +193,8 @@ fn tile_patch(g: &HeightGrid, (i0, j0): (usize, usize), tile: usize, bits: u8) -
         colors: Vec::with_capacity(tw * th),
         faces: vec![],
         ring_faces: vec![],
+        // A grid's surface ends at its missing samples: the texel grid is its outline.
+        outline: vec![OUTLINE_INSIDE; tw * th],
     };
     for (i, j) in samples {
         let z = g.at(i, j);

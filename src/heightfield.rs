@@ -6,24 +6,49 @@
 //! texel-centre coordinates x = u W - 1/2, y = v H - 1/2, where texel (i, j) sits at (i, j).
 //!
 //! The surface: the bilinear blend of the four texels around (x, y) (indices clamped to the map,
-//! so the border half-texel is flat), where all four hold surface; none elsewhere. Inside a cell
-//! the height along a ray is a quadratic in t, so its first crossing is found in closed form.
-//! (A cell with an empty corner would need a made-up height there; conversion's overlap rings and
-//! conservative coverage make neighbouring patches overlap by more than that cell.) The shader
-//! (shaders/heightfield_functions.wgsl) implements the same rule.
+//! so the border half-texel is flat), where all four hold surface and the bilinear blend of their
+//! outline distances (gtex::decode_outline) is not negative; none elsewhere. Inside a cell the
+//! height along a ray is a quadratic in t, so its crossings are found in closed form; the first
+//! one inside the outline is the hit. (A cell with an empty corner would need a made-up height
+//! there; conversion fills every texel of the cells a drawn face touches, and the outline cuts
+//! the surface back to the faces, so neighbouring patches overlap by their overlap rings.) The
+//! shader (shaders/heightfield_functions.wgsl) implements the same rule.
 
 use glam::DVec3;
 
-use crate::gtex::Patch;
+use crate::gtex::{decode_outline, Patch};
 
-/// Corner codes of the cell whose lower-left texel centre is (i, j) (indices clamped); None
-/// unless all four hold surface.
-fn cell_codes(p: &Patch, i: i64, j: i64) -> Option<[f64; 4]> {
+/// The four corners of a cell, in the order (i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1):
+/// height codes and outline distances (texels).
+#[derive(Clone, Copy, Debug)]
+struct Cell {
+    codes: [f64; 4],
+    outline: [f64; 4],
+}
+
+impl Cell {
+    /// Bilinear blend of the corner outline distances at fractions (fx, fy) in the cell.
+    fn outline_at(&self, fx: f64, fy: f64) -> f64 {
+        let o = self.outline;
+        (o[0] * (1.0 - fx) + o[1] * fx) * (1.0 - fy) + (o[2] * (1.0 - fx) + o[3] * fx) * fy
+    }
+}
+
+/// The cell whose lower-left texel centre is (i, j) (indices clamped); None unless all four
+/// corners hold a height and some of the cell lies inside the outline.
+fn cell_at(p: &Patch, i: i64, j: i64) -> Option<Cell> {
     let (w, h) = (p.width as i64, p.height as i64);
-    let at =
-        |x: i64, y: i64| p.heights[(y.clamp(0, h - 1) * w + x.clamp(0, w - 1)) as usize] as f64;
-    let q = [at(i, j), at(i + 1, j), at(i, j + 1), at(i + 1, j + 1)];
-    q.iter().all(|&c| c > 0.0).then_some(q)
+    let index = |x: i64, y: i64| (y.clamp(0, h - 1) * w + x.clamp(0, w - 1)) as usize;
+    let corners = [
+        index(i, j),
+        index(i + 1, j),
+        index(i, j + 1),
+        index(i + 1, j + 1),
+    ];
+    let codes = corners.map(|t| p.heights[t] as f64);
+    let outline = corners.map(|t| decode_outline(p.outline[t] as f64));
+    let some_inside = outline.iter().any(|&d| d >= 0.0);
+    (codes.iter().all(|&c| c > 0.0) && some_inside).then_some(Cell { codes, outline })
 }
 
 /// Surface height at patch-local (u, v), or None where there is no surface.
@@ -37,7 +62,11 @@ pub fn height_and_slope(p: &Patch, u: f64, v: f64) -> Option<(f64, [f64; 2])> {
     let (x, y) = (u * p.width as f64 - 0.5, v * p.height as f64 - 0.5);
     let (i, j) = (x.floor(), y.floor());
     let (fx, fy) = (x - i, y - j);
-    let q = cell_codes(p, i as i64, j as i64)?;
+    let cell = cell_at(p, i as i64, j as i64)?;
+    if cell.outline_at(fx, fy) < 0.0 {
+        return None;
+    }
+    let q = cell.codes;
     let code = q[0] * (1.0 - fx) * (1.0 - fy)
         + q[1] * fx * (1.0 - fy)
         + q[2] * (1.0 - fx) * fy
@@ -84,12 +113,12 @@ pub fn graze(p: &Patch) -> f64 {
     0.5 / (p.code_max() - 1) as f64
 }
 
-/// Smallest root of a t^2 + b t + c in [lo, hi] where the ray really crosses, if any; a dip
-/// shallower than `graze` between two roots is no crossing.
-fn first_root(a: f64, b: f64, c: f64, lo: f64, hi: f64, graze: f64) -> Option<f64> {
+/// The roots of a t^2 + b t + c in [lo, hi] where the ray really crosses, in increasing order
+/// (NaN for none); a dip shallower than `graze` between two roots is no crossing.
+fn crossings(a: f64, b: f64, c: f64, lo: f64, hi: f64, graze: f64) -> [f64; 2] {
     let scale = a.abs().max(b.abs()).max(c.abs());
     if scale == 0.0 {
-        return Some(lo); // identically zero: the ray runs along the surface
+        return [lo, f64::NAN]; // identically zero: the ray runs along the surface
     }
     let mut roots = [f64::NAN; 2];
     if a.abs() <= 1e-14 * scale {
@@ -99,7 +128,7 @@ fn first_root(a: f64, b: f64, c: f64, lo: f64, hi: f64, graze: f64) -> Option<f6
     } else {
         let disc = b * b - 4.0 * a * c;
         if disc < 0.0 {
-            return None;
+            return roots;
         }
         // Stable form: no cancellation between -b and the square root.
         let qv = -0.5 * (b + b.signum() * disc.sqrt());
@@ -110,14 +139,20 @@ fn first_root(a: f64, b: f64, c: f64, lo: f64, hi: f64, graze: f64) -> Option<f6
             .filter(|t| t.is_finite() && **t >= lo && **t <= hi)
             .count();
         if inside == 2 && (c - b * b / (4.0 * a)).abs() < graze {
-            return None;
+            return [f64::NAN; 2];
         }
     }
-    roots
-        .iter()
-        .copied()
-        .filter(|t| t.is_finite() && *t >= lo && *t <= hi)
-        .reduce(f64::min)
+    let mut kept = roots.map(|t| {
+        if t.is_finite() && t >= lo && t <= hi {
+            t
+        } else {
+            f64::NAN
+        }
+    });
+    if kept[0].is_nan() || kept[1] < kept[0] {
+        kept.swap(0, 1);
+    }
+    kept
 }
 
 /// The exact first intersection of the ray o + t d (patch-local) with the patch's surface for t
@@ -173,18 +208,20 @@ pub fn first_hit(p: &Patch, o: DVec3, d: DVec3, t0: f64, t1: f64) -> Option<f64>
         let tm = 0.5 * (t + t_next);
         let (xm, ym) = (x0 + dx * tm, y0 + dy * tm);
         let (i, j) = (xm.floor(), ym.floor());
-        if let Some(q) = cell_codes(p, i as i64, j as i64) {
+        if let Some(cell) = cell_at(p, i as i64, j as i64) {
             // fx = ax + bx t, fy = ay + by t; code(t) = bilinear → quadratic in t.
             let (ax, bx) = (x0 - i, dx);
             let (ay, by) = (y0 - j, dy);
-            let [c00, c10, c01, c11] = q.map(|c| p.decode_height(c));
+            let [c00, c10, c01, c11] = cell.codes.map(|c| p.decode_height(c));
             // h = c00 + (c10-c00) fx + (c01-c00) fy + (c00-c10-c01+c11) fx fy
             let (e, f, g) = (c10 - c00, c01 - c00, c00 - c10 - c01 + c11);
             let h2 = g * bx * by;
             let h1 = e * bx + f * by + g * (ax * by + ay * bx);
             let h0 = c00 + e * ax + f * ay + g * ax * ay;
-            // z(t) - h(t) = 0
-            if let Some(r) = first_root(-h2, d.z - h1, o.z - h0, t, t_next, graze) {
+            // z(t) - h(t) = 0; a crossing outside the outline is none, the next one may be.
+            let roots = crossings(-h2, d.z - h1, o.z - h0, t, t_next, graze);
+            let inside = |r: f64| cell.outline_at(ax + bx * r, ay + by * r) >= 0.0;
+            if let Some(r) = roots.into_iter().find(|&r| r.is_finite() && inside(r)) {
                 return Some(r);
             }
         }
@@ -236,12 +273,10 @@ pub fn first_hits(
 /// Level 0 has (W + 1) x (H + 1) cells: cell (c, r) spans x in [c - 1, c], y in [r - 1, r]
 /// (texel-centre coordinates), so the clamped half-texel border has cells too. A value packs the
 /// largest code of the cell's four (clamped) corner texels in its high 16 bits and the smallest
-/// in its low 16 bits; 0 when a corner is empty (no surface in the cell). Every further level
+/// in its low 16 bits; 0 when the cell holds no surface (an empty corner, or all of it outside
+/// the outline). Every further level
 /// combines 2 x 2 nodes below it (max of maxes, min of the non-empty nodes' mins), down to 1 x 1.
 pub fn min_max_pyramid(p: &Patch) -> Vec<(u32, u32, Vec<u32>)> {
-    let (w, h) = (p.width as i64, p.height as i64);
-    let at =
-        |x: i64, y: i64| p.heights[(y.clamp(0, h - 1) * w + x.clamp(0, w - 1)) as usize] as u32;
     let pack = |codes: &mut dyn Iterator<Item = u32>| -> u32 {
         let (mut hi, mut lo) = (0u32, u32::MAX);
         for c in codes.filter(|&c| c > 0) {
@@ -254,16 +289,14 @@ pub fn min_max_pyramid(p: &Patch) -> Vec<(u32, u32, Vec<u32>)> {
             (hi << 16) | lo
         }
     };
+    let (w, h) = (p.width as i64, p.height as i64);
     let (cw, ch) = (w as u32 + 1, h as u32 + 1);
     let mut base = Vec::with_capacity((cw * ch) as usize);
     for r in 0..ch as i64 {
         for c in 0..cw as i64 {
-            let corners = [at(c - 1, r - 1), at(c, r - 1), at(c - 1, r), at(c, r)];
-            let full = corners.iter().all(|&q| q > 0);
-            base.push(if full {
-                pack(&mut corners.into_iter())
-            } else {
-                0
+            base.push(match cell_at(p, c - 1, r - 1) {
+                Some(cell) => pack(&mut cell.codes.into_iter().map(|q| q as u32)),
+                None => 0,
             });
         }
     }
@@ -308,6 +341,7 @@ pub(crate) fn test_patch(w: u32, h: u32, bits: u8, f: impl Fn(u32, u32) -> Optio
         colors: vec![[0; 4]; (w * h) as usize],
         faces: vec![],
         ring_faces: vec![],
+        outline: vec![crate::gtex::OUTLINE_INSIDE; (w * h) as usize],
     }
 }
 
@@ -385,6 +419,69 @@ mod tests {
                 other => panic!("{other:?} for o={o:?} d={d:?}"),
             }
         }
+    }
+
+    /// A flat 16 x 16 patch whose outline is the straight line through texel-centre point
+    /// `through` at angle `angle` (inside to its left).
+    fn cut_patch(angle: f64, through: (f64, f64)) -> (Patch, impl Fn(f64, f64) -> f64) {
+        let (n, (cx, cy)) = ((-angle.sin(), angle.cos()), through);
+        let signed = move |x: f64, y: f64| (x - cx) * n.0 + (y - cy) * n.1;
+        let mut p = patch(16, 16, |_, _| Some(0.4));
+        for j in 0..16 {
+            for i in 0..16 {
+                p.outline[j * 16 + i] = crate::gtex::encode_outline(signed(i as f64, j as f64));
+            }
+        }
+        (p, signed)
+    }
+
+    #[test]
+    fn a_straight_outline_ends_the_surface_within_a_twentieth_of_a_texel() {
+        for (angle, through) in [(0.3, (7.2, 7.9)), (1.9, (8.6, 6.3)), (-2.7, (5.1, 9.4))] {
+            let (p, signed) = cut_patch(angle, through);
+            // Rays slanting down onto a fine grid of points of the plane h = 0.4.
+            let (mut hits, mut worst) = (0, 0.0f64);
+            for a in 0..120 {
+                for b in 0..120 {
+                    let (u, v) = (0.1 + 0.8 * a as f64 / 119.0, 0.1 + 0.8 * b as f64 / 119.0);
+                    let d = DVec3::new(0.02, -0.03, -1.0);
+                    let o = DVec3::new(u, v, 0.4) - d * 0.5;
+                    let hit = first_hit(&p, o, d, 0.0, 1.0);
+                    let (x, y) = (u * 16.0 - 0.5, v * 16.0 - 0.5);
+                    let inside = signed(x, y);
+                    if let Some(t) = hit {
+                        hits += 1;
+                        assert!((t - 0.5).abs() < 1e-4);
+                    }
+                    // A point wrongly in or out is at most this far from the outline.
+                    if hit.is_some() != (inside >= 0.0) {
+                        worst = worst.max(inside.abs());
+                    }
+                    assert_eq!(height_at(&p, u, v).is_some(), hit.is_some());
+                }
+            }
+            // Measured 0.0095, 0.0115, 0.0103 texel (the codes round up, by 1/64 texel at
+            // most); the issue asks for 1/20, the bound is 3x the largest measured.
+            assert!(worst < 0.035, "{worst} texel off at angle {angle}");
+            assert!(hits > 3000 && hits < 120 * 120 - 3000, "{hits}");
+        }
+    }
+
+    #[test]
+    fn a_crossing_outside_the_outline_lets_the_ray_go_on() {
+        // Heights tilted along x, outline cutting off x < 7.5: a grazing ray along -x first
+        // meets the surface past the outline and must go on to its crossing inside.
+        let (mut p, _) = cut_patch(std::f64::consts::FRAC_PI_2 * 3.0, (7.5, 0.0));
+        for j in 0..16 {
+            for i in 0..16 {
+                p.heights[j * 16 + i] = crate::gtex::encode_height(0.2 + 0.04 * i as f64, 16);
+            }
+        }
+        // Inside is x >= 7.5 (texel centres); a ray going up the slope from the outside.
+        let o = DVec3::new(0.02, 0.5, 0.5);
+        let d = DVec3::new(1.0, 0.0, 0.05);
+        let t = first_hit(&p, o, d, 0.0, 1.0).expect("a hit inside the outline");
+        assert!((t * 16.0 + 0.02 * 16.0 - 0.5) >= 7.5 - 0.05, "{t}");
     }
 
     #[test]

@@ -254,6 +254,8 @@ def compare(frame: Any, ref: dict[str, npt.NDArray[Any]], diagonal: float,
     less than a pixel costs nothing; a camera next to a surface sees its silhouette as a whole
     line of pixels). ``mask_far_px`` counts hit/miss disagreements more than a pixel from any
     pixel where the other image hits (a silhouette moved by a pixel does not count).
+    ``crack_px`` counts pixels the reference hits and the frame misses inside the reference's
+    silhouette eroded by one pixel: holes, not a silhouette drawn a pixel thinner.
     """
     depth = np.asarray(frame.depth)
     hit = np.isfinite(depth)
@@ -269,6 +271,7 @@ def compare(frame: Any, ref: dict[str, npt.NDArray[Any]], diagonal: float,
         "iou": float(both.sum() / union.sum()) if union.any() else float("nan"),
         "nan_depth": int(np.isnan(depth).sum()),
         "mask_far_px": int((hit & ~_dilate(ref_hit)).sum() + (ref_hit & ~_dilate(hit)).sum()),
+        "crack_px": int((ref_hit & ~_dilate(~ref_hit) & ~hit).sum()),
     }
     if both.any():
         dz = np.abs(depth[both].astype(np.float64) - np.asarray(ref["depth"])[both]) / diagonal

@@ -81,10 +81,12 @@ pub fn surface_samples(mesh: &Mesh, faces: &[u32], spacing: f64, cap: usize) -> 
     out
 }
 
-/// Distances from the samples to the patch's height field, where the patch has a surface over
-/// them; samples off the map or in a cell without four filled texels are skipped (the rim, which
-/// conservative coverage and neighbouring patches account for).
+/// Distances from the samples to the patch's height field; samples off the map are skipped.
+/// A sample under no surface (the outline map cut it away: a chart narrower than its texels)
+/// counts as a hole a texel deep, so a resolution too coarse to hold the chart's shape is not
+/// mistaken for an accurate one.
 pub fn gaps(p: &Patch, samples: &[AreaSample]) -> Vec<WeightedError> {
+    let texel_len = ((p.extent.x / p.width as f64) * (p.extent.y / p.height as f64)).sqrt();
     samples
         .iter()
         .filter_map(|&AreaSample { point, area }| {
@@ -92,7 +94,12 @@ pub fn gaps(p: &Patch, samples: &[AreaSample]) -> Vec<WeightedError> {
             if !(0.0..=1.0).contains(&l.x) || !(0.0..=1.0).contains(&l.y) {
                 return None;
             }
-            let (h, [du, dv]) = height_and_slope(p, l.x, l.y)?;
+            let Some((h, [du, dv])) = height_and_slope(p, l.x, l.y) else {
+                return Some(WeightedError {
+                    value: texel_len,
+                    area,
+                });
+            };
             // World rise per world run along x and y.
             let (sx, sy) = (du * p.extent.z / p.extent.x, dv * p.extent.z / p.extent.y);
             let gap = (h - l.z).abs() * p.extent.z;

@@ -100,6 +100,7 @@ impl ChartDrawer<'_> {
         let probe = bx.into_patch(
             Maps {
                 heights: std::mem::take(&mut maps.heights),
+                outline: std::mem::take(&mut maps.outline),
                 ..Default::default()
             },
             Vec::new(),
@@ -107,6 +108,7 @@ impl ChartDrawer<'_> {
         );
         let mut errors = accuracy::gaps(&probe, samples);
         maps.heights = probe.heights;
+        maps.outline = probe.outline;
         let texel_len = ((bx.extent.x / bx.width as f64) * (bx.extent.y / bx.height as f64)).sqrt();
         errors.extend(accuracy::past_the_mesh(&maps, texel_len));
         let error = accuracy::quantile(&mut errors, ERROR_QUANTILE);

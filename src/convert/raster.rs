@@ -8,7 +8,7 @@
 use glam::{DVec2, DVec3};
 
 use crate::appearance::FaceColor;
-use crate::gtex::{encode_height, encode_snorm8, Patch};
+use crate::gtex::{encode_height, encode_outline, encode_snorm8, Patch, OUTLINE_REACH};
 use crate::mesh::Mesh;
 
 /// The box a chart is drawn into.
@@ -38,13 +38,14 @@ impl PatchBox {
             colors: maps.colors,
             faces,
             ring_faces,
+            outline: maps.outline,
         }
     }
 }
 
-/// A texel filled by conservative coverage alone, and the world distance (in the patch plane)
-/// from its centre to the point of the triangle it copies: how far the surface reaches past the
-/// mesh there.
+/// A texel filled by conservative coverage alone whose centre still lies inside the outline (by
+/// the outline map's rounding), and the world distance (in the patch plane) from its centre to
+/// the point of the triangle it copies: how far the surface reaches past the mesh there.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Lip {
     pub texel: usize,
@@ -56,9 +57,12 @@ pub struct Maps {
     pub heights: Vec<u16>,
     pub normals: Vec<[i8; 4]>,
     pub colors: Vec<[u8; 4]>,
+    /// Outline codes (gtex::encode_outline): signed distance from each texel centre to the
+    /// outline of the drawn faces, positive inside.
+    pub outline: Vec<i8>,
     pub lips: Vec<Lip>,
-    /// Texel corners where the height field has a surface but no drawn triangle lies under
-    /// them: the world distance (in the patch plane) to the nearest triangle, at most two texels
+    /// Texel corners where the height field has a surface (inside the outline) but no drawn
+    /// triangle lies under them: the world distance (in the patch plane) to the nearest triangle, at most two texels
     /// (larger gaps are not searched). A coarse map's cells and flat border reach over a chart's
     /// notches and past its outline; this is how far.
     pub overhangs: Vec<f64>,
@@ -68,7 +72,8 @@ pub struct Maps {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 enum Coverage {
     Empty,
-    /// The texel square touches the face but its centre lies outside it.
+    /// The square of a texel's width around the texel centre (the cells that centre is a
+    /// corner of) touches the face, but the centre lies outside it.
     Lip,
     /// The texel centre lies inside the face.
     Centre,
@@ -83,7 +88,7 @@ struct LocalFace {
     inv_area: f64,
     /// Tolerance so texel centres on a shared edge are never missed by both faces.
     eps: f64,
-    /// Half the texel square's extent along each edge's normal: the conservative margin.
+    /// A texel's extent along each edge's normal: the conservative margin.
     margins: [f64; 3],
     lo: DVec3,
     hi: DVec3,
@@ -97,7 +102,7 @@ impl LocalFace {
         if area.abs() < 1e-300 {
             return None;
         }
-        let margin = |p: DVec3, q: DVec3| 0.5 * ((q.x - p.x).abs() + (q.y - p.y).abs());
+        let margin = |p: DVec3, q: DVec3| (q.x - p.x).abs() + (q.y - p.y).abs();
         Some(LocalFace {
             corners,
             sign: area.signum(),
@@ -127,17 +132,30 @@ impl LocalFace {
                 [wa * sign * inv, wb * sign * inv, wc * sign * inv],
             ));
         }
-        // The texel square overlaps the triangle iff no separating axis exists among the three
-        // edge normals and the two box axes (so at most half a texel diagonal out).
+        // The square of a texel's width around the centre overlaps the triangle iff no
+        // separating axis exists among the three edge normals and the two box axes (so at most
+        // a texel diagonal out): then every cell with a corner here that the face touches has
+        // this corner filled, and the outline map trims the cell back to the face.
         let (lo, hi) = (self.lo, self.hi);
         let overlaps_box =
-            px + 0.5 >= lo.x && px - 0.5 <= hi.x && py + 0.5 >= lo.y && py - 0.5 <= hi.y;
+            px + 1.0 >= lo.x && px - 1.0 <= hi.x && py + 1.0 >= lo.y && py - 1.0 <= hi.y;
         let [ma, mb, mc] = self.margins;
         if lips && overlaps_box && wa >= -ma && wb >= -mb && wc >= -mc {
             let (la, lb, lc) = nearest_on_triangle(DVec2::new(px, py), self.flat());
             return Some((Coverage::Lip, [la, lb, lc]));
         }
         None
+    }
+
+    /// Height of the face's plane over (px, py), clamped to the face's own height range: what
+    /// a lip holds, so the cells it is a corner of continue the face (bilinear blends reproduce a
+    /// plane) without a steep face sending it far off.
+    fn plane_z(&self, px: f64, py: f64) -> f64 {
+        let [a, b, c] = self.corners;
+        let wa = (b.x - px) * (c.y - py) - (b.y - py) * (c.x - px);
+        let wb = (c.x - px) * (a.y - py) - (c.y - py) * (a.x - px);
+        let wc = (a.x - px) * (b.y - py) - (a.y - py) * (b.x - px);
+        ((wa * a.z + wb * b.z + wc * c.z) * self.inv_area).clamp(self.lo.z, self.hi.z)
     }
 
     /// Whether the point q (texel units) lies inside the face's projection.
@@ -220,7 +238,7 @@ impl<'a> Canvas<'a> {
             texel: DVec2::new(bx.extent.x / w as f64, bx.extent.y / h as f64),
             depth: vec![f64::NEG_INFINITY; w * h],
             coverage: vec![Coverage::Empty; w * h],
-            lip_distance: vec![0.0; w * h],
+            lip_distance: vec![f64::INFINITY; w * h],
             corner_distance: vec![f64::INFINITY; (w + 1) * (h + 1)],
             normals: vec![[0; 4]; w * h],
             colors: vec![[0; 4]; w * h],
@@ -244,12 +262,12 @@ impl<'a> Canvas<'a> {
         DVec3::new(n.dot(axes[0]), n.dot(axes[1]), n.dot(axes[2]))
     }
 
-    /// The texels a face's bounds touch (one more before them, for the conservative margin),
+    /// The texels a face's bounds touch (one more around them, for the conservative margin),
     /// or None if it lies wholly before the map.
     fn span(&self, face: &LocalFace) -> Option<TexelSpan> {
         let (lo, hi) = (face.lo, face.hi);
-        let i0 = (lo.x - 1.0).floor().max(0.0) as usize;
-        let j0 = (lo.y - 1.0).floor().max(0.0) as usize;
+        let i0 = (lo.x - 1.5).floor().max(0.0) as usize;
+        let j0 = (lo.y - 1.5).floor().max(0.0) as usize;
         let i1 = (hi.x.ceil()).min(self.w as f64 - 1.0);
         let j1 = (hi.y.ceil()).min(self.h as f64 - 1.0);
         if i1 < 0.0 || j1 < 0.0 {
@@ -286,7 +304,7 @@ impl<'a> Canvas<'a> {
 
     /// Texel `t` (centred at `centre`) takes the face's values at barycentric `l` if the face
     /// covers it better than what is there, or as well and higher (a ray coming down the box's
-    /// z sees the highest).
+    /// z sees the highest) or, for a lip, nearer.
     fn cover(
         &mut self,
         t: usize,
@@ -298,16 +316,25 @@ impl<'a> Canvas<'a> {
     ) {
         let [a, b, c] = face.corners;
         let [la, lb, lc] = l;
-        let z = la * a.z + lb * b.z + lc * c.z;
-        if here < self.coverage[t] || (here == self.coverage[t] && z <= self.depth[t]) {
+        let near = a * la + b * lb + c * lc;
+        let lip_distance =
+            DVec2::new((px - near.x) * self.texel.x, (py - near.y) * self.texel.y).length();
+        let z = match here {
+            Coverage::Lip => face.plane_z(px, py),
+            _ => near.z,
+        };
+        // Between lips the nearest face wins (the cells around continue it), else the highest.
+        let worse = match here {
+            Coverage::Lip => lip_distance >= self.lip_distance[t],
+            _ => z <= self.depth[t],
+        };
+        if here < self.coverage[t] || (here == self.coverage[t] && worse) {
             return;
         }
         self.coverage[t] = here;
         self.depth[t] = z;
         if here == Coverage::Lip {
-            let near = a * la + b * lb + c * lc;
-            self.lip_distance[t] =
-                DVec2::new((px - near.x) * self.texel.x, (py - near.y) * self.texel.y).length();
+            self.lip_distance[t] = lip_distance;
         }
         let n = shading.normal(l);
         self.normals[t] = encode_snorm8(self.to_patch_dir(n).normalize_or(DVec3::Z));
@@ -338,17 +365,24 @@ impl<'a> Canvas<'a> {
     }
 
     /// Corners where the surface reaches past every face: those whose four neighbouring texels
-    /// (the bilinear rule's blend around them, clamped at the map's border) are all filled.
-    fn overhangs(&self) -> Vec<f64> {
+    /// (the bilinear rule's blend around them, clamped at the map's border) are all filled and
+    /// whose blend of outline codes is not negative.
+    fn overhangs(&self, outline: &[i8]) -> Vec<f64> {
         let (w, h) = (self.w, self.h);
-        let filled =
-            |i: usize, j: usize| self.depth[j.min(h - 1) * w + i.min(w - 1)] > f64::NEG_INFINITY;
+        let texel = |i: usize, j: usize| j.min(h - 1) * w + i.min(w - 1);
+        let filled = |i: usize, j: usize| self.depth[texel(i, j)] > f64::NEG_INFINITY;
         let far = 2.0 * self.texel.x.max(self.texel.y);
         let mut overhangs = Vec::new();
         for cj in 0..=h {
             for ci in 0..=w {
                 let (i0, j0) = (ci.saturating_sub(1), cj.saturating_sub(1));
-                if filled(i0, j0) && filled(ci, j0) && filled(i0, cj) && filled(ci, cj) {
+                let around = [(i0, j0), (ci, j0), (i0, cj), (ci, cj)];
+                let inside = around
+                    .iter()
+                    .map(|&(i, j)| outline[texel(i, j)] as i32)
+                    .sum::<i32>()
+                    >= 0;
+                if inside && around.iter().all(|&(i, j)| filled(i, j)) {
                     let d = self.corner_distance[cj * (w + 1) + ci];
                     if d > 0.0 {
                         overhangs.push(d.min(far));
@@ -359,7 +393,22 @@ impl<'a> Canvas<'a> {
         overhangs
     }
 
-    fn into_maps(self) -> Maps {
+    /// Outline codes from the in-plane distance of each texel centre to the drawn faces'
+    /// outline (texel units, at most OUTLINE_REACH): positive where a face covers the centre.
+    fn outline_codes(&self, distance: &[f64]) -> Vec<i8> {
+        (0..self.w * self.h)
+            .map(|t| {
+                let d = distance[t].min(OUTLINE_REACH);
+                encode_outline(if self.coverage[t] == Coverage::Centre {
+                    d
+                } else {
+                    -d
+                })
+            })
+            .collect()
+    }
+
+    fn into_maps(self, outline_distance: &[f64]) -> Maps {
         let heights = self
             .depth
             .iter()
@@ -371,9 +420,10 @@ impl<'a> Canvas<'a> {
                 }
             })
             .collect();
-        let overhangs = self.overhangs();
+        let outline = self.outline_codes(outline_distance);
+        let overhangs = self.overhangs(&outline);
         let lips = (0..self.w * self.h)
-            .filter(|&t| self.coverage[t] == Coverage::Lip)
+            .filter(|&t| self.coverage[t] == Coverage::Lip && outline[t] >= 0)
             .map(|t| Lip {
                 texel: t,
                 distance: self.lip_distance[t],
@@ -383,6 +433,7 @@ impl<'a> Canvas<'a> {
             heights,
             normals: self.normals,
             colors: self.colors,
+            outline,
             lips,
             overhangs,
         }
@@ -392,15 +443,21 @@ impl<'a> Canvas<'a> {
 /// Draws `faces` into the box's maps; where faces overlap in projection the highest wins, as a
 /// ray coming down the box's z would see it.
 ///
-/// Coverage is conservative for the first `chart_faces` faces (the chart's own): a texel whose
-/// square touches one but whose centre lies outside every face takes the values of the face's
-/// nearest point (a flat lip at most half a texel diagonal wide, never an extrapolated plane,
-/// which a steep face would send far off). Texels whose centre is covered always win over lips.
+/// Coverage is conservative for the first `chart_faces` faces (the chart's own): a texel within
+/// a texel's width (along x and y) of one but whose centre lies outside every face takes the
+/// height of the face's plane there, clamped to the face's own height range (so a steep face
+/// cannot send it far off), and the normal and color of the face's nearest point: a lip at most
+/// a texel diagonal wide, so every point of the face lies in a cell whose four texels are
+/// filled, and that cell continues the face's plane. Texels whose centre is covered always win over lips.
 /// The overlap-ring faces that follow get no lips: the neighbouring chart covers past them, and
-/// a lip on a ring face that is steep in this frame would stick out as a shelf. Without this,
-/// patches meeting at a sharp crease (where the overlap ring cannot reach, its faces pointing
-/// down) leave a crack of up to a texel that rays fall through. Normals are interpolated from
-/// each face's `corner_normals` (`MeshGeometry::corner_normals`, indexed by face).
+/// a lip on a ring face that is steep in this frame would bend the cells it is a corner of.
+/// Without lips, patches meeting at a sharp crease (where the overlap ring cannot reach, its
+/// faces pointing down) would leave a crack of up to a texel that rays fall through. Normals are
+/// interpolated from each face's `corner_normals` (`MeshGeometry::corner_normals`, indexed by
+/// face).
+///
+/// The outline map then cuts the surface back to the faces: the signed distance from each
+/// texel centre to the outline of all drawn faces (their edges used by one drawn face only).
 pub fn rasterize(
     mesh: &Mesh,
     corner_normals: &[[DVec3; 3]],
@@ -412,7 +469,57 @@ pub fn rasterize(
     for (n, &f) in faces.iter().enumerate() {
         canvas.draw_face(mesh, corner_normals, f, n < chart_faces);
     }
-    canvas.into_maps()
+    let distance = canvas.outline_distance(mesh, faces);
+    canvas.into_maps(&distance)
+}
+
+/// The edges of `faces` that only one of them uses (as vertex pairs): their outline.
+fn boundary_edges(mesh: &Mesh, faces: &[u32]) -> Vec<[u32; 2]> {
+    let mut edges: Vec<[u32; 2]> = faces
+        .iter()
+        .flat_map(|&f| {
+            let [a, b, c] = mesh.faces[f as usize];
+            [[a, b], [b, c], [c, a]].map(|[p, q]| [p.min(q), p.max(q)])
+        })
+        .collect();
+    edges.sort_unstable();
+    let mut once = Vec::new();
+    let mut k = 0;
+    while k < edges.len() {
+        let run = edges[k..].iter().take_while(|&&e| e == edges[k]).count();
+        if run == 1 {
+            once.push(edges[k]);
+        }
+        k += run;
+    }
+    once
+}
+
+impl Canvas<'_> {
+    /// In-plane distance (texel units) from each texel centre to the nearest outline edge of
+    /// `faces`, measured out to OUTLINE_REACH (farther texels get that).
+    fn outline_distance(&self, mesh: &Mesh, faces: &[u32]) -> Vec<f64> {
+        let (w, h) = (self.w as i64, self.h as i64);
+        let mut distance = vec![OUTLINE_REACH; self.w * self.h];
+        for [a, b] in boundary_edges(mesh, faces) {
+            let [a, b] = [a, b].map(|v| self.to_local(mesh.positions[v as usize]).truncate());
+            let (lo, hi) = (a.min(b), a.max(b));
+            // Texel centres (i + 1/2, j + 1/2) within reach of the edge's bounds.
+            let first = |v: f64| ((v - OUTLINE_REACH - 0.5).floor() as i64).max(0);
+            let last = |v: f64, n: i64| ((v + OUTLINE_REACH - 0.5).ceil() as i64).min(n - 1);
+            for j in first(lo.y)..=last(hi.y, h) {
+                for i in first(lo.x)..=last(hi.x, w) {
+                    let c = DVec2::new(i as f64 + 0.5, j as f64 + 0.5);
+                    let ab = b - a;
+                    let s = ((c - a).dot(ab) / ab.length_squared().max(f64::MIN_POSITIVE))
+                        .clamp(0.0, 1.0);
+                    let t = (j * w + i) as usize;
+                    distance[t] = distance[t].min((a + ab * s - c).length());
+                }
+            }
+        }
+        distance
+    }
 }
 
 /// Barycentric coordinates of the point of triangle `t` nearest to `p` (p outside it): the
@@ -533,9 +640,10 @@ mod tests {
     }
 
     #[test]
-    fn overhang_is_how_far_a_coarse_map_reaches_past_the_outline() {
+    fn the_outline_cuts_a_coarse_map_back_to_its_triangle() {
         // The triangle (0,0), (4,0), (0,4) at z = 0 in a 2 x 2 map of 2-unit texels: all four
-        // texels fill (the far one as a lip), so the field covers the whole 4 x 4 square.
+        // texels fill (the far one as a lip), so without the outline map the field would cover
+        // the whole 4 x 4 square, its corner (4, 4) 2√2 past the hypotenuse.
         let m = Mesh::from_flat(
             &[0., 0., 0., 4., 0., 0., 0., 4., 0., 4., 4., 0.],
             &[0, 1, 2, 1, 3, 2],
@@ -553,13 +661,25 @@ mod tests {
         };
         let one = rasterize(&m, &flat, &[0], 1, &bx);
         assert!(one.heights.iter().all(|&q| q != 0));
-        assert_eq!(one.lips.len(), 1);
-        assert!((one.lips[0].distance - 2f64.sqrt()).abs() < 1e-9);
-        // The far corner (4, 4) is 2√2 from the hypotenuse; no corner is farther.
-        let worst = one.overhangs.iter().copied().fold(0.0, f64::max);
-        assert!((worst - 8f64.sqrt()).abs() < 1e-9, "{:?}", one.overhangs);
-        // Both triangles: the square is all mesh, nothing overhangs.
+        // Signed distances (texels) of the centres to the outline: 1/2 from the two legs, on
+        // the hypotenuse, and the lip's 1/√2 outside it (codes round up, by < 1/63 texel).
+        let want = [0.5, 0.0, 0.0, -0.5f64.sqrt()];
+        for (t, w) in want.into_iter().enumerate() {
+            let d = crate::gtex::decode_outline(one.outline[t] as f64);
+            assert!(d >= w && d - w < 1.0 / 63.0, "texel {t}: {d} for {w}");
+        }
+        // The lip's centre is outside, so no lip and no corner reaches past the triangle.
+        assert!(
+            one.lips.is_empty() && one.overhangs.is_empty(),
+            "{:?}",
+            one.overhangs
+        );
+        // Both triangles: the square is all mesh, every centre 1/2 texel or more inside.
         let both = rasterize(&m, &flat, &[0, 1], 2, &bx);
         assert!(both.overhangs.is_empty() && both.lips.is_empty());
+        assert!(both
+            .outline
+            .iter()
+            .all(|&c| c == crate::gtex::encode_outline(0.5)));
     }
 }

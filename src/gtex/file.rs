@@ -1,4 +1,4 @@
-//! The .gtex file format, version 3 (versions 1 and 2 are still read). Little-endian throughout.
+//! The .gtex file format, version 4 (versions 1 to 3 are still read). Little-endian throughout.
 //!
 //! ```text
 //! header (32 bytes): magic b"GTEX\r\n\x1a\n" | version u32 | reserved u32 | payload length u64 |
@@ -9,12 +9,13 @@
 //!          origin 3 f64 | axes 9 f64 | extent 3 f64 | width u32 | height u32 |
 //!          height bits u32 (8 or 16) | faces u32 | ring faces u32 | face ids u32[] |
 //!          ring face ids u32[] | heights u8[w*h] or u16[w*h] | normals i8[w*h*4] |
-//!          colors u8[w*h*4]
+//!          colors u8[w*h*4] | outline i8[w*h]
 //! ```
 //! A file whose bytes pass the checksum must still hold a possible set
 //! (`GeometryTextureSet::validate`: finite orthonormal frames, positive extents, 1 to 4096 texels a
 //! side, codes within their bits, face ids within the "faces" stat, per-patch stats per patch).
-//! Version 2 is the same without the per-patch stats; version 1 also lacks the height-bits field
+//! Version 3 is the same without the outline map (read as wholly inside: the surface ends at the
+//! texel grid, as it did); version 2 also lacks the per-patch stats; version 1 also lacks the height-bits field
 //! (every patch has 16-bit heights).
 //! Written by hand (not serde/bincode) so the layout is fixed, documented and readable from any
 //! language; the magic catches text-mode mangling the way PNG's does.
@@ -28,7 +29,7 @@ use super::{GeometryTextureSet, Patch, Stats};
 use crate::error::GeomtexError;
 
 pub const MAGIC: &[u8; 8] = b"GTEX\r\n\x1a\n";
-pub const VERSION: u32 = 3;
+pub const VERSION: u32 = 4;
 const HEADER: usize = 32;
 
 fn put_f64s(out: &mut Vec<u8>, v: &[f64]) {
@@ -90,6 +91,7 @@ pub fn encode(set: &GeometryTextureSet) -> Vec<u8> {
         }
         p.extend_from_slice(bytemuck::cast_slice(&patch.normals));
         p.extend_from_slice(bytemuck::cast_slice(&patch.colors));
+        p.extend_from_slice(bytemuck::cast_slice(&patch.outline));
     }
     let mut out = Vec::with_capacity(HEADER + p.len());
     out.extend_from_slice(MAGIC);
@@ -208,6 +210,11 @@ fn read_patch(r: &mut Reader, k: usize, version: u32) -> Result<Patch, String> {
     let colors =
         bytemuck::cast_slice::<u8, [u8; 4]>(r.take(texels * 4, &format!("{what} colors"))?)
             .to_vec();
+    let outline = if version >= 4 {
+        bytemuck::cast_slice::<u8, i8>(r.take(texels, &format!("{what} outline"))?).to_vec()
+    } else {
+        vec![super::OUTLINE_INSIDE; texels]
+    };
     Ok(Patch {
         origin,
         axes,
@@ -220,6 +227,7 @@ fn read_patch(r: &mut Reader, k: usize, version: u32) -> Result<Patch, String> {
         colors,
         faces: ids[..nf].to_vec(),
         ring_faces: ids[nf..].to_vec(),
+        outline,
     })
 }
 
@@ -331,6 +339,7 @@ mod tests {
             colors: vec![[1, 2, 3, 255]; 6],
             faces: vec![4, 5],
             ring_faces: vec![9],
+            outline: vec![127, -3, 0, 5, -127, 1],
         };
         let mut stats = Stats::default();
         stats.set("charts", 1.0);
@@ -363,25 +372,38 @@ mod tests {
         assert_eq!(decode(&encode(&s)).unwrap(), s);
     }
 
+    /// A file of format `version` with `payload`.
+    fn file(version: u32, payload: &[u8]) -> Vec<u8> {
+        let mut out = MAGIC.to_vec();
+        out.extend_from_slice(&version.to_le_bytes());
+        out.extend_from_slice(&0u32.to_le_bytes());
+        out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+        out.extend_from_slice(&crc32fast::hash(payload).to_le_bytes());
+        out.extend_from_slice(&0u32.to_le_bytes());
+        out.extend_from_slice(payload);
+        out
+    }
+
     #[test]
-    fn version_1_files_read_as_16_bit() {
+    fn older_versions_read_with_everything_inside_the_outline() {
         let s = sample();
-        let v3 = encode(&s);
+        let v4 = encode(&s);
         assert!(s.stats.per_patch.is_empty());
-        // Version 1: no per-patch stats (an empty list: its count u32) after the seconds and no
-        // height-bits field after width and height.
+        // What versions 1 to 3 hold: the same set with no outline map (everywhere inside).
+        let mut old = s.clone();
+        old.patches[0].outline = vec![crate::gtex::OUTLINE_INSIDE; 6];
+        // Version 3: the single patch's outline map (its last 6 bytes) is not there.
+        let v3 = file(3, &v4[HEADER..v4.len() - 6]);
+        assert_eq!(decode(&v3).unwrap(), old);
+        // Version 1 also has no per-patch stats (an empty list: its count u32) after the seconds
+        // and no height-bits field after width and height.
         // texel size, stats ("charts", "faces") and seconds ("raster"), patch count, 15 f64, w, h.
         let stats_end = HEADER + 8 + (4 + 2 + 6 + 8) * 2 + (2 + 5 + 8);
         let at = stats_end + 4 + 4 + 15 * 8 + 2 * 4;
         let mut payload = v3[HEADER..stats_end].to_vec();
         payload.extend_from_slice(&v3[stats_end + 4..at]);
         payload.extend_from_slice(&v3[at + 4..]);
-        let mut v1 = v3[..HEADER].to_vec();
-        v1[8..12].copy_from_slice(&1u32.to_le_bytes());
-        v1[16..24].copy_from_slice(&(payload.len() as u64).to_le_bytes());
-        v1[24..28].copy_from_slice(&crc32fast::hash(&payload).to_le_bytes());
-        v1.extend_from_slice(&payload);
-        assert_eq!(decode(&v1).unwrap(), s);
+        assert_eq!(decode(&file(1, &payload)).unwrap(), old);
     }
 
     #[test]

@@ -29,6 +29,7 @@ fn sample() -> Vec<u8> {
         colors: vec![[1, 2, 3, 255]; (w * h) as usize],
         faces: vec![0, 3],
         ring_faces: vec![5],
+        outline: (0..w * h).map(|t| (t * 53 % 255) as u8 as i8).collect(),
     };
     let mut stats = Stats::default();
     stats.set("faces", 6.0);

@@ -9,7 +9,10 @@
 //! Texel (i, j) (column i along u, row j along v) covers u in [i/w, (i+1)/w] and is sampled at its
 //! centre. Maps are row-major with row 0 at v = 0. Heights are codes of a patch's `height_bits`
 //! (8 or 16): 0 = empty, 1..=code_max map linearly to h in [0, 1]. Normals are patch-local unit
-//! vectors as signed bytes (x, y, z, 0).
+//! vectors as signed bytes (x, y, z, 0). The outline map holds, per texel, the signed distance
+//! from its centre to the outline of the faces the patch draws (texel units, positive inside,
+//! clamped to ±OUTLINE_REACH texels, see `encode_outline`): the surface ends where its bilinear
+//! blend is negative, so it stops where the mesh stops, not at the texel grid.
 
 use glam::{DMat4, DVec3, DVec4};
 
@@ -74,6 +77,8 @@ pub struct Patch {
     pub faces: Vec<u32>,
     /// Overlap-ring faces also drawn into this patch's maps.
     pub ring_faces: Vec<u32>,
+    /// Signed distance codes to the drawn faces' outline, one per texel (`decode_outline`).
+    pub outline: Vec<i8>,
 }
 
 impl Patch {
@@ -132,8 +137,21 @@ impl Patch {
         )
     }
 
-    /// Every non-empty texel: (index in the maps, world point, world unit normal).
+    /// Whether texel `t` holds surface: a height, and its centre inside the outline.
+    #[inline]
+    pub fn is_surface(&self, t: usize) -> bool {
+        self.heights[t] != 0 && self.outline[t] >= 0
+    }
+
+    /// Every texel holding surface: (index in the maps, world point, world unit normal).
     pub fn surface_texels(&self) -> impl Iterator<Item = (usize, DVec3, DVec3)> + '_ {
+        self.filled_texels()
+            .filter(|&(t, _, _)| self.outline[t] >= 0)
+    }
+
+    /// Every texel holding a height, inside the outline or not (those outside only shape the
+    /// bilinear cells the outline cuts): (index in the maps, world point, world unit normal).
+    pub fn filled_texels(&self) -> impl Iterator<Item = (usize, DVec3, DVec3)> + '_ {
         (0..self.height)
             .flat_map(move |j| (0..self.width).map(move |i| (i, j)))
             .filter_map(move |(i, j)| {
@@ -157,25 +175,50 @@ impl Patch {
         (self.extent.x / self.width as f64).min(self.extent.y / self.height as f64)
     }
 
+    /// Texels holding no surface: no height, or a centre outside the outline.
     pub fn empty_texels(&self) -> usize {
-        self.heights.iter().filter(|&&q| q == 0).count()
+        (0..self.texels()).filter(|&t| !self.is_surface(t)).count()
     }
 
-    /// Bytes the maps take: an 8- or 16-bit height + RGBA8 normal + RGBA8 color per texel.
+    /// Bytes the maps take: an 8- or 16-bit height + RGBA8 normal + RGBA8 color + an outline
+    /// byte per texel.
     pub fn map_bytes(&self) -> usize {
         map_bytes(self.texels(), self.height_bits)
     }
 }
 
-/// Bytes `texels` texels take: an 8- or 16-bit height + RGBA8 normal + RGBA8 color each.
+/// Bytes `texels` texels take: an 8- or 16-bit height + RGBA8 normal + RGBA8 color + an
+/// outline byte each.
 pub fn map_bytes(texels: usize, height_bits: u8) -> usize {
-    texels * (height_bits as usize / 8 + 4 + 4)
+    texels * (height_bits as usize / 8 + 4 + 4 + 1)
 }
 
 /// Height in [0, 1] to its `bits`-bit code in [1, code_max(bits)].
 #[inline]
 pub fn encode_height(h: f64, bits: u8) -> u16 {
     1 + (h.clamp(0.0, 1.0) * (code_max(bits) - 1) as f64).round() as u16
+}
+
+/// How far (texels) the outline map reaches on either side of the outline.
+pub const OUTLINE_REACH: f64 = 2.0;
+
+/// Outline code of a texel wholly inside (and of every texel of a map without outlines).
+pub const OUTLINE_INSIDE: i8 = 127;
+
+/// Signed distance to the outline (texels, positive inside) → its code: 127 steps per
+/// OUTLINE_REACH, rounded up so the surface never ends short of the outline (at most 1/64 texel
+/// past it), which keeps patches meeting on a shared edge from leaving a hairline between them.
+#[inline]
+pub fn encode_outline(distance: f64) -> i8 {
+    (distance / OUTLINE_REACH * 127.0)
+        .ceil()
+        .clamp(-127.0, 127.0) as i8
+}
+
+/// Outline code (or a blend of codes) → signed distance in texels.
+#[inline]
+pub fn decode_outline(code: f64) -> f64 {
+    code * OUTLINE_REACH / 127.0
 }
 
 #[inline]

@@ -77,6 +77,7 @@ fn check_maps(p: &Patch) -> Result<(), String> {
         ("heights", p.heights.len()),
         ("normals", p.normals.len()),
         ("colors", p.colors.len()),
+        ("outline", p.outline.len()),
     ] {
         if len != texels {
             return Err(format!(
@@ -165,6 +166,7 @@ mod tests {
             colors: vec![[1, 2, 3, 255]; 4],
             faces: vec![0, 1],
             ring_faces: vec![2],
+            outline: vec![127, 0, -5, 127],
         };
         let mut stats = Stats::default();
         stats.set("faces", 3.0);
@@ -219,6 +221,10 @@ mod tests {
             (
                 Box::new(|s| s.patches[1].normals.pop().map(drop).unwrap()),
                 "patch 1: normals hold 3 texels, the 2x2 map needs 4",
+            ),
+            (
+                Box::new(|s| s.patches[1].outline.push(0)),
+                "patch 1: outline hold 5 texels, the 2x2 map needs 4",
             ),
             (
                 Box::new(|s| s.patches[1].heights[2] = 256),

@@ -80,6 +80,7 @@ fn patch_dict<'py>(py: Python<'py>, p: &Patch) -> PyResult<Bound<'py, PyDict>> {
     d.set_item("normal", image(py, normals, (h, w, 4)))?;
     let colors: Vec<u8> = p.colors.iter().flatten().copied().collect();
     d.set_item("color", image(py, colors, (h, w, 4)))?;
+    d.set_item("outline", matrix(py, p.outline.clone(), h, w))?;
     d.set_item("world_from_patch", mat4_to_numpy(py, p.world_from_patch()))?;
     d.set_item("origin", PyArray1::from_slice(py, &p.origin.to_array()))?;
     d.set_item("axes", rows(py, &p.axes.map(|a| a.to_array())))?;
@@ -145,7 +146,9 @@ impl PyGeometryTextureSet {
 
     /// One patch's maps and frame as numpy arrays: height (H, W) codes, uint16 or uint8 as
     /// `height_bits` says (0 = empty, else h = (code - 1) / (2**height_bits - 2)), normal
-    /// (H, W, 4) int8 (patch-local xyz/127), color (H, W, 4) uint8, world_from_patch (4, 4),
+    /// (H, W, 4) int8 (patch-local xyz/127), color (H, W, 4) uint8, outline (H, W) int8 (signed
+    /// distance from each texel centre to the faces' outline, 127 = 2 texels, positive inside),
+    /// world_from_patch (4, 4),
     /// origin (3,), axes (3, 3) (rows x, y, z), extent (3,), faces and ring_faces (uint32).
     fn patch<'py>(
         &self,
@@ -163,8 +166,8 @@ impl PyGeometryTextureSet {
         patch_dict(py, &self.inner.patches[i as usize])
     }
 
-    /// Every non-empty texel as a world point: ((N, 3) float64 points, (N, 3) float32 unit
-    /// normals).
+    /// Every texel holding surface (a height, and its centre inside the outline) as a world
+    /// point: ((N, 3) float64 points, (N, 3) float32 unit normals).
     fn to_points<'py>(&self, py: Python<'py>) -> ArrayPair<'py, PyArray2<f64>, PyArray2<f32>> {
         let inner = self.inner.clone();
         let (p, n) = heavy(

@@ -1,5 +1,5 @@
-//! A texture set on the GPU: its patches' maps packed into three texture arrays (height, normal,
-//! color) by shelf packing, and every patch's min-max pyramid in one storage buffer.
+//! A texture set on the GPU: its patches' maps packed into four texture arrays (height, normal,
+//! color, outline) by shelf packing, and every patch's min-max pyramid in one storage buffer.
 //!
 //! Spaces: atlas texels (layer, x, y); a patch's texel (i, j) sits at its place + (i, j).
 
@@ -18,8 +18,8 @@ pub(crate) type Place = (u32, u32, u32);
 /// A texture set's maps and pyramids, uploaded.
 pub(crate) struct Atlas {
     pub places: Vec<Place>,
-    /// Height, normal and color arrays, as gtex_bindings.wgsl binds them.
-    pub views: [wgpu::TextureView; 3],
+    /// Height, normal, color and outline arrays, as gtex_bindings.wgsl binds them.
+    pub views: [wgpu::TextureView; 4],
     /// Every patch's min-max pyramid (src/heightfield.rs).
     pub pyramid: wgpu::Buffer,
     /// Per patch: its first value in `pyramid` and its level count.
@@ -95,8 +95,8 @@ fn pack(set: &GeometryTextureSet, side: u32) -> Result<(Vec<Place>, u32)> {
     Ok((places, layer + 1))
 }
 
-/// The height, normal and color arrays, `layers` of `side` x `side` texels each.
-fn map_textures(device: &wgpu::Device, side: u32, layers: u32, narrow: bool) -> [wgpu::Texture; 3] {
+/// The height, normal, color and outline arrays, `layers` of `side` x `side` texels each.
+fn map_textures(device: &wgpu::Device, side: u32, layers: u32, narrow: bool) -> [wgpu::Texture; 4] {
     let size = wgpu::Extent3d {
         width: side,
         height: side,
@@ -113,13 +113,14 @@ fn map_textures(device: &wgpu::Device, side: u32, layers: u32, narrow: bool) -> 
         make("heights", height_format),
         make("normals", wgpu::TextureFormat::Rgba8Snorm),
         make("colors", wgpu::TextureFormat::Rgba8Unorm),
+        make("outlines", wgpu::TextureFormat::R8Snorm),
     ]
 }
 
-/// Writes every patch's three maps at its place.
+/// Writes every patch's four maps at its place.
 fn write_maps(
     queue: &wgpu::Queue,
-    textures: &[wgpu::Texture; 3],
+    textures: &[wgpu::Texture; 4],
     set: &GeometryTextureSet,
     places: &[Place],
     narrow: bool,
@@ -138,10 +139,11 @@ fn write_maps(
         } else {
             bytemuck::cast_slice(&p.heights)
         };
-        let planes: [(&[u8], u32); 3] = [
+        let planes: [(&[u8], u32); 4] = [
             (height_plane, height_bytes),
             (bytemuck::cast_slice(&p.normals), 4),
             (bytemuck::cast_slice(&p.colors), 4),
+            (bytemuck::cast_slice(&p.outline), 1),
         ];
         for (texture, (bytes, texel)) in textures.iter().zip(planes) {
             queue.write_texture(

@@ -67,6 +67,24 @@ def wavy_sheet(n: int = 60) -> Mesh:
     return height_field(x, x, lambda u, v: 0.15 * np.sin(3 * u) * np.cos(2 * v))
 
 
+def gear_plate(teeth: int = 40, inner: float = 0.78, outer: float = 1.0) -> Mesh:
+    """A flat gear in the plane z = 0: ``teeth`` trapezoidal teeth between radii ``inner`` and
+    ``outer``, triangulated as a fan from the centre (the outline is star-shaped about it). One
+    planar chart whose outline is intricate: 4 * teeth corners, half of them concave."""
+    step = 2 * np.pi / teeth
+    # Per tooth: root, tip rising, tip falling, root again (angles as fractions of a step).
+    fractions = np.array([0.0, 0.2, 0.45, 0.65])
+    radii = np.array([inner, outer, outer, inner])
+    angles = (np.arange(teeth)[:, None] + fractions[None, :]).ravel() * step
+    r = np.tile(radii, teeth)
+    rim = np.column_stack([r * np.cos(angles), r * np.sin(angles), np.zeros_like(r)])
+    n = len(rim)
+    vertices = np.vstack([[0.0, 0.0, 0.0], rim])
+    k = np.arange(n)
+    faces = np.column_stack([np.zeros(n, np.int64), 1 + k, 1 + (k + 1) % n])
+    return Mesh(vertices, faces)
+
+
 def _pymeshlab(make: Callable[[Any], None]) -> Mesh:
     import pymeshlab
 

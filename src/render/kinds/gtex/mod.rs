@@ -131,6 +131,7 @@ fn textures_layout(
             count: None,
         },
         storage_entry(5, reads, true),
+        texture_entry(8, reads, filterable, array),
     ];
     entries.extend_from_slice(extra);
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -263,7 +264,7 @@ impl GtexKind {
     ) -> wgpu::BindGroup {
         let atlas = &upload.atlas;
         let records = storage_buffer(device, "patch records", bytemuck::cast_slice(records));
-        let [heights, normals, colors] = &atlas.views;
+        let [heights, normals, colors, outlines] = &atlas.views;
         let texture = wgpu::BindingResource::TextureView;
         let resources = [
             (0, records.as_entire_binding()),
@@ -272,6 +273,7 @@ impl GtexKind {
             (3, texture(colors)),
             (4, wgpu::BindingResource::Sampler(&self.sampler)),
             (5, atlas.pyramid.as_entire_binding()),
+            (8, texture(outlines)),
         ];
         let entries: Vec<_> = resources
             .into_iter()
