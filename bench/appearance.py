@@ -10,6 +10,9 @@ under its name) and ``bench/results/appearance.png`` (each part's headline figur
 issue's target). The parts write their own pictures (PNG pairs, ours beside the reference or
 before beside after) into ``bench/results/``.
 
+The outline part's "before" column needs a checkout of a commit before outline maps with its
+module built (GEOMTEX_BEFORE_CHECKOUT=path; see appearance_outlines.py).
+
 Run from the repository root (about 15 minutes on 2 cores)::
 
     python bench/appearance.py
@@ -59,7 +62,8 @@ def headline(results: dict[str, Any]) -> list[tuple[str, list[str], list[float],
     if "outlines" in results:
         m = results["outlines"]["meshes"]
         panels.append(("coverage 1 - IoU, worst view (target <= 0.005)", list(m),
-                       [1.0 - m[k]["iou_worst"] for k in m], 0.005, ""))
+                       [1.0 - min(min(r["after"]["iou"], r["after_exact"]["iou"]) for r in m[k]["views"]) for k in m],
+                       0.005, ""))
     if "colors" in results:
         m = results["colors"]["meshes"]
         panels.append(("albedo mean |diff|, interior (target <= 3/255)", list(m),

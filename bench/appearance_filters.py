@@ -26,7 +26,6 @@ from typing import Any
 import numpy as np
 
 import geomtex as gt
-from geomtex.testing.views import look_from
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED_BUNNY = REPO.parent / "shared" / "meshes" / "stanford-bunny.obj"

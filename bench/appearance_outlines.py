@@ -11,8 +11,9 @@ cast of the mesh from the same camera:
 - ``crack_px``: pixels the reference hits and we miss, inside its silhouette eroded by a pixel;
 - ``only_ref_px`` / ``only_frame_px``: pixels hit by one side only.
 
-"Before" is the same mesh converted by the checkout at ``--before`` (default ``/work/main``: the
-surface then ends at the texel grid, half a texel diagonal past the outline) in a subprocess,
+"Before" is the same mesh converted by a checkout of a commit before outline maps (``--before``,
+or the environment variable GEOMTEX_BEFORE_CHECKOUT; e.g. a worktree of 0f50b19 with its module
+built; without one the before column is skipped): the surface then ends at the texel grid, half a texel diagonal past the outline) in a subprocess,
 saved as .gtex (its version has no outline map, read here as everywhere inside) and rendered by
 this build: the renderer is the same, only the maps differ. Skipped (None) where that checkout
 has no built module. Its git commit is recorded.
@@ -43,7 +44,7 @@ from geomtex.testing import gear_plate, look_from
 REPO = Path(__file__).resolve().parents[1]
 OUT = REPO / "bench" / "results"
 SHARED = REPO.parent / "shared" / "meshes"
-DEFAULT_BEFORE = Path("/work/main")
+DEFAULT_BEFORE = Path(os.environ.get("GEOMTEX_BEFORE_CHECKOUT", "/nonexistent"))
 
 # Five directions that see each mesh's outline from the side it faces, none edge-on.
 VIEWS = [(1.0, 0.3, 0.5), (-0.6, 1.0, 0.3), (0.2, -0.8, 0.6), (-1.0, -0.4, 0.7), (0.4, 0.5, -0.8)]

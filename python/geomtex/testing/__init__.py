@@ -9,8 +9,17 @@ and by anyone checking their own meshes:
 from __future__ import annotations
 
 from .damage import add_fins, add_slivers, flip_faces, punch_holes, similar, soup
-from .shapes import (GENERATED, chamfered_box, flat_grid, gear_plate, grid_mesh, height_field, horizon_stack,
-                     subdivided, wavy_sheet)
+from .shapes import (
+                     GENERATED,
+                     chamfered_box,
+                     flat_grid,
+                     gear_plate,
+                     grid_mesh,
+                     height_field,
+                     horizon_stack,
+                     subdivided,
+                     wavy_sheet,
+)
 from .views import look_from
 
 __all__ = [
