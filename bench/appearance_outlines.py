@@ -11,12 +11,12 @@ cast of the mesh from the same camera:
 - ``crack_px``: pixels the reference hits and we miss, inside its silhouette eroded by a pixel;
 - ``only_ref_px`` / ``only_frame_px``: pixels hit by one side only.
 
-"Before" is the same mesh converted by a checkout of a commit before outline maps (``--before``,
-or the environment variable GEOMTEX_BEFORE_CHECKOUT; e.g. a worktree of 0f50b19 with its module
-built; without one the before column is skipped): the surface then ends at the texel grid, half a texel diagonal past the outline) in a subprocess,
-saved as .gtex (its version has no outline map, read here as everywhere inside) and rendered by
-this build: the renderer is the same, only the maps differ. Skipped (None) where that checkout
-has no built module. Its git commit is recorded.
+"Before" is the same mesh converted by a checkout of a commit before outline maps
+(``--before`` or the environment variable GEOMTEX_BEFORE_CHECKOUT, e.g. a worktree of 0f50b19
+with its module built; without one the before column is skipped; the surface then ends at the
+texel grid, half a texel diagonal past the outline) in a subprocess, saved as .gtex (its version
+has no outline map, read here as everywhere inside) and rendered by this build: the renderer is
+the same, only the maps differ. Its git commit is recorded.
 
 Results: ``bench/results/appearance_outlines.json``. Run from the repository root::
 
