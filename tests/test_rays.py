@@ -76,6 +76,11 @@ def test_scene_queries_take_the_nearest_object(bunny: Converted) -> None:
     ([[0, 0, 0], [0, 0, 0]], [[0, 0, 1], [0, 0, 0]], r"ray 1: .* direction non-zero"),
     ([[0, 0, 0]], [[0, 0, 1], [0, 1, 0]], r"must both be \(N, 3\)"),
     ([[0, 0]], [[0, 1]], r"must both be \(N, 3\)"),
+    ("abc", [[0, 0, 1]], r"origins must be an \(N, 3\) array-like of real numbers, got str"),
+    ([[0, 0, 0]], np.array([[False, False, True]]), r"directions must be .* dtype bool"),
+    ([[0, 0, 0]], [[0, 0, 1j]], r"directions must be .* dtype complex128"),
+    ([[0, 0, 0], [0, 0]], [[0, 0, 1], [0, 0, 1]], r"origins must be an \(N, 3\) array-like of real numbers"),
+    ([[0, 0, None]], [[0, 0, 1]], r"origins must be .* dtype object"),
 ])
 def test_bad_rays_raise_parameter_error(bunny: Converted, origins: object, directions: object, match: str) -> None:
     with pytest.raises(gt.ParameterError, match=match):

@@ -43,9 +43,22 @@ class RayHits(NamedTuple):
     hit: npt.NDArray[np.bool_]
 
 
+def _real_rows(name: str, value: npt.ArrayLike) -> np.ndarray:
+    """``value`` as C-contiguous float64; anything that is not an array-like of real numbers
+    (a str, None entries, a ragged list, bool or complex values) is a ParameterError naming it."""
+    try:
+        a = np.asarray(value)
+    except (ValueError, TypeError) as e:  # a ragged list
+        raise _core.ParameterError(f"{name} must be an (N, 3) array-like of real numbers: {e}") from None
+    if a.dtype.kind not in "iuf":
+        raise _core.ParameterError(
+            f"{name} must be an (N, 3) array-like of real numbers, got {type(value).__name__} of dtype {a.dtype}")
+    return np.ascontiguousarray(a, dtype=np.float64)
+
+
 def _rays(origins: npt.ArrayLike, directions: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
-    o = np.ascontiguousarray(origins, dtype=np.float64)
-    d = np.ascontiguousarray(directions, dtype=np.float64)
+    o = _real_rows("origins", origins)
+    d = _real_rows("directions", directions)
     if o.ndim == 1 and o.shape == (3,):
         o = np.broadcast_to(o, d.shape if d.ndim == 2 else (1, 3)).copy()
     if o.ndim != 2 or o.shape[1:] != (3,) or d.shape != o.shape:
