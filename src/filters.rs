@@ -189,8 +189,8 @@ const STEEP_REACH: usize = 3;
 #[derive(Clone, Copy, Debug)]
 struct TexelMove {
     along_normal: f64,
-    /// The move itself: `along_normal` times the direction of the move (world).
-    displacement: DVec3,
+    /// The direction of the move (world unit vector).
+    direction: DVec3,
     normal: DVec3,
     cos: f64,
 }
@@ -249,7 +249,7 @@ pub fn filtered(
         let normal = (n - gain * (mean_normal - n)).normalize_or(n);
         moves[k][t] = Some(TexelMove {
             along_normal: -gain * offset,
-            displacement: -gain * offset * direction,
+            direction,
             normal,
             cos: direction.dot(set.patches[k].axes[2]),
         });
@@ -272,32 +272,29 @@ pub fn filtered(
     Ok(out)
 }
 
-/// The mean of `value` over the nearest square ring around texel `t` of a `w` x `h` map (reach
-/// 1, 2, ... `reach` texels) where it gives any, or None.
-fn nearest_ring_mean<T>(
+/// The mean of `value` over the smallest square window around texel `t` of a `w` x `h` map
+/// (reach 1, 2, ... `reach` texels) where it gives any, or None.
+fn nearest_window_mean(
     (w, h): (usize, usize),
     t: usize,
     reach: usize,
-    value: impl Fn(usize) -> Option<T>,
-) -> Option<T>
-where
-    T: Copy + std::iter::Sum + std::ops::Div<f64, Output = T>,
-{
+    value: impl Fn(usize) -> Option<f64>,
+) -> Option<f64> {
     let (i, j) = (t % w, t / w);
     (1..=reach).find_map(|r| {
         let (i0, j0) = (i.saturating_sub(r), j.saturating_sub(r));
         let (i1, j1) = ((i + r).min(w - 1), (j + r).min(h - 1));
-        let found: Vec<T> = (j0..=j1)
+        let found: Vec<f64> = (j0..=j1)
             .flat_map(|y| (i0..=i1).map(move |x| y * w + x))
             .filter_map(&value)
             .collect();
-        (!found.is_empty()).then(|| found.iter().copied().sum::<T>() / found.len() as f64)
+        (!found.is_empty()).then(|| found.iter().sum::<f64>() / found.len() as f64)
     })
 }
 
 /// Vertical moves (world units along the patch's z) of a patch's filled texels: a move along
 /// the normal over the cosine where the texel is not steep; where it is, the mean of the nearest
-/// ring (up to `STEEP_REACH`) of such moves, or the move over `STEEP_COS` if none is near.
+/// window (up to `STEEP_REACH`) of such moves, or the move over `STEEP_COS` if none is near.
 fn vertical_moves(p: &Patch, moves: &[Option<TexelMove>]) -> Vec<f64> {
     let size = (p.width as usize, p.height as usize);
     let direct = |m: &TexelMove| m.along_normal / m.cos.max(STEEP_COS);
@@ -307,7 +304,7 @@ fn vertical_moves(p: &Patch, moves: &[Option<TexelMove>]) -> Vec<f64> {
             None => 0.0,
             Some(m) if m.cos >= STEEP_COS => direct(&m),
             Some(m) => {
-                nearest_ring_mean(size, t, STEEP_REACH, steady).unwrap_or_else(|| direct(&m))
+                nearest_window_mean(size, t, STEEP_REACH, steady).unwrap_or_else(|| direct(&m))
             }
         })
         .collect()
@@ -333,7 +330,7 @@ fn moved_heights(p: &Patch, moves: &[Option<TexelMove>]) -> Vec<f64> {
         .zip(moves)
         .map(|(&q, m)| {
             m.map(|m| {
-                let d = m.displacement;
+                let d = m.along_normal * m.direction;
                 let local = DVec3::new(d.dot(p.axes[0]), d.dot(p.axes[1]), d.dot(p.axes[2]));
                 (local / texel).extend(p.decode_height(q as f64) * p.extent.z)
             })
@@ -426,7 +423,9 @@ fn refit(p: &Patch, moves: &[Option<TexelMove>]) -> Patch {
 }
 
 /// The world unit normal patch `p` shows at patch-local (u, v): its normal map blended
-/// bilinearly between texel centres (clamped at the border), as the renderer samples it.
+/// bilinearly between texel centres (clamped at the border). The renderer leaves out texels
+/// across a crease from the nearest one; on the smooth-normal sets this measures, that is the
+/// same blend.
 fn normal_at(p: &Patch, u: f64, v: f64) -> DVec3 {
     let (w, h) = (p.width as i64, p.height as i64);
     let (x, y) = (u * w as f64 - 0.5, v * h as f64 - 0.5);

@@ -10,7 +10,7 @@ import pytest
 import geomtex as gt
 from geomtex.testing import GENERATED, flat_grid
 
-from conftest import Converted
+from conftest import Converted, pymeshlab_bunny_path
 
 
 @pytest.fixture(scope="module")
@@ -115,11 +115,7 @@ def test_no_spikes_at_rims() -> None:
     move along its normal by a cosine near 0.2: it takes its neighbours' vertical moves. At 6
     texels on the bunny (64-texel maps) the largest move of any texel point is 2.2x the p99
     move; dividing by the cosine had grown hair-like spikes along the ears' rims, 5.7x."""
-    from pathlib import Path
-
-    import pymeshlab
-
-    mesh = gt.load_mesh(Path(pymeshlab.__file__).parent / "tests" / "sample_meshes" / "bunny.obj")
+    mesh = gt.load_mesh(pymeshlab_bunny_path())
     gts = gt.convert(mesh, max_resolution=64)
     before, _ = gts.to_points()
     after, _ = gts.filtered("gaussian", 6 * gts.texel_size).to_points()
