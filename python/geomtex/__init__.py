@@ -17,7 +17,7 @@ import numpy as np
 # machines; geomtex picks its adapter itself, so the layer is not needed.
 os.environ.setdefault("NODEVICE_SELECT", "1")
 
-from . import _core, _grids, _preview, _rays  # noqa: E402
+from . import _core, _grids, _pickle, _preview, _rays  # noqa: E402
 from ._core import Camera, Frame, GeometryTextureSet, __version__  # noqa: E402
 from ._errors import (  # noqa: E402
     CancelledError,
@@ -91,6 +91,8 @@ for _cls, _name, _method in [
     (Frame, "save", _preview.save_frame),
 ]:
     setattr(_cls, _name, _method)
+
+_pickle.install()
 
 ProgressCallback = Callable[[str, float], "bool | None"]
 

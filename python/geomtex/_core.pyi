@@ -111,6 +111,9 @@ class GeometryTextureSet:
         self, origins: _Matrix, directions: _Matrix
     ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int32]]: ...
     def save(self, path: str | os.PathLike[str]) -> None: ...
+    def to_bytes(self) -> bytes: ...
+    @staticmethod
+    def from_bytes(data: bytes) -> GeometryTextureSet: ...
     def _repr_png_(self) -> bytes: ...
     def intersects_first(
         self, origins: npt.ArrayLike, directions: npt.ArrayLike, *, quality: _Quality | None = None,
@@ -176,6 +179,9 @@ class Camera:
     def rays(
         self, width: _Int, height: _Int
     ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+    def _state(self) -> tuple[str, npt.NDArray[np.float64], list[float], float | None]: ...
+    @staticmethod
+    def _from_state(kind: str, world_from_camera: _Matrix, numbers: Sequence[float], near: float | None) -> Camera: ...
 
 @disjoint_base
 class Scene:
@@ -185,6 +191,7 @@ class Scene:
         crease_angle: float | None = None,
     ) -> int: ...
     def __len__(self) -> int: ...
+    def _objects(self) -> list[tuple[Any, npt.NDArray[np.float64], str | None, float | None]]: ...
     def intersects_first(
         self, origins: npt.ArrayLike, directions: npt.ArrayLike, *, quality: _Quality | None = None,
         method: _Method | None = None,
@@ -199,6 +206,16 @@ class Scene:
 
 @final
 class Frame:
+    @staticmethod
+    def _from_arrays(
+        color: npt.NDArray[np.uint8],
+        albedo: npt.NDArray[np.uint8],
+        depth: npt.NDArray[np.float32],
+        normal: npt.NDArray[np.float32],
+        patch_id: npt.NDArray[np.int32],
+        shadow: npt.NDArray[np.bool_] | None,
+        stats: dict[str, Any],
+    ) -> Frame: ...
     @property
     def shadow(self) -> npt.NDArray[np.bool_] | None: ...
     @property

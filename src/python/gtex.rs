@@ -10,7 +10,7 @@ use numpy::{
     PyArray1, PyArray2, PyArray3, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods,
 };
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyBytes, PyDict};
 
 use super::args::{integer, opt_integer, opt_real, opt_text, path, rays, real};
 use super::arrays::{flat, image, mat4_to_numpy, matrix, rows, ArrayPair};
@@ -29,7 +29,7 @@ pub struct PyGeometryTextureSet {
 }
 
 impl PyGeometryTextureSet {
-    fn wrap(set: GeometryTextureSet) -> Self {
+    pub(crate) fn wrap(set: GeometryTextureSet) -> Self {
         PyGeometryTextureSet {
             inner: Arc::new(set),
         }
@@ -198,6 +198,24 @@ impl PyGeometryTextureSet {
         })?;
         let (t, k): (Vec<f64>, Vec<i32>) = hits.into_iter().unzip();
         Ok((PyArray1::from_vec(py, t), PyArray1::from_vec(py, k)))
+    }
+
+    /// The set as the bytes of a .gtex file (what `save` writes): exact, checksummed, and how
+    /// the set is pickled.
+    fn to_bytes<'py>(&self, py: Python<'py>) -> Bound<'py, PyBytes> {
+        let inner = self.inner.clone();
+        let bytes = py.detach(move || crate::gtex::file::encode(&inner));
+        PyBytes::new(py, &bytes)
+    }
+
+    /// A set from the bytes of a .gtex file (`to_bytes`, or a file read by the caller);
+    /// FormatError for anything that is not an intact one.
+    #[staticmethod]
+    fn from_bytes(py: Python<'_>, data: &[u8]) -> PyResult<Self> {
+        let set = py
+            .detach(|| crate::gtex::file::decode(data))
+            .map_err(|e| GeomtexError::Format(format!("GeometryTextureSet.from_bytes: {e}")))?;
+        Ok(PyGeometryTextureSet::wrap(set))
     }
 
     /// Writes a .gtex file atomically (no half file is ever left behind).

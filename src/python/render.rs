@@ -2,7 +2,7 @@
 //! string→enum parsing live in `crate::render`; trimesh objects and paths are turned into meshes
 //! by the Python package before they reach these classes.
 
-use std::sync::{Mutex, MutexGuard};
+use std::sync::{Arc, Mutex, MutexGuard};
 
 use glam::{DMat4, DVec3};
 use numpy::{PyArray1, PyArray2, PyArray3, PyUntypedArrayMethods};
@@ -16,9 +16,9 @@ use super::arrays::{image, mat4_to_numpy, matrix, ArrayPair};
 use super::errors::{heavy, parameter_error};
 use super::gtex::{set_stats, PyGeometryTextureSet};
 use super::mesh::PyMesh;
-use crate::mesh::NormalRule;
+use crate::mesh::{NormalRule, NormalSource};
 use crate::render::{
-    Camera, Light, Object, Quality, Renderer, Scene, SceneObject, SearchOverrides,
+    Camera, Light, Object, Projection, Quality, Renderer, Scene, SceneObject, SearchOverrides,
 };
 
 /// A camera: OpenGL-style pose (looks down -Z, +Y up) as pyrender and trimesh use; see
@@ -121,6 +121,65 @@ impl PyCamera {
         ))
     }
 
+    /// What the camera is made of, as pickling stores it: (kind, world_from_camera (4, 4)
+    /// OpenGL pose, projection numbers, near or None); `_from_state` makes it again.
+    fn _state<'py>(&self, py: Python<'py>) -> CameraState<'py> {
+        let c = &self.inner;
+        let numbers = match c.projection {
+            Projection::Perspective { yfov } => vec![yfov],
+            Projection::Intrinsics {
+                fx,
+                fy,
+                cx,
+                cy,
+                width,
+                height,
+            } => vec![fx, fy, cx, cy, f64::from(width), f64::from(height)],
+            Projection::Orthographic { ymag } => vec![ymag],
+        };
+        let kind = c.projection.kind();
+        (
+            kind,
+            mat4_to_numpy(py, c.world_from_camera),
+            numbers,
+            c.near,
+        )
+    }
+
+    /// The camera `_state` described, checked as the constructors check their arguments.
+    #[staticmethod]
+    fn _from_state(
+        kind: &str,
+        world_from_camera: &Bound<'_, PyAny>,
+        numbers: Vec<f64>,
+        near: Option<f64>,
+    ) -> PyResult<Self> {
+        let pose = mat4(Some(world_from_camera), "world_from_camera")?;
+        let size =
+            |v: f64| (v >= 1.0 && v <= f64::from(u32::MAX) && v.fract() == 0.0).then_some(v as u32);
+        let projection = match (kind, numbers.as_slice()) {
+            ("perspective", &[yfov]) => Some(Projection::Perspective { yfov }),
+            ("orthographic", &[ymag]) => Some(Projection::Orthographic { ymag }),
+            ("intrinsics", &[fx, fy, cx, cy, w, h]) => {
+                size(w)
+                    .zip(size(h))
+                    .map(|(width, height)| Projection::Intrinsics {
+                        fx,
+                        fy,
+                        cx,
+                        cy,
+                        width,
+                        height,
+                    })
+            }
+            _ => None,
+        }
+        .ok_or_else(|| parameter_error(format!("not a camera state: {kind} {numbers:?}")))?;
+        Ok(PyCamera {
+            inner: Camera::from_parts(pose, projection, near)?,
+        })
+    }
+
     /// The unit vector the camera looks along (its -Z axis in world space); z-depth is measured
     /// along it.
     #[getter]
@@ -212,6 +271,59 @@ impl PyScene {
         self.inner.objects.len()
     }
 
+    /// The scene's objects in order, as pickling stores them: (object, world_from_object (4, 4),
+    /// normals, crease_angle), the last two None for a set. An object added twice is the same
+    /// Python object both times, so it is stored once.
+    fn _objects<'py>(&self, py: Python<'py>) -> PyResult<Vec<ObjectState<'py>>> {
+        let mut seen: Vec<(*const (), Py<PyAny>)> = Vec::new();
+        let mut shared =
+            |ptr: *const (), make: &dyn Fn() -> PyResult<Py<PyAny>>| -> PyResult<Py<PyAny>> {
+                if let Some((_, obj)) = seen.iter().find(|(p, _)| *p == ptr) {
+                    return Ok(obj.clone_ref(py));
+                }
+                let obj = make()?;
+                seen.push((ptr, obj.clone_ref(py)));
+                Ok(obj)
+            };
+        self.inner
+            .objects
+            .iter()
+            .map(|placed| {
+                let pose = mat4_to_numpy(py, placed.world_from_object);
+                Ok(match &placed.object {
+                    Object::Textures(set) => {
+                        let make =
+                            || {
+                                Ok(Py::new(py, PyGeometryTextureSet { inner: set.clone() })?
+                                    .into_any())
+                            };
+                        (shared(Arc::as_ptr(set).cast(), &make)?, pose, None, None)
+                    }
+                    Object::Mesh(mesh, rule) => {
+                        let make = || {
+                            Ok(Py::new(
+                                py,
+                                PyMesh {
+                                    inner: mesh.clone(),
+                                },
+                            )?
+                            .into_any())
+                        };
+                        let crease =
+                            (rule.source == NormalSource::Crease).then_some(rule.crease_angle);
+                        let source = format!("{:?}", rule.source).to_lowercase();
+                        (
+                            shared(Arc::as_ptr(mesh).cast(), &make)?,
+                            pose,
+                            Some(source),
+                            crease,
+                        )
+                    }
+                })
+            })
+            .collect()
+    }
+
     fn __repr__(&self) -> String {
         let objects = &self.inner.objects;
         let sets = objects
@@ -233,6 +345,22 @@ pub struct PyRenderer {
     width: u32,
     height: u32,
 }
+
+/// A scene object, its placement and a mesh's normal rule (`Scene._objects`).
+type ObjectState<'py> = (
+    Py<PyAny>,
+    Bound<'py, PyArray2<f64>>,
+    Option<String>,
+    Option<f64>,
+);
+
+/// A camera's kind, pose, projection numbers and near plane (`Camera._state`).
+type CameraState<'py> = (
+    &'static str,
+    Bound<'py, PyArray2<f64>>,
+    Vec<f64>,
+    Option<f64>,
+);
 
 /// Distances, patch ids and normals of a ray query.
 type RayHitArrays<'py> = (
@@ -439,6 +567,11 @@ impl PyRenderer {
     }
 }
 
+/// A copy of array `a` that no caller holds, as the array type it was checked to be.
+fn owned<T: pyo3::type_object::PyTypeCheck>(a: &Bound<'_, PyAny>) -> PyResult<Py<T>> {
+    Ok(a.call_method0("copy")?.cast_into::<T>()?.unbind())
+}
+
 /// One rendered image: numpy arrays, row 0 at the top.
 #[pyclass(name = "Frame", module = "geomtex._core", frozen)]
 pub struct PyFrame {
@@ -470,6 +603,41 @@ impl PyFrame {
 
 #[pymethods]
 impl PyFrame {
+    /// A frame from arrays of the shapes and dtypes a render gives (how a pickled frame is made
+    /// again); ParameterError when they do not fit together.
+    #[staticmethod]
+    #[allow(clippy::too_many_arguments)] // one per output of a frame
+    fn _from_arrays(
+        color: Bound<'_, PyArray3<u8>>,
+        albedo: Bound<'_, PyArray3<u8>>,
+        depth: Bound<'_, PyArray2<f32>>,
+        normal: Bound<'_, PyArray3<f32>>,
+        patch_id: Bound<'_, PyArray2<i32>>,
+        shadow: Option<Bound<'_, PyArray2<bool>>>,
+        stats: Bound<'_, PyDict>,
+    ) -> PyResult<Self> {
+        let (h, w) = (depth.shape()[0], depth.shape()[1]);
+        let fits = [(color.shape(), 4), (albedo.shape(), 4), (normal.shape(), 3)]
+            .iter()
+            .all(|(shape, channels)| *shape == [h, w, *channels])
+            && patch_id.shape() == [h, w]
+            && shadow.as_ref().is_none_or(|s| s.shape() == [h, w]);
+        if !fits {
+            return Err(parameter_error(format!(
+                "frame arrays do not fit a {w}x{h} frame"
+            )));
+        }
+        Ok(PyFrame {
+            shadow: shadow.map(|s| owned(s.as_any())).transpose()?,
+            color: owned(color.as_any())?,
+            albedo: owned(albedo.as_any())?,
+            depth: owned(depth.as_any())?,
+            normal: owned(normal.as_any())?,
+            patch_id: owned(patch_id.as_any())?,
+            stats: stats.copy()?.unbind(),
+        })
+    }
+
     /// (H, W) bool, true where the render's light cannot see the surface; None without a light.
     #[getter]
     fn shadow(&self, py: Python<'_>) -> Option<Py<PyArray2<bool>>> {

@@ -183,6 +183,45 @@ impl Camera {
         })
     }
 
+    /// A camera from the parts another camera was made of (as pickling stores them), checked
+    /// as the constructors check them.
+    pub fn from_parts(
+        world_from_camera: DMat4,
+        projection: Projection,
+        near: Option<f64>,
+    ) -> Result<Camera> {
+        check_pose(&world_from_camera)?;
+        let valid = match projection {
+            Projection::Perspective { yfov } => yfov > 0.0 && yfov < std::f64::consts::PI,
+            Projection::Intrinsics {
+                fx,
+                fy,
+                cx,
+                cy,
+                width,
+                height,
+            } => {
+                [fx, fy, cx, cy].iter().all(|v| v.is_finite())
+                    && fx > 0.0
+                    && fy > 0.0
+                    && width > 0
+                    && height > 0
+            }
+            Projection::Orthographic { ymag } => ymag.is_finite() && ymag > 0.0,
+        };
+        if !valid {
+            return Err(GeomtexError::Parameter(format!(
+                "not a valid projection: {projection:?}"
+            )));
+        }
+        Camera {
+            world_from_camera,
+            projection,
+            near: None,
+        }
+        .with_near(near)
+    }
+
     /// An orthographic camera with an OpenGL pose; `ymag` is half the view's height in world units.
     pub fn orthographic(world_from_camera: DMat4, ymag: f64) -> Result<Camera> {
         check_pose(&world_from_camera)?;

@@ -1,0 +1,82 @@
+"""Pickling for every public object, so a scheduler (Dask, multiprocessing) can ship them.
+
+Each object is stored as what it is made of, never as a pointer: a set as the bytes of its .gtex
+file (checksummed, exact), a mesh as its arrays, a camera as its pose and projection numbers, a
+scene as its objects and placements, a frame as its arrays. A renderer holds a GPU device, which
+cannot travel: pickling one stores its image size and the other side makes a renderer of its own.
+
+The restore functions live here (a module pickle can name) and check what they are given as the
+public constructors do, so a damaged pickle raises a GeomtexError rather than building a broken
+object.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from . import _core
+
+
+def restore_set(data: bytes) -> _core.GeometryTextureSet:
+    return _core.GeometryTextureSet.from_bytes(data)
+
+
+def restore_mesh(*arrays: Any) -> Any:
+    from ._mesh import Mesh
+
+    return Mesh(*arrays)
+
+
+def restore_camera(kind: str, world_from_camera: Any, numbers: list[float], near: float | None) -> _core.Camera:
+    return _core.Camera._from_state(kind, world_from_camera, numbers, near)
+
+
+def restore_scene(objects: list[tuple[Any, Any, str | None, float | None]]) -> Any:
+    from ._render import Scene
+
+    scene = Scene()
+    for obj, world_from_object, normals, crease_angle in objects:
+        scene.add(obj, world_from_object, normals=normals, crease_angle=crease_angle)
+    return scene
+
+
+def restore_renderer(width: int, height: int) -> Any:
+    from ._render import Renderer
+
+    return Renderer(width, height)
+
+
+def restore_frame(*arrays: Any) -> _core.Frame:
+    return _core.Frame._from_arrays(*arrays)
+
+
+def _reduce_set(self: _core.GeometryTextureSet) -> tuple[Any, ...]:
+    return restore_set, (self.to_bytes(),)
+
+
+def _reduce_mesh(self: _core.Mesh) -> tuple[Any, ...]:
+    return restore_mesh, (self.vertices, self.faces, self.vertex_colors, self.face_colors, self.uv, self.texture)
+
+
+def _reduce_camera(self: _core.Camera) -> tuple[Any, ...]:
+    return restore_camera, self._state()
+
+
+def _reduce_scene(self: _core.Scene) -> tuple[Any, ...]:
+    return restore_scene, (self._objects(),)
+
+
+def _reduce_renderer(self: _core.Renderer) -> tuple[Any, ...]:
+    return restore_renderer, (self.width, self.height)
+
+
+def _reduce_frame(self: _core.Frame) -> tuple[Any, ...]:
+    return restore_frame, (self.color, self.albedo, self.depth, self.normal, self.patch_id, self.shadow, self.stats)
+
+
+def install() -> None:
+    """Attaches `__reduce__` to the extension's classes (their Python subclasses inherit it)."""
+    for cls, reduce in [(_core.GeometryTextureSet, _reduce_set), (_core.Mesh, _reduce_mesh),
+                        (_core.Camera, _reduce_camera), (_core.Scene, _reduce_scene),
+                        (_core.Renderer, _reduce_renderer), (_core.Frame, _reduce_frame)]:
+        setattr(cls, "__reduce__", reduce)
