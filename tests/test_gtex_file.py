@@ -25,7 +25,7 @@ def test_round_trip_is_bit_exact(sheet: Converted, tmp_path, bits: int) -> None:
     back = gt.load(path)
     assert len(back) == len(gts)
     assert back.texel_size == gts.texel_size
-    assert back.stats == gts.stats
+    assert back.stats == {**gts.stats, "seconds": {}}  # files hold no run's timings
     assert np.array_equal(back.world_from_patch, gts.world_from_patch)
     for i in range(len(back)):
         a, b = back.patch(i), gts.patch(i)
@@ -92,7 +92,7 @@ def test_overwrite_replaces_atomically(sheet: Converted, tmp_path) -> None:
     path = tmp_path / "x.gtex"
     path.write_bytes(b"old")
     sheet.gts.save(path)
-    assert gt.load(path).stats == sheet.gts.stats
+    assert gt.load(path).stats == {**sheet.gts.stats, "seconds": {}}
     assert sorted(os.listdir(tmp_path)) == ["x.gtex"]
 
 

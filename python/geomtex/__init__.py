@@ -57,6 +57,7 @@ __all__ = [
     "convert",
     "load",
     "load_mesh",
+    "show",
 ]
 
 _core_seam_gaps = GeometryTextureSet.seam_gaps
@@ -215,9 +216,18 @@ def convert(
             bar.close()
 
 
+def show(obj: Any, **options: Any) -> Any:
+    """An interactive viewer in Jupyter (drag to orbit, scroll to zoom, quality / LOD / shading
+    selectors, the original mesh beside or over it with ``mesh=``); see `geomtex.viewer.show`."""
+    from .viewer import show as _show
+
+    return _show(obj, **options)
+
+
 def load(path: str | os.PathLike[str]) -> GeometryTextureSet:
     """Reads a .gtex file. Raises FormatError for anything that is not an intact .gtex file
-    (version 1, 2 or 3)."""
+    (versions 1 to 4). Files hold no stage timings, so a loaded set's ``stats["seconds"]`` is
+    empty."""
     if not isinstance(path, (str, os.PathLike)):
         raise ParameterError(f"path must be a str or os.PathLike, got {path!r}")
     p = os.fspath(path)

@@ -12,7 +12,7 @@ object.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal
 
 from . import _core
 
@@ -31,7 +31,10 @@ def restore_camera(kind: str, world_from_camera: Any, numbers: list[float], near
     return _core.Camera._from_state(kind, world_from_camera, numbers, near)
 
 
-def restore_scene(objects: list[tuple[Any, Any, str | None, float | None]]) -> Any:
+Normals = Literal["crease", "smooth", "flat"]
+
+
+def restore_scene(objects: list[tuple[Any, Any, Normals | None, float | None]]) -> Any:
     from ._render import Scene
 
     scene = Scene()

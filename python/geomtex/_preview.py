@@ -101,23 +101,35 @@ def height_mosaic(gts: Any, size: int = 512, tiles: int = 36) -> Image.Image:
     return out.convert("RGB")
 
 
-_renderers: dict[int, Any] = {}
+def box_bounds(gts: Any) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """(lo, hi) corners of the box around every patch box of a set."""
+    corners = np.array([[i & 1, (i >> 1) & 1, (i >> 2) & 1, 1] for i in range(8)], dtype=np.float64)
+    world = np.einsum("pij,cj->pci", gts.world_from_patch, corners)[..., :3].reshape(-1, 3)
+    return world.min(axis=0), world.max(axis=0)
+
+
+def patch_tint(frame: Any) -> npt.NDArray[np.uint8]:
+    """The frame's shading tinted by patch (meshes, with negative ids, in the palette too),
+    white where nothing was hit."""
+    hit = frame.patch_id != -1
+    shade = frame.color[..., :3].astype(np.float64) / 255.0
+    tint = 0.55 * _PALETTE[np.where(hit, frame.patch_id, 0) % len(_PALETTE)] + 0.45 * 230.0
+    return np.where(hit[..., None], tint * shade, 255.0).astype(np.uint8)
 
 
 def ray_cast_view(gts: Any, size: int = 512, azimuth_deg: float = 30.0, elevation_deg: float = 20.0,
                   up_axis: str = "y") -> tuple[Image.Image, Any] | None:
-    """The set ray cast on the GPU (one renderer kept per size), tinted by patch; None when no
-    GPU adapter (not even lavapipe) is available."""
+    """The set ray cast on the GPU (this process's renderer of that size), tinted by patch; None
+    when no GPU adapter (not even lavapipe) is available."""
     from . import _core
     from ._errors import DeviceError
+    from ._render import shared_renderer
 
     try:
-        renderer = _renderers.get(size) or _renderers.setdefault(size, _core.Renderer(size, size))
+        renderer = shared_renderer(size, size)
     except DeviceError:
         return None
-    corners = np.array([[i & 1, (i >> 1) & 1, (i >> 2) & 1, 1] for i in range(8)], dtype=np.float64)
-    world = np.einsum("pij,cj->pci", gts.world_from_patch, corners)[..., :3].reshape(-1, 3)
-    lo, hi = world.min(axis=0), world.max(axis=0)
+    lo, hi = box_bounds(gts)
     centre, diag = (lo + hi) / 2, float(np.linalg.norm(hi - lo))
     right, up, forward = _view_axes(azimuth_deg, elevation_deg, up_axis)
     # 1.2 diagonals frame a compact model; a terrain's diagonal lies across the view, so the
@@ -125,11 +137,7 @@ def ray_cast_view(gts: Any, size: int = 512, azimuth_deg: float = 30.0, elevatio
     distance = 1.5 * diag if up_axis == "z" else 1.2 * diag
     camera = _core.Camera.look_at(centre - forward * distance, centre, up=tuple(up), yfov_deg=40.0)
     frame = renderer.render(gts, camera)
-    hit = frame.patch_id >= 0
-    shade = frame.color[..., :3].astype(np.float64) / 255.0
-    tint = 0.55 * _PALETTE[np.where(hit, frame.patch_id, 0) % len(_PALETTE)] + 0.45 * 230.0
-    rgb = np.where(hit[..., None], tint * shade, 255.0)
-    return Image.fromarray(rgb.astype(np.uint8)), frame
+    return Image.fromarray(patch_tint(frame)), frame
 
 
 def _summary(gts: Any) -> str:

@@ -75,3 +75,16 @@ class Renderer(_core.Renderer):
 
 
 Renderer.render.__doc__ = _core.Renderer.render.__doc__
+
+
+#: This process's renderers, one per image size, kept for its life: a GPU device and its uploads
+#: are dear to make and cheap to keep (notebook pictures, the viewer and batch workers share them).
+_SHARED: dict[tuple[int, int], Renderer] = {}
+
+
+def shared_renderer(width: int, height: int) -> Renderer:
+    """This process's renderer of that size, made on first use and kept."""
+    r = _SHARED.get((width, height))
+    if r is None:
+        r = _SHARED[(width, height)] = Renderer(width, height)
+    return r

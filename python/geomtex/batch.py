@@ -1,0 +1,390 @@
+"""Batch jobs on Dask distributed: many meshes converted, many views rendered.
+
+>>> from geomtex import batch
+>>> rows = batch.convert_many(["a.obj", "b.ply"], "out/", max_resolution=128)
+>>> batch.render_views(["out/a-1f3c.gtex"], cameras, "views.zarr", width=256, height=256)
+
+What runs where:
+- The calling process (the *client*) lists the inputs, reads and writes the manifest, creates the
+  Zarr arrays, and submits one task per input (conversion) or per block of views (rendering). It
+  never converts or renders itself.
+- Each Dask *worker* process converts a mesh or renders views. Heavy calls release the GIL and
+  use every core through rayon, so a worker with several threads runs several tasks at once;
+  each worker process keeps one `Renderer` per image size for its whole life (the GPU device
+  and uploads are made once, not per task).
+- Files: a worker writes its .gtex atomically (temporary file, then rename) and its views
+  straight into their own Zarr chunks; only small rows (status, stats, seconds) travel back.
+  Inputs given as paths travel as paths; in-memory meshes and sets are pickled (a set as its
+  .gtex bytes) and scattered once.
+
+The manifest (``manifest.json`` in the output folder) holds one row per input: its key, status
+(``"done"`` or ``"failed"``), output file, stats, seconds and error message. It is rewritten
+atomically as results arrive, so a job killed at any point can be run again: inputs already done
+(their file present with the recorded size) are skipped, and a finished job does no work.
+
+Needs the optional dependencies ``pip install geomtex[distributed]`` (dask[distributed], zarr).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import os
+import tempfile
+import time
+import traceback
+from collections.abc import Iterable, Iterator, Sequence
+from typing import Any
+
+import numpy as np
+
+from . import _core
+from ._errors import GeomtexError, ParameterError
+
+MANIFEST = "manifest.json"
+_MANIFEST_VERSION = 1
+
+
+def _dask() -> Any:
+    try:
+        import dask.distributed as distributed
+    except ImportError:  # an optional dependency
+        raise ParameterError("geomtex.batch needs Dask distributed: pip install 'geomtex[distributed]'") from None
+    return distributed
+
+
+@contextlib.contextmanager
+def _client(client: Any, n_workers: int | None) -> Iterator[Any]:
+    """The Dask client to use: the one given, one connected to an address, or a LocalCluster of
+    worker processes (one thread each) started for this call and closed after it."""
+    distributed = _dask()
+    if isinstance(client, distributed.Client):
+        yield client
+    elif isinstance(client, str):
+        with distributed.Client(client) as connected:
+            yield connected
+    elif client is None:
+        with distributed.LocalCluster(n_workers=n_workers or min(os.cpu_count() or 1, 4), threads_per_worker=1,
+                                      processes=True, dashboard_address=None) as cluster, \
+                distributed.Client(cluster) as local:
+            yield local
+    else:
+        raise ParameterError(f"client must be a dask.distributed.Client, an address or None, got {client!r}")
+
+
+# ---------------------------------------------------------------------------------------------
+# Inputs and their keys
+
+
+def _input_key(source: Any, index: int) -> tuple[str, str, dict[str, Any]]:
+    """(key, description, fingerprint) of one input. A path's key comes from its absolute path
+    and its fingerprint from its size and mtime (a changed file is converted again); an
+    in-memory mesh's key is a hash of its arrays, so the same mesh always maps to the same file."""
+    if isinstance(source, (str, os.PathLike)):
+        path = os.path.abspath(os.fspath(source))
+        try:
+            st = os.stat(path)
+        except OSError as e:
+            raise ParameterError(f"input {index}: cannot read {path}: {e.strerror}") from None
+        stem = os.path.splitext(os.path.basename(path))[0]
+        digest = hashlib.sha1(path.encode()).hexdigest()[:10]
+        return f"{stem}-{digest}", path, {"size": st.st_size, "mtime_ns": st.st_mtime_ns}
+    from ._mesh import as_mesh
+
+    mesh = as_mesh(source)
+    h = hashlib.sha1()
+    for a in (mesh.vertices, mesh.faces, mesh.vertex_colors, mesh.face_colors, mesh.uv, mesh.texture):
+        h.update(b"-" if a is None else np.ascontiguousarray(a).tobytes())
+    digest = h.hexdigest()[:16]
+    return f"mesh-{digest}", f"<Mesh {mesh.n_vertices} vertices, {mesh.n_faces} faces>", {"sha1": digest}
+
+
+def _scalar_stats(stats: dict[str, Any]) -> dict[str, Any]:
+    """The stats a manifest row keeps: numbers and strings (per-patch arrays stay in the file)."""
+    return {k: (v.item() if isinstance(v, np.generic) else v) for k, v in stats.items()
+            if v is None or isinstance(v, (bool, int, float, str, np.generic))}
+
+
+# ---------------------------------------------------------------------------------------------
+# The manifest
+
+
+def _write_json_atomically(path: str, data: Any) -> None:
+    folder = os.path.dirname(path) or "."
+    fd, tmp = tempfile.mkstemp(dir=folder, prefix=".manifest-", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w") as f:
+            json.dump(data, f, indent=1, allow_nan=True)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
+def read_manifest(out_dir: str | os.PathLike[str]) -> dict[str, Any]:
+    """The manifest of a `convert_many` job: ``{"version", "options", "rows"}``, rows keyed by
+    input key. An empty one where the folder holds none."""
+    path = os.path.join(os.fspath(out_dir), MANIFEST)
+    if not os.path.exists(path):
+        return {"version": _MANIFEST_VERSION, "options": None, "rows": {}}
+    try:
+        with open(path) as f:
+            manifest = json.load(f)
+        if manifest.get("version") != _MANIFEST_VERSION or not isinstance(manifest.get("rows"), dict):
+            raise ValueError("not a geomtex batch manifest of version 1")
+    except (ValueError, OSError) as e:
+        from ._errors import FormatError
+
+        raise FormatError(f"{path}: {e}") from None
+    return manifest
+
+
+def _already_done(row: dict[str, Any] | None, fingerprint: dict[str, Any], out_dir: str) -> bool:
+    if not row or row.get("status") != "done" or row.get("fingerprint") != fingerprint:
+        return False
+    path = os.path.join(out_dir, row["output"])
+    return os.path.exists(path) and os.path.getsize(path) == row.get("bytes")
+
+
+def _wanted(row: dict[str, Any] | None, fingerprint: dict[str, Any], out_dir: str, retry_failed: bool) -> bool:
+    """Whether an input needs converting: not done, and not failed before unless retried."""
+    if _already_done(row, fingerprint, out_dir):
+        return False
+    failed_before = bool(row) and row.get("status") == "failed" and row.get("fingerprint") == fingerprint
+    return retry_failed or not failed_before
+
+
+# ---------------------------------------------------------------------------------------------
+# Conversion
+
+
+def _convert_one(source: Any, out_path: str, options: dict[str, Any]) -> dict[str, Any]:
+    """Runs on a worker: converts one input and writes its .gtex atomically. Never raises for a
+    bad input: the row says what went wrong, so the scheduler does not retry a certain failure."""
+    import geomtex as gt
+
+    start = time.perf_counter()
+    try:
+        gts = gt.convert(source, **options)
+        gts.save(out_path)
+        return {"status": "done", "seconds": time.perf_counter() - start, "bytes": os.path.getsize(out_path),
+                "stats": _scalar_stats(gts.stats), "stage_seconds": dict(gts.stats["seconds"]), "error": None,
+                "worker_pid": os.getpid()}
+    except GeomtexError as e:
+        error = f"{type(e).__name__}: {e}"
+    except Exception as e:  # any other failure is recorded too, with where it came from
+        error = f"{type(e).__name__}: {e}\n{traceback.format_exc(limit=3)}"
+    return {"status": "failed", "seconds": time.perf_counter() - start, "bytes": None, "stats": None,
+            "error": error, "worker_pid": os.getpid()}
+
+
+def convert_many(
+    inputs: Iterable[Any],
+    out_dir: str | os.PathLike[str],
+    *,
+    client: Any = None,
+    n_workers: int | None = None,
+    retry_failed: bool = False,
+    progress: bool = True,
+    **convert_options: Any,
+) -> list[dict[str, Any]]:
+    """Converts every input (mesh paths, Mesh or trimesh objects) to ``out_dir/<key>.gtex`` on
+    Dask workers, with `convert_options` as for `geomtex.convert` (``progress`` is the job's).
+
+    client: a ``dask.distributed.Client``, a scheduler address, or None for a LocalCluster of
+        `n_workers` processes (default: the cores, at most 4) for this call.
+    retry_failed: convert inputs that failed in an earlier run again (they are skipped by
+        default: a bad mesh fails the same way twice).
+    progress: a tqdm bar over the inputs (the client's dashboard, where it has one, shows the
+        tasks too).
+
+    Returns the manifest rows of these inputs, in input order; each input gets exactly one row,
+    ``status`` "done" or "failed" (with ``error``). A worker that dies mid-task has its task run
+    again elsewhere (Dask's ``allowed-failures``); an input whose tasks keep killing workers is
+    recorded as failed. Inputs already done in an earlier run with the same options are skipped.
+    """
+    out = os.fspath(out_dir)
+    os.makedirs(out, exist_ok=True)
+    manifest = read_manifest(out)
+    options = dict(sorted(convert_options.items()))
+    if manifest["rows"] and manifest["options"] != json.loads(json.dumps(options)):
+        raise ParameterError(f"{out} holds a job converted with options {manifest['options']}, not {options}; "
+                             "use another folder")
+    manifest["options"] = options
+    sources = list(inputs)
+    keyed = [(*_input_key(source, i), source) for i, source in enumerate(sources)]
+    if len({k for k, *_ in keyed}) != len(keyed):
+        raise ParameterError("inputs name the same file or mesh twice")
+    rows: dict[str, Any] = manifest["rows"]
+    todo = [(key, desc, fp, src) for key, desc, fp, src in keyed if _wanted(rows.get(key), fp, out, retry_failed)]
+    if todo:
+        _run_conversions(todo, out, options, manifest, client, n_workers, progress)
+    return [rows[key] for key, *_ in keyed]
+
+
+def _run_conversions(todo: list[tuple[str, str, dict[str, Any], Any]], out: str, options: dict[str, Any],
+                     manifest: dict[str, Any], client: Any, n_workers: int | None, progress: bool) -> None:
+    distributed = _dask()
+    path = os.path.join(out, MANIFEST)
+    with _client(client, n_workers) as c:
+        futures = {}
+        for key, desc, fp, source in todo:
+            shipped = os.path.abspath(os.fspath(source)) if isinstance(source, (str, os.PathLike)) else source
+            future = c.submit(_convert_one, shipped, os.path.join(out, f"{key}.gtex"), options,
+                              key=f"geomtex-convert-{key}", pure=False)
+            futures[future] = (key, desc, fp)
+        bar = _bar(len(futures), "converting", progress)
+        last_write = 0.0
+        for future in distributed.as_completed(futures):
+            key, desc, fp = futures[future]
+            try:
+                row = future.result()
+            except Exception as e:  # the task never returned: its workers died (KilledWorker)
+                row = {"status": "failed", "seconds": None, "bytes": None, "stats": None,
+                       "error": f"{type(e).__name__}: {e}", "worker_pid": None}
+            manifest["rows"][key] = {"key": key, "input": desc, "output": f"{key}.gtex", "fingerprint": fp, **row}
+            if bar is not None:
+                bar.update(1)
+            if time.monotonic() - last_write > 1.0:  # a crash loses at most a second of rows
+                _write_json_atomically(path, manifest)
+                last_write = time.monotonic()
+        _write_json_atomically(path, manifest)
+        if bar is not None:
+            bar.close()
+
+
+def _bar(total: int, what: str, progress: bool) -> Any:
+    if not progress:
+        return None
+    from tqdm.auto import tqdm
+
+    return tqdm(total=total, desc=f"geomtex {what}", unit="task")
+
+
+# ---------------------------------------------------------------------------------------------
+# Rendering
+
+_OUTPUTS = {"depth": ("f4", (), np.inf), "normal": ("f4", (3,), 0.0), "color": ("u1", (4,), 0),
+            "albedo": ("u1", (4,), 0), "patch_id": ("i4", (), -1)}
+
+
+def _render_block(obj: Any, set_index: int, views: list[tuple[int, Any]], store: str, width: int, height: int,
+                  outputs: Sequence[str], options: dict[str, Any]) -> dict[str, Any]:
+    """Runs on a worker: renders the views of one object and writes each into its own chunks."""
+    import zarr
+
+    import geomtex as gt
+
+    from ._render import shared_renderer
+
+    start = time.perf_counter()
+    if isinstance(obj, (str, os.PathLike)):
+        obj = gt.load(obj) if os.fspath(obj).endswith(".gtex") else gt.load_mesh(obj)
+    group = zarr.open_group(store, mode="r+")
+    renderer = shared_renderer(width, height)  # one per worker process, kept for its life
+    done = group["done"]
+    for view, camera in views:
+        frame = renderer.render(obj, camera, **options)
+        for name in outputs:
+            group[name][set_index, view] = getattr(frame, name)
+        done[set_index, view] = True  # written last: a view marked done has all its chunks
+    return {"seconds": time.perf_counter() - start, "views": len(views), "worker_pid": os.getpid()}
+
+
+def render_views(
+    objects: Sequence[Any],
+    cameras: Sequence[_core.Camera] | Sequence[Sequence[_core.Camera]],
+    out: str | os.PathLike[str],
+    *,
+    width: int,
+    height: int,
+    outputs: Sequence[str] = ("depth", "normal", "color", "patch_id"),
+    client: Any = None,
+    n_workers: int | None = None,
+    views_per_task: int = 8,
+    progress: bool = True,
+    **render_options: Any,
+) -> Any:
+    """Renders every object (sets, meshes, scenes, or .gtex / mesh paths) from every camera into a
+    Zarr store at `out` and returns it opened as a ``zarr.Group``.
+
+    cameras: one list for every object, or one list per object (all of the same length).
+    outputs: any of "depth", "normal", "color", "albedo", "patch_id"; each becomes an array of
+        shape (objects, views, height, width[, channels]) chunked one view per chunk, with the
+        frame's dtype and miss value. ``done`` (objects, views) marks the views written, so a
+        rerun into the same store renders only the views not yet done.
+    render_options: as for `Renderer.render` (quality, lod, background, light, ...).
+
+    Views are rendered in tasks of `views_per_task` views of one object; each worker keeps one
+    Renderer for its life. Depth is bit-identical to `Renderer.render` in this process.
+    """
+    import zarr
+
+    if not isinstance(width, int) or not isinstance(height, int) or width < 1 or height < 1:
+        raise ParameterError(f"width and height must be positive integers, got {width!r}, {height!r}")
+    unknown = [name for name in outputs if name not in _OUTPUTS]
+    if unknown or not outputs:
+        raise ParameterError(f"outputs must be some of {sorted(_OUTPUTS)}, got {list(outputs)}")
+    objs = list(objects)
+    per_object = _cameras_per_object(cameras, len(objs))
+    n_views = len(per_object[0]) if per_object else 0
+    group = zarr.open_group(os.fspath(out), mode="a")
+    shape = (len(objs), n_views, height, width)
+    if "done" in group and group["done"].shape != shape[:2]:
+        raise ParameterError(f"{out} holds views of another shape {group['done'].shape}; use another store")
+    for name in outputs:
+        dtype, channels, fill = _OUTPUTS[name]
+        if name not in group:
+            group.create_array(name, shape=shape + channels, chunks=(1, 1, height, width) + channels,
+                               dtype=dtype, fill_value=fill)
+    if "done" not in group:
+        # One chunk per view here too: workers write their views' flags at once, and a shared
+        # chunk would be read, changed and written back by both (a lost update).
+        group.create_array("done", shape=shape[:2], chunks=(1, 1), dtype=bool, fill_value=False)
+    group.attrs.update({"width": width, "height": height, "outputs": list(outputs)})
+    done = group["done"][...]
+    blocks = [(i, [(v, per_object[i][v]) for v in range(start, min(start + views_per_task, n_views))
+                   if not done[i, v]])
+              for i in range(len(objs)) for start in range(0, n_views, max(1, views_per_task))]
+    blocks = [(i, views) for i, views in blocks if views]
+    if blocks:
+        _run_renders(objs, blocks, os.fspath(out), width, height, list(outputs), render_options,
+                     client, n_workers, progress)
+    return zarr.open_group(os.fspath(out), mode="r")
+
+
+def _cameras_per_object(cameras: Any, n_objects: int) -> list[list[_core.Camera]]:
+    cams = list(cameras)
+    if all(isinstance(c, _core.Camera) for c in cams):
+        return [cams] * n_objects
+    per = [list(c) for c in cams]
+    if len(per) != n_objects or len({len(p) for p in per}) > 1 \
+            or not all(isinstance(c, _core.Camera) for p in per for c in p):
+        raise ParameterError("cameras must be a list of Cameras, or one equally long list per object")
+    return per
+
+
+def _run_renders(objs: list[Any], blocks: list[tuple[int, list[tuple[int, Any]]]], store: str, width: int,
+                 height: int, outputs: list[str], options: dict[str, Any], client: Any,
+                 n_workers: int | None, progress: bool) -> None:
+    distributed = _dask()
+    with _client(client, n_workers) as c:
+        # Paths travel as paths; an object in memory is scattered once and shared by its tasks.
+        shipped: dict[int, Any] = {}
+        for i in {i for i, _ in blocks}:
+            obj = objs[i]
+            shipped[i] = os.path.abspath(os.fspath(obj)) if isinstance(obj, (str, os.PathLike)) \
+                else c.scatter(obj, hash=False)
+        futures = [c.submit(_render_block, shipped[i], i, views, store, width, height, outputs, options,
+                            pure=False) for i, views in blocks]
+        bar = _bar(sum(len(v) for _, v in blocks), "rendering", progress)
+        for future in distributed.as_completed(futures):
+            result = future.result()  # a render error is the caller's to see, as in Renderer.render
+            if bar is not None:
+                bar.update(result["views"])
+        if bar is not None:
+            bar.close()
