@@ -59,7 +59,7 @@ def cluster(workers: int, threads: int) -> Any:
     from dask.distributed import Client, LocalCluster
 
     c = LocalCluster(n_workers=workers, threads_per_worker=threads, processes=True, dashboard_address=None,
-                     silence_logs=40)
+                     silence_logs=50)
     return c, Client(c)
 
 

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
+import importlib.util
 import json
 import os
 import tempfile
@@ -65,8 +66,10 @@ def _client(client: Any, n_workers: int | None) -> Iterator[Any]:
         with distributed.Client(client) as connected:
             yield connected
     elif client is None:
+        # A dashboard on a free port where bokeh is installed; the bar shows its link.
+        dashboard = ":0" if importlib.util.find_spec("bokeh") else None
         with distributed.LocalCluster(n_workers=n_workers or min(os.cpu_count() or 1, 4), threads_per_worker=1,
-                                      processes=True, dashboard_address=None) as cluster, \
+                                      processes=True, dashboard_address=dashboard) as cluster, \
                 distributed.Client(cluster) as local:
             yield local
     else:
@@ -154,7 +157,7 @@ def _wanted(row: dict[str, Any] | None, fingerprint: dict[str, Any], out_dir: st
     """Whether an input needs converting: not done, and not failed before unless retried."""
     if _already_done(row, fingerprint, out_dir):
         return False
-    failed_before = bool(row) and row.get("status") == "failed" and row.get("fingerprint") == fingerprint
+    failed_before = row is not None and row.get("status") == "failed" and row.get("fingerprint") == fingerprint
     return retry_failed or not failed_before
 
 
@@ -237,7 +240,7 @@ def _run_conversions(todo: list[tuple[str, str, dict[str, Any], Any]], out: str,
             future = c.submit(_convert_one, shipped, os.path.join(out, f"{key}.gtex"), options,
                               key=f"geomtex-convert-{key}", pure=False)
             futures[future] = (key, desc, fp)
-        bar = _bar(len(futures), "converting", progress)
+        bar = _bar(len(futures), "converting", progress, c)
         last_write = 0.0
         for future in distributed.as_completed(futures):
             key, desc, fp = futures[future]
@@ -257,12 +260,17 @@ def _run_conversions(todo: list[tuple[str, str, dict[str, Any], Any]], out: str,
             bar.close()
 
 
-def _bar(total: int, what: str, progress: bool) -> Any:
+def _bar(total: int, what: str, progress: bool, client: Any) -> Any:
     if not progress:
         return None
     from tqdm.auto import tqdm
 
-    return tqdm(total=total, desc=f"geomtex {what}", unit="task")
+    bar = tqdm(total=total, desc=f"geomtex {what}", unit="task")
+    services: dict[str, Any] = client.scheduler_info().get("services", {})
+    link = client.dashboard_link if "dashboard" in services else None
+    if link:
+        bar.set_postfix_str(f"dashboard {link}", refresh=False)
+    return bar
 
 
 # ---------------------------------------------------------------------------------------------
@@ -270,6 +278,16 @@ def _bar(total: int, what: str, progress: bool) -> Any:
 
 _OUTPUTS = {"depth": ("f4", (), np.inf), "normal": ("f4", (3,), 0.0), "color": ("u1", (4,), 0),
             "albedo": ("u1", (4,), 0), "patch_id": ("i4", (), -1)}
+
+
+def _array(group: Any, name: str) -> Any:
+    """One array of a zarr group (typed as Any: zarr's item type is a union of Array and Group)."""
+    import zarr
+
+    array = group[name]
+    if not isinstance(array, zarr.Array):
+        raise ParameterError(f"the store's {name!r} is a group, not an array; use another store")
+    return array
 
 
 def _render_block(obj: Any, set_index: int, views: list[tuple[int, Any]], store: str, width: int, height: int,
@@ -286,11 +304,12 @@ def _render_block(obj: Any, set_index: int, views: list[tuple[int, Any]], store:
         obj = gt.load(obj) if os.fspath(obj).endswith(".gtex") else gt.load_mesh(obj)
     group = zarr.open_group(store, mode="r+")
     renderer = shared_renderer(width, height)  # one per worker process, kept for its life
-    done = group["done"]
+    arrays = {name: _array(group, name) for name in outputs}
+    done = _array(group, "done")
     for view, camera in views:
         frame = renderer.render(obj, camera, **options)
         for name in outputs:
-            group[name][set_index, view] = getattr(frame, name)
+            arrays[name][set_index, view] = getattr(frame, name)
         done[set_index, view] = True  # written last: a view marked done has all its chunks
     return {"seconds": time.perf_counter() - start, "views": len(views), "worker_pid": os.getpid()}
 
@@ -334,8 +353,9 @@ def render_views(
     n_views = len(per_object[0]) if per_object else 0
     group = zarr.open_group(os.fspath(out), mode="a")
     shape = (len(objs), n_views, height, width)
-    if "done" in group and group["done"].shape != shape[:2]:
-        raise ParameterError(f"{out} holds views of another shape {group['done'].shape}; use another store")
+    if "done" in group and _array(group, "done").shape != shape[:2]:
+        raise ParameterError(f"{out} holds views of another shape {_array(group, 'done').shape}; "
+                             "use another store")
     for name in outputs:
         dtype, channels, fill = _OUTPUTS[name]
         if name not in group:
@@ -346,7 +366,7 @@ def render_views(
         # chunk would be read, changed and written back by both (a lost update).
         group.create_array("done", shape=shape[:2], chunks=(1, 1), dtype=bool, fill_value=False)
     group.attrs.update({"width": width, "height": height, "outputs": list(outputs)})
-    done = group["done"][...]
+    done = _array(group, "done")[...]
     blocks = [(i, [(v, per_object[i][v]) for v in range(start, min(start + views_per_task, n_views))
                    if not done[i, v]])
               for i in range(len(objs)) for start in range(0, n_views, max(1, views_per_task))]
@@ -381,7 +401,7 @@ def _run_renders(objs: list[Any], blocks: list[tuple[int, list[tuple[int, Any]]]
                 else c.scatter(obj, hash=False)
         futures = [c.submit(_render_block, shipped[i], i, views, store, width, height, outputs, options,
                             pure=False) for i, views in blocks]
-        bar = _bar(sum(len(v) for _, v in blocks), "rendering", progress)
+        bar = _bar(sum(len(v) for _, v in blocks), "rendering", progress, c)
         for future in distributed.as_completed(futures):
             result = future.result()  # a render error is the caller's to see, as in Renderer.render
             if bar is not None:
