@@ -4,7 +4,9 @@ thread each) and of 1 process with 2 threads (heavy calls release the GIL), besi
 done serially in this process. It also measures what each task moves: pickled bytes of a task's
 arguments (a path, an in-memory mesh, a set) and of its result row, the .gtex bytes a worker
 writes, and the seconds a task takes, which is what the plan for 100 workers in bench/README.md
-is sized from.
+is sized from, plus the two client-side costs that grow with a job: the scheduler's round trip
+per task (no-op tasks on the 2-worker cluster) and recording a result in the manifest (one journal
+line, against rewriting a manifest of 100k rows as the first version did once a second).
 
 Inputs: the shared scans and generated meshes (icospheres, tori, pymeshlab's bunny), converted
 at ``max_resolution=128``; views: 256², 24 cameras around each set.
@@ -21,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import pickle
 import tempfile
 import time
@@ -108,13 +111,53 @@ def task_sizes(paths: list[str], rows: list[dict[str, Any]], out: Path) -> dict[
     }
 
 
+def _noop(i: int) -> int:
+    return i
+
+
+def scheduler_rate(n: int = 2000) -> dict[str, float]:
+    """Tasks per second the scheduler turns around on this machine: n no-op tasks submitted at
+    once to a LocalCluster of 2 worker processes and gathered."""
+    c, client = cluster(2, 1)
+    try:
+        client.run(lambda: None)
+        t0 = time.perf_counter()
+        futures = client.map(_noop, range(n), pure=False)
+        client.gather(futures)
+        seconds = time.perf_counter() - t0
+    finally:
+        client.close()
+        c.close()
+    return {"tasks": n, "seconds": seconds, "tasks_per_s": n / seconds}
+
+
+def manifest_costs(row: dict[str, Any], n: int, tmp: Path) -> dict[str, float]:
+    """Seconds to record n result rows through batch's journal (one appended line each), beside
+    one rewrite of a manifest that holds n rows (what recording cost when the manifest was
+    rewritten as results arrived), and the bytes of each."""
+    rows = {f"k{i}": {**row, "key": f"k{i}"} for i in range(n)}
+    path = tmp / "manifest-cost"
+    path.mkdir()
+    t0 = time.perf_counter()
+    with batch._Journal(str(path / batch.JOURNAL)) as journal:
+        for r in rows.values():
+            journal.append(r)
+    journal_s = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    batch._write_json_atomically(str(path / batch.MANIFEST), {"version": 1, "options": OPTIONS, "rows": rows})
+    rewrite_s = time.perf_counter() - t0
+    return {"rows": n, "journal_s": journal_s, "journal_us_per_row": 1e6 * journal_s / n,
+            "journal_bytes": (path / batch.JOURNAL).stat().st_size, "rewrite_s": rewrite_s,
+            "manifest_bytes": (path / batch.MANIFEST).stat().st_size}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--max-idle-wait", type=float, default=60.0)
     args = parser.parse_args()
     n_views = 8 if args.quick else 24
-    results: dict[str, Any] = {"machine": machine_info(), "options": OPTIONS, "views_per_set": n_views,
+    results: dict[str, Any] = {"machine": machine_info(), "load_average_before": os.getloadavg(), "options": OPTIONS, "views_per_set": n_views,
                                "image": [256, 256], "configs": {}}
     with tempfile.TemporaryDirectory() as tmpdir:
         tmp = Path(tmpdir)
@@ -152,6 +195,14 @@ def main() -> None:
         results["serial"] = {**s, "meshes_per_min": 60 * len(paths) / s["convert_s"],
                              "views_per_s": len(paths) * n_views / s["render_s"]}
         print(f"{'serial (this process)':22s} convert {s['convert_s']:6.1f} s  render {s['render_s']:6.1f} s")
+        results["scheduler"] = scheduler_rate()
+        print(f"scheduler: {results['scheduler']['tasks_per_s']:.0f} no-op tasks/s (2 workers)")
+        row = batch.read_manifest(tmp / "1_worker")["rows"]
+        results["manifest"] = manifest_costs(next(iter(row.values())), 100_000, tmp)
+        m = results["manifest"]
+        print(f"manifest: journal {m['journal_us_per_row']:.1f} us/row; one rewrite of {m['rows']} rows "
+              f"{m['rewrite_s']:.2f} s ({m['manifest_bytes'] / 1e6:.0f} MB)")
+    results["load_average_after"] = os.getloadavg()
     OUT.mkdir(parents=True, exist_ok=True)
     (OUT / "batch.json").write_text(json.dumps(results, indent=1))
     plot(results)

@@ -4,6 +4,7 @@ recorded, and views in Zarr identical to Renderer.render."""
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import threading
@@ -165,3 +166,29 @@ def test_bad_batch_arguments_are_refused(tmp_path) -> None:
                            outputs=("depth", "face"))
     with pytest.raises(gt.ParameterError, match="cameras"):
         batch.render_views([trimesh.creation.box()] * 2, [[cam], [cam, cam]], tmp_path / "v.zarr", width=8, height=8)
+
+
+def test_a_job_killed_mid_run_resumes_from_its_journal(client, tmp_path) -> None:
+    """Results are journalled one line each while a job runs; a job killed before it folded the
+    journal into the manifest (its last line torn) resumes from it: the journalled inputs are
+    skipped, the torn one converted again."""
+    good = [trimesh.creation.icosphere(2), trimesh.creation.box(), trimesh.creation.torus(1.0, 0.3)]
+    out = tmp_path / "out"
+    rows = batch.convert_many(good, out, client=client, progress=False, **OPTIONS)
+    assert not (out / batch.JOURNAL).exists()  # folded into the manifest when the job ended
+    # The state a kill leaves: the manifest as the job began, two whole lines and a torn one.
+    manifest = batch.read_manifest(out)
+    manifest["rows"] = {}
+    (out / batch.MANIFEST).write_text(json.dumps(manifest))
+    lines = [json.dumps(r) for r in rows]
+    (out / batch.JOURNAL).write_text(lines[0] + "\n" + lines[1] + "\n" + lines[2][: len(lines[2]) // 2])
+    assert sorted(batch.read_manifest(out)["rows"]) == sorted(r["key"] for r in rows[:2])
+    stamps = {r["output"]: (out / r["output"]).stat().st_mtime_ns for r in rows}
+    again = batch.convert_many(good, out, client=client, progress=False, **OPTIONS)
+    assert [r["status"] for r in again] == ["done"] * 3
+    assert [(out / r["output"]).stat().st_mtime_ns == stamps[r["output"]] for r in rows] == [True, True, False]
+    assert sorted(batch.read_manifest(out)["rows"]) == sorted(r["key"] for r in rows)
+    # A damaged line that is not the last is refused, naming the journal.
+    (out / batch.JOURNAL).write_text("{not json\n" + lines[0] + "\n")
+    with pytest.raises(gt.FormatError, match="journal line 1"):
+        batch.read_manifest(out)

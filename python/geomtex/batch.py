@@ -18,9 +18,12 @@ What runs where:
   .gtex bytes) and scattered once.
 
 The manifest (``manifest.json`` in the output folder) holds one row per input: its key, status
-(``"done"`` or ``"failed"``), output file, stats, seconds and error message. It is rewritten
-atomically as results arrive, so a job killed at any point can be run again: inputs already done
-(their file present with the recorded size) are skipped, and a finished job does no work.
+(``"done"`` or ``"failed"``), output file, stats, seconds and error message. While a job runs, each
+result is appended as one line to ``manifest.journal`` (flushed at once, synced at least every
+second), so recording a result costs the same whatever the job's size; the journal is folded into
+``manifest.json`` (written atomically) when the job ends. A job killed at any point can be run
+again: `read_manifest` replays the journal over the manifest, inputs already done (their file
+present with the recorded size) are skipped, and a finished job does no work.
 
 Needs the optional dependencies ``pip install geomtex[distributed]`` (dask[distributed], zarr).
 """
@@ -44,6 +47,7 @@ from . import _core
 from ._errors import GeomtexError, ParameterError
 
 MANIFEST = "manifest.json"
+JOURNAL = "manifest.journal"
 _MANIFEST_VERSION = 1
 
 
@@ -132,18 +136,37 @@ def read_manifest(out_dir: str | os.PathLike[str]) -> dict[str, Any]:
     """The manifest of a `convert_many` job: ``{"version", "options", "rows"}``, rows keyed by
     input key. An empty one where the folder holds none."""
     path = os.path.join(os.fspath(out_dir), MANIFEST)
-    if not os.path.exists(path):
-        return {"version": _MANIFEST_VERSION, "options": None, "rows": {}}
+    manifest: dict[str, Any] = {"version": _MANIFEST_VERSION, "options": None, "rows": {}}
     try:
-        with open(path) as f:
-            manifest = json.load(f)
-        if manifest.get("version") != _MANIFEST_VERSION or not isinstance(manifest.get("rows"), dict):
-            raise ValueError("not a geomtex batch manifest of version 1")
+        if os.path.exists(path):
+            with open(path) as f:
+                manifest = json.load(f)
+            if manifest.get("version") != _MANIFEST_VERSION or not isinstance(manifest.get("rows"), dict):
+                raise ValueError("not a geomtex batch manifest of version 1")
+        _replay_journal(os.path.join(os.fspath(out_dir), JOURNAL), manifest["rows"])
     except (ValueError, OSError) as e:
         from ._errors import FormatError
 
         raise FormatError(f"{path}: {e}") from None
     return manifest
+
+
+def _replay_journal(path: str, rows: dict[str, Any]) -> None:
+    """Applies the rows a running (or killed) job appended after the manifest was last written.
+    A last line cut short by a crash is ignored: that result is simply converted again."""
+    if not os.path.exists(path):
+        return
+    with open(path, "rb") as f:
+        lines = f.read().split(b"\n")
+    for number, line in enumerate(lines, 1):
+        if not line.strip():
+            continue
+        try:
+            row = json.loads(line)
+            rows[row["key"]] = row
+        except (ValueError, KeyError, TypeError):
+            if number < len(lines):  # only the last, unterminated line may be torn
+                raise ValueError(f"{JOURNAL} line {number} is not a manifest row") from None
 
 
 def _already_done(row: dict[str, Any] | None, fingerprint: dict[str, Any], out_dir: str) -> bool:
@@ -232,8 +255,8 @@ def convert_many(
 def _run_conversions(todo: list[tuple[str, str, dict[str, Any], Any]], out: str, options: dict[str, Any],
                      manifest: dict[str, Any], client: Any, n_workers: int | None, progress: bool) -> None:
     distributed = _dask()
-    path = os.path.join(out, MANIFEST)
-    with _client(client, n_workers) as c:
+    _write_json_atomically(os.path.join(out, MANIFEST), manifest)  # the options, and any replayed rows
+    with _client(client, n_workers) as c, _Journal(os.path.join(out, JOURNAL)) as journal:
         futures = {}
         for key, desc, fp, source in todo:
             shipped = os.path.abspath(os.fspath(source)) if isinstance(source, (str, os.PathLike)) else source
@@ -241,7 +264,6 @@ def _run_conversions(todo: list[tuple[str, str, dict[str, Any], Any]], out: str,
                               key=f"geomtex-convert-{key}", pure=False)
             futures[future] = (key, desc, fp)
         bar = _bar(len(futures), "converting", progress, c)
-        last_write = 0.0
         for future in distributed.as_completed(futures):
             key, desc, fp = futures[future]
             try:
@@ -250,14 +272,44 @@ def _run_conversions(todo: list[tuple[str, str, dict[str, Any], Any]], out: str,
                 row = {"status": "failed", "seconds": None, "bytes": None, "stats": None,
                        "error": f"{type(e).__name__}: {e}", "worker_pid": None}
             manifest["rows"][key] = {"key": key, "input": desc, "output": f"{key}.gtex", "fingerprint": fp, **row}
+            journal.append(manifest["rows"][key])
             if bar is not None:
                 bar.update(1)
-            if time.monotonic() - last_write > 1.0:  # a crash loses at most a second of rows
-                _write_json_atomically(path, manifest)
-                last_write = time.monotonic()
-        _write_json_atomically(path, manifest)
         if bar is not None:
             bar.close()
+    # Every result is in the journal: fold it into the manifest, then drop it.
+    _write_json_atomically(os.path.join(out, MANIFEST), manifest)
+    with contextlib.suppress(FileNotFoundError):
+        os.unlink(os.path.join(out, JOURNAL))
+
+
+class _Journal:
+    """manifest.journal: one JSON row a line, appended as results arrive. Each line is written and
+    flushed whole; the file is synced at most once a second (a machine crash loses at most that
+    second of rows, which are then converted again), so recording a result never rewrites the
+    manifest (at 100k inputs that is ~100 MB of JSON)."""
+
+    def __init__(self, path: str) -> None:
+        self.path = path
+        self.file: Any = None
+        self.last_sync = 0.0
+
+    def __enter__(self) -> _Journal:
+        # The manifest just written holds every row replayed from an earlier journal (a torn
+        # last line included, as not done), so the journal starts empty.
+        self.file = open(self.path, "wb")
+        return self
+
+    def append(self, row: dict[str, Any]) -> None:
+        self.file.write(json.dumps(row, allow_nan=True).encode() + b"\n")
+        self.file.flush()
+        if time.monotonic() - self.last_sync > 1.0:
+            os.fsync(self.file.fileno())
+            self.last_sync = time.monotonic()
+
+    def __exit__(self, *exc: object) -> None:
+        os.fsync(self.file.fileno())
+        self.file.close()
 
 
 def _bar(total: int, what: str, progress: bool, client: Any) -> Any:
