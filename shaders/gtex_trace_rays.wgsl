@@ -1,6 +1,6 @@
 // Entry point of ray queries through a geometry-texture set: one invocation per ray traces it
-// through the set (gtex_trace_functions.wgsl), no further than the nearest hit earlier objects
-// left in `hits`, and writes the hit where it finds a nearer one.
+// through the set (trace_functions.wgsl with gtex_trace_functions.wgsl's leaves), no further than
+// the nearest hit earlier objects left in `hits`, and writes the hit where it finds a nearer one.
 //
 // Space: the query's frame (see query_types.wgsl); the patch records and the hierarchy's bounds
 // were placed in it.
@@ -12,11 +12,11 @@ fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let ray = rays[i];
-    let found = trace_gtex(ray.origin, ray.dir, ray.t_min, hits[i].t, query.counts.y == 1u);
-    if (found.patch_index < 0) {
+    let found = trace_nearest(ray.origin, ray.dir, ray.t_min, hits[i].t, query.counts.y == 1u);
+    if (found.item < 0) {
         return;
     }
-    let index = u32(found.patch_index);
+    let index = pieces[found.item].patch_index;
     let surface = gtex_surface(index, ray.origin, ray.dir, found.t);
     hits[i] = QueryHit(surface.normal, found.t, patches[index].maps.ids.y, 0u, 0u, 0u);
 }

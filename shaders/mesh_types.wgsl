@@ -9,3 +9,19 @@ struct MeshObject {
     // x: id written to the id target.
     ids: vec4<i32>,
 }
+
+// One triangle of a traced mesh (kinds/mesh.rs), its corners placed in the query's frame.
+struct TraceTriangle {
+    a: vec3<f32>,
+    _pad0: u32,
+    b: vec3<f32>,
+    _pad1: u32,
+    c: vec3<f32>,
+    _pad2: u32,
+}
+
+// A traced mesh's settings.
+struct MeshTrace {
+    // x: the id its hits get (-2 - k for the scene's k-th mesh, as in frames).
+    ids: vec4<i32>,
+}

@@ -1,7 +1,7 @@
 """Ray queries on the GPU, shaped like trimesh's ``RayMeshIntersector`` so a trimesh user can swap
 them in: ``intersects_first`` (everything about each ray's nearest hit), ``intersects_location``
-and ``intersects_any``. They trace through a hierarchy over thin pieces of the patches' boxes
-(see the README's "Ray queries"); meshes in a scene cannot be traced yet.
+and ``intersects_any``. They trace through a hierarchy over thin pieces of the patches' boxes and,
+for meshes in a scene, a hierarchy over their triangles (see the README's "Ray queries").
 
 Attached as methods of ``GeometryTextureSet`` and ``Scene`` by ``geomtex/__init__.py``.
 """
@@ -34,7 +34,8 @@ def _query_renderer() -> _core.Renderer:
 
 class RayHits(NamedTuple):
     """Per ray: hit point (NaN on a miss), distance along the unit direction (inf), patch id
-    (-1), world unit normal (0) and whether it hit."""
+    (-2 - k for the scene's k-th mesh, as in frames; -1 on a miss), world unit normal (0) and
+    whether it hit."""
 
     locations: npt.NDArray[np.float64]
     distances: npt.NDArray[np.float64]
@@ -73,7 +74,7 @@ def intersects_first(self: Any, origins: npt.ArrayLike, directions: npt.ArrayLik
     """The nearest hit of every ray (``quality`` "exact" by default)."""
     o, d = _rays(origins, directions)
     dist, ids, normals = _query_renderer().intersect(self, o, d, quality=quality, method=method)
-    hit = ids >= 0
+    hit = ids != -1
     unit = d / np.linalg.norm(d, axis=1, keepdims=True)
     locations = np.where(hit[:, None], o + unit * np.where(hit, dist, 0.0)[:, None], np.nan)
     return RayHits(locations, dist, ids, normals, hit)
@@ -96,4 +97,4 @@ def intersects_any(self: Any, ray_origins: npt.ArrayLike, ray_directions: npt.Ar
     """Whether each ray hits anything (each stops at the first hit found)."""
     o, d = _rays(ray_origins, ray_directions)
     _, ids, _ = _query_renderer().intersect(self, o, d, any_hit=True, **options)
-    return ids >= 0
+    return ids != -1

@@ -147,7 +147,7 @@ fn build_node(boxes: &[Aabb], items: &mut [u32], nodes: &mut Vec<Shape>, depth: 
     }
     nodes.push(Shape::Interior { right: 0 });
     // Past MEDIAN_DEPTH only halving: a tree stays shallower than the walk's stack
-    // (STACK_DEPTH = 48 in gtex_trace_functions.wgsl) however the boxes lie.
+    // (STACK_DEPTH = 48 in trace_functions.wgsl) however the boxes lie.
     let mid = if depth < MEDIAN_DEPTH {
         split(boxes, items)
     } else {

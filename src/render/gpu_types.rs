@@ -149,6 +149,28 @@ const _: () = assert!(size_of::<MeshVertex>() == 28);
 const _: () = assert!(offset_of!(MeshVertex, normal) == 12);
 const _: () = assert!(offset_of!(MeshVertex, color) == 24);
 
+/// `TraceTriangle` in mesh_types.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+pub(crate) struct TraceTriangleGpu {
+    pub a: [f32; 3],
+    pub _pad0: u32,
+    pub b: [f32; 3],
+    pub _pad1: u32,
+    pub c: [f32; 3],
+    pub _pad2: u32,
+}
+
+/// `MeshTrace` in mesh_types.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+pub(crate) struct MeshTraceGpu {
+    pub ids: [i32; 4],
+}
+
+wgsl_size!(TraceTriangleGpu, 48);
+wgsl_size!(MeshTraceGpu, 16);
+
 /// `QueryRay` in query_types.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]

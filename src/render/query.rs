@@ -1,6 +1,8 @@
-//! Ray queries: the nearest hit (or any hit) of many rays against a scene's texture sets, traced
-//! on the GPU through each set's hierarchy over the pieces of its patches' boxes (kinds/gtex,
-//! gtex_trace_rays.wgsl), in batches under the adapter's binding and dispatch limits.
+//! Ray queries: the nearest hit (or any hit) of many rays against a scene's texture sets and
+//! meshes, traced on the GPU through each object's hierarchy (over the pieces of a set's patch
+//! boxes, kinds/gtex; over a mesh's triangles, kinds/mesh.rs) by the shared walk
+//! (trace_functions.wgsl), object after object, in batches under the adapter's binding and
+//! dispatch limits.
 //!
 //! Spaces: rays come in world space (f64). The query's frame is world space translated by the
 //! rays' mean origin, so f32 coordinates stay small near the rays; t is the distance along each
@@ -11,7 +13,7 @@ use wgpu::util::DeviceExt;
 
 use super::device::guarded;
 use super::gpu_types::{QueryGpu, QueryHitGpu, QueryRayGpu};
-use super::kinds::TraceCall;
+use super::kinds::{Tally, TraceCall};
 use super::pipelines::{storage_entry, uniform_entry};
 use super::{Renderer, Scene, SearchOptions};
 use crate::cancel::Cancel;
@@ -29,7 +31,8 @@ const WORKGROUP: u32 = 64;
 pub struct RayHits {
     /// Distance to the hit along the ray's unit direction; +inf for a miss.
     pub distance: Vec<f64>,
-    /// Patch id (0.. across the scene's texture sets in order); -1 for a miss.
+    /// Patch id (0.. across the scene's texture sets in order), -2 - k for the scene's k-th mesh
+    /// (as in frames); -1 for a miss.
     pub patch_id: Vec<i32>,
     /// World-space unit normal at the hit (xyz per ray); 0 for a miss.
     pub normal: Vec<f32>,
@@ -67,9 +70,9 @@ fn checked_rays(rays: &[(DVec3, DVec3)]) -> Result<Vec<(DVec3, DVec3)>> {
 }
 
 impl Renderer {
-    /// The nearest hit of each ray (origin, direction) against the scene's texture sets, or with
-    /// `any_hit` whether it hits anything (its first hit found, not the nearest). Meshes in the
-    /// scene are an error (they cannot be traced yet). `cancel` is checked between batches.
+    /// The nearest hit of each ray (origin, direction) against the scene's texture sets and
+    /// meshes, or with `any_hit` whether it hits anything (its first hit found, not the nearest).
+    /// `cancel` is checked between batches.
     pub fn intersect(
         &mut self,
         scene: &Scene,
@@ -108,7 +111,7 @@ impl Renderer {
                 let batch_ranges = ranges.map(|r| &r[k * BATCH..k * BATCH + batch.len()]);
                 let found = self.run_batch(&traces, batch, batch_ranges, centre, any_hit)?;
                 for h in found {
-                    let hit = h.id >= 0;
+                    let hit = h.id != -1;
                     hits.distance
                         .push(if hit { h.t as f64 } else { f64::INFINITY });
                     hits.patch_id.push(if hit { h.id } else { -1 });
@@ -128,11 +131,11 @@ impl Renderer {
     ) -> Result<Vec<TraceCall>> {
         let (owners, _) = self.upload_scene(scene, view_from_world)?;
         self.frame_bindings.write_search(&self.gpu.queue, search);
-        let mut first_id = 0;
+        let mut ids = Tally::default();
         let mut traces = Vec::new();
         for (placed, owner) in scene.objects.iter().zip(owners) {
             let kind = &self.kinds[owner];
-            traces.extend(kind.trace(&self.gpu, view_from_world, placed, &mut first_id)?);
+            traces.extend(kind.trace(&self.gpu, view_from_world, placed, &mut ids)?);
         }
         Ok(traces)
     }

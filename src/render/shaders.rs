@@ -20,15 +20,20 @@ const GTEX_BINDINGS: &str = shader!("gtex_bindings.wgsl");
 const MESH_BINDINGS: &str = shader!("mesh_bindings.wgsl");
 const QUERY_BINDINGS: &str = shader!("query_bindings.wgsl");
 const GTEX_TRACE_BINDINGS: &str = shader!("gtex_trace_bindings.wgsl");
+const MESH_TRACE_BINDINGS: &str = shader!("mesh_trace_bindings.wgsl");
 const DEPTH_COPY_BINDINGS: &str = shader!("depth_copy_bindings.wgsl");
 
 const CAMERA_FUNCTIONS: &str = shader!("camera_functions.wgsl");
 const HEIGHTFIELD_FUNCTIONS: &str = shader!("heightfield_functions.wgsl");
 const GTEX_PIECE_FUNCTIONS: &str = shader!("gtex_piece_functions.wgsl");
+const RAY_BOX_FUNCTIONS: &str = shader!("ray_box_functions.wgsl");
+const TRACE_FUNCTIONS: &str = shader!("trace_functions.wgsl");
 const GTEX_TRACE_FUNCTIONS: &str = shader!("gtex_trace_functions.wgsl");
+const MESH_TRACE_FUNCTIONS: &str = shader!("mesh_trace_functions.wgsl");
 
 const GTEX_RAYCAST: &str = shader!("gtex_raycast.wgsl");
 const GTEX_TRACE_RAYS: &str = shader!("gtex_trace_rays.wgsl");
+const MESH_TRACE_RAYS: &str = shader!("mesh_trace_rays.wgsl");
 const MESH_RASTER: &str = shader!("mesh_raster.wgsl");
 const DEPTH_COPY: &str = shader!("depth_copy.wgsl");
 
@@ -46,6 +51,7 @@ pub fn gtex_raycast() -> String {
         GTEX_BINDINGS,
         CAMERA_FUNCTIONS,
         HEIGHTFIELD_FUNCTIONS,
+        RAY_BOX_FUNCTIONS,
         GTEX_PIECE_FUNCTIONS,
         GTEX_RAYCAST,
     ])
@@ -64,9 +70,29 @@ pub fn gtex_trace_rays() -> String {
         GTEX_TRACE_BINDINGS,
         QUERY_BINDINGS,
         HEIGHTFIELD_FUNCTIONS,
+        RAY_BOX_FUNCTIONS,
         GTEX_PIECE_FUNCTIONS,
+        TRACE_FUNCTIONS,
         GTEX_TRACE_FUNCTIONS,
         GTEX_TRACE_RAYS,
+    ])
+}
+
+/// Ray queries through meshes (kinds/mesh.rs, query.rs).
+pub fn mesh_trace_rays() -> String {
+    assemble(&[
+        CAMERA_TYPES,
+        SEARCH_TYPES,
+        MESH_TYPES,
+        TRACE_TYPES,
+        QUERY_TYPES,
+        FRAME_BINDINGS,
+        MESH_TRACE_BINDINGS,
+        QUERY_BINDINGS,
+        RAY_BOX_FUNCTIONS,
+        TRACE_FUNCTIONS,
+        MESH_TRACE_FUNCTIONS,
+        MESH_TRACE_RAYS,
     ])
 }
 
@@ -91,10 +117,11 @@ pub fn depth_copy() -> String {
 }
 
 /// Every assembled pipeline module, by name.
-pub fn all() -> [(&'static str, String); 4] {
+pub fn all() -> [(&'static str, String); 5] {
     [
         ("gtex_raycast", gtex_raycast()),
         ("gtex_trace_rays", gtex_trace_rays()),
+        ("mesh_trace_rays", mesh_trace_rays()),
         ("mesh_raster", mesh_raster()),
         ("depth_copy", depth_copy()),
     ]

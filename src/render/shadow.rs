@@ -1,7 +1,6 @@
 //! Shadows: after a frame is drawn, one shadow ray per pixel it hit, from the hit (moved off the
-//! surface) toward a light, traced through the scene's texture sets with the ray-query tracer
-//! (query.rs, any hit). Texture sets cast and receive shadows; meshes receive them but cannot
-//! cast yet (the tracer does not trace triangles).
+//! surface) toward a light, traced through the scene's texture sets and meshes with the ray-query
+//! tracer (query.rs, any hit). Every object casts and receives shadows.
 //!
 //! Spaces: world (f64): hit points are rebuilt from each pixel's world ray and its z-depth, the
 //! light is given in world space, and normals are the frame's world normals.
@@ -29,6 +28,11 @@ const SHADOW_BRIGHTNESS: f64 = 0.5;
 /// overlap rings). Against embree's shadow rays on the bunny: 2 texels lose 8% of the shadowed
 /// pixels (near the terminator), a quarter texel agrees on 99.87–99.89% of the pixels.
 const OFFSET_TEXELS: f64 = 0.25;
+
+/// The same offset for meshes, as a fraction of the largest mesh's bounding-box diagonal: above
+/// f32's rounding of the triangles in the query's frame (~1e-7 of their extent), far below any
+/// detail a mesh shows.
+const OFFSET_MESH_DIAGONAL: f64 = 1e-5;
 
 impl Light {
     pub fn validate(&self) -> Result<()> {
@@ -59,22 +63,26 @@ impl Light {
     }
 }
 
-/// The largest texel of the scene's texture sets in world units (a placement's largest scale
-/// applied); 0 when it holds none.
-fn largest_texel(scene: &Scene) -> f64 {
+/// How far a shadow ray starts off its surface in world units: a quarter of the scene's largest
+/// texel (a placement's largest scale applied), and never less than `OFFSET_MESH_DIAGONAL` of its
+/// largest mesh.
+fn start_offset(scene: &Scene) -> f64 {
     scene
         .objects
         .iter()
-        .filter_map(|placed| match &placed.object {
-            Object::Textures(set) => {
-                let m = placed.world_from_object;
-                let scale = [m.x_axis, m.y_axis, m.z_axis]
-                    .iter()
-                    .map(|c| c.truncate().length())
-                    .fold(0.0, f64::max);
-                Some(set.texel_size * scale)
+        .map(|placed| {
+            let m = placed.world_from_object;
+            let scale = [m.x_axis, m.y_axis, m.z_axis]
+                .iter()
+                .map(|c| c.truncate().length())
+                .fold(0.0, f64::max);
+            match &placed.object {
+                Object::Textures(set) => OFFSET_TEXELS * set.texel_size * scale,
+                Object::Mesh(mesh, _) => {
+                    let (lo, hi) = mesh.bounds();
+                    OFFSET_MESH_DIAGONAL * (hi - lo).length() * scale
+                }
             }
-            Object::Mesh(..) => None,
         })
         .fold(0.0, f64::max)
 }
@@ -93,19 +101,13 @@ impl Renderer {
     ) -> Result<()> {
         light.validate()?;
         let start = std::time::Instant::now();
-        let casters = Scene {
-            objects: (scene.objects.iter())
-                .filter(|placed| matches!(placed.object, Object::Textures(_)))
-                .cloned()
-                .collect(),
-        };
-        let offset = OFFSET_TEXELS * largest_texel(&casters);
+        let offset = start_offset(scene);
         let (pixels, rays, ranges) = shadow_rays(camera, frame, light, offset)?;
         let mut shadow = vec![false; frame.depth.len()];
-        if !rays.is_empty() && !casters.objects.is_empty() {
-            let hits = self.trace_rays(&casters, &rays, Some(&ranges), search, true, cancel)?;
+        if !rays.is_empty() {
+            let hits = self.trace_rays(scene, &rays, Some(&ranges), search, true, cancel)?;
             for (&i, &id) in pixels.iter().zip(&hits.patch_id) {
-                shadow[i] = id >= 0;
+                shadow[i] = id != -1;
             }
         }
         for (i, _) in shadow.iter().enumerate().filter(|(_, s)| **s) {

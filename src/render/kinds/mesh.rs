@@ -3,20 +3,31 @@
 //! shaded by the same normal rule as `convert` (crease-split by default, `mesh::NormalRule`).
 //! Vertices go up unwelded, three per face, each with its corner's normal and color.
 //!
+//! Meshes are traced too (ray queries and shadow rays): a hierarchy over their triangles (bvh.rs,
+//! its shape built once per mesh in object space) is refitted to the triangles as each query
+//! places them, and walked by the shared tracer (trace_functions.wgsl, mesh_trace_*.wgsl).
+//!
 //! Spaces: the mesh's object space (placed by `world_from_object`); its vertices are stored
 //! relative to their bounding box centre ("local", f32) so f32 keeps their detail; view
-//! (camera-relative).
+//! (camera-relative); a query's frame (world translated near its rays) for traced triangles.
+
+use std::sync::OnceLock;
 
 use glam::{DMat3, DMat4, DVec3};
 use wgpu::util::DeviceExt;
 
-use super::{DrawCall, FrameView, Kind, Tally, UploadCache};
-use crate::error::{GeomtexError, Result};
+use super::{DrawCall, FrameView, Kind, Tally, TraceCall, UploadCache};
+use crate::error::Result;
 use crate::mesh::{Mesh, MeshGeometry, NormalRule};
+use crate::render::bvh::{Aabb, Bvh};
 use crate::render::cull::DepthRange;
 use crate::render::device::Gpu;
-use crate::render::gpu_types::{gpu_matrix, normal_matrix, MeshObjectGpu, MeshVertex};
-use crate::render::pipelines::{uniform_entry, RasterPipeline, VERTEX_AND_FRAGMENT};
+use crate::render::gpu_types::{
+    gpu_matrix, normal_matrix, MeshObjectGpu, MeshTraceGpu, MeshVertex, TraceTriangleGpu,
+};
+use crate::render::pipelines::{
+    compute_pipeline, storage_entry, uniform_entry, RasterPipeline, VERTEX_AND_FRAGMENT,
+};
 use crate::render::scene::{Object, SceneObject};
 use crate::render::shaders;
 
@@ -31,15 +42,45 @@ struct UploadedMesh {
     hi: DVec3,
 }
 
+/// Everything kept of one mesh: its uploads under each normal rule it was drawn with, and the
+/// shape of the hierarchy over its triangles, built the first time it is traced.
+#[derive(Default)]
+struct MeshUploads {
+    drawn: Vec<(NormalRule, UploadedMesh)>,
+    tree: OnceLock<Bvh>,
+}
+
 pub(crate) struct MeshKind {
     layout: wgpu::BindGroupLayout,
     pipeline: wgpu::RenderPipeline,
-    /// Per mesh, its uploads under each normal rule it was drawn with.
-    uploads: UploadCache<Mesh, Vec<(NormalRule, UploadedMesh)>>,
+    trace_layout: wgpu::BindGroupLayout,
+    trace_pipeline: wgpu::ComputePipeline,
+    uploads: UploadCache<Mesh, MeshUploads>,
 }
 
 impl MeshKind {
-    pub fn new(device: &wgpu::Device, frame_layout: &wgpu::BindGroupLayout) -> MeshKind {
+    pub fn new(
+        device: &wgpu::Device,
+        frame_layout: &wgpu::BindGroupLayout,
+        query_layout: &wgpu::BindGroupLayout,
+    ) -> MeshKind {
+        let compute = wgpu::ShaderStages::COMPUTE;
+        // Group 1 of mesh_trace_bindings.wgsl.
+        let trace_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("mesh (tracer)"),
+            entries: &[
+                storage_entry(0, compute, true),
+                storage_entry(1, compute, true),
+                storage_entry(2, compute, true),
+            ],
+        });
+        let trace_pipeline = compute_pipeline(
+            device,
+            "mesh_trace_rays",
+            &shaders::mesh_trace_rays(),
+            &[Some(frame_layout), Some(&trace_layout), Some(query_layout)],
+            &[],
+        );
         // Group 1 of mesh_bindings.wgsl.
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("mesh object"),
@@ -63,9 +104,48 @@ impl MeshKind {
         MeshKind {
             layout,
             pipeline,
+            trace_layout,
+            trace_pipeline,
             uploads: UploadCache::default(),
         }
     }
+}
+
+/// The mesh's triangles as `view_from_object` places them (in f64, then f32), and their boxes.
+fn placed_triangles(mesh: &Mesh, view_from_object: &DMat4) -> (Vec<TraceTriangleGpu>, Vec<Aabb>) {
+    let points: Vec<DVec3> = (mesh.positions.iter())
+        .map(|&p| view_from_object.transform_point3(p))
+        .collect();
+    mesh.faces
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|k| points[k as usize]);
+            let corner = |p: DVec3| p.as_vec3().to_array();
+            let triangle = TraceTriangleGpu {
+                a: corner(a),
+                _pad0: 0,
+                b: corner(b),
+                _pad1: 0,
+                c: corner(c),
+                _pad2: 0,
+            };
+            (triangle, Aabb::of_points([a, b, c]))
+        })
+        .unzip()
+}
+
+fn storage_buffer(
+    gpu: &Gpu,
+    label: &str,
+    contents: &[u8],
+    usage: wgpu::BufferUsages,
+) -> wgpu::Buffer {
+    gpu.device
+        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents,
+            usage,
+        })
 }
 
 /// De-indexed vertices, three per face, with their corners' normals under `rule` and base
@@ -115,7 +195,7 @@ impl Kind for MeshKind {
         let Object::Mesh(mesh, rule) = object else {
             return Ok(false);
         };
-        let uploads = self.uploads.entry(mesh);
+        let uploads = &mut self.uploads.entry(mesh).drawn;
         if !uploads.iter().any(|(r, _)| r == rule) {
             uploads.push((*rule, upload(gpu, mesh, *rule)));
         }
@@ -134,7 +214,8 @@ impl Kind for MeshKind {
         let Object::Mesh(mesh, rule) = &placed.object else {
             return None;
         };
-        let (_, u) = self.uploads.get(mesh)?.iter().find(|(r, _)| r == rule)?;
+        let uploads = &self.uploads.get(mesh)?.drawn;
+        let (_, u) = uploads.iter().find(|(r, _)| r == rule)?;
         let view_from_object = frame.view_from_world * placed.world_from_object;
         let view_from_local = view_from_object * DMat4::from_translation(u.centre);
         let record = MeshObjectGpu {
@@ -168,19 +249,53 @@ impl Kind for MeshKind {
 
     fn trace(
         &self,
-        _gpu: &Gpu,
-        _view_from_world: DMat4,
+        gpu: &Gpu,
+        view_from_world: DMat4,
         placed: &SceneObject,
-        _first_id: &mut i32,
-    ) -> Result<Option<super::TraceCall>> {
-        match &placed.object {
-            Object::Mesh(..) => Err(GeomtexError::Parameter(
-                "ray queries through meshes are not supported yet; query the texture sets, or \
-                 use trimesh's ray queries for the meshes"
-                    .into(),
-            )),
-            _ => Ok(None),
-        }
+        ids: &mut Tally,
+    ) -> Result<Option<TraceCall>> {
+        let Object::Mesh(mesh, _) = &placed.object else {
+            return Ok(None);
+        };
+        // Hits get the id the mesh's pixels get in a frame.
+        let id = -2 - ids.meshes_drawn as i32;
+        ids.meshes_drawn += 1;
+        let Some(uploads) = self.uploads.get(mesh) else {
+            return Ok(None);
+        };
+        let tree = uploads.tree.get_or_init(|| {
+            let identity = DMat4::IDENTITY;
+            Bvh::build(&placed_triangles(mesh, &identity).1)
+        });
+        let (triangles, boxes) =
+            placed_triangles(mesh, &(view_from_world * placed.world_from_object));
+        let nodes = tree.refit(&boxes);
+        let storage = wgpu::BufferUsages::STORAGE;
+        let settings = MeshTraceGpu { ids: [id, 0, 0, 0] };
+        let settings = storage_buffer(gpu, "mesh trace", bytemuck::bytes_of(&settings), storage);
+        let nodes = storage_buffer(
+            gpu,
+            "triangle hierarchy",
+            bytemuck::cast_slice(&nodes),
+            storage,
+        );
+        let triangles = storage_buffer(gpu, "triangles", bytemuck::cast_slice(&triangles), storage);
+        let group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("mesh (tracer)"),
+            layout: &self.trace_layout,
+            entries: &[settings, nodes, triangles]
+                .iter()
+                .enumerate()
+                .map(|(binding, buffer)| wgpu::BindGroupEntry {
+                    binding: binding as u32,
+                    resource: buffer.as_entire_binding(),
+                })
+                .collect::<Vec<_>>(),
+        });
+        Ok(Some(TraceCall {
+            pipeline: self.trace_pipeline.clone(),
+            group,
+        }))
     }
 
     fn purge(&mut self) {

@@ -33,7 +33,7 @@ pub(crate) fn registered(
 ) -> Vec<Box<dyn Kind>> {
     vec![
         Box::new(gtex::GtexKind::new(device, frame_layout, query_layout)),
-        Box::new(mesh::MeshKind::new(device, frame_layout)),
+        Box::new(mesh::MeshKind::new(device, frame_layout, query_layout)),
     ]
 }
 
@@ -60,14 +60,15 @@ pub(crate) trait Kind: Send {
     ) -> Option<DrawCall>;
 
     /// The ray-query dispatch of an object this kind uploaded, its records placed by
-    /// `view_from_world` (the query's frame); `None` when it holds nothing to hit. Patch ids
-    /// continue from `first_id`, which it advances. An error for kinds that cannot be traced.
+    /// `view_from_world` (the query's frame); `None` when it holds nothing to hit. Ids continue
+    /// from those `ids` handed out so far (patch ids, mesh ids), which it advances as a frame
+    /// would. An error for kinds that cannot be traced.
     fn trace(
         &self,
         gpu: &Gpu,
         view_from_world: DMat4,
         placed: &SceneObject,
-        first_id: &mut i32,
+        ids: &mut Tally,
     ) -> Result<Option<TraceCall>>;
 
     /// Drops the uploads of objects that no longer exist.

@@ -357,7 +357,7 @@ impl Kind for GtexKind {
         gpu: &Gpu,
         view_from_world: DMat4,
         placed: &SceneObject,
-        first_id: &mut i32,
+        ids: &mut Tally,
     ) -> Result<Option<TraceCall>> {
         let Object::Textures(set) = &placed.object else {
             return Ok(None);
@@ -370,9 +370,9 @@ impl Kind for GtexKind {
             world_from_object: placed.world_from_object,
             lens: None,
             lod: false,
-            first_id: *first_id,
+            first_id: ids.patch_ids,
         };
-        *first_id += set.patches.len() as i32;
+        ids.patch_ids += set.patches.len() as i32;
         let tracing = upload.tracing(gpu, set);
         if tracing.pieces.is_empty() {
             return Ok(None);
