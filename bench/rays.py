@@ -5,11 +5,12 @@ Rays: from random points on a sphere (radius one diagonal) around the Stanford b
 random points in its bounding box, as in tests/test_rays.py. Per ray count: wall time of
 ``gts.intersects_first`` (nearest hit, "exact" quality) and of ``gts.intersects_any``, embree's
 first hits with locations, the throughput of each (million rays per second), hit/miss agreement
-and the distance error against embree (fraction of the bounding-box diagonal).
+and the distance error against embree (fraction of the bounding-box diagonal); and the same rays
+through the bunny *as a mesh* in a ``gt.Scene`` (the tracer's hierarchy over its triangles).
 
-Shadows: the bunny on a ground plane (a mesh) at 512², three directional lights: the frame with
-and without ``light=``, and the shadow mask against embree's shadow rays cast from embree's own
-hits (tests/test_shadows.py at 128²).
+Shadows: the bunny (converted, then as a mesh) on a ground plane (a mesh) at 512², three
+directional lights: the frame with and without ``light=``, and the shadow mask against embree's
+shadow rays cast from embree's own hits (tests/test_shadows.py at 128²).
 
 Results: ``bench/results/rays.json`` and ``bench/results/rays.png``.
 
@@ -59,11 +60,19 @@ def measure(gts: Any, caster: Any, mesh: gt.Mesh, n: int) -> dict[str, Any]:
     hits, gt_ms = timed(lambda: gts.intersects_first(origins, dirs), repeats)
     _, any_ms = timed(lambda: gts.intersects_any(origins, dirs), repeats)
     _, embree_ms = timed(lambda: caster.first_hits(origins, dirs), repeats)
+    as_mesh = gt.Scene()
+    as_mesh.add(mesh)
+    mesh_hits, mesh_ms = timed(lambda: as_mesh.intersects_first(origins, dirs), repeats)
     busy = foreign.stop()
     ref = caster.first_distances(origins, dirs)
     both = hits.hit & np.isfinite(ref)
     err = np.abs(hits.distances[both] - ref[both]) / diag
+    mesh_both = mesh_hits.hit & np.isfinite(ref)
+    mesh_err = np.abs(mesh_hits.distances[mesh_both] - ref[mesh_both]) / diag
     return {
+        "mesh_first_ms": mesh_ms, "mesh_mrays_s": n / mesh_ms / 1e3, "embree_over_mesh": mesh_ms / embree_ms,
+        "mesh_hit_agreement": float(np.mean(mesh_hits.hit == np.isfinite(ref))),
+        "mesh_distance_p99": float(np.percentile(mesh_err, 99)), "mesh_distance_max": float(mesh_err.max()),
         "rays": n, "geomtex_first_ms": gt_ms, "geomtex_any_ms": any_ms, "embree_ms": embree_ms,
         "geomtex_mrays_s": n / gt_ms / 1e3, "embree_mrays_s": n / embree_ms / 1e3,
         "embree_over_geomtex": gt_ms / embree_ms,
@@ -78,7 +87,7 @@ SHADOW_SIZE = 512
 LIGHTS = ((0.3, -1.0, 0.2), (1.0, -0.6, -0.4), (-0.5, -1.0, 0.8))
 
 
-def shadows(gts: Any, mesh: gt.Mesh) -> list[dict[str, Any]]:
+def shadows(gts: Any, mesh: gt.Mesh, as_mesh: bool) -> list[dict[str, Any]]:
     import sys
 
     sys.path.insert(0, str(REPO / "tests"))
@@ -86,7 +95,7 @@ def shadows(gts: Any, mesh: gt.Mesh) -> list[dict[str, Any]]:
 
     ts.SIZE = SHADOW_SIZE
     bunny = type("Converted", (), {"mesh": mesh, "gts": gts})()
-    scene, whole, camera, diag = ts.bunny_on_ground(bunny)
+    scene, whole, camera, diag = ts.bunny_on_ground(bunny, as_mesh)
     r = gt.Renderer(SHADOW_SIZE, SHADOW_SIZE)
     records = []
     for direction in LIGHTS:
@@ -97,13 +106,13 @@ def shadows(gts: Any, mesh: gt.Mesh) -> list[dict[str, Any]]:
         both = hit & np.isfinite(lit.depth)
         wrong = (lit.shadow != ref) & both
         records.append({
-            "light": direction, "frame_ms": plain_ms, "lit_frame_ms": lit_ms, "lit_over_plain": lit_ms / plain_ms,
+            "bunny": "mesh" if as_mesh else "set", "light": direction, "frame_ms": plain_ms, "lit_frame_ms": lit_ms, "lit_over_plain": lit_ms / plain_ms,
             "shadow_rays": int(np.isfinite(lit.depth).sum()), "agreement": float(1 - wrong.sum() / both.sum()),
             "off_edge_disagreements": int((wrong & ~ts.near_edge(ref)).sum()),
             "shadowed": int(lit.shadow.sum()), "embree_shadowed": int(ref[both].sum()),
         })
         q = records[-1]
-        print(f"light {direction}: frame {plain_ms:.0f} ms, with shadows {lit_ms:.0f} ms ({q['lit_over_plain']:.1f}x); "
+        print(f"{records[-1]['bunny']}, light {direction}: frame {plain_ms:.0f} ms, with shadows {lit_ms:.0f} ms ({q['lit_over_plain']:.1f}x); "
               f"agreement {q['agreement']:.4f}, off-edge {q['off_edge_disagreements']}")
     return records
 
@@ -118,6 +127,7 @@ def plot(records: list[dict[str, Any]], path: Path) -> None:
     fig, ax = plt.subplots(figsize=(6, 4))
     ax.loglog(n, [r["geomtex_first_ms"] for r in records], "o-", label="geomtex intersects_first (lavapipe)")
     ax.loglog(n, [r["geomtex_any_ms"] for r in records], "s--", label="geomtex intersects_any")
+    ax.loglog(n, [r["mesh_first_ms"] for r in records], "d-.", label="geomtex, the bunny as a mesh")
     ax.loglog(n, [r["embree_ms"] for r in records], "^-", label="trimesh + embree, intersector kept")
     ax.set_xlabel("rays per call")
     ax.set_ylabel("wall time (ms)")
@@ -143,8 +153,9 @@ def main() -> None:
         r = records[-1]
         print(f"{n:>9,} rays: geomtex {r['geomtex_first_ms']:8.1f} ms (any {r['geomtex_any_ms']:8.1f}), "
               f"embree {r['embree_ms']:7.1f} ms, embree {r['embree_over_geomtex']:.1f}x faster; agreement "
-              f"{r['hit_agreement']:.5f}, p99 {r['distance_p99']:.1e} of the diagonal")
-    shadow_records = shadows(gts, mesh)
+              f"{r['hit_agreement']:.5f}, p99 {r['distance_p99']:.1e} of the diagonal; as a mesh "
+              f"{r['mesh_first_ms']:8.1f} ms, agreement {r['mesh_hit_agreement']:.5f}, p99 {r['mesh_distance_p99']:.1e}")
+    shadow_records = shadows(gts, mesh, False) + shadows(gts, mesh, True)
     OUT.mkdir(parents=True, exist_ok=True)
     result = {"machine": machine_info(), "embree_build_and_first_cast_s": build_s, "records": records,
               "shadows": shadow_records}
