@@ -76,10 +76,13 @@ fn patch_dict<'py>(py: Python<'py>, p: &Patch) -> PyResult<Bound<'py, PyDict>> {
         d.set_item("height", matrix(py, p.heights.clone(), h, w))?;
     }
     d.set_item("height_bits", p.height_bits)?;
-    let normals: Vec<i8> = p.normals.iter().flatten().copied().collect();
+    // Decoded to the layouts callers have always read (normals stored as 2-byte octahedral
+    // codes, colors possibly absent).
+    let normals: Vec<i8> = p.normals_snorm8().into_iter().flatten().collect();
     d.set_item("normal", image(py, normals, (h, w, 4)))?;
-    let colors: Vec<u8> = p.colors.iter().flatten().copied().collect();
+    let colors: Vec<u8> = (0..p.texels()).flat_map(|t| p.color(t)).collect();
     d.set_item("color", image(py, colors, (h, w, 4)))?;
+    d.set_item("has_colors", p.has_colors())?;
     d.set_item("outline", matrix(py, p.outline.clone(), h, w))?;
     d.set_item("world_from_patch", mat4_to_numpy(py, p.world_from_patch()))?;
     d.set_item("origin", PyArray1::from_slice(py, &p.origin.to_array()))?;

@@ -122,7 +122,7 @@ fn textures_layout(
     let mut entries = vec![
         storage_entry(0, stages, true),
         texture_entry(1, reads, wgpu::TextureSampleType::Uint, array),
-        texture_entry(2, reads, filterable, array),
+        texture_entry(2, reads, wgpu::TextureSampleType::Sint, array),
         texture_entry(3, reads, filterable, array),
         wgpu::BindGroupLayoutEntry {
             binding: 4,
@@ -130,7 +130,12 @@ fn textures_layout(
             ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
             count: None,
         },
-        storage_entry(5, reads, true),
+        texture_entry(
+            5,
+            reads,
+            wgpu::TextureSampleType::Uint,
+            wgpu::TextureViewDimension::D2,
+        ),
         texture_entry(8, reads, filterable, array),
     ];
     entries.extend_from_slice(extra);
@@ -245,7 +250,12 @@ impl GtexKind {
                     world_normal_from_patch: normal_matrix(object_linear * axes),
                     atlas_origin: [x as f32, y as f32],
                     size: [p.width as f32, p.height as f32],
-                    ids: [layer as i32, placing.first_id + i as i32, 0, 0],
+                    ids: [
+                        layer as i32,
+                        placing.first_id + i as i32,
+                        p.has_colors() as i32,
+                        0,
+                    ],
                     pyramid_at: [first_value, levels, p.code_max() as u32, lod],
                 };
                 (record, visible.then_some(view_from_patch))
@@ -272,7 +282,7 @@ impl GtexKind {
             (2, texture(normals)),
             (3, texture(colors)),
             (4, wgpu::BindingResource::Sampler(&self.sampler)),
-            (5, atlas.pyramid.as_entire_binding()),
+            (5, texture(&atlas.pyramid)),
             (8, texture(outlines)),
         ];
         let entries: Vec<_> = resources
