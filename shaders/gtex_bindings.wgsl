@@ -7,7 +7,7 @@
 @group(1) @binding(0) var<storage, read> patches: array<Patch>;
 // Height codes: 0 = empty, else 1..code_max (8- or 16-bit per patch).
 @group(1) @binding(1) var heights: texture_2d_array<u32>;
-// Octahedral normal codes (src/gtex/mod.rs, encode_normal): two signed bytes, /127; -128 = none.
+// Octahedral normal codes (src/gtex/mod.rs, encode_normal): two signed bytes, /126; -128 = none.
 @group(1) @binding(2) var normals: texture_2d_array<i32>;
 // One neutral texel when the set has no color map (PatchMaps.ids.z says whether a patch has one).
 @group(1) @binding(3) var colors: texture_2d_array<f32>;

@@ -67,7 +67,7 @@ fn decode_normal(code: vec2<i32>) -> vec3<f32> {
     if (code.x == -128) {
         return vec3<f32>(0.0);
     }
-    let e = vec2<f32>(code) / 127.0;
+    let e = vec2<f32>(code) / 126.0;  // gtex::NORMAL_STEPS
     let z = 1.0 - abs(e.x) - abs(e.y);
     let t = max(-z, 0.0);
     let xy = e - select(vec2<f32>(-t), vec2<f32>(t), e >= vec2<f32>(0.0));

@@ -245,10 +245,14 @@ pub fn decode_outline(code: f64) -> f64 {
 /// Normal code of a texel that holds no normal (decodes to the zero vector).
 pub const NO_NORMAL: [i8; 2] = [i8::MIN, i8::MIN];
 
-/// Octahedral code of direction `n` (two signed bytes, /127): the point of the octahedron
-/// |x| + |y| + |z| = 1 along n, its lower half folded over the upper, so x and y alone say
-/// where. Of the four roundings the one decoding closest to n is kept (mean error 0.32°, at
-/// most 0.64°). The zero vector gets `NO_NORMAL`.
+/// Steps per unit of an octahedral code: 126 = 2 · 3² · 7, so the directions CAD models are made
+/// of (axes, 45° chamfers, cube diagonals: octahedron coordinates 0, 1/2, 1/3) are exact.
+pub const NORMAL_STEPS: f64 = 126.0;
+
+/// Octahedral code of direction `n` (two signed bytes, / NORMAL_STEPS): the point of the
+/// octahedron |x| + |y| + |z| = 1 along n, its lower half folded over the upper, so x and y
+/// alone say where. Of the four roundings the one decoding closest to n is kept (over random
+/// directions: mean error 0.32°, at most 0.64°). The zero vector gets `NO_NORMAL`.
 pub fn encode_normal(n: DVec3) -> [i8; 2] {
     let l1 = n.x.abs() + n.y.abs() + n.z.abs();
     if !(l1 > 0.0) {
@@ -261,13 +265,13 @@ pub fn encode_normal(n: DVec3) -> [i8; 2] {
     } else {
         ((1.0 - n.y.abs()) * sign(n.x), (1.0 - n.x.abs()) * sign(n.y))
     };
-    let (fx, fy) = ((x * 127.0).floor(), (y * 127.0).floor());
+    let (fx, fy) = ((x * NORMAL_STEPS).floor(), (y * NORMAL_STEPS).floor());
     let unit = n.normalize();
     let mut best = (f64::NEG_INFINITY, NO_NORMAL);
     for (dx, dy) in [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)] {
         let code = [
-            (fx + dx).clamp(-127.0, 127.0) as i8,
-            (fy + dy).clamp(-127.0, 127.0) as i8,
+            (fx + dx).clamp(-NORMAL_STEPS, NORMAL_STEPS) as i8,
+            (fy + dy).clamp(-NORMAL_STEPS, NORMAL_STEPS) as i8,
         ];
         let cos = decode_normal(code).dot(unit);
         if cos > best.0 {
@@ -283,7 +287,7 @@ pub fn decode_normal(c: [i8; 2]) -> DVec3 {
     if c[0] == i8::MIN {
         return DVec3::ZERO;
     }
-    let (x, y) = (c[0] as f64 / 127.0, c[1] as f64 / 127.0);
+    let (x, y) = (c[0] as f64 / NORMAL_STEPS, c[1] as f64 / NORMAL_STEPS);
     let z = 1.0 - x.abs() - y.abs();
     let t = (-z).max(0.0);
     let fold = |v: f64| if v >= 0.0 { v - t } else { v + t };

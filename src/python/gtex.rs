@@ -391,7 +391,8 @@ pub fn load(py: Python<'_>, path: &Bound<'_, PyAny>) -> PyResult<PyGeometryTextu
 #[pyo3(signature = (mesh, *, max_resolution = None, texel_size = None, max_error = None,
     max_error_rel = None, error_scope = None, charts = None, chart_error = None, max_charts = None,
     compactness = None, lloyd_iterations = None, overlap_rings = None, dilation = None,
-    frame = None, normals = None, crease_angle = None, height_bits = None, progress = None))]
+    frame = None, normals = None, crease_angle = None, height_bits = None, max_bytes = None,
+    progress = None))]
 #[allow(clippy::too_many_arguments)] // one per keyword of geomtex.convert
 pub fn convert(
     py: Python<'_>,
@@ -412,6 +413,7 @@ pub fn convert(
     normals: Option<&Bound<'_, PyAny>>,
     crease_angle: Option<f64>,
     height_bits: Option<i64>,
+    max_bytes: Option<i64>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<PyGeometryTextureSet> {
     let options = ConvertArgs {
@@ -435,6 +437,7 @@ pub fn convert(
             .transpose()?,
         crease_angle,
         height_bits,
+        max_bytes,
     }
     .into_options()?;
     let set = convert_reporting(py, mesh.get().inner.clone(), &options, progress)?;
