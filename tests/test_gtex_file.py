@@ -174,3 +174,16 @@ def test_version_4_files_still_read(tmp_path) -> None:
     old.save(tmp_path / "v5.gtex")
     assert int.from_bytes((tmp_path / "v5.gtex").read_bytes()[8:12], "little") == 5
     assert gt.load(tmp_path / "v5.gtex").stats["texels"] == colored.stats["texels"]
+
+
+def test_maps_hold_only_what_the_mesh_has(sheet: Converted) -> None:
+    """No color map for a mesh without colors (the dict still shows neutral colors), one for a
+    mesh with them; stats["bytes"] counts 5 and 9 bytes per 16-bit texel."""
+    plain = sheet.gts
+    colored = gt.convert(gt.Mesh(sheet.mesh.vertices, sheet.mesh.faces,
+                                 vertex_colors=np.tile([[10, 200, 30]], (len(sheet.mesh.vertices), 1))))
+    assert plain.stats["bytes"] == 5 * plain.stats["texels"]
+    assert colored.stats["bytes"] == 9 * colored.stats["texels"]
+    p, q = plain.patch(0), colored.patch(0)
+    assert not p["has_colors"] and (p["color"] == [200, 200, 200, 255]).all()
+    assert q["has_colors"] and (q["color"][q["height"] > 0] == [10, 200, 30, 255]).all()
