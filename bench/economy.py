@@ -96,11 +96,15 @@ def rss_child(name: str) -> None:
     before = rss_kib()
     out: dict[str, Any] = {"map_bytes": int(gts.stats["bytes"])}
     try:
-        r.render(gts, cam)
+        frame = r.render(gts, cam)
         out["rendered"] = True
     except gt.GeomtexError as e:
+        frame = None
         out.update(rendered=False, error=str(e))
     out["rss_increase_bytes"] = (rss_kib() - before) * 1024
+    if frame is not None:
+        m = reference.compare(frame, reference.raycast(mesh, cam, 512, 512), mesh.diagonal)
+        out.update({k: m[k] for k in ["iou", "depth_median", "depth_p99", "depth_p99_1px"]})
     print(json.dumps(out))
 
 

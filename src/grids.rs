@@ -11,8 +11,7 @@ use glam::{DVec2, DVec3};
 
 use crate::error::{GeomtexError, Result};
 use crate::gtex::{
-    encode_height, encode_normal, vertical_extent, GeometryTextureSet, Patch, Stats,
-    OUTLINE_INSIDE,
+    encode_height, encode_normal, vertical_extent, GeometryTextureSet, Patch, Stats, OUTLINE_INSIDE,
 };
 use crate::heightfield::grid_normal;
 

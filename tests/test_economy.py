@@ -7,12 +7,9 @@ from __future__ import annotations
 
 import warnings
 
-import numpy as np
 import pytest
 
 import geomtex as gt
-from geomtex import reference
-from geomtex.testing import look_from
 
 from conftest import Converted, converted
 

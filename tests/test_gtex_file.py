@@ -99,7 +99,7 @@ def test_overwrite_replaces_atomically(sheet: Converted, tmp_path) -> None:
 
 
 def _first_patch_offset(data: bytes) -> int:
-    """Offset of patch 0's origin in a version-3 to 5 .gtex file (the layout in src/gtex/file.rs)."""
+    """Offset of patch 0's origin in a version 3-5 .gtex file (layout: src/gtex/file.rs)."""
     at = 32 + 8
     for _ in range(2):  # stats, then stage seconds: count, then (name, f64)
         count = int.from_bytes(data[at:at + 4], "little")

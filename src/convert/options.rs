@@ -325,7 +325,8 @@ impl ConvertArgs {
             max_bytes: self
                 .max_bytes
                 .map(|b| {
-                    u64::try_from(b).or_else(|_| parameter(format!("max_bytes must be >= 1, got {b}")))
+                    u64::try_from(b)
+                        .or_else(|_| parameter(format!("max_bytes must be >= 1, got {b}")))
                 })
                 .transpose()?,
         };

@@ -197,7 +197,11 @@ fn read_patch(r: &mut Reader, k: usize, version: u32) -> Result<Patch, String> {
     let colored = if version >= 5 {
         match r.u32(&what)? {
             c @ (0 | 1) => c == 1,
-            c => return Err(format!("{what}: the color-map flag must be 0 or 1, found {c}")),
+            c => {
+                return Err(format!(
+                    "{what}: the color-map flag must be 0 or 1, found {c}"
+                ))
+            }
         }
     } else {
         true
@@ -230,8 +234,7 @@ fn read_patch(r: &mut Reader, k: usize, version: u32) -> Result<Patch, String> {
             .collect()
     };
     let colors = if colored {
-        bytemuck::cast_slice::<u8, [u8; 4]>(r.take(texels * 4, &format!("{what} colors"))?)
-            .to_vec()
+        bytemuck::cast_slice::<u8, [u8; 4]>(r.take(texels * 4, &format!("{what} colors"))?).to_vec()
     } else {
         Vec::new()
     };
@@ -361,7 +364,14 @@ mod tests {
             height: 3,
             height_bits: 16,
             heights: vec![0, 1, 2, 65535, 7, 0],
-            normals: vec![[0, 0], [12, -7], [-127, 0], [100, 27], [-50, -77], NO_NORMAL],
+            normals: vec![
+                [0, 0],
+                [12, -7],
+                [-127, 0],
+                [100, 27],
+                [-50, -77],
+                NO_NORMAL,
+            ],
             colors: vec![[1, 2, 3, 255]; 6],
             faces: vec![4, 5],
             ring_faces: vec![9],
@@ -429,7 +439,13 @@ mod tests {
         let patches_at = p.len() - s.patches.iter().map(patch_len_v5).sum::<usize>();
         p.truncate(patches_at);
         for patch in &s.patches {
-            for v in [patch.origin, patch.axes[0], patch.axes[1], patch.axes[2], patch.extent] {
+            for v in [
+                patch.origin,
+                patch.axes[0],
+                patch.axes[1],
+                patch.axes[2],
+                patch.extent,
+            ] {
                 put_f64s(&mut p, &v.to_array());
             }
             let counts = [patch.width, patch.height, patch.height_bits as u32];
@@ -467,7 +483,10 @@ mod tests {
         let read4 = decode(&v4).unwrap();
         for (a, b) in read4.patches[0].normals.iter().zip(&s.patches[0].normals) {
             let cos = decode_normal(*a).dot(decode_normal(*b));
-            assert!(*a == *b || cos > (0.75f64).to_radians().cos(), "{a:?} {b:?}");
+            assert!(
+                *a == *b || cos > (0.75f64).to_radians().cos(),
+                "{a:?} {b:?}"
+            );
         }
         assert_eq!(read4.patches[0].colors, s.patches[0].colors);
         // What versions 1 to 3 hold: the same set with no outline map (everywhere inside).
@@ -503,7 +522,10 @@ mod tests {
         let mut payload = b[HEADER..].to_vec();
         payload[flag - HEADER] = 2;
         let err = decode(&file(VERSION, &payload)).unwrap_err();
-        assert!(err.contains("color-map flag must be 0 or 1, found 2"), "{err}");
+        assert!(
+            err.contains("color-map flag must be 0 or 1, found 2"),
+            "{err}"
+        );
     }
 
     #[test]

@@ -255,7 +255,8 @@ pub const NORMAL_STEPS: f64 = 126.0;
 /// directions: mean error 0.32°, at most 0.64°). The zero vector gets `NO_NORMAL`.
 pub fn encode_normal(n: DVec3) -> [i8; 2] {
     let l1 = n.x.abs() + n.y.abs() + n.z.abs();
-    if !(l1 > 0.0) {
+    // Zero or not finite (NaN compares false): no direction.
+    if l1.is_nan() || l1 <= 0.0 || l1.is_infinite() {
         return NO_NORMAL;
     }
     let n = n / l1;

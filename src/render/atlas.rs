@@ -82,8 +82,8 @@ fn fitted(set: &GeometryTextureSet, side: u32) -> Result<(Vec<Place>, wgpu::Exte
         side
     };
     let layers_wanted = (area / (width as f64 * side_f)).ceil().max(1.0) as u32;
-    let mut height = ((area / (width as f64 * layers_wanted as f64)).ceil() as u32)
-        .clamp(tallest, side);
+    let mut height =
+        ((area / (width as f64 * layers_wanted as f64)).ceil() as u32).clamp(tallest, side);
     loop {
         let (places, layers, used) = pack(set, width, height)?;
         // Taller layers until the patches fit in the layers the area asks for (or full size).
@@ -157,7 +157,13 @@ fn map_textures(
     [
         make("heights", height_format),
         make("normals", wgpu::TextureFormat::Rg8Sint),
-        texture_2d(device, "colors", color_size, wgpu::TextureFormat::Rgba8Unorm, usage),
+        texture_2d(
+            device,
+            "colors",
+            color_size,
+            wgpu::TextureFormat::Rgba8Unorm,
+            usage,
+        ),
         make("outlines", wgpu::TextureFormat::R8Snorm),
     ]
 }
@@ -201,7 +207,14 @@ fn write_maps(
             if bytes.is_empty() {
                 continue; // no color map anywhere: the one neutral texel is written above
             }
-            write_texels(queue, texture, (layer, x, y), (p.width, p.height), bytes, texel);
+            write_texels(
+                queue,
+                texture,
+                (layer, x, y),
+                (p.width, p.height),
+                bytes,
+                texel,
+            );
         }
     }
 }
@@ -294,7 +307,14 @@ fn upload_pyramids(
         usage,
     );
     let bytes: &[u8] = bytemuck::cast_slice(&values);
-    write_texels(&gpu.queue, &texture, (0, 0, 0), (width, rows as u32), bytes, 2);
+    write_texels(
+        &gpu.queue,
+        &texture,
+        (0, 0, 0),
+        (width, rows as u32),
+        bytes,
+        2,
+    );
     Ok((texture.create_view(&Default::default()), pyramid_at))
 }
 
@@ -304,10 +324,19 @@ mod tests {
 
     #[test]
     fn packed_nodes_bound_their_codes_outwards() {
-        for (hi, lo) in [(65535u32, 1u32), (300, 299), (255, 1), (1, 1), (40000, 39999)] {
+        for (hi, lo) in [
+            (65535u32, 1u32),
+            (300, 299),
+            (255, 1),
+            (1, 1),
+            (40000, 39999),
+        ] {
             let q = pack_node((hi << 16) | lo, 16);
             let (h8, l8) = ((q >> 8) as u32, (q & 0xff) as u32);
-            assert!(l8 <= h8 && (l8 << 8) <= lo && ((h8 << 8) | 0xff) >= hi, "{hi} {lo}");
+            assert!(
+                l8 <= h8 && (l8 << 8) <= lo && ((h8 << 8) | 0xff) >= hi,
+                "{hi} {lo}"
+            );
         }
         // 8-bit codes are kept exactly; no real node packs as empty.
         assert_eq!(pack_node((200 << 16) | 7, 8), (200 << 8) | 7);
