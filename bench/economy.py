@@ -102,6 +102,9 @@ def rss_child(name: str) -> None:
         frame = None
         out.update(rendered=False, error=str(e))
     out["rss_increase_bytes"] = (rss_kib() - before) * 1024
+    if frame is not None and "texture_bytes" in frame.stats:
+        out["texture_bytes"] = frame.stats["texture_bytes"]
+        out["texture_over_map_bytes"] = frame.stats["texture_bytes"] / out["map_bytes"]
     if frame is not None:
         m = reference.compare(frame, reference.raycast(mesh, cam, 512, 512), mesh.diagonal)
         out.update({k: m[k] for k in ["iou", "depth_median", "depth_p99", "depth_p99_1px"]})

@@ -28,6 +28,8 @@ pub(crate) struct Atlas {
     /// Every patch's min-max pyramid (src/heightfield.rs), one node per R16Uint texel
     /// (`pack_node`).
     pub pyramid: wgpu::TextureView,
+    /// Bytes of every texture above on the adapter (maps, packing gaps and pyramid).
+    pub bytes: u64,
     /// Per patch: its first value in `pyramid` and its level count.
     pub pyramid_at: Vec<[u32; 2]>,
 }
@@ -58,8 +60,14 @@ impl Atlas {
                 ..Default::default()
             })
         };
-        let (pyramid, pyramid_at) = upload_pyramids(gpu, set, pyramids)?;
+        let (pyramid, pyramid_at, pyramid_bytes) = upload_pyramids(gpu, set, pyramids)?;
+        let texture_bytes = |t: &wgpu::Texture| {
+            let s = t.size();
+            let texel = t.format().block_copy_size(None).unwrap_or(4) as u64;
+            s.width as u64 * s.height as u64 * s.depth_or_array_layers as u64 * texel
+        };
         Ok(Atlas {
+            bytes: textures.iter().map(texture_bytes).sum::<u64>() + pyramid_bytes,
             places,
             views: textures.each_ref().map(view),
             pyramid,
@@ -271,7 +279,7 @@ fn upload_pyramids(
     gpu: &Gpu,
     set: &GeometryTextureSet,
     pyramids: &[Pyramid],
-) -> Result<(wgpu::TextureView, Vec<[u32; 2]>)> {
+) -> Result<(wgpu::TextureView, Vec<[u32; 2]>, u64)> {
     let mut values: Vec<u16> = Vec::new();
     let mut pyramid_at = Vec::with_capacity(set.patches.len());
     for (levels, p) in pyramids.iter().zip(&set.patches) {
@@ -315,7 +323,8 @@ fn upload_pyramids(
         bytes,
         2,
     );
-    Ok((texture.create_view(&Default::default()), pyramid_at))
+    let bytes = values.len() as u64 * 2;
+    Ok((texture.create_view(&Default::default()), pyramid_at, bytes))
 }
 
 #[cfg(test)]

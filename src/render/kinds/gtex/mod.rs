@@ -338,6 +338,7 @@ impl Kind for GtexKind {
         };
         let (records, placements) = Self::records(&placing, set, &upload.atlas);
         tally.patch_ids += set.patches.len() as i32;
+        tally.texture_bytes += upload.atlas.bytes;
         let drawn: Vec<PatchGpu> = records
             .into_iter()
             .zip(&placements)
