@@ -120,8 +120,8 @@ def rss_row(name: str) -> dict[str, Any]:
     return row
 
 
-def normal_row(mesh: gt.Mesh, r: gt.Renderer) -> dict[str, Any]:
-    gts = gt.convert(mesh)
+def normal_row(mesh: gt.Mesh, r: gt.Renderer, gts: gt.GeometryTextureSet | None = None) -> dict[str, Any]:
+    gts = gt.convert(mesh) if gts is None else gts
     corners = reference.corner_normals(mesh)
     caster = reference.RayCaster(mesh)
     angles = []
@@ -135,6 +135,45 @@ def normal_row(mesh: gt.Mesh, r: gt.Renderer) -> dict[str, Any]:
     return {"median_deg": float(np.median(a)), "p99_deg": float(np.percentile(a, 99)), "pixels": int(len(a))}
 
 
+def height_normal_maps(gts: gt.GeometryTextureSet) -> list[np.ndarray]:
+    """Each patch's normals derived from its height field alone (central differences of the
+    decoded heights, one-sided at empty neighbours, flat where a texel has no filled neighbour),
+    as (H, W, 4) snorm8: what deriving normals at render time would show at texel centres."""
+    maps = []
+    for i in range(len(gts)):
+        p = gts.patch(i)
+        q = p["height"].astype(np.float64)
+        top = 2.0 ** p["height_bits"] - 1
+        ex, ey, ez = p["extent"]
+        h, w = q.shape
+        z = np.where(q > 0, (q - 1) / (top - 1) * ez, np.nan)
+        grads = []
+        for axis, step in ((1, ex / w), (0, ey / h)):
+            pad = np.pad(z, [(1, 1) if a == axis else (0, 0) for a in range(2)], constant_values=np.nan)
+            lo, mid, hi = (np.take(pad, range(k, k + z.shape[axis]), axis=axis) for k in range(3))
+            g = np.where(np.isfinite(lo) & np.isfinite(hi), (hi - lo) / (2 * step),
+                         np.where(np.isfinite(hi), (hi - mid) / step, (mid - lo) / step))
+            grads.append(np.nan_to_num(g))
+        n = np.stack([-grads[0], -grads[1], np.ones_like(z)], axis=-1)
+        n /= np.linalg.norm(n, axis=-1, keepdims=True)
+        out = np.zeros((h, w, 4), np.int8)
+        out[..., :3] = np.round(n * 127).astype(np.int8)
+        out[q == 0] = 0
+        maps.append(out)
+    return maps
+
+
+def height_normal_row(mesh: gt.Mesh, r: gt.Renderer, path: Path) -> dict[str, Any]:
+    """normal_row for the same set with its normals derived from the heights (written as a
+    version-4 file by tests/legacy_gtex.py, not by geomtex, and loaded)."""
+    sys.path.insert(0, str(REPO / "tests"))
+    from legacy_gtex import legacy_bytes
+
+    gts = gt.convert(mesh)
+    path.write_bytes(legacy_bytes(gts, 4, height_normal_maps(gts)))
+    return normal_row(mesh, r, gt.load(path))
+
+
 def measure() -> dict[str, Any]:
     out: dict[str, Any] = {"bytes": {}, "normals": {}}
     names = [n for n in MESHES if (MESH_DIR / f"{n}.obj").exists()] + ["noisy-isosurface"]
@@ -144,9 +183,14 @@ def measure() -> dict[str, Any]:
     out["rss"] = {name: rss_row(name) for name in ["stanford-bunny", "noisy-isosurface"]}
     print(out["rss"], flush=True)
     r = gt.Renderer(512, 512)
-    for name in ["stanford-bunny", "fandisk"]:
-        out["normals"][name] = normal_row(load(name), r)
-        print(name, out["normals"][name], flush=True)
+    out["normals_from_heights"] = {}
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        for name in ["stanford-bunny", "fandisk"]:
+            out["normals"][name] = normal_row(load(name), r)
+            out["normals_from_heights"][name] = height_normal_row(load(name), r, Path(tmp) / f"{name}.gtex")
+            print(name, out["normals"][name], out["normals_from_heights"][name], flush=True)
     return out
 
 
@@ -166,8 +210,10 @@ def table(now: dict[str, Any], main: dict[str, Any] | None) -> str:
                                              f"({m['rss_over_map_bytes']:.2f}x), rendered: {m['rendered']}" if m else ""))
     for name, n in now["normals"].items():
         m = (main or {}).get("normals", {}).get(name)
-        lines.append(f"normals {name}: median {n['median_deg']:.3f}° p99 {n['p99_deg']:.3f}°"
-                     + (f"; main: median {m['median_deg']:.3f}° p99 {m['p99_deg']:.3f}°" if m else ""))
+        d = now.get("normals_from_heights", {}).get(name)
+        lines.append(f"normals {name}: octahedral 2 B median {n['median_deg']:.3f}° p99 {n['p99_deg']:.3f}°"
+                     + (f"; main (snorm8 4 B): median {m['median_deg']:.3f}° p99 {m['p99_deg']:.3f}°" if m else "")
+                     + (f"; from heights (0 B): median {d['median_deg']:.3f}° p99 {d['p99_deg']:.3f}°" if d else ""))
     return "\n".join(lines)
 
 
@@ -204,11 +250,13 @@ def plot(now: dict[str, Any], main: dict[str, Any] | None, path: Path) -> None:
     ax = axes[2]
     nn = list(now["normals"])
     xn = np.arange(len(nn))
-    for off, label, src in ((-0.2, "main (snorm8 xyz, 4 B)", main), (0.2, "this branch", now)):
-        if src:
-            ax.bar(xn + off, [src["normals"][n]["median_deg"] for n in nn], 0.4, label=f"{label} median")
-            ax.scatter(xn + off, [src["normals"][n]["p99_deg"] for n in nn], marker="x", zorder=3,
-                       label=f"{label} p99")
+    variants = [(-0.27, "main: snorm8 xyz, 4 B", (main or {}).get("normals")),
+                (0.0, "octahedral, 2 B (kept)", now["normals"]),
+                (0.27, "from heights, 0 B", now.get("normals_from_heights"))]
+    for off, label, rows in variants:
+        if rows:
+            ax.bar(xn + off, [rows[n]["median_deg"] for n in nn], 0.27, label=f"{label}: median")
+            ax.scatter(xn + off, [rows[n]["p99_deg"] for n in nn], marker="x", zorder=3, label=f"{label}: p99")
     ax.set_yscale("log")
     ax.set_xticks(xn, nn)
     ax.set_ylabel("degrees vs trimesh crease-split normals")

@@ -18,8 +18,10 @@ def _name(name: str) -> bytes:
     return struct.pack("<H", len(b)) + b
 
 
-def legacy_bytes(gts: gt.GeometryTextureSet, version: int = 4) -> bytes:
-    """The bytes of a version-``version`` (3 or 4) file holding ``gts``."""
+def legacy_bytes(gts: gt.GeometryTextureSet, version: int = 4,
+                 normal_maps: list[np.ndarray] | None = None) -> bytes:
+    """The bytes of a version-``version`` (3 or 4) file holding ``gts``, with each patch's normal
+    map replaced by ``normal_maps[i]`` ((H, W, 4) int8, x, y, z, 0 / 127) if given."""
     assert version in (3, 4)
     stats = {k: v for k, v in gts.stats.items() if isinstance(v, (int, float)) and not isinstance(v, bool)}
     per_patch = {k: np.asarray(v, np.float64) for k, v in gts.stats.items() if isinstance(v, np.ndarray)}
@@ -36,7 +38,8 @@ def legacy_bytes(gts: gt.GeometryTextureSet, version: int = 4) -> bytes:
         out += struct.pack("<5I", w, h, p["height_bits"], len(p["faces"]), len(p["ring_faces"]))
         out += np.asarray(p["faces"], "<u4").tobytes() + np.asarray(p["ring_faces"], "<u4").tobytes()
         out += p["height"].astype("<u2" if p["height_bits"] == 16 else np.uint8).tobytes()
-        out += p["normal"].astype(np.int8).tobytes() + p["color"].astype(np.uint8).tobytes()
+        normal = p["normal"] if normal_maps is None else normal_maps[i]
+        out += normal.astype(np.int8).tobytes() + p["color"].astype(np.uint8).tobytes()
         if version >= 4:
             out += p["outline"].astype(np.int8).tobytes()
     header = b"GTEX\r\n\x1a\n" + struct.pack("<IIQII", version, 0, len(out), zlib.crc32(out), 0)
