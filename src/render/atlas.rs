@@ -9,6 +9,7 @@
 use super::device::{texture_2d, Gpu};
 use crate::error::{GeomtexError, Result};
 use crate::gtex::{GeometryTextureSet, NEUTRAL_COLOR};
+use crate::heightfield::min_max_pyramid;
 
 /// A patch's min-max pyramid: per level its width, height and packed values.
 pub(crate) type Pyramid = Vec<(u32, u32, Vec<u32>)>;
@@ -37,7 +38,7 @@ pub(crate) struct Atlas {
 impl Atlas {
     /// Packs and uploads a set with its patches' min-max pyramids
     /// (heightfield::min_max_pyramid); errors when it does not fit this adapter's limits.
-    pub fn upload(gpu: &Gpu, set: &GeometryTextureSet, pyramids: &[Pyramid]) -> Result<Atlas> {
+    pub fn upload(gpu: &Gpu, set: &GeometryTextureSet) -> Result<Atlas> {
         let limits = gpu.device.limits();
         let side = limits.max_texture_dimension_2d.min(4096);
         let (places, size) = fitted(set, side)?;
@@ -60,7 +61,7 @@ impl Atlas {
                 ..Default::default()
             })
         };
-        let (pyramid, pyramid_at, pyramid_bytes) = upload_pyramids(gpu, set, pyramids)?;
+        let (pyramid, pyramid_at, pyramid_bytes) = upload_pyramids(gpu, set)?;
         let texture_bytes = |t: &wgpu::Texture| {
             let s = t.size();
             let texel = t.format().block_copy_size(None).unwrap_or(4) as u64;
@@ -274,15 +275,16 @@ pub(crate) fn pack_node(v: u32, height_bits: u8) -> u16 {
 pub(crate) const EMPTY_NODE: u16 = 0x00ff;
 
 /// Every patch's min-max pyramid in one R16Uint texture (`pack_node`), row by row, and where
-/// each patch's starts.
+/// each patch's starts. Made and packed one patch at a time, so the full-width pyramids of a
+/// large set never sit in memory together.
 fn upload_pyramids(
     gpu: &Gpu,
     set: &GeometryTextureSet,
-    pyramids: &[Pyramid],
 ) -> Result<(wgpu::TextureView, Vec<[u32; 2]>, u64)> {
     let mut values: Vec<u16> = Vec::new();
     let mut pyramid_at = Vec::with_capacity(set.patches.len());
-    for (levels, p) in pyramids.iter().zip(&set.patches) {
+    for p in &set.patches {
+        let levels: Pyramid = min_max_pyramid(p);
         pyramid_at.push([values.len() as u32, levels.len() as u32]);
         for (_, _, v) in levels {
             values.extend(v.iter().map(|&v| pack_node(v, p.height_bits)));

@@ -22,7 +22,7 @@ use super::{DrawCall, FrameView, Kind, Tally, TraceCall, UploadCache};
 use crate::error::Result;
 use crate::gtex::GeometryTextureSet;
 use crate::heightfield::min_max_pyramid;
-use crate::render::atlas::{Atlas, Pyramid};
+use crate::render::atlas::Atlas;
 use crate::render::bvh::{Aabb, Bvh};
 use crate::render::cull::{in_frustum, lod_level, DepthRange};
 use crate::render::device::Gpu;
@@ -54,9 +54,8 @@ struct Tracing {
 
 impl GtexUpload {
     fn new(gpu: &Gpu, set: &GeometryTextureSet) -> Result<GtexUpload> {
-        let pyramids: Vec<Pyramid> = set.patches.iter().map(min_max_pyramid).collect();
         Ok(GtexUpload {
-            atlas: Atlas::upload(gpu, set, &pyramids)?,
+            atlas: Atlas::upload(gpu, set)?,
             tracing: OnceLock::new(),
         })
     }
