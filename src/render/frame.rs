@@ -140,15 +140,15 @@ mod tests {
         assert_eq!(names(&frame(None)), plain);
         let counted = frame(Some(30));
         assert_eq!(
-            names(&counted)[10..],
+            names(&counted)[11..],
             ["fetches", "fetches_per_pixel", "fetches_per_search"]
         );
         let stats = counted.stats();
         assert_eq!(stats[0].1, StatValue::Absent);
         assert_eq!(stats[2].1, StatValue::Int(3));
-        assert_eq!(stats[6].1, StatValue::Text("maxmip"));
+        assert_eq!(stats[7].1, StatValue::Text("maxmip"));
         // Nothing covered and no searches: the figures divide by one, not zero.
-        assert_eq!(stats[11].1, StatValue::Float(30.0));
         assert_eq!(stats[12].1, StatValue::Float(30.0));
+        assert_eq!(stats[13].1, StatValue::Float(30.0));
     }
 }
