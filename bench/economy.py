@@ -243,7 +243,13 @@ def plot(now: dict[str, Any], main: dict[str, Any] | None, path: Path) -> None:
         ax.bar(xr - 0.2, [main["rss"][n]["rss_increase_bytes"] / 1e6 for n in rss], 0.4, label="main")
     ax.bar(xr + 0.2, [now["rss"][n]["rss_increase_bytes"] / 1e6 for n in rss], 0.4, label="this branch")
     ax.plot(xr + 0.2, [now["rss"][n]["map_bytes"] / 1e6 for n in rss], "k_", ms=30, label="maps (this branch)")
-    ax.set_xticks(xr, [f"{n}\n" + ("" if now["rss"][n]["rendered"] else "refused") for n in rss])
+    ax.plot(xr + 0.2, [now["rss"][n].get("texture_bytes", 0) / 1e6 for n in rss], "r_", ms=30,
+            label="textures on the adapter (this branch)")
+
+    def refused(src: dict[str, Any] | None, n: str, who: str) -> str:
+        return f"\n({who}: refused)" if src and not src["rss"][n]["rendered"] else ""
+
+    ax.set_xticks(xr, [n + refused(main, n, "main") + refused(now, n, "this branch") for n in rss])
     ax.set_ylabel("process RSS growth on render (MB)")
     ax.set_title("memory on the adapter (lavapipe)")
     ax.legend()
@@ -270,7 +276,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--label", default="now", help="'main' writes economy_main.json")
     parser.add_argument("--rss-child", help=argparse.SUPPRESS)
+    parser.add_argument("--plot-only", action="store_true", help="redraw the PNG from economy.json")
     args = parser.parse_args()
+    if args.plot_only:
+        saved = json.loads((RESULTS / "economy.json").read_text())
+        plot(saved["now"], saved["main"], RESULTS / "economy.png")
+        return
     if args.rss_child:
         rss_child(args.rss_child)
         return

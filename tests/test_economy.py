@@ -87,10 +87,14 @@ def test_a_set_past_one_binding_of_pyramid_renders() -> None:
     """The noisy isosurface's default set (51 M texels; its pyramid took 266 MiB as u32, past
     lavapipe's 128 MiB storage binding, and was refused) renders, and matches trimesh."""
     mesh = noisy_isosurface()
-    gts = gt.convert(mesh)
-    assert gts.stats["texels"] > 40_000_000
+    with warnings.catch_warnings():
+        # Its partition stops at the chart cap (a CapWarning, test_the_chart_cap_is_...); what is
+        # checked here is that the set renders.
+        warnings.simplefilter("ignore", gt.CapWarning)
+        gts = gt.convert(mesh)
+    assert gts.stats["texels"] > 40_000_000  # 51,218,199
     cam = look_from(mesh, (1, 0.8, 1))
     m = reference.compare(gt.Renderer(256, 256).render(gts, cam), reference.raycast(mesh, cam, 256, 256),
                           mesh.diagonal)
-    # Measured at 256²: IoU IOU_MEASURED, depth p99 P99_MEASURED of the diagonal.
-    assert m["iou"] >= 0.99 and m["depth_p99_1px"] <= 1e-3 and m["nan_depth"] == 0, m
+    # Measured at 256²: IoU 0.9991, depth p99 2.5e-4 of the diagonal with a one-pixel tolerance.
+    assert m["iou"] >= 0.997 and m["depth_p99_1px"] <= 7e-4 and m["nan_depth"] == 0, m

@@ -149,9 +149,10 @@ impl PyGeometryTextureSet {
 
     /// One patch's maps and frame as numpy arrays: height (H, W) codes, uint16 or uint8 as
     /// `height_bits` says (0 = empty, else h = (code - 1) / (2**height_bits - 2)), normal
-    /// (H, W, 4) int8 (patch-local xyz/127), color (H, W, 4) uint8, outline (H, W) int8 (signed
-    /// distance from each texel centre to the faces' outline, 127 = 2 texels, positive inside),
-    /// world_from_patch (4, 4),
+    /// (H, W, 4) int8 (patch-local xyz/127, decoded from the stored octahedral codes; 0 where
+    /// none), color (H, W, 4) uint8 (neutral 200, 200, 200, 255 without a color map),
+    /// has_colors (bool), outline (H, W) int8 (signed distance from each texel centre to the
+    /// faces' outline, 127 = 2 texels, positive inside), world_from_patch (4, 4),
     /// origin (3,), axes (3, 3) (rows x, y, z), extent (3,), faces and ring_faces (uint32).
     fn patch<'py>(
         &self,
