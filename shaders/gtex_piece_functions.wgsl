@@ -43,6 +43,21 @@ struct Surface {
     color: vec4<f32>,
 }
 
+// The base color of texels without a color map (gtex::NEUTRAL_COLOR).
+const NEUTRAL_COLOR: vec4<f32> = vec4<f32>(200.0 / 255.0, 200.0 / 255.0, 200.0 / 255.0, 1.0);
+
+// An octahedral normal code (src/gtex/mod.rs, encode_normal) → unit vector; zero for "none".
+fn decode_normal(code: vec2<i32>) -> vec3<f32> {
+    if (code.x == -128) {
+        return vec3<f32>(0.0);
+    }
+    let e = vec2<f32>(code) / 126.0;  // gtex::NORMAL_STEPS
+    let z = 1.0 - abs(e.x) - abs(e.y);
+    let t = max(-z, 0.0);
+    let xy = e - select(vec2<f32>(-t), vec2<f32>(t), e >= vec2<f32>(0.0));
+    return normalize(vec3<f32>(xy, z));
+}
+
 // cos 20°: texels whose normals differ by more are on two sides of a crease.
 const CREASE_COS: f32 = 0.9397;
 
@@ -62,7 +77,7 @@ fn crease_aware_normal(p: PatchMaps, uv: vec2<f32>) -> vec3<f32> {
     for (var k = 0; k < 4; k += 1) {
         let offset = vec2<i32>(k & 1, k >> 1u);
         let at = origin + clamp(c0 + offset, vec2<i32>(0), last);
-        texel[k] = textureLoad(normals, at, p.ids.x, 0).xyz;
+        texel[k] = decode_normal(textureLoad(normals, at, p.ids.x, 0).xy);
         let wx = select(1.0 - w.x, w.x, offset.x == 1);
         let wy = select(1.0 - w.y, w.y, offset.y == 1);
         weight[k] = wx * wy;
@@ -93,10 +108,13 @@ fn gtex_surface(index: u32, o: vec3<f32>, d: vec3<f32>, t: f32) -> Surface {
     let d_p = (patch_from_view * vec4<f32>(d, 0.0)).xyz;
     let hit = o_p + d_p * t;
     let uv = clamp(hit.xy * p.size, vec2<f32>(0.5), p.size - 0.5);
-    let atlas_size = vec2<f32>(textureDimensions(normals));
+    let atlas_size = vec2<f32>(textureDimensions(colors));
     let coord = (p.atlas_origin + uv) / atlas_size;
     let n_local = crease_aware_normal(p, uv);
-    let base = textureSampleLevel(colors, linear_clamp, coord, p.ids.x, 0.0);
+    var base = NEUTRAL_COLOR;
+    if (p.ids.z != 0) {
+        base = textureSampleLevel(colors, linear_clamp, coord, p.ids.x, 0.0);
+    }
     let n_world = normalize((patches[index].world_normal_from_patch * vec4<f32>(n_local, 0.0)).xyz);
     return Surface(n_world, base);
 }

@@ -9,7 +9,7 @@ struct PatchMaps {
     // Texel origin of the patch in its atlas layer, and its size in texels.
     atlas_origin: vec2<f32>,
     size: vec2<f32>,
-    // x: atlas layer, y: patch id written to the id target.
+    // x: atlas layer, y: patch id written to the id target, z: 1 if the patch has a color map.
     ids: vec4<i32>,
     // x: first pyramid value of this patch in `pyramid`, y: pyramid levels, z: the largest
     // height code (255 or 65535), w: level-of-detail stop level (0 = exact).

@@ -22,6 +22,22 @@ fn load_code(p: PatchMaps, texel: vec2<i32>) -> f32 {
     return f32(textureLoad(heights, vec2<i32>(p.atlas_origin) + t, p.ids.x, 0).x);
 }
 
+// Pyramid node `index` (src/render/atlas.rs, pack_node) as (smallest, largest) height code, each
+// rounded outwards; smallest > largest for a node with no surface.
+fn pyramid_node(p: PatchMaps, index: u32) -> vec2<f32> {
+    let width = textureDimensions(pyramid).x;
+    let packed = textureLoad(pyramid, vec2<u32>(index % width, index / width), 0).x;
+    let lo = packed & 0xffu;
+    let hi = packed >> 8u;
+    if (lo > hi) {
+        return vec2<f32>(1.0, 0.0);
+    }
+    // 16-bit patches keep the top byte of each code: widen it to every code it stands for.
+    let shift = select(0u, 8u, p.pyramid_at.z > 255u);
+    let fill = (1u << shift) - 1u;
+    return vec2<f32>(f32(lo << shift), f32((hi << shift) | fill));
+}
+
 // Outline distance at a texel (indices clamped), in units of OUTLINE_REACH texels.
 fn load_outline(p: PatchMaps, texel: vec2<i32>) -> f32 {
     if (COUNT_FETCHES) {
@@ -292,11 +308,11 @@ fn maxmip_hit(p: PatchMaps, search: Search, o: vec3<f32>, d: vec3<f32>, t_start:
             fetches += 1u;
         }
         let index = offset[level] + u32(node.y) * dims[level].x + u32(node.x);
-        let packed = pyramid[index];
+        let bounds = pyramid_node(p, index);
         let za = o.z + d.z * t;
         let zb = o.z + d.z * t_exit;
-        if (packed == 0u || min(za, zb) > decode(p, f32(packed >> 16u))
-            || max(za, zb) < decode(p, f32(packed & 0xffffu))) {
+        if (bounds.x > bounds.y || min(za, zb) > decode(p, bounds.y)
+            || max(za, zb) < decode(p, bounds.x)) {
             t = t_exit;
             level = min(level + 1, levels - 1);
             continue;

@@ -21,7 +21,7 @@ use rayon::prelude::*;
 use crate::cancel::Cancel;
 use crate::error::{parse_choice, GeomtexError, Result};
 use crate::gtex::{
-    decode_snorm8, encode_height, encode_snorm8, vertical_extent, GeometryTextureSet, Patch,
+    decode_normal, encode_height, encode_normal, vertical_extent, GeometryTextureSet, Patch,
 };
 use crate::heightfield::height_at;
 use crate::mesh::{Mesh, MeshGeometry};
@@ -414,9 +414,7 @@ fn refit(p: &Patch, moves: &[Option<TexelMove>]) -> Patch {
         if let Some(m) = m {
             let n = m.normal;
             let local = DVec3::new(n.dot(p.axes[0]), n.dot(p.axes[1]), n.dot(p.axes[2]));
-            // The fourth byte is not the normal's: keep it.
-            let code = encode_snorm8(local);
-            stored[..3].copy_from_slice(&code[..3]);
+            *stored = encode_normal(local);
         }
     }
     q
@@ -436,7 +434,7 @@ fn normal_at(p: &Patch, u: f64, v: f64) -> DVec3 {
             (i as i64 + di).clamp(0, w - 1),
             (j as i64 + dj).clamp(0, h - 1),
         );
-        decode_snorm8(p.normals[(tj * w + ti) as usize])
+        decode_normal(p.normals[(tj * w + ti) as usize])
     };
     let local = at(0, 0) * (1.0 - fx) * (1.0 - fy)
         + at(1, 0) * fx * (1.0 - fy)

@@ -11,8 +11,7 @@ use glam::{DVec2, DVec3};
 
 use crate::error::{GeomtexError, Result};
 use crate::gtex::{
-    encode_height, encode_snorm8, vertical_extent, GeometryTextureSet, Patch, Stats, NEUTRAL_COLOR,
-    OUTLINE_INSIDE,
+    encode_height, encode_normal, vertical_extent, GeometryTextureSet, Patch, Stats, OUTLINE_INSIDE,
 };
 use crate::heightfield::grid_normal;
 
@@ -190,7 +189,8 @@ fn tile_patch(g: &HeightGrid, (i0, j0): (usize, usize), tile: usize, bits: u8) -
         height_bits: bits,
         heights: Vec::with_capacity(tw * th),
         normals: Vec::with_capacity(tw * th),
-        colors: Vec::with_capacity(tw * th),
+        // No property, no color map.
+        colors: Vec::with_capacity(if g.colors.is_some() { tw * th } else { 0 }),
         faces: vec![],
         ring_faces: vec![],
         // A grid's surface ends at its missing samples: the texel grid is its outline.
@@ -204,15 +204,14 @@ fn tile_patch(g: &HeightGrid, (i0, j0): (usize, usize), tile: usize, bits: u8) -
         } else {
             0
         });
-        p.normals.push(if filled {
-            encode_snorm8(g.normal(i, j))
+        p.normals.push(encode_normal(if filled {
+            g.normal(i, j)
         } else {
-            [0, 0, 127, 0]
-        });
-        p.colors.push(match &g.colors {
-            Some(c) => c[j * g.width + i],
-            None => NEUTRAL_COLOR,
-        });
+            DVec3::Z
+        }));
+        if let Some(c) = &g.colors {
+            p.colors.push(c[j * g.width + i]);
+        }
     }
     Some(p)
 }

@@ -40,11 +40,13 @@ def test_round_trip_is_bit_exact(sheet: Converted, tmp_path, bits: int) -> None:
     back.save(tmp_path / "again.gtex")
     assert (tmp_path / "again.gtex").read_bytes() == path.read_bytes()
     if bits == 8:
-        # One byte less per texel than the 16-bit file, in the maps and in stats["bytes"].
+        # One byte less per texel than the 16-bit file, in the maps and in stats["bytes"]: a
+        # height, a 2-byte octahedral normal and an outline byte (the sheet has no colors).
         sheet.gts.save(tmp_path / "wide.gtex")
         texels = gts.stats["texels"]
         assert (tmp_path / "wide.gtex").stat().st_size - path.stat().st_size == pytest.approx(texels, abs=64)
-        assert gts.stats["bytes"] == 10 * texels and sheet.gts.stats["bytes"] == 11 * texels
+        assert gts.stats["bytes"] == 4 * texels and sheet.gts.stats["bytes"] == 5 * texels
+        assert not any(gts.patch(i)["has_colors"] for i in range(len(gts)))
 
 
 def test_every_corruption_is_a_format_error(sheet: Converted, tmp_path) -> None:
@@ -97,7 +99,7 @@ def test_overwrite_replaces_atomically(sheet: Converted, tmp_path) -> None:
 
 
 def _first_patch_offset(data: bytes) -> int:
-    """Offset of patch 0's origin in a version-3 .gtex file (the layout in src/gtex/file.rs)."""
+    """Offset of patch 0's origin in a version 3-5 .gtex file (layout: src/gtex/file.rs)."""
     at = 32 + 8
     for _ in range(2):  # stats, then stage seconds: count, then (name, f64)
         count = int.from_bytes(data[at:at + 4], "little")
@@ -129,14 +131,16 @@ def test_impossible_content_with_a_valid_checksum_is_a_format_error(sheet: Conve
     data = path.read_bytes()
     p0 = _first_patch_offset(data)
     nan, zero3 = np.float64(np.nan).tobytes(), bytes(24)
-    sizes = p0 + 15 * 8  # width, height, height bits, face count, ring face count (u32 each)
-    first_face = sizes + 5 * 4
+    # width, height, height bits, color-map flag, face count, ring face count (u32 each)
+    sizes = p0 + 15 * 8
+    first_face = sizes + 6 * 4
     cases = {
         "NaN origin": (p0, nan, "patch 0: origin is not finite"),
         "zero axis": (p0 + 6 * 8, zero3, r"patch 0: axis 1 is not unit length \(\|a\| = 0\)"),
         "negative extent": (p0 + 12 * 8, np.float64(-1.0).tobytes(), "patch 0: extent 0 must be positive"),
         "zero width": (sizes, bytes(4), "patch 0: width is 0 texels"),
         "huge height": (sizes + 4, (1 << 31).to_bytes(4, "little"), "patch 0: height is 2147483648 texels"),
+        "color-map flag": (sizes + 12, (2).to_bytes(4, "little"), "patch 0: the color-map flag must be 0 or 1"),
         "face past the mesh": (first_face, (10**9).to_bytes(4, "little"), "patch 0: face id 1000000000 is past"),
     }
     for name, (at, value, message) in cases.items():
@@ -144,3 +148,42 @@ def test_impossible_content_with_a_valid_checksum_is_a_format_error(sheet: Conve
         bad.write_bytes(_resealed(data, at, value))
         with pytest.raises(gt.FormatError, match=message):
             gt.load(bad)
+
+
+def test_version_4_files_still_read(tmp_path) -> None:
+    """A file as version 4 wrote it (4-byte snorm8 normals, a color map always) loads: the same
+    heights and outlines, its colors, and normals re-encoded as 2-byte octahedral codes, within
+    the octahedral rounding of the old ones (measured max 0.64° over 200,000 random directions;
+    here 0.5° on the fandisk's maps)."""
+    from legacy_gtex import write_legacy
+
+    colored = converted("fandisk").gts
+    old = gt.load(write_legacy(colored, tmp_path / "v4.gtex", version=4))
+    worst = 0.0
+    for i in range(len(colored)):
+        a, b = old.patch(i), colored.patch(i)
+        assert np.array_equal(a["height"], b["height"]) and np.array_equal(a["outline"], b["outline"])
+        assert a["has_colors"] and np.array_equal(a["color"], b["color"])
+        na, nb = a["normal"][..., :3].astype(float), b["normal"][..., :3].astype(float)
+        some = np.linalg.norm(nb, axis=-1) > 0
+        assert np.array_equal(some, np.linalg.norm(na, axis=-1) > 0)
+        cos = np.sum(na[some] * nb[some], -1) / np.linalg.norm(na[some], axis=-1) / np.linalg.norm(nb[some], axis=-1)
+        worst = max(worst, float(np.degrees(np.arccos(np.clip(cos.min(), -1, 1)))))
+    assert worst <= 1.5, worst
+    # Saved again, it is a version-5 file with the same content.
+    old.save(tmp_path / "v5.gtex")
+    assert int.from_bytes((tmp_path / "v5.gtex").read_bytes()[8:12], "little") == 5
+    assert gt.load(tmp_path / "v5.gtex").stats["texels"] == colored.stats["texels"]
+
+
+def test_maps_hold_only_what_the_mesh_has(sheet: Converted) -> None:
+    """No color map for a mesh without colors (the dict still shows neutral colors), one for a
+    mesh with them; stats["bytes"] counts 5 and 9 bytes per 16-bit texel."""
+    plain = sheet.gts
+    colored = gt.convert(gt.Mesh(sheet.mesh.vertices, sheet.mesh.faces,
+                                 vertex_colors=np.tile([[10, 200, 30]], (len(sheet.mesh.vertices), 1))))
+    assert plain.stats["bytes"] == 5 * plain.stats["texels"]
+    assert colored.stats["bytes"] == 9 * colored.stats["texels"]
+    p, q = plain.patch(0), colored.patch(0)
+    assert not p["has_colors"] and (p["color"] == [200, 200, 200, 255]).all()
+    assert q["has_colors"] and (q["color"][q["height"] > 0] == [10, 200, 30, 255]).all()

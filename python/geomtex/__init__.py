@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numbers
 import os
+import warnings
 from typing import Any, Callable, Literal
 
 import numpy as np
@@ -21,6 +22,7 @@ from . import _core, _grids, _pickle, _preview, _rays  # noqa: E402
 from ._core import Camera, Frame, GeometryTextureSet, __version__  # noqa: E402
 from ._errors import (  # noqa: E402
     CancelledError,
+    CapWarning,
     DeviceError,
     FileError,
     FormatError,
@@ -37,6 +39,7 @@ __all__ = [
     "AppearanceWarning",
     "Camera",
     "CancelledError",
+    "CapWarning",
     "DeviceError",
     "FileError",
     "DirectionalLight",
@@ -136,6 +139,7 @@ def convert(
     normals: Literal["crease", "smooth", "flat"] | None = None,
     crease_angle: float | None = None,
     height_bits: Literal[8, 16] | None = None,
+    max_bytes: int | None = None,
     progress: bool | ProgressCallback | None = None,
 ) -> GeometryTextureSet:
     """Converts a mesh into geometry textures.
@@ -176,8 +180,14 @@ def convert(
         ``smooth_shade``; in (0, 180]); ``"smooth"``: vertex normals averaged over every edge;
         ``"flat"``: face normals. Vertex normals are weighted by corner angle, as trimesh's.
     height_bits: 16 (default) or 8. Eight bits halve the height maps' bytes (a texel then takes
-        9 bytes instead of 10) and round each height to 1/254 of its patch's height range;
-        ``stats["max_quantization_error"]`` gives the worst rounding in world units.
+        4 bytes instead of 5, 8 instead of 9 with colors) and round each height to 1/254 of its
+        patch's height range; ``stats["max_quantization_error"]`` gives the worst rounding in
+        world units.
+    max_bytes: most bytes the maps may take (``stats["bytes"]``): the conversion is repeated
+        with a coarser texel (scaled by the square root of the excess) until they fit, at most
+        6 times (``stats["max_bytes_coarsenings"]``); not with ``max_error``. If they still do
+        not fit, ``stats["max_bytes_exceeded"]`` is 1 and a :class:`CapWarning` says so, as it
+        does when VSA stops at ``max_charts`` above its error target (``stats["chart_cap_hit"]``).
     progress: True for a tqdm bar, or ``callback(stage, fraction)``; returning False cancels.
 
     The work runs in Rust on all cores with the GIL released.
@@ -186,7 +196,7 @@ def convert(
     integers = {name: _number(name, value, int) for name, value in [
         ("max_resolution", max_resolution), ("charts", charts), ("max_charts", max_charts),
         ("lloyd_iterations", lloyd_iterations), ("overlap_rings", overlap_rings),
-        ("dilation", dilation), ("height_bits", height_bits)]}
+        ("dilation", dilation), ("height_bits", height_bits), ("max_bytes", max_bytes)]}
     reals = {name: _number(name, value, float) for name, value in [
         ("texel_size", texel_size), ("max_error", max_error), ("max_error_rel", max_error_rel),
         ("chart_error", chart_error), ("compactness", compactness), ("crease_angle", crease_angle)]}
@@ -209,11 +219,25 @@ def convert(
     else:
         raise ParameterError(f"progress must be True, False, None or a callable, got {progress!r}")
     try:
-        return _core.convert(m, **integers, **reals, error_scope=error_scope, frame=frame,
-                             normals=normals, progress=callback)
+        gts = _core.convert(m, **integers, **reals, error_scope=error_scope, frame=frame,
+                            normals=normals, progress=callback)
     finally:
         if bar is not None:
             bar.close()
+    _warn_caps(gts.stats)
+    return gts
+
+
+def _warn_caps(stats: dict[str, Any]) -> None:
+    """A CapWarning for each cap the conversion hit (never silent)."""
+    if stats.get("chart_cap_hit"):
+        warnings.warn(f"the partition stopped at {stats['vsa_charts']} charts (max_charts) with mean "
+                      f"L2,1 error {stats['vsa_mean_error']:.3g}, above its target; "
+                      f"stats['chart_cap_hit'] is 1", CapWarning, stacklevel=3)
+    if stats.get("max_bytes_exceeded"):
+        warnings.warn(f"the maps take {stats['bytes']} bytes, over max_bytes={stats['max_bytes']}, "
+                      f"after {stats['max_bytes_coarsenings']} coarser texels; "
+                      f"stats['max_bytes_exceeded'] is 1", CapWarning, stacklevel=3)
 
 
 def show(obj: Any, **options: Any) -> Any:
@@ -226,7 +250,7 @@ def show(obj: Any, **options: Any) -> Any:
 
 def load(path: str | os.PathLike[str]) -> GeometryTextureSet:
     """Reads a .gtex file. Raises FormatError for anything that is not an intact .gtex file
-    (versions 1 to 4). Files hold no stage timings, so a loaded set's ``stats["seconds"]`` is
+    (versions 1 to 5). Files hold no stage timings, so a loaded set's ``stats["seconds"]`` is
     empty."""
     if not isinstance(path, (str, os.PathLike)):
         raise ParameterError(f"path must be a str or os.PathLike, got {path!r}")

@@ -146,6 +146,7 @@ def convert(
     normals: _NormalSource | None = None,
     crease_angle: float | None = None,
     height_bits: int | None = None,
+    max_bytes: int | None = None,
     progress: Callable[[str, float], bool | None] | None = None,
 ) -> GeometryTextureSet: ...
 def load(path: str | os.PathLike[str]) -> GeometryTextureSet: ...

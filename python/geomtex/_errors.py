@@ -9,6 +9,9 @@ every error the Rust core raises is one of them; this module re-exports them.
     ├── CancelledError                the progress callback returned False
     ├── DeviceError (RuntimeError)    no usable GPU adapter, or the GPU refused a resource
     └── InternalError (RuntimeError)  a bug: a panic caught at the boundary
+
+Warnings (the call goes on): ``AppearanceWarning`` (geomtex._mesh, a color source that cannot be
+carried) and ``CapWarning`` (a conversion cap was hit: the result is not what was asked for).
 """
 
 from __future__ import annotations
@@ -24,8 +27,16 @@ from ._core import (
     ParameterError,
 )
 
+
+class CapWarning(UserWarning):
+    """A conversion hit a cap: VSA stopped at ``max_charts`` above its chart-error target
+    (``stats["chart_cap_hit"]``), or the maps still exceed ``max_bytes`` after the texel was
+    coarsened (``stats["max_bytes_exceeded"]``)."""
+
+
 __all__ = [
     "CancelledError",
+    "CapWarning",
     "DeviceError",
     "FileError",
     "FormatError",

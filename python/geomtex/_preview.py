@@ -148,7 +148,8 @@ def _summary(gts: Any) -> str:
         p = gts.patch(i)
         n = p["height"].size
         texels, empty = texels + n, empty + int((p["height"] == 0).sum())
-        size += n * (p["height_bits"] // 8 + 8)  # height + normal (4) + color (4) bytes
+        # height + octahedral normal (2) + outline (1) + color (4, only with a color map) bytes
+        size += n * (p["height_bits"] // 8 + 3 + (4 if p["has_colors"] else 0))
     return (f"{len(gts)} patches  {texels:,} texels  {100 * empty / max(texels, 1):.1f}% empty  "
             f"{size / 1e6:.1f} MB")
 

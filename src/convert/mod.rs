@@ -45,6 +45,50 @@ pub fn convert(
     progress: Progress,
 ) -> Result<GeometryTextureSet> {
     opts.validate()?;
+    let set = convert_any(mesh, opts, progress)?;
+    match opts.max_bytes {
+        Some(limit) => fit_bytes(mesh, opts, progress, set, limit),
+        None => Ok(set),
+    }
+}
+
+/// Re-conversions `max_bytes` may take before it gives up (and says so in the stats).
+const MAX_BYTES_TRIES: usize = 6;
+
+/// Coarsens the texel of a fixed-resolution set until its maps take at most `limit` bytes: the
+/// bytes go as 1 / texel², so each try scales the texel by the square root of the excess (3%
+/// more, as charts do not shrink smoothly). Stats: `max_bytes`, `max_bytes_coarsenings` and
+/// `max_bytes_exceeded` (1 when even the last try did not fit: a cap that was hit).
+fn fit_bytes(
+    mesh: &Mesh,
+    opts: &ConvertOptions,
+    progress: Progress,
+    mut set: GeometryTextureSet,
+    limit: u64,
+) -> Result<GeometryTextureSet> {
+    let mut tries = 0;
+    while set.map_bytes() as u64 > limit && tries < MAX_BYTES_TRIES {
+        let scale = (set.map_bytes() as f64 / limit as f64).sqrt() * 1.03;
+        let coarser = ConvertOptions {
+            texel_size: Some(set.texel_size * scale),
+            ..opts.clone()
+        };
+        set = convert_any(mesh, &coarser, progress)?;
+        tries += 1;
+    }
+    let exceeded = set.map_bytes() as u64 > limit;
+    set.stats.set("max_bytes", limit as f64);
+    set.stats.set("max_bytes_coarsenings", tries as f64);
+    set.stats.set("max_bytes_exceeded", exceeded as u8 as f64);
+    Ok(set)
+}
+
+/// A conversion with one partition, or (error-driven, no partition target) the best of several.
+fn convert_any(
+    mesh: &Mesh,
+    opts: &ConvertOptions,
+    progress: Progress,
+) -> Result<GeometryTextureSet> {
     if !opts.error_driven() || opts.chart_error.is_some() || opts.charts.is_some() {
         return convert_once(mesh, opts, progress);
     }
@@ -300,6 +344,11 @@ fn convert_once(
         stats: Default::default(),
     };
     set.stats = figures::stats(mesh, geo, opts, &set, figures);
+    // The chart cap stopped VSA short of its error target: said, never silent.
+    let capped = opts.charts.is_none()
+        && charted.vsa_charts >= opts.max_charts
+        && charted.vsa_mean_error > opts.chart_error_target();
+    set.stats.set("chart_cap_hit", capped as u8 as f64);
     set.stats.seconds = stages.into_seconds();
     set.validate()
         .map_err(|e| GeomtexError::Internal(format!("conversion made an impossible set: {e}")))?;

@@ -82,6 +82,9 @@ pub struct ConvertOptions {
     /// Bits per height code, 8 or 16: 8 halves the height map's bytes and rounds heights to
     /// 1/254 of each patch's height range.
     pub height_bits: u8,
+    /// Most bytes the maps may take: the texel is coarsened until they fit (fixed-resolution
+    /// conversion only).
+    pub max_bytes: Option<u64>,
 }
 
 impl Default for ConvertOptions {
@@ -102,6 +105,7 @@ impl Default for ConvertOptions {
             in_plane: InPlane::MinAreaRect,
             normals: NormalRule::default(),
             height_bits: 16,
+            max_bytes: None,
         }
     }
 }
@@ -148,6 +152,16 @@ impl ConvertOptions {
     }
 
     pub fn validate(&self) -> Result<()> {
+        match self.max_bytes {
+            Some(0) => return parameter("max_bytes must be >= 1, got 0".into()),
+            Some(b) if self.error_driven() => {
+                return parameter(format!(
+                    "max_bytes ({b}) cannot be combined with max_error or max_error_rel: the \
+                     error bound sets the bytes"
+                ))
+            }
+            _ => {}
+        }
         self.validate_resolution()?;
         self.validate_partition()?;
         at_most("overlap_rings", self.overlap_rings, 16)?;
@@ -254,6 +268,7 @@ pub struct ConvertArgs {
     /// Degrees, with `normals` "crease" (the default).
     pub crease_angle: Option<f64>,
     pub height_bits: Option<i64>,
+    pub max_bytes: Option<i64>,
 }
 
 /// A count that must not be negative.
@@ -307,6 +322,13 @@ impl ConvertArgs {
             in_plane: self.frame.unwrap_or(default.in_plane),
             normals: NormalRule::from_keywords(self.normals, self.crease_angle)?,
             height_bits,
+            max_bytes: self
+                .max_bytes
+                .map(|b| {
+                    u64::try_from(b)
+                        .or_else(|_| parameter(format!("max_bytes must be >= 1, got {b}")))
+                })
+                .transpose()?,
         };
         opts.validate()?;
         Ok(opts)

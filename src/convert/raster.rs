@@ -8,7 +8,9 @@
 use glam::{DVec2, DVec3};
 
 use crate::appearance::FaceColor;
-use crate::gtex::{encode_height, encode_outline, encode_snorm8, Patch, OUTLINE_REACH};
+use crate::gtex::{
+    decode_normal, encode_height, encode_normal, encode_outline, Patch, NO_NORMAL, OUTLINE_REACH,
+};
 use crate::mesh::Mesh;
 
 /// The box a chart is drawn into.
@@ -55,7 +57,9 @@ pub struct Lip {
 #[derive(Default)]
 pub struct Maps {
     pub heights: Vec<u16>,
-    pub normals: Vec<[i8; 4]>,
+    /// Octahedral normal codes (gtex::encode_normal).
+    pub normals: Vec<[i8; 2]>,
+    /// Empty when the mesh has no colors (no color map).
     pub colors: Vec<[u8; 4]>,
     /// Outline codes (gtex::encode_outline): signed distance from each texel centre to the
     /// outline of the drawn faces, positive inside.
@@ -224,12 +228,13 @@ struct Canvas<'a> {
     /// In-plane world distance from each texel corner to the nearest face; corner (i, j) sits at
     /// (i, j) in texel units, (w + 1) x (h + 1) of them.
     corner_distance: Vec<f64>,
-    normals: Vec<[i8; 4]>,
+    normals: Vec<[i8; 2]>,
+    /// Empty when the mesh has no colors: no color map is kept.
     colors: Vec<[u8; 4]>,
 }
 
 impl<'a> Canvas<'a> {
-    fn new(bx: &'a PatchBox) -> Canvas<'a> {
+    fn new(bx: &'a PatchBox, colored: bool) -> Canvas<'a> {
         let (w, h) = (bx.width as usize, bx.height as usize);
         Canvas {
             bx,
@@ -240,8 +245,12 @@ impl<'a> Canvas<'a> {
             coverage: vec![Coverage::Empty; w * h],
             lip_distance: vec![f64::INFINITY; w * h],
             corner_distance: vec![f64::INFINITY; (w + 1) * (h + 1)],
-            normals: vec![[0; 4]; w * h],
-            colors: vec![[0; 4]; w * h],
+            normals: vec![NO_NORMAL; w * h],
+            colors: if colored {
+                vec![[0; 4]; w * h]
+            } else {
+                Vec::new()
+            },
         }
     }
 
@@ -337,8 +346,10 @@ impl<'a> Canvas<'a> {
             self.lip_distance[t] = lip_distance;
         }
         let n = shading.normal(l);
-        self.normals[t] = encode_snorm8(self.to_patch_dir(n).normalize_or(DVec3::Z));
-        self.colors[t] = shading.color(l);
+        self.normals[t] = encode_normal(self.to_patch_dir(n).normalize_or(DVec3::Z));
+        if let Some(c) = self.colors.get_mut(t) {
+            *c = shading.color(l);
+        }
     }
 
     /// Lowers the distance of the corners within two texels of the face to the face's.
@@ -465,7 +476,7 @@ pub fn rasterize(
     chart_faces: usize,
     bx: &PatchBox,
 ) -> Maps {
-    let mut canvas = Canvas::new(bx);
+    let mut canvas = Canvas::new(bx, mesh.has_colors());
     for (n, &f) in faces.iter().enumerate() {
         canvas.draw_face(mesh, corner_normals, f, n < chart_faces);
     }
@@ -563,10 +574,11 @@ pub fn dilate(maps: &mut Maps, width: u32, height: u32, iterations: usize) {
                         }
                         let s = y as usize * w + x as usize;
                         if filled[s] {
-                            let q = maps.normals[s];
-                            n += DVec3::new(q[0] as f64, q[1] as f64, q[2] as f64);
-                            for (acc, v) in c.iter_mut().zip(maps.colors[s]) {
-                                *acc += v as u32;
+                            n += decode_normal(maps.normals[s]);
+                            if let Some(&color) = maps.colors.get(s) {
+                                for (acc, v) in c.iter_mut().zip(color) {
+                                    *acc += v as u32;
+                                }
                             }
                             k += 1;
                         }
@@ -574,7 +586,7 @@ pub fn dilate(maps: &mut Maps, width: u32, height: u32, iterations: usize) {
                 }
                 if k > 0 {
                     let color = c.map(|v| ((v + k / 2) / k) as u8);
-                    updates.push((t, encode_snorm8(n.normalize_or(DVec3::Z)), color));
+                    updates.push((t, encode_normal(n.normalize_or(DVec3::Z)), color));
                 }
             }
         }
@@ -583,7 +595,9 @@ pub fn dilate(maps: &mut Maps, width: u32, height: u32, iterations: usize) {
         }
         for (t, n, c) in updates {
             maps.normals[t] = n;
-            maps.colors[t] = c;
+            if let Some(stored) = maps.colors.get_mut(t) {
+                *stored = c;
+            }
             filled[t] = true;
         }
     }
@@ -634,7 +648,7 @@ mod tests {
         let empty = half.heights.iter().filter(|&&q| q == 0).count();
         assert!(empty > 0 && empty < 32);
         dilate(&mut half, 8, 4, 8);
-        assert!(half.normals.iter().all(|n| n[2] > 100));
+        assert!(half.normals.iter().all(|&n| decode_normal(n).z > 0.78));
         assert!(half.heights.iter().filter(|&&q| q == 0).count() == empty);
         maps.heights.clear();
     }

@@ -108,7 +108,8 @@ fn level_costs(levels: &[u32], max_error: f64, draw: impl Fn(u32) -> Drawn) -> V
             .sum();
         let area: f64 = d.errors.iter().map(|e| e.area).sum();
         let texels = d.bx.width as usize * d.bx.height as usize;
-        let bytes = crate::gtex::map_bytes(texels, d.bx.height_bits) as f64;
+        let colored = !d.maps.colors.is_empty();
+        let bytes = crate::gtex::map_bytes(texels, d.bx.height_bits, colored) as f64;
         costs.push(LevelCost {
             resolution,
             bytes,

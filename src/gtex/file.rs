@@ -1,4 +1,4 @@
-//! The .gtex file format, version 4 (versions 1 to 3 are still read). Little-endian throughout.
+//! The .gtex file format, version 5 (versions 1 to 4 are still read). Little-endian throughout.
 //!
 //! ```text
 //! header (32 bytes): magic b"GTEX\r\n\x1a\n" | version u32 | reserved u32 | payload length u64 |
@@ -7,14 +7,17 @@
 //!          stage seconds: same (written empty) | per-patch stats: count u32, then (name: len u16 + UTF-8, n u32,
 //!          f64[n]) | patch count u32 | each patch:
 //!          origin 3 f64 | axes 9 f64 | extent 3 f64 | width u32 | height u32 |
-//!          height bits u32 (8 or 16) | faces u32 | ring faces u32 | face ids u32[] |
-//!          ring face ids u32[] | heights u8[w*h] or u16[w*h] | normals i8[w*h*4] |
-//!          colors u8[w*h*4] | outline i8[w*h]
+//!          height bits u32 (8 or 16) | color map u32 (0 or 1) | faces u32 | ring faces u32 |
+//!          face ids u32[] | ring face ids u32[] | heights u8[w*h] or u16[w*h] |
+//!          normals i8[w*h*2] (octahedral, `gtex::encode_normal`) |
+//!          colors u8[w*h*4] (only with a color map) | outline i8[w*h]
 //! ```
 //! A file whose bytes pass the checksum must still hold a possible set
 //! (`GeometryTextureSet::validate`: finite orthonormal frames, positive extents, 1 to 4096 texels a
 //! side, codes within their bits, face ids within the "faces" stat, per-patch stats per patch).
-//! Version 3 is the same without the outline map (read as wholly inside: the surface ends at the
+//! Version 4 has no color-map field: every patch has colors, and normals are i8[w*h*4]
+//! (x, y, z, 0) / 127, re-encoded as octahedral codes when read.
+//! Version 3 is as version 4 without the outline map (read as wholly inside: the surface ends at the
 //! texel grid, as it did); version 2 also lacks the per-patch stats; version 1 also lacks the height-bits field
 //! (every patch has 16-bit heights).
 //! Written by hand (not serde/bincode) so the layout is fixed, documented and readable from any
@@ -29,7 +32,7 @@ use super::{GeometryTextureSet, Patch, Stats};
 use crate::error::GeomtexError;
 
 pub const MAGIC: &[u8; 8] = b"GTEX\r\n\x1a\n";
-pub const VERSION: u32 = 4;
+pub const VERSION: u32 = 5;
 const HEADER: usize = 32;
 
 fn put_f64s(out: &mut Vec<u8>, v: &[f64]) {
@@ -77,6 +80,7 @@ pub fn encode(set: &GeometryTextureSet) -> Vec<u8> {
             patch.width,
             patch.height,
             patch.height_bits as u32,
+            patch.has_colors() as u32,
             patch.faces.len() as u32,
             patch.ring_faces.len() as u32,
         ] {
@@ -190,6 +194,18 @@ fn read_patch(r: &mut Reader, k: usize, version: u32) -> Result<Patch, String> {
     } else {
         16
     };
+    let colored = if version >= 5 {
+        match r.u32(&what)? {
+            c @ (0 | 1) => c == 1,
+            c => {
+                return Err(format!(
+                    "{what}: the color-map flag must be 0 or 1, found {c}"
+                ))
+            }
+        }
+    } else {
+        true
+    };
     let (nf, nr) = (r.u32(&what)? as usize, r.u32(&what)? as usize);
     let texels = w as usize * h as usize;
     let ids = r.take((nf + nr) * 4, &format!("{what} face ids"))?;
@@ -207,12 +223,21 @@ fn read_patch(r: &mut Reader, k: usize, version: u32) -> Result<Patch, String> {
             .map(|c| u16::from_le_bytes([c[0], c[1]]))
             .collect()
     };
-    let normals =
-        bytemuck::cast_slice::<u8, [i8; 4]>(r.take(texels * 4, &format!("{what} normals"))?)
-            .to_vec();
-    let colors =
-        bytemuck::cast_slice::<u8, [u8; 4]>(r.take(texels * 4, &format!("{what} colors"))?)
-            .to_vec();
+    let normals = if version >= 5 {
+        bytemuck::cast_slice::<u8, [i8; 2]>(r.take(texels * 2, &format!("{what} normals"))?)
+            .to_vec()
+    } else {
+        let snorm = r.take(texels * 4, &format!("{what} normals"))?;
+        bytemuck::cast_slice::<u8, [i8; 4]>(snorm)
+            .iter()
+            .map(|&n| super::encode_normal(super::decode_snorm8(n)))
+            .collect()
+    };
+    let colors = if colored {
+        bytemuck::cast_slice::<u8, [u8; 4]>(r.take(texels * 4, &format!("{what} colors"))?).to_vec()
+    } else {
+        Vec::new()
+    };
     let outline = if version >= 4 {
         bytemuck::cast_slice::<u8, i8>(r.take(texels, &format!("{what} outline"))?).to_vec()
     } else {
@@ -328,6 +353,7 @@ impl GeometryTextureSet {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::gtex::{decode_normal, encode_snorm8, NO_NORMAL};
 
     fn sample() -> GeometryTextureSet {
         let patch = Patch {
@@ -338,7 +364,14 @@ mod tests {
             height: 3,
             height_bits: 16,
             heights: vec![0, 1, 2, 65535, 7, 0],
-            normals: vec![[0, 0, 127, 0]; 6],
+            normals: vec![
+                [0, 0],
+                [12, -7],
+                [-127, 0],
+                [100, 27],
+                [-50, -77],
+                NO_NORMAL,
+            ],
             colors: vec![[1, 2, 3, 255]; 6],
             faces: vec![4, 5],
             ring_faces: vec![9],
@@ -397,13 +430,67 @@ mod tests {
         out
     }
 
+    /// The payload of a version 4 file holding `s` (written as version 4 wrote it: every patch
+    /// with colors, normals as snorm8 x, y, z, 0).
+    fn payload_v4(s: &GeometryTextureSet) -> Vec<u8> {
+        let v5 = encode(s);
+        let mut p = v5[HEADER..].to_vec();
+        // Header part of the payload up to the first patch: re-encode it by slicing the v5 one.
+        let patches_at = p.len() - s.patches.iter().map(patch_len_v5).sum::<usize>();
+        p.truncate(patches_at);
+        for patch in &s.patches {
+            for v in [
+                patch.origin,
+                patch.axes[0],
+                patch.axes[1],
+                patch.axes[2],
+                patch.extent,
+            ] {
+                put_f64s(&mut p, &v.to_array());
+            }
+            let counts = [patch.width, patch.height, patch.height_bits as u32];
+            let faces = [patch.faces.len() as u32, patch.ring_faces.len() as u32];
+            for n in counts.into_iter().chain(faces) {
+                p.extend_from_slice(&n.to_le_bytes());
+            }
+            for f in patch.faces.iter().chain(&patch.ring_faces) {
+                p.extend_from_slice(&f.to_le_bytes());
+            }
+            for q in &patch.heights {
+                p.extend_from_slice(&q.to_le_bytes());
+            }
+            for &n in &patch.normals {
+                p.extend_from_slice(bytemuck::cast_slice(&encode_snorm8(decode_normal(n))));
+            }
+            let colors = (0..patch.texels()).map(|t| patch.color(t));
+            p.extend(colors.flat_map(|c| c.into_iter()));
+            p.extend_from_slice(bytemuck::cast_slice(&patch.outline));
+        }
+        p
+    }
+
+    /// Bytes one 16-bit patch takes in a version 5 file.
+    fn patch_len_v5(p: &Patch) -> usize {
+        15 * 8 + 6 * 4 + 4 * (p.faces.len() + p.ring_faces.len()) + p.map_bytes()
+    }
+
     #[test]
     fn older_versions_read_with_everything_inside_the_outline() {
         let s = as_filed(sample());
-        let v4 = encode(&s);
+        let v4 = file(4, &payload_v4(&s));
         assert!(s.stats.per_patch.is_empty());
+        // Version 4 read: normals back through snorm8 (within half a degree), colors kept.
+        let read4 = decode(&v4).unwrap();
+        for (a, b) in read4.patches[0].normals.iter().zip(&s.patches[0].normals) {
+            let cos = decode_normal(*a).dot(decode_normal(*b));
+            assert!(
+                *a == *b || cos > (0.75f64).to_radians().cos(),
+                "{a:?} {b:?}"
+            );
+        }
+        assert_eq!(read4.patches[0].colors, s.patches[0].colors);
         // What versions 1 to 3 hold: the same set with no outline map (everywhere inside).
-        let mut old = s.clone();
+        let mut old = read4.clone();
         old.patches[0].outline = vec![crate::gtex::OUTLINE_INSIDE; 6];
         // Version 3: the single patch's outline map (its last 6 bytes) is not there.
         let v3 = file(3, &v4[HEADER..v4.len() - 6]);
@@ -417,6 +504,28 @@ mod tests {
         payload.extend_from_slice(&v3[stats_end + 4..at]);
         payload.extend_from_slice(&v3[at + 4..]);
         assert_eq!(decode(&file(1, &payload)).unwrap(), old);
+    }
+
+    #[test]
+    fn a_set_without_colors_stores_none() {
+        let mut s = as_filed(sample());
+        let colored = encode(&s).len();
+        s.patches[0].colors.clear();
+        let b = encode(&s);
+        assert_eq!(colored - b.len(), 6 * 4);
+        let back = decode(&b).unwrap();
+        assert_eq!(back, s);
+        assert_eq!(back.patches[0].color(3), crate::gtex::NEUTRAL_COLOR);
+        // The flag is 0 or 1 only (offset: 15 f64, w, h, bits after the patch count).
+        let flag = b.len() - patch_len_v5(&s.patches[0]) + 15 * 8 + 3 * 4;
+        assert_eq!(&b[flag..flag + 4], &0u32.to_le_bytes());
+        let mut payload = b[HEADER..].to_vec();
+        payload[flag - HEADER] = 2;
+        let err = decode(&file(VERSION, &payload)).unwrap_err();
+        assert!(
+            err.contains("color-map flag must be 0 or 1, found 2"),
+            "{err}"
+        );
     }
 
     #[test]

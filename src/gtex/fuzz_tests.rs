@@ -17,7 +17,7 @@ use super::{GeometryTextureSet, Patch, Stats};
 const HEADER: usize = 32;
 
 fn sample() -> Vec<u8> {
-    let patch = |bits: u8, w: u32, h: u32| Patch {
+    let patch = |bits: u8, w: u32, h: u32, colored: bool| Patch {
         origin: DVec3::new(0.5, -2.0, 1.0),
         axes: [DVec3::X, DVec3::Y, DVec3::Z],
         extent: DVec3::new(2.0, 3.0, 0.25),
@@ -25,8 +25,19 @@ fn sample() -> Vec<u8> {
         height: h,
         height_bits: bits,
         heights: (0..w * h).map(|t| (t * 37 % 200) as u16).collect(),
-        normals: vec![[0, 0, 127, 0]; (w * h) as usize],
-        colors: vec![[1, 2, 3, 255]; (w * h) as usize],
+        // Octahedral codes over the whole range, and texels with no normal.
+        normals: (0..w * h)
+            .map(|t| match t % 3 {
+                0 => super::NO_NORMAL,
+                _ => [(t * 71 % 255) as i8 / 2, -((t * 29 % 255) as i8)],
+            })
+            .collect(),
+        // One patch with a color map, one without (the flag and the map's absence).
+        colors: if colored {
+            vec![[1, 2, 3, 255]; (w * h) as usize]
+        } else {
+            vec![]
+        },
         faces: vec![0, 3],
         ring_faces: vec![5],
         outline: (0..w * h).map(|t| (t * 53 % 255) as u8 as i8).collect(),
@@ -36,7 +47,7 @@ fn sample() -> Vec<u8> {
     stats.seconds.push(("raster".into(), 0.5));
     stats.per_patch = vec![("patch_error".into(), vec![1e-3, 2e-3])];
     encode(&GeometryTextureSet {
-        patches: vec![patch(16, 3, 2), patch(8, 2, 2)],
+        patches: vec![patch(16, 3, 2, true), patch(8, 2, 2, false)],
         texel_size: 0.5,
         stats,
     })
@@ -57,8 +68,9 @@ fn reseal(bytes: &mut [u8]) {
 fn check(bytes: &[u8]) -> Result<(), TestCaseError> {
     if let Ok(set) = decode(bytes) {
         prop_assert_eq!(set.validate(), Ok(()));
-        let (points, _) = set.to_points();
+        let (points, normals) = set.to_points();
         prop_assert!(points.iter().flatten().all(|x| x.is_finite()));
+        prop_assert!(normals.iter().flatten().all(|x| x.is_finite()));
         prop_assert!(set.face_patch().len() <= 1 << 32);
         let rays = [(DVec3::new(0.3, 0.2, 5.0), -DVec3::Z)];
         prop_assert!(crate::heightfield::first_hits(&set, &rays, &crate::cancel::NEVER).is_ok());

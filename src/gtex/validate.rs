@@ -79,12 +79,21 @@ fn check_maps(p: &Patch) -> Result<(), String> {
         ("colors", p.colors.len()),
         ("outline", p.outline.len()),
     ] {
-        if len != texels {
+        // No color map at all is fine (the mesh had no colors); a partial one is not.
+        if len != texels && !(name == "colors" && len == 0) {
             return Err(format!(
                 "{name} hold {len} texels, the {}x{} map needs {texels}",
                 p.width, p.height
             ));
         }
+    }
+    // -128 only as both bytes of NO_NORMAL: encode_normal writes -127..=127.
+    let odd = |n: &[i8; 2]| (n[0] == i8::MIN || n[1] == i8::MIN) && *n != super::NO_NORMAL;
+    if let Some(t) = p.normals.iter().position(odd) {
+        return Err(format!(
+            "normal code {:?} at texel {t} is not octahedral (-128 only in [-128, -128], no normal)",
+            p.normals[t]
+        ));
     }
     let code_max = p.code_max();
     if let Some(t) = p.heights.iter().position(|&q| q > code_max) {
@@ -151,7 +160,7 @@ impl GeometryTextureSet {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gtex::Stats;
+    use crate::gtex::{Stats, NO_NORMAL};
 
     fn set() -> GeometryTextureSet {
         let patch = Patch {
@@ -162,7 +171,7 @@ mod tests {
             height: 2,
             height_bits: 8,
             heights: vec![0, 1, 254, 255],
-            normals: vec![[0, 0, 127, 0]; 4],
+            normals: vec![[0, 0], [5, -9], NO_NORMAL, [127, 0]],
             colors: vec![[1, 2, 3, 255]; 4],
             faces: vec![0, 1],
             ring_faces: vec![2],
@@ -221,6 +230,14 @@ mod tests {
             (
                 Box::new(|s| s.patches[1].normals.pop().map(drop).unwrap()),
                 "patch 1: normals hold 3 texels, the 2x2 map needs 4",
+            ),
+            (
+                Box::new(|s| s.patches[1].colors.pop().map(drop).unwrap()),
+                "patch 1: colors hold 3 texels, the 2x2 map needs 4",
+            ),
+            (
+                Box::new(|s| s.patches[1].normals[3] = [-128, 4]),
+                "patch 1: normal code [-128, 4] at texel 3 is not octahedral",
             ),
             (
                 Box::new(|s| s.patches[1].outline.push(0)),

@@ -76,10 +76,13 @@ fn patch_dict<'py>(py: Python<'py>, p: &Patch) -> PyResult<Bound<'py, PyDict>> {
         d.set_item("height", matrix(py, p.heights.clone(), h, w))?;
     }
     d.set_item("height_bits", p.height_bits)?;
-    let normals: Vec<i8> = p.normals.iter().flatten().copied().collect();
+    // Decoded to the layouts callers have always read (normals stored as 2-byte octahedral
+    // codes, colors possibly absent).
+    let normals: Vec<i8> = p.normals_snorm8().into_iter().flatten().collect();
     d.set_item("normal", image(py, normals, (h, w, 4)))?;
-    let colors: Vec<u8> = p.colors.iter().flatten().copied().collect();
+    let colors: Vec<u8> = (0..p.texels()).flat_map(|t| p.color(t)).collect();
     d.set_item("color", image(py, colors, (h, w, 4)))?;
+    d.set_item("has_colors", p.has_colors())?;
     d.set_item("outline", matrix(py, p.outline.clone(), h, w))?;
     d.set_item("world_from_patch", mat4_to_numpy(py, p.world_from_patch()))?;
     d.set_item("origin", PyArray1::from_slice(py, &p.origin.to_array()))?;
@@ -146,9 +149,10 @@ impl PyGeometryTextureSet {
 
     /// One patch's maps and frame as numpy arrays: height (H, W) codes, uint16 or uint8 as
     /// `height_bits` says (0 = empty, else h = (code - 1) / (2**height_bits - 2)), normal
-    /// (H, W, 4) int8 (patch-local xyz/127), color (H, W, 4) uint8, outline (H, W) int8 (signed
-    /// distance from each texel centre to the faces' outline, 127 = 2 texels, positive inside),
-    /// world_from_patch (4, 4),
+    /// (H, W, 4) int8 (patch-local xyz/127, decoded from the stored octahedral codes; 0 where
+    /// none), color (H, W, 4) uint8 (neutral 200, 200, 200, 255 without a color map),
+    /// has_colors (bool), outline (H, W) int8 (signed distance from each texel centre to the
+    /// faces' outline, 127 = 2 texels, positive inside), world_from_patch (4, 4),
     /// origin (3,), axes (3, 3) (rows x, y, z), extent (3,), faces and ring_faces (uint32).
     fn patch<'py>(
         &self,
@@ -388,7 +392,8 @@ pub fn load(py: Python<'_>, path: &Bound<'_, PyAny>) -> PyResult<PyGeometryTextu
 #[pyo3(signature = (mesh, *, max_resolution = None, texel_size = None, max_error = None,
     max_error_rel = None, error_scope = None, charts = None, chart_error = None, max_charts = None,
     compactness = None, lloyd_iterations = None, overlap_rings = None, dilation = None,
-    frame = None, normals = None, crease_angle = None, height_bits = None, progress = None))]
+    frame = None, normals = None, crease_angle = None, height_bits = None, max_bytes = None,
+    progress = None))]
 #[allow(clippy::too_many_arguments)] // one per keyword of geomtex.convert
 pub fn convert(
     py: Python<'_>,
@@ -409,6 +414,7 @@ pub fn convert(
     normals: Option<&Bound<'_, PyAny>>,
     crease_angle: Option<f64>,
     height_bits: Option<i64>,
+    max_bytes: Option<i64>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<PyGeometryTextureSet> {
     let options = ConvertArgs {
@@ -432,6 +438,7 @@ pub fn convert(
             .transpose()?,
         crease_angle,
         height_bits,
+        max_bytes,
     }
     .into_options()?;
     let set = convert_reporting(py, mesh.get().inner.clone(), &options, progress)?;

@@ -678,7 +678,8 @@ impl PyFrame {
     }
 
     /// gpu_ms (GPU timestamps, None where unsupported), cpu_ms (the whole call), patches_drawn,
-    /// patches_culled (boxes outside the view), meshes_drawn, near, method; with count_fetches
+    /// patches_culled (boxes outside the view), meshes_drawn, texture_bytes (the drawn sets' maps
+    /// and pyramids on the adapter), near, method; with count_fetches
     /// also fetches, raycast_fragments and fetches_per_pixel.
     #[getter]
     fn stats(&self, py: Python<'_>) -> Py<PyDict> {

@@ -29,6 +29,8 @@ pub struct Frame {
     /// Patches whose box lies wholly outside the view frustum, left out of the frame's tracing.
     pub patches_culled: usize,
     pub meshes_drawn: usize,
+    /// Bytes the drawn texture sets' maps and pyramids take on the adapter.
+    pub texture_bytes: u64,
     pub near: f64,
     /// The height-map search the frame was drawn with.
     pub method: Method,
@@ -63,6 +65,7 @@ impl Frame {
             ("patches_drawn", count(self.patches_drawn)),
             ("patches_culled", count(self.patches_culled)),
             ("meshes_drawn", count(self.meshes_drawn)),
+            ("texture_bytes", StatValue::Int(self.texture_bytes as i64)),
             ("near", StatValue::Float(self.near)),
             ("method", StatValue::Text(self.method.as_str())),
             ("covered_pixels", count(covered)),
@@ -108,6 +111,7 @@ mod tests {
             patches_drawn: 3,
             patches_culled: 1,
             meshes_drawn: 0,
+            texture_bytes: 0,
             near: 0.25,
             method: Method::MaxMip,
             searches: 0,
@@ -126,6 +130,7 @@ mod tests {
             "patches_drawn",
             "patches_culled",
             "meshes_drawn",
+            "texture_bytes",
             "near",
             "method",
             "covered_pixels",
@@ -135,15 +140,15 @@ mod tests {
         assert_eq!(names(&frame(None)), plain);
         let counted = frame(Some(30));
         assert_eq!(
-            names(&counted)[10..],
+            names(&counted)[11..],
             ["fetches", "fetches_per_pixel", "fetches_per_search"]
         );
         let stats = counted.stats();
         assert_eq!(stats[0].1, StatValue::Absent);
         assert_eq!(stats[2].1, StatValue::Int(3));
-        assert_eq!(stats[6].1, StatValue::Text("maxmip"));
+        assert_eq!(stats[7].1, StatValue::Text("maxmip"));
         // Nothing covered and no searches: the figures divide by one, not zero.
-        assert_eq!(stats[11].1, StatValue::Float(30.0));
         assert_eq!(stats[12].1, StatValue::Float(30.0));
+        assert_eq!(stats[13].1, StatValue::Float(30.0));
     }
 }

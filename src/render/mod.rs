@@ -255,6 +255,7 @@ impl Renderer {
             patches_drawn: tally.patches_drawn,
             patches_culled: tally.patches_culled,
             meshes_drawn: tally.meshes_drawn,
+            texture_bytes: tally.texture_bytes,
             near: lens.near,
             method: search.method,
             searches: searches as u64,

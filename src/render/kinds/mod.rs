@@ -98,6 +98,8 @@ pub(crate) struct Tally {
     pub patches_culled: usize,
     /// Meshes drawn so far; the k-th mesh writes id -2 - k.
     pub meshes_drawn: usize,
+    /// Bytes the drawn texture sets' maps and pyramids take on the adapter.
+    pub texture_bytes: u64,
 }
 
 /// One object's draw in the scene pass, after group 0 is bound.

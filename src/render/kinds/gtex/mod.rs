@@ -22,7 +22,7 @@ use super::{DrawCall, FrameView, Kind, Tally, TraceCall, UploadCache};
 use crate::error::Result;
 use crate::gtex::GeometryTextureSet;
 use crate::heightfield::min_max_pyramid;
-use crate::render::atlas::{Atlas, Pyramid};
+use crate::render::atlas::Atlas;
 use crate::render::bvh::{Aabb, Bvh};
 use crate::render::cull::{in_frustum, lod_level, DepthRange};
 use crate::render::device::Gpu;
@@ -54,9 +54,8 @@ struct Tracing {
 
 impl GtexUpload {
     fn new(gpu: &Gpu, set: &GeometryTextureSet) -> Result<GtexUpload> {
-        let pyramids: Vec<Pyramid> = set.patches.iter().map(min_max_pyramid).collect();
         Ok(GtexUpload {
-            atlas: Atlas::upload(gpu, set, &pyramids)?,
+            atlas: Atlas::upload(gpu, set)?,
             tracing: OnceLock::new(),
         })
     }
@@ -122,7 +121,7 @@ fn textures_layout(
     let mut entries = vec![
         storage_entry(0, stages, true),
         texture_entry(1, reads, wgpu::TextureSampleType::Uint, array),
-        texture_entry(2, reads, filterable, array),
+        texture_entry(2, reads, wgpu::TextureSampleType::Sint, array),
         texture_entry(3, reads, filterable, array),
         wgpu::BindGroupLayoutEntry {
             binding: 4,
@@ -130,7 +129,12 @@ fn textures_layout(
             ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
             count: None,
         },
-        storage_entry(5, reads, true),
+        texture_entry(
+            5,
+            reads,
+            wgpu::TextureSampleType::Uint,
+            wgpu::TextureViewDimension::D2,
+        ),
         texture_entry(8, reads, filterable, array),
     ];
     entries.extend_from_slice(extra);
@@ -245,7 +249,12 @@ impl GtexKind {
                     world_normal_from_patch: normal_matrix(object_linear * axes),
                     atlas_origin: [x as f32, y as f32],
                     size: [p.width as f32, p.height as f32],
-                    ids: [layer as i32, placing.first_id + i as i32, 0, 0],
+                    ids: [
+                        layer as i32,
+                        placing.first_id + i as i32,
+                        p.has_colors() as i32,
+                        0,
+                    ],
                     pyramid_at: [first_value, levels, p.code_max() as u32, lod],
                 };
                 (record, visible.then_some(view_from_patch))
@@ -272,7 +281,7 @@ impl GtexKind {
             (2, texture(normals)),
             (3, texture(colors)),
             (4, wgpu::BindingResource::Sampler(&self.sampler)),
-            (5, atlas.pyramid.as_entire_binding()),
+            (5, texture(&atlas.pyramid)),
             (8, texture(outlines)),
         ];
         let entries: Vec<_> = resources
@@ -328,6 +337,7 @@ impl Kind for GtexKind {
         };
         let (records, placements) = Self::records(&placing, set, &upload.atlas);
         tally.patch_ids += set.patches.len() as i32;
+        tally.texture_bytes += upload.atlas.bytes;
         let drawn: Vec<PatchGpu> = records
             .into_iter()
             .zip(&placements)
