@@ -149,6 +149,12 @@ impl Patch {
             .filter(|&(t, _, _)| self.outline[t] >= 0)
     }
 
+    /// The base color of texel `t` (RGBA8), as drawn from the source's colors.
+    #[inline]
+    pub fn texel_color(&self, t: usize) -> [u8; 4] {
+        self.colors[t]
+    }
+
     /// Every texel holding a height, inside the outline or not (those outside only shape the
     /// bilinear cells the outline cuts): (index in the maps, world point, world unit normal).
     pub fn filled_texels(&self) -> impl Iterator<Item = (usize, DVec3, DVec3)> + '_ {
