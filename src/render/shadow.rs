@@ -74,7 +74,7 @@ fn largest_texel(scene: &Scene) -> f64 {
                     .fold(0.0, f64::max);
                 Some(set.texel_size * scale)
             }
-            Object::Mesh(..) => None,
+            Object::Mesh(..) | Object::Surfels(..) => None,
         })
         .fold(0.0, f64::max)
 }

@@ -126,10 +126,7 @@ impl Disc {
 /// The finest disc of a surface texel: centred on the texel's point, in its tangent plane, with
 /// the radius reaching the texel's four corners lifted onto that plane.
 fn texel_disc(p: &Patch, point: DVec3, normal: DVec3, color: [u8; 4]) -> Disc {
-    let (sx, sy) = (
-        p.extent.x / p.width as f64,
-        p.extent.y / p.height as f64,
-    );
+    let (sx, sy) = (p.extent.x / p.width as f64, p.extent.y / p.height as f64);
     let local = DVec3::new(
         normal.dot(p.axes[0]),
         normal.dot(p.axes[1]),
@@ -346,7 +343,17 @@ impl SurfelHierarchy {
     /// Bytes the hierarchy takes on the GPU: a 32-byte record and a patch index per surfel, a
     /// tile record per tile (render/gpu_types.rs).
     pub fn gpu_bytes(&self) -> usize {
-        self.surfels.len() * (32 + 4) + self.tiles.len() * 128
+        self.surfels.len() * (32 + 4) + self.tiles.len() * 96
+    }
+
+    /// The tile of each surfel.
+    pub fn surfel_tiles(&self) -> Vec<usize> {
+        let mut out = vec![0; self.surfels.len()];
+        for (k, t) in self.tiles.iter().enumerate() {
+            let all = t.start[0] as usize..*t.start.last().expect("levels >= 1") as usize;
+            out[all].fill(k);
+        }
+        out
     }
 
     /// World bounding box of every disc.

@@ -85,7 +85,10 @@ fn levels_merge_four_to_one_and_cover_their_children() {
     let counts = h.per_level();
     assert_eq!(counts[3], h.tiles.len());
     for l in 1..4 {
-        assert!(counts[l] * 4 >= counts[l - 1] && counts[l] < counts[l - 1], "{counts:?}");
+        assert!(
+            counts[l] * 4 >= counts[l - 1] && counts[l] < counts[l - 1],
+            "{counts:?}"
+        );
     }
     for t in &h.tiles {
         let per: Vec<u32> = t.start.windows(2).map(|w| w[1] - w[0]).collect();
@@ -130,7 +133,10 @@ fn errors_are_monotone_and_bound_every_finest_surfel() {
 fn tile_must_be_a_power_of_two_within_range() {
     for bad in [0, 3, 12, 128, -8] {
         let e = check_tile(bad).unwrap_err().to_string();
-        assert!(e.contains("power of two") && e.contains(&bad.to_string()), "{e}");
+        assert!(
+            e.contains("power of two") && e.contains(&bad.to_string()),
+            "{e}"
+        );
     }
     for good in [1, 2, 8, 64] {
         assert_eq!(check_tile(good).unwrap(), good as u32);
