@@ -460,6 +460,8 @@ impl PyRenderer {
     /// and reports height fetches in `frame.stats`. `lod` (max-pyramid search only) stops each
     /// patch's descent where its nodes are about a pixel. `light` (a DirectionalLight or a
     /// PointLight) casts shadows: `frame.shadow`, and shadowed pixels at half brightness.
+    /// `max_pixel_error` (Surfels only, default 1): each tile draws its coarsest level whose
+    /// perpendicular error projects to at most this many pixels.
     #[pyo3(signature = (obj, camera, *, quality = None, method = None, steps_per_texel = None,
         min_linear_steps = None, max_linear_steps = None, binary_steps = None,
         max_traversal_steps = None, count_fetches = None, lod = None, background = None,

@@ -35,7 +35,7 @@ pub fn to_surfels(
     tile: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<PySurfels> {
     let tile = match tile {
-        Some(t) => integer(t, "tile", 0..=i64::MAX)?,
+        Some(t) => integer(t, "tile", i64::MIN..=i64::MAX)?,
         None => DEFAULT_TILE as i64,
     };
     let tile = crate::surfels::check_tile(tile)?;
