@@ -1,5 +1,5 @@
-// Entry points of the surfel resolve pass, drawn in the scene pass: a full-screen triangle whose
-// fragments read the visibility buffer the splat passes filled and write the winning surfel's
+// Entry points of the surfel resolve pass, drawn in the scene pass: a rectangle over the
+// hierarchy's bounding box on screen, whose fragments read the visibility buffer the splat passes filled and write the winning surfel's
 // depth (frag_depth, so the shared reversed-Z test composites surfels with every other kind),
 // normal, color and patch id. A pixel no disc reached is filled from its nearest neighbour, on
 // that neighbour's disc plane, when covered neighbours lie on two opposite sides of it (a hole
@@ -11,10 +11,15 @@ struct VsOut {
     @builtin(position) position: vec4<f32>,
 }
 
+// The rectangle as two triangles: corner (x from bit 0, y from bit 1) of each vertex.
+const CORNERS = array<u32, 6>(0u, 1u, 3u, 0u, 3u, 2u);
+
 @vertex
 fn vs_main(@builtin(vertex_index) vertex: u32) -> VsOut {
-    let uv = vec2<f32>(f32((vertex << 1u) & 2u), f32(vertex & 2u));
-    return VsOut(vec4<f32>(uv * 2.0 - 1.0, 0.5, 1.0));
+    let c = CORNERS[vertex];
+    let r = object.rect;
+    let xy = vec2<f32>(select(r.x, r.z, (c & 1u) != 0u), select(r.y, r.w, (c & 2u) != 0u));
+    return VsOut(vec4<f32>(xy, 0.5, 1.0));
 }
 
 struct FsOut {

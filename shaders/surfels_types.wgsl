@@ -34,6 +34,9 @@ struct SurfelObject {
     params: vec4<f32>,
     // x, y: image size, z: the id of the set's patch 0, w: tiles.
     sizes: vec4<u32>,
+    // The resolve pass's rectangle in normalized device coordinates (x0, y0, x1, y1): the
+    // hierarchy's bounding box on screen, a few pixels wider.
+    rect: vec4<f32>,
 }
 
 // The tally's slots: surfels listed, tiles in view, finest surfels of those tiles, then the

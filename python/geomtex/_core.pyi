@@ -9,7 +9,8 @@ import numpy.typing as npt
 from typing_extensions import disjoint_base
 
 __all__ = [
-    "Mesh", "GeometryTextureSet", "Surfels", "convert", "load", "load_surfels", "__version__", "Camera", "Scene", "Renderer", "Frame",
+    "Mesh", "GeometryTextureSet", "Surfels", "convert", "load", "load_surfels", "__version__", "Camera", "Scene",
+    "Renderer", "Frame",
     "GeomtexError", "MeshError", "ParameterError", "FormatError", "FileError", "CancelledError",
     "DeviceError", "InternalError",
 ]

@@ -1,7 +1,8 @@
 """Pickling for every public object, so a scheduler (Dask, multiprocessing) can ship them.
 
 Each object is stored as what it is made of, never as a pointer: a set as the bytes of its .gtex
-file (checksummed, exact), surfels as their .gtsurf bytes (the set and tile size), a mesh as its arrays, a camera as its pose and projection numbers, a
+file (checksummed, exact), surfels as their .gtsurf bytes (the set and tile size), a mesh as its
+arrays, a camera as its pose and projection numbers, a
 scene as its objects and placements, a frame as its arrays. A renderer holds a GPU device, which
 cannot travel: pickling one stores its image size and the other side makes a renderer of its own.
 

@@ -211,6 +211,7 @@ pub(crate) struct SurfelObjectGpu {
     pub planes: [[f32; 4]; 4],
     pub params: [f32; 4],
     pub sizes: [u32; 4],
+    pub rect: [f32; 4],
 }
 
 wgsl_size!(SurfelTileGpu, 96);
@@ -218,7 +219,8 @@ const _: () = assert!(offset_of!(SurfelTileGpu, start) == 48);
 const _: () = assert!(offset_of!(SurfelTileGpu, info) == 80);
 wgsl_size!(SurfelGpu, 32);
 const _: () = assert!(offset_of!(SurfelGpu, normal) == 16);
-wgsl_size!(SurfelObjectGpu, 224);
+wgsl_size!(SurfelObjectGpu, 240);
 const _: () = assert!(offset_of!(SurfelObjectGpu, planes) == 128);
 const _: () = assert!(offset_of!(SurfelObjectGpu, params) == 192);
 const _: () = assert!(offset_of!(SurfelObjectGpu, sizes) == 208);
+const _: () = assert!(offset_of!(SurfelObjectGpu, rect) == 224);

@@ -147,6 +147,10 @@ fn texel_disc(p: &Patch, point: DVec3, normal: DVec3, color: [u8; 4]) -> Disc {
     }
 }
 
+/// One level of a tile being built: its cells row-major (a disc and its index in the tile's
+/// list, None where empty), and the grid's width and height.
+type LevelGrid = (Vec<Option<(Disc, u32)>>, usize, usize);
+
 /// The tiles of one patch, their surfels numbered from 0 (the caller offsets them).
 fn patch_tiles(p: &Patch, patch: u32, tile: u32, levels: u32) -> Vec<(Tile, Vec<Surfel>)> {
     let mut grid: Vec<Option<Disc>> = vec![None; p.texels()];
@@ -179,7 +183,7 @@ fn build_tile(
     levels: u32,
 ) -> (Tile, Vec<Surfel>) {
     // Per level: its grid of (disc, index within the tile's list) and its side lengths.
-    let mut grids: Vec<(Vec<Option<(Disc, u32)>>, usize, usize)> = Vec::new();
+    let mut grids: Vec<LevelGrid> = Vec::new();
     let mut surfels: Vec<Surfel> = Vec::new();
     let mut start = vec![0u32];
     let mut level_grid: Vec<Option<Disc>> = finest;
@@ -228,7 +232,7 @@ fn build_tile(
 }
 
 /// Sets each surfel's parent: the cell (i/2, j/2) one level up.
-fn link_parents(grids: &[(Vec<Option<(Disc, u32)>>, usize, usize)], surfels: &mut [Surfel]) {
+fn link_parents(grids: &[LevelGrid], surfels: &mut [Surfel]) {
     for pair in grids.windows(2) {
         let ((below, bw, _), (above, aw, _)) = (&pair[0], &pair[1]);
         for (cell, entry) in below.iter().enumerate() {
@@ -243,7 +247,7 @@ fn link_parents(grids: &[(Vec<Option<(Disc, u32)>>, usize, usize)], surfels: &mu
 
 /// Errors, cones and the bounding sphere of a built tile (surfel indices local to the tile).
 fn tile_figures(
-    grids: &[(Vec<Option<(Disc, u32)>>, usize, usize)],
+    grids: &[LevelGrid],
     surfels: &[Surfel],
     patch: u32,
     texel: [u32; 2],

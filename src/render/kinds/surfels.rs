@@ -20,7 +20,7 @@ use wgpu::util::DeviceExt;
 use super::{ComputeStep, ComputeWork, Dispatch, DrawCall, FrameView, Kind, Tally, UploadCache};
 use crate::error::{GeomtexError, Result};
 use crate::render::camera::Lens;
-use crate::render::cull::DepthRange;
+use crate::render::cull::{box_corners, DepthRange};
 use crate::render::device::Gpu;
 use crate::render::gpu_types::{
     gpu_matrix, normal_matrix, SurfelGpu, SurfelObjectGpu, SurfelTileGpu,
@@ -246,6 +246,33 @@ fn frustum_planes(lens: &Lens, width: u32, height: u32) -> [[f32; 4]; 4] {
     }
 }
 
+/// The hierarchy's bounding box on screen in normalized device coordinates (x0, y0, x1, y1),
+/// two pixels wider on every side (hole filling reads neighbours); the whole image when a corner
+/// lies behind the eye.
+fn screen_rect(
+    lens: &Lens,
+    view_from_object: DMat4,
+    u: &UploadedSurfels,
+    size: [u32; 2],
+) -> [f32; 4] {
+    let clip_from_object = lens.clip_from_view * view_from_object;
+    let mut lo = glam::DVec2::splat(f64::INFINITY);
+    let mut hi = glam::DVec2::splat(f64::NEG_INFINITY);
+    for corner in box_corners(u.lo, u.hi) {
+        let c = clip_from_object * corner.extend(1.0);
+        if c.w <= 0.0 {
+            return [-1.0, -1.0, 1.0, 1.0];
+        }
+        let ndc = c.truncate().truncate() / c.w;
+        lo = lo.min(ndc);
+        hi = hi.max(ndc);
+    }
+    let margin = glam::DVec2::new(4.0 / size[0] as f64, 4.0 / size[1] as f64);
+    let lo = (lo - margin).clamp(glam::DVec2::splat(-1.0), glam::DVec2::splat(1.0));
+    let hi = (hi + margin).clamp(glam::DVec2::splat(-1.0), glam::DVec2::splat(1.0));
+    [lo.x, lo.y, hi.x, hi.y].map(|v| v as f32)
+}
+
 /// This frame's buffers of one object: the chosen list, the tally, the splat passes' indirect
 /// arguments and the visibility buffer.
 struct FrameBuffers {
@@ -326,6 +353,7 @@ impl SurfelsKind {
                 0.0,
             ],
             sizes: [width, height, first_id.max(0) as u32, u.tile_count],
+            rect: screen_rect(frame.lens, view_from_object, u, [width, height]),
         }
     }
 
@@ -387,7 +415,9 @@ impl Kind for SurfelsKind {
             return Ok(false);
         };
         let u = self.uploads.get_or_upload(h, |h| upload(gpu, h))?;
-        depth.include_box(view_from_object, u.lo, u.hi);
+        if u.tile_count > 0 {
+            depth.include_box(view_from_object, u.lo, u.hi);
+        }
         Ok(true)
     }
 
@@ -404,6 +434,9 @@ impl Kind for SurfelsKind {
         let u = self.uploads.get(h)?;
         let first_id = tally.patch_ids;
         tally.patch_ids += u.patch_count;
+        if u.tile_count == 0 {
+            return None;
+        }
         let device = &gpu.device;
         let record = self.record(frame, placed, u, first_id);
         let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -423,7 +456,7 @@ impl Kind for SurfelsKind {
             pipeline: self.resolve.clone(),
             group,
             vertex_buffer: None,
-            vertices: 3,
+            vertices: 6,
             instances: 1,
             compute: Some(compute),
         })
