@@ -3,15 +3,15 @@ perpendicular error, splatted through a 64-bit atomic visibility buffer.
 
 In one run, on one wgpu adapter, at 512x512, for the Stanford bunny (69,451 faces) and the same
 bunny after two Loop subdivisions (~1.1 M faces), converted with the default keywords and cut
-into the default 8x8-texel tiles, with a front camera backing away so that the model spans from
-the full image height down to 1/16 of it:
+into the default 8x8-texel tiles (and 32x32, at the default error only), with a front camera
+backing away so that the model spans from the full image height down to 1/16 of it:
 
 * per distance and per ``max_pixel_error``: surfels drawn (and the finest level's count in
   view), frame time (GPU timestamps around the compute and scene passes; median of
-  ``--repeats`` after a warm-up), and against trimesh + embree ray casting of the original
-  mesh: coverage IoU, depth p99 in pixel footprints (|Δz| over z·2·tan(fov/2)/512), median
-  normal angle, and holes (pixels inside the reference's silhouette, eroded by one pixel, that
-  the frame misses);
+  ``--repeats`` after a warm-up; the meshes take turns at each distance), and against trimesh
+  + embree ray casting of the original mesh: coverage IoU, depth p99 in pixel footprints
+  (|Δz| over z·2·tan(fov/2)/512), median normal angle, and holes (pixels inside the
+  reference's silhouette, eroded by one pixel, that the frame misses);
 * at the default error, side by side: the original mesh rasterized and the geometry textures ray
   cast by the same renderer, as GPU ms and primitives (surfels, triangles) or pixels per second.
 
@@ -112,8 +112,8 @@ def dz1_px(frame: gt.Frame, ref: dict[str, Any], both: np.ndarray) -> np.ndarray
     return near[both] / footprint
 
 
-def bench_mesh(name: str, mesh: gt.Mesh, renderer: gt.Renderer, errors: tuple[float, ...],
-               repeats: int) -> dict[str, Any]:
+def prepare(mesh: gt.Mesh) -> dict[str, Any]:
+    """The mesh converted with the defaults, its hierarchies of every tile, and its ray caster."""
     t0 = time.perf_counter()
     gts = gt.convert(mesh)
     convert_s = time.perf_counter() - t0
@@ -122,39 +122,42 @@ def bench_mesh(name: str, mesh: gt.Mesh, renderer: gt.Renderer, errors: tuple[fl
         t0 = time.perf_counter()
         hierarchies[tile] = gts.to_surfels(tile=tile)
         build_s[tile] = time.perf_counter() - t0
-    caster = reference.RayCaster(mesh)
-    diagonal = reference.diagonal(mesh)
+    return {"mesh": mesh, "gts": gts, "hierarchies": hierarchies, "caster": reference.RayCaster(mesh),
+            "diagonal": reference.diagonal(mesh), "convert_s": convert_s, "build_s": build_s}
+
+
+def measure(name: str, state: dict[str, Any], fraction: float, renderer: gt.Renderer,
+            errors: tuple[float, ...], repeats: int) -> list[dict[str, Any]]:
+    """One distance of one mesh: every (tile, error) run, and the mesh and set at the default."""
+    mesh, gts = state["mesh"], state["gts"]
+    cam = camera(mesh, fraction)
+    ref = state["caster"].cast(cam, SIZE, SIZE)
     rows = []
     runs = [(tile, err) for tile in TILES for err in (errors if tile == TILES[0] else (DEFAULT_ERROR,))]
-    for fraction in FRACTIONS:
-        cam = camera(mesh, fraction)
-        ref = caster.cast(cam, SIZE, SIZE)
-        for tile, err in runs:
-            surfels = hierarchies[tile]
-            frame, gpu_ms, wall_ms = timed(renderer, surfels, cam, repeats, max_pixel_error=err)
-            s = frame.stats
-            row = {"mesh": name, "tile": tile, "fraction": fraction, "max_pixel_error": err, "gpu_ms": gpu_ms,
-                   "wall_ms": wall_ms, "surfels_drawn": s["surfels_drawn"],
-                   "surfels_finest_in_view": s["surfels_considered"],
-                   "surfels_per_level": [s[f"surfels_level_{k}"] for k in range(surfels.levels)],
-                   **accuracy(frame, ref, diagonal)}
-            compared = err == DEFAULT_ERROR and tile == TILES[0]
-            if compared:
-                _, mesh_ms, _ = timed(renderer, mesh, cam, repeats)
-                gframe, gtex_ms, _ = timed(renderer, gts, cam, repeats)
-                row.update(mesh_raster_gpu_ms=mesh_ms, gtex_gpu_ms=gtex_ms,
-                           surfels_per_s=s["surfels_drawn"] / (gpu_ms / 1e3),
-                           mesh_triangles_per_s=mesh.n_faces / (mesh_ms / 1e3),
-                           gtex_pixels_per_s=int(np.isfinite(gframe.depth).sum()) / (gtex_ms / 1e3))
-            rows.append(row)
-            print(f"{name:12s} tile {tile:2d} 1/{1 / fraction:<4.0f} err {err:4.2f}: {gpu_ms:7.1f} ms, "
-                  f"{s['surfels_drawn']:8d} of {s['surfels_considered']:8d} surfels, IoU {row['iou']:.4f}, "
-                  f"depth p99 {row['depth_p99_px']:.3f} px, normal {row['normal_deg_median']:.2f}°, "
-                  f"holes {row['holes_px']}" + (f"  | mesh {row['mesh_raster_gpu_ms']:.1f} ms, gtex "
-                                                  f"{row['gtex_gpu_ms']:.1f} ms" if compared else ""))
-    return {"faces": mesh.n_faces, "convert_s": convert_s,
-            "surfels_build_s": {str(t): v for t, v in build_s.items()},
-            "surfels": {str(t): h.stats for t, h in hierarchies.items()}, "rows": rows}
+    for tile, err in runs:
+        surfels = state["hierarchies"][tile]
+        frame, gpu_ms, wall_ms = timed(renderer, surfels, cam, repeats, max_pixel_error=err)
+        s = frame.stats
+        row = {"mesh": name, "tile": tile, "fraction": fraction, "max_pixel_error": err, "gpu_ms": gpu_ms,
+               "wall_ms": wall_ms, "surfels_drawn": s["surfels_drawn"],
+               "surfels_finest_in_view": s["surfels_considered"],
+               "surfels_per_level": [s[f"surfels_level_{k}"] for k in range(surfels.levels)],
+               **accuracy(frame, ref, state["diagonal"])}
+        compared = err == DEFAULT_ERROR and tile == TILES[0]
+        if compared:
+            _, mesh_ms, _ = timed(renderer, mesh, cam, repeats)
+            gframe, gtex_ms, _ = timed(renderer, gts, cam, repeats)
+            row.update(mesh_raster_gpu_ms=mesh_ms, gtex_gpu_ms=gtex_ms,
+                       surfels_per_s=s["surfels_drawn"] / (gpu_ms / 1e3),
+                       mesh_triangles_per_s=mesh.n_faces / (mesh_ms / 1e3),
+                       gtex_pixels_per_s=int(np.isfinite(gframe.depth).sum()) / (gtex_ms / 1e3))
+        rows.append(row)
+        print(f"{name:12s} tile {tile:2d} 1/{1 / fraction:<4.0f} err {err:4.2f}: {gpu_ms:7.1f} ms, "
+              f"{s['surfels_drawn']:8d} of {s['surfels_considered']:8d} surfels, IoU {row['iou']:.4f}, "
+              f"depth p99 {row['depth_p99_px']:.3f} px, normal {row['normal_deg_median']:.2f}°, "
+              f"holes {row['holes_px']}" + (f"  | mesh {row['mesh_raster_gpu_ms']:.1f} ms, gtex "
+                                              f"{row['gtex_gpu_ms']:.1f} ms" if compared else ""))
+    return rows
 
 
 def summary(results: dict[str, Any]) -> dict[str, Any]:
@@ -234,14 +237,26 @@ def plot(results: dict[str, Any], path: Path) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true", help="the bunny only, three errors")
-    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--repeats", type=int, default=5)
     args = parser.parse_args()
     renderer = gt.Renderer(SIZE, SIZE)
     errors = (0.5, 1.0, 2.0) if args.quick else ERRORS
     meshes = {"bunny": lambda: gt.load_mesh(BUNNY)}
     if not args.quick:
         meshes["bunny_loop2"] = lambda: subdivided(BUNNY, 2)
-    results = {name: bench_mesh(name, make(), renderer, errors, args.repeats) for name, make in meshes.items()}
+    states = {name: prepare(make()) for name, make in meshes.items()}
+    rows: dict[str, list[dict[str, Any]]] = {name: [] for name in states}
+    # Distance by distance, every mesh in turn: the meshes' timings at one coverage are taken
+    # seconds apart, so a busy neighbour on a shared machine shifts both alike.
+    for fraction in FRACTIONS:
+        for name, state in states.items():
+            rows[name] += measure(name, state, fraction, renderer, errors, args.repeats)
+    results = {
+        name: {"faces": st["mesh"].n_faces, "convert_s": st["convert_s"],
+               "surfels_build_s": {str(t): v for t, v in st["build_s"].items()},
+               "surfels": {str(t): h.stats for t, h in st["hierarchies"].items()}, "rows": rows[name]}
+        for name, st in states.items()
+    }
     data = {
         "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
         "machine": platform.platform(),
