@@ -483,3 +483,57 @@ impl Kind for SurfelsKind {
         self.uploads.purge();
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::camera::Camera;
+
+    /// The view ray through pixel position (px, py) (edges at integers), as camera_ray builds it.
+    fn ray_point(lens: &Lens, px: f64, py: f64, depth: f64) -> DVec3 {
+        let a = [
+            px * lens.ray[0] + lens.ray[2],
+            py * lens.ray[1] + lens.ray[3],
+        ];
+        if lens.orthographic {
+            DVec3::new(a[0], a[1], -depth)
+        } else {
+            DVec3::new(a[0], a[1], -1.0) * depth
+        }
+    }
+
+    fn side(plane: [f32; 4], p: DVec3) -> f64 {
+        let [x, y, z, d] = plane.map(f64::from);
+        x * p.x + y * p.y + z * p.z + d
+    }
+
+    /// The frustum planes pass through the image's edge rays and hold its centre ray inside,
+    /// for both projections.
+    #[test]
+    fn frustum_planes_bound_the_image() {
+        let (w, h) = (320u32, 200u32);
+        let perspective = Camera::look_at(DVec3::new(0.0, 0.0, 5.0), DVec3::ZERO, DVec3::Y, 50.0);
+        let ortho = Camera::orthographic(DMat4::IDENTITY, 3.0);
+        for camera in [perspective.unwrap(), ortho.unwrap()] {
+            let lens = camera.lens(w, h, 1.0, 10.0).unwrap();
+            let planes = frustum_planes(&lens, w, h);
+            let (w, h) = (w as f64, h as f64);
+            for depth in [1.0, 7.0] {
+                let centre = ray_point(&lens, w / 2.0, h / 2.0, depth);
+                assert!(planes.iter().all(|&p| side(p, centre) > 0.0));
+                let edges = [(0.0, h / 2.0), (w, h / 2.0), (w / 2.0, 0.0), (w / 2.0, h)];
+                for (px, py) in edges {
+                    let on_edge = ray_point(&lens, px, py, depth);
+                    let nearest = planes
+                        .iter()
+                        .map(|&p| side(p, on_edge).abs())
+                        .fold(f64::MAX, f64::min);
+                    assert!(nearest < 1e-5 * depth, "{nearest}");
+                    assert!(planes.iter().all(|&p| side(p, on_edge) > -1e-5 * depth));
+                }
+                let outside = ray_point(&lens, -0.1 * w, h / 2.0, depth);
+                assert!(planes.iter().any(|&p| side(p, outside) < 0.0));
+            }
+        }
+    }
+}
