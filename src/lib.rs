@@ -14,6 +14,7 @@ pub mod gtex;
 pub mod heightfield;
 pub mod mesh;
 pub mod render;
+pub mod surfels;
 
 #[cfg(feature = "python")]
 mod python;

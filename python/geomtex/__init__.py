@@ -19,7 +19,7 @@ import numpy as np
 os.environ.setdefault("NODEVICE_SELECT", "1")
 
 from . import _core, _grids, _pickle, _preview, _rays  # noqa: E402
-from ._core import Camera, Frame, GeometryTextureSet, __version__  # noqa: E402
+from ._core import Camera, Frame, GeometryTextureSet, Surfels, __version__  # noqa: E402
 from ._errors import (  # noqa: E402
     CancelledError,
     CapWarning,
@@ -55,11 +55,13 @@ __all__ = [
     "RayHits",
     "Renderer",
     "Scene",
+    "Surfels",
     "__version__",
     "as_mesh",
     "convert",
     "load",
     "load_mesh",
+    "load_surfels",
     "show",
 ]
 
@@ -258,3 +260,14 @@ def load(path: str | os.PathLike[str]) -> GeometryTextureSet:
     if not os.path.exists(p):
         raise FileError(f"no such file: {p}")
     return _core.load(p)
+
+
+def load_surfels(path: str | os.PathLike[str]) -> Surfels:
+    """Reads a .gtsurf file (``Surfels.save``): the set and tile size it holds, the hierarchy
+    rebuilt from them. Raises FormatError for anything that is not an intact one."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise ParameterError(f"path must be a str or os.PathLike, got {path!r}")
+    p = os.fspath(path)
+    if not os.path.exists(p):
+        raise FileError(f"no such file: {p}")
+    return _core.load_surfels(p)

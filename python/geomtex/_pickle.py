@@ -1,7 +1,8 @@
 """Pickling for every public object, so a scheduler (Dask, multiprocessing) can ship them.
 
 Each object is stored as what it is made of, never as a pointer: a set as the bytes of its .gtex
-file (checksummed, exact), a mesh as its arrays, a camera as its pose and projection numbers, a
+file (checksummed, exact), surfels as their .gtsurf bytes (the set and tile size), a mesh as its
+arrays, a camera as its pose and projection numbers, a
 scene as its objects and placements, a frame as its arrays. A renderer holds a GPU device, which
 cannot travel: pickling one stores its image size and the other side makes a renderer of its own.
 
@@ -19,6 +20,10 @@ from . import _core
 
 def restore_set(data: bytes) -> _core.GeometryTextureSet:
     return _core.GeometryTextureSet.from_bytes(data)
+
+
+def restore_surfels(data: bytes) -> _core.Surfels:
+    return _core.Surfels.from_bytes(data)
 
 
 def restore_mesh(*arrays: Any) -> Any:
@@ -57,6 +62,10 @@ def _reduce_set(self: _core.GeometryTextureSet) -> tuple[Any, ...]:
     return restore_set, (self.to_bytes(),)
 
 
+def _reduce_surfels(self: _core.Surfels) -> tuple[Any, ...]:
+    return restore_surfels, (self.to_bytes(),)
+
+
 def _reduce_mesh(self: _core.Mesh) -> tuple[Any, ...]:
     return restore_mesh, (self.vertices, self.faces, self.vertex_colors, self.face_colors, self.uv, self.texture)
 
@@ -81,5 +90,6 @@ def install() -> None:
     """Attaches `__reduce__` to the extension's classes (their Python subclasses inherit it)."""
     for cls, reduce in [(_core.GeometryTextureSet, _reduce_set), (_core.Mesh, _reduce_mesh),
                         (_core.Camera, _reduce_camera), (_core.Scene, _reduce_scene),
-                        (_core.Renderer, _reduce_renderer), (_core.Frame, _reduce_frame)]:
+                        (_core.Renderer, _reduce_renderer), (_core.Frame, _reduce_frame),
+                        (_core.Surfels, _reduce_surfels)]:
         setattr(cls, "__reduce__", reduce)

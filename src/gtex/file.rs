@@ -315,32 +315,36 @@ pub fn decode(bytes: &[u8]) -> Result<GeometryTextureSet, String> {
     Ok(set)
 }
 
+/// Writes `bytes` to `path` atomically: a temporary file beside it, synced, then renamed over
+/// it, so a failure never leaves a half-written file (shared by every format geomtex writes).
+pub fn write_atomically(path: &Path, bytes: &[u8]) -> crate::error::Result<()> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let ctx = |what: &str| format!("{what} {}", path.display());
+    let mut builder = tempfile::Builder::new();
+    // mkstemp's 0600 would survive the rename; ask for 0666 and let the umask trim it, as
+    // for any file the user creates.
+    #[cfg(unix)]
+    builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
+    let mut tmp = builder
+        .tempfile_in(dir)
+        .map_err(|e| GeomtexError::io(ctx("cannot create a temporary file to write"), e))?;
+    tmp.write_all(bytes)
+        .map_err(|e| GeomtexError::io(ctx("cannot write"), e))?;
+    tmp.as_file()
+        .sync_all()
+        .map_err(|e| GeomtexError::io(ctx("cannot sync"), e))?;
+    tmp.persist(path)
+        .map_err(|e| GeomtexError::io(ctx("cannot rename into"), e.error))?;
+    Ok(())
+}
+
 impl GeometryTextureSet {
-    /// Writes the set atomically: a temporary file beside `path`, synced, then renamed over it,
-    /// so a failure never leaves a half-written file.
+    /// Writes the set atomically (`write_atomically`).
     pub fn save(&self, path: &Path) -> crate::error::Result<()> {
-        let bytes = encode(self);
-        let dir = match path.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d,
-            _ => Path::new("."),
-        };
-        let ctx = |what: &str| format!("{what} {}", path.display());
-        let mut builder = tempfile::Builder::new();
-        // mkstemp's 0600 would survive the rename; ask for 0666 and let the umask trim it, as
-        // for any file the user creates.
-        #[cfg(unix)]
-        builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
-        let mut tmp = builder
-            .tempfile_in(dir)
-            .map_err(|e| GeomtexError::io(ctx("cannot create a temporary file to write"), e))?;
-        tmp.write_all(&bytes)
-            .map_err(|e| GeomtexError::io(ctx("cannot write"), e))?;
-        tmp.as_file()
-            .sync_all()
-            .map_err(|e| GeomtexError::io(ctx("cannot sync"), e))?;
-        tmp.persist(path)
-            .map_err(|e| GeomtexError::io(ctx("cannot rename into"), e.error))?;
-        Ok(())
+        write_atomically(path, &encode(self))
     }
 
     pub fn load(path: &Path) -> crate::error::Result<GeometryTextureSet> {

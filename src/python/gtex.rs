@@ -222,6 +222,17 @@ impl PyGeometryTextureSet {
         Ok(PyGeometryTextureSet::wrap(set))
     }
 
+    /// The surfel hierarchy of this set: every surface texel a surfel, tiles of `tile` x `tile`
+    /// texels (a power of two up to 64, default 8) merged 2x2 per level.
+    #[pyo3(signature = (tile = None))]
+    fn to_surfels(
+        &self,
+        py: Python<'_>,
+        tile: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<super::surfels::PySurfels> {
+        super::surfels::to_surfels(py, self, tile)
+    }
+
     /// Writes a .gtex file atomically (no half file is ever left behind).
     fn save(&self, py: Python<'_>, path: &Bound<'_, PyAny>) -> PyResult<()> {
         let path = self::path(path, "path")?;

@@ -8,6 +8,7 @@ mod errors;
 mod gtex;
 mod mesh;
 mod render;
+mod surfels;
 
 use pyo3::prelude::*;
 
@@ -18,6 +19,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<gtex::PyGeometryTextureSet>()?;
     m.add_function(wrap_pyfunction!(gtex::convert, m)?)?;
     m.add_function(wrap_pyfunction!(gtex::load, m)?)?;
+    m.add_class::<surfels::PySurfels>()?;
+    m.add_function(wrap_pyfunction!(surfels::load_surfels, m)?)?;
     m.add_class::<render::PyCamera>()?;
     m.add_class::<render::PyScene>()?;
     m.add_class::<render::PyRenderer>()?;

@@ -16,6 +16,7 @@ use super::arrays::{image, mat4_to_numpy, matrix, ArrayPair};
 use super::errors::{heavy, parameter_error};
 use super::gtex::{set_stats, PyGeometryTextureSet};
 use super::mesh::PyMesh;
+use super::surfels::PySurfels;
 use crate::mesh::{NormalRule, NormalSource};
 use crate::render::{
     Camera, Light, Object, Projection, Quality, Renderer, Scene, SceneObject, SearchOverrides,
@@ -221,9 +222,16 @@ fn scene_object(
         Object::Textures(s.get().inner.clone())
     } else if let Ok(m) = obj.cast::<PyMesh>() {
         Object::Mesh(m.get().inner.clone(), normals.unwrap_or_default())
+    } else if let Ok(s) = obj.cast::<PySurfels>() {
+        if normals.is_some() {
+            return Err(parameter_error(
+                "normals and crease_angle apply to meshes; Surfels take their set's normals".into(),
+            ));
+        }
+        Object::Surfels(s.get().inner.clone())
     } else {
         return Err(parameter_error(format!(
-            "expected a GeometryTextureSet, a Mesh or a trimesh, got {}",
+            "expected a GeometryTextureSet, Surfels, a Mesh or a trimesh, got {}",
             obj.get_type().name()?
         )));
     };
@@ -298,6 +306,10 @@ impl PyScene {
                                     .into_any())
                             };
                         (shared(Arc::as_ptr(set).cast(), &make)?, pose, None, None)
+                    }
+                    Object::Surfels(h) => {
+                        let make = || Ok(Py::new(py, PySurfels { inner: h.clone() })?.into_any());
+                        (shared(Arc::as_ptr(h).cast(), &make)?, pose, None, None)
                     }
                     Object::Mesh(mesh, rule) => {
                         let make = || {
@@ -448,10 +460,12 @@ impl PyRenderer {
     /// and reports height fetches in `frame.stats`. `lod` (max-pyramid search only) stops each
     /// patch's descent where its nodes are about a pixel. `light` (a DirectionalLight or a
     /// PointLight) casts shadows: `frame.shadow`, and shadowed pixels at half brightness.
+    /// `max_pixel_error` (Surfels only, default 1): each tile draws its coarsest level whose
+    /// perpendicular error projects to at most this many pixels.
     #[pyo3(signature = (obj, camera, *, quality = None, method = None, steps_per_texel = None,
         min_linear_steps = None, max_linear_steps = None, binary_steps = None,
         max_traversal_steps = None, count_fetches = None, lod = None, background = None,
-        light = None))]
+        light = None, max_pixel_error = None))]
     #[allow(clippy::too_many_arguments)] // one per keyword of Renderer.render
     fn render(
         &self,
@@ -469,6 +483,7 @@ impl PyRenderer {
         lod: Option<&Bound<'_, PyAny>>,
         background: Option<&Bound<'_, PyAny>>,
         light: Option<&Bound<'_, PyAny>>,
+        max_pixel_error: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<PyFrame> {
         let steps = 0..=i64::from(u32::MAX);
         let search = SearchOverrides {
@@ -483,6 +498,7 @@ impl PyRenderer {
             max_traversal_steps: opt_u32(max_traversal_steps, "max_traversal_steps", steps)?,
             count_fetches: opt_flag(count_fetches, "count_fetches")?,
             lod: opt_flag(lod, "lod")?,
+            max_pixel_error: opt_real(max_pixel_error, "max_pixel_error")?.map(|v| v as f32),
         }
         .resolve()?;
         let camera = camera

@@ -13,11 +13,21 @@ const NO_ADAPTER_HELP: &str = "no GPU adapter found. geomtex renders through Vul
 or GL; on a machine without a GPU install Mesa's software Vulkan driver (lavapipe): \
 `apt-get install mesa-vulkan-drivers libvulkan1` on Debian/Ubuntu";
 
+/// Set to 1 to leave 64-bit atomics unused (surfels then splat in two 32-bit passes).
+pub const NO_INT64_ENV: &str = "GEOMTEX_NO_INT64_ATOMICS";
+
+/// The 64-bit atomics the surfel splat pass uses (kinds/surfels.rs).
+const INT64_ATOMICS: wgpu::Features =
+    wgpu::Features::SHADER_INT64.union(wgpu::Features::SHADER_INT64_ATOMIC_MIN_MAX);
+
 pub struct Gpu {
     pub adapter: wgpu::Adapter,
     pub device: wgpu::Device,
     pub queue: wgpu::Queue,
     pub timestamps: bool,
+    /// Whether the device has 64-bit atomicMin/Max (requested wherever the adapter offers
+    /// them, unless NO_INT64_ENV is 1).
+    pub int64_atomics: bool,
 }
 
 impl Gpu {
@@ -71,14 +81,19 @@ impl Gpu {
                 .map_err(|e| GeomtexError::Device(format!("{NO_ADAPTER_HELP} ({e})")))?,
         };
         let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
+        let int64_atomics = adapter.features().contains(INT64_ATOMICS)
+            && std::env::var(NO_INT64_ENV).map_or(true, |v| v != "1");
+        let mut features = wgpu::Features::empty();
+        if timestamps {
+            features |= wgpu::Features::TIMESTAMP_QUERY;
+        }
+        if int64_atomics {
+            features |= INT64_ATOMICS;
+        }
         let (device, queue) = adapter
             .request_device(&wgpu::DeviceDescriptor {
                 label: Some("geomtex"),
-                required_features: if timestamps {
-                    wgpu::Features::TIMESTAMP_QUERY
-                } else {
-                    wgpu::Features::empty()
-                },
+                required_features: features,
                 required_limits: adapter.limits(),
                 experimental_features: wgpu::ExperimentalFeatures::default(),
                 memory_hints: wgpu::MemoryHints::Performance,
@@ -95,6 +110,7 @@ impl Gpu {
             device,
             queue,
             timestamps,
+            int64_atomics,
         })
     }
 
@@ -107,6 +123,7 @@ impl Gpu {
             ("device_type", format!("{:?}", i.device_type)),
             ("driver", i.driver),
             ("driver_info", i.driver_info),
+            ("int64_atomics", self.int64_atomics.to_string()),
         ]
     }
 }

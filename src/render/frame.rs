@@ -42,6 +42,55 @@ pub struct Frame {
     pub shadow: Option<Vec<bool>>,
     /// With a light: milliseconds the shadow rays took.
     pub shadow_ms: Option<f64>,
+    /// With surfel objects in the scene: what their passes drew.
+    pub surfels: Option<SurfelCounts>,
+}
+
+/// Names of the per-level surfel counts in `Frame::stats`.
+const SURFEL_LEVELS: [&str; crate::surfels::MAX_LEVELS] = [
+    "surfels_level_0",
+    "surfels_level_1",
+    "surfels_level_2",
+    "surfels_level_3",
+    "surfels_level_4",
+    "surfels_level_5",
+    "surfels_level_6",
+];
+
+/// A frame's surfel figures, summed over the scene's surfel objects.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SurfelCounts {
+    /// Finest-level surfels of the tiles in view: what drawing the finest level would splat.
+    pub considered: u64,
+    /// Surfels splatted, at the levels chosen.
+    pub drawn: u64,
+    /// Tiles not culled by the frustum.
+    pub tiles: u64,
+    /// Surfels splatted per level, finest first.
+    pub per_level: [u64; crate::surfels::MAX_LEVELS],
+}
+
+impl SurfelCounts {
+    /// The counts the surfel passes left in their tallies (kinds/surfels.rs), summed; None when
+    /// there are none.
+    pub(crate) fn read(gpu: &super::Gpu, tallies: &[wgpu::Buffer]) -> crate::Result<Option<Self>> {
+        if tallies.is_empty() {
+            return Ok(None);
+        }
+        let refs: Vec<&wgpu::Buffer> = tallies.iter().collect();
+        let mut sum = SurfelCounts::default();
+        for bytes in super::targets::read_buffers(&gpu.device, &refs)? {
+            let t: &[u32] = bytemuck::cast_slice(&bytes);
+            let at = super::kinds::surfels::TALLY_DRAWN;
+            sum.drawn += t[at] as u64;
+            sum.tiles += t[at + 1] as u64;
+            sum.considered += t[at + 2] as u64;
+            for (acc, v) in sum.per_level.iter_mut().zip(&t[at + 3..]) {
+                *acc += *v as u64;
+            }
+        }
+        Ok(Some(sum))
+    }
 }
 
 impl Frame {
@@ -78,6 +127,20 @@ impl Frame {
                 ("shadow_ms", StatValue::Float(ms)),
                 ("shadowed_pixels", count(shadowed)),
             ]);
+        }
+        if let Some(s) = &self.surfels {
+            let n = |v: u64| StatValue::Int(v as i64);
+            stats.extend([
+                ("surfels_considered", n(s.considered)),
+                ("surfels_drawn", n(s.drawn)),
+                ("surfel_tiles_drawn", n(s.tiles)),
+            ]);
+            stats.extend(
+                SURFEL_LEVELS
+                    .iter()
+                    .zip(s.per_level)
+                    .map(|(k, v)| (*k, n(v))),
+            );
         }
         if let Some(fetches) = self.fetches {
             stats.extend([
@@ -118,6 +181,7 @@ mod tests {
             fetches,
             shadow: None,
             shadow_ms: None,
+            surfels: None,
         }
     }
 

@@ -203,3 +203,46 @@ const _: () = assert!(offset_of!(QueryRayGpu, dir) == 16);
 wgsl_size!(QueryHitGpu, 32);
 const _: () = assert!(offset_of!(QueryHitGpu, id) == 16);
 wgsl_size!(QueryGpu, 16);
+
+/// `SurfelTile` in surfels_types.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+pub(crate) struct SurfelTileGpu {
+    pub sphere: [f32; 4],
+    pub error: [f32; 8],
+    pub start: [u32; 8],
+    pub info: [u32; 4],
+}
+
+/// `Surfel` in surfels_types.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+pub(crate) struct SurfelGpu {
+    pub position: [f32; 3],
+    pub radius: f32,
+    pub normal: [f32; 3],
+    pub color: u32,
+}
+
+/// `SurfelObject` in surfels_types.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+pub(crate) struct SurfelObjectGpu {
+    pub view_from_object: [[f32; 4]; 4],
+    pub world_normal_from_object: [[f32; 4]; 4],
+    pub planes: [[f32; 4]; 4],
+    pub params: [f32; 4],
+    pub sizes: [u32; 4],
+    pub rect: [f32; 4],
+}
+
+wgsl_size!(SurfelTileGpu, 96);
+const _: () = assert!(offset_of!(SurfelTileGpu, start) == 48);
+const _: () = assert!(offset_of!(SurfelTileGpu, info) == 80);
+wgsl_size!(SurfelGpu, 32);
+const _: () = assert!(offset_of!(SurfelGpu, normal) == 16);
+wgsl_size!(SurfelObjectGpu, 240);
+const _: () = assert!(offset_of!(SurfelObjectGpu, planes) == 128);
+const _: () = assert!(offset_of!(SurfelObjectGpu, params) == 192);
+const _: () = assert!(offset_of!(SurfelObjectGpu, sizes) == 208);
+const _: () = assert!(offset_of!(SurfelObjectGpu, rect) == 224);

@@ -33,7 +33,7 @@ use std::time::Instant;
 
 pub use camera::{Camera, Lens, Projection};
 pub use device::Gpu;
-pub use frame::Frame;
+pub use frame::{Frame, SurfelCounts};
 pub use query::RayHits;
 pub use scene::{Object, Scene, SceneObject};
 pub use search::{Method, Quality, SearchOptions, SearchOverrides};
@@ -87,7 +87,7 @@ impl Renderer {
         let device = &gpu.device;
         let frame_bindings = FrameBindings::new(device);
         let query_layout = query::query_layout(device);
-        let kinds = kinds::registered(device, &frame_bindings.layout, &query_layout);
+        let kinds = kinds::registered(&gpu, &frame_bindings.layout, &query_layout);
         let depth_copy = DepthCopy::new(device);
         let targets = Targets::new(&gpu, &depth_copy, width, height);
         let mut renderer = Renderer {
@@ -130,9 +130,10 @@ impl Renderer {
         guarded(&device, || {
             let start = Instant::now();
             let prepared = self.prepare(scene, camera, search)?;
-            let counters = self.encode_passes(&prepared);
+            let (counters, tallies) = self.encode_passes(&prepared);
             let readback = self.targets.read_back(&self.gpu, counters)?;
-            Ok(self.finish(prepared, readback, search, start))
+            let surfels = SurfelCounts::read(&self.gpu, &tallies)?;
+            Ok(self.finish(prepared, readback, surfels, search, start))
         })
     }
 
@@ -154,6 +155,7 @@ impl Renderer {
 
         let frame = FrameView {
             lens: &lens,
+            size: [width, height],
             view_from_world,
             search,
         };
@@ -204,17 +206,34 @@ impl Renderer {
         unreachable!("every Object variant has a kind in kinds::registered")
     }
 
-    /// Encodes and submits the scene pass and the copies into readback buffers; the counters
-    /// to read back.
-    fn encode_passes(&self, prepared: &Prepared) -> &wgpu::Buffer {
+    /// Encodes and submits the kinds' compute passes, the scene pass and the copies into
+    /// readback buffers; the counters and the compute passes' tallies to read back.
+    fn encode_passes(&self, prepared: &Prepared) -> (&wgpu::Buffer, Vec<wgpu::Buffer>) {
         let mut encoder = self
             .gpu
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("frame"),
             });
+        let work: Vec<_> = prepared
+            .draws
+            .iter()
+            .filter_map(|d| d.compute.as_ref())
+            .collect();
+        if !work.is_empty() {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("kinds' compute"),
+                timestamp_writes: self.targets.compute_timestamps(),
+            });
+            pass.set_bind_group(0, &self.frame_bindings.group, &[]);
+            for w in &work {
+                w.encode(&mut pass);
+            }
+        }
         {
-            let mut pass = self.targets.begin_scene_pass(&mut encoder, self.background);
+            let mut pass =
+                self.targets
+                    .begin_scene_pass(&mut encoder, self.background, !work.is_empty());
             pass.set_bind_group(0, &self.frame_bindings.group, &[]);
             for draw in &prepared.draws {
                 draw.encode(&mut pass);
@@ -222,14 +241,19 @@ impl Renderer {
         }
         self.targets.encode_readback(&mut encoder, &self.depth_copy);
         let counters = self.frame_bindings.encode_counters_readback(&mut encoder);
+        let tallies = work
+            .iter()
+            .map(|w| targets::copy_for_readback(&self.gpu.device, &mut encoder, &w.tally))
+            .collect();
         self.gpu.queue.submit(Some(encoder.finish()));
-        counters
+        (counters, tallies)
     }
 
     fn finish(
         &self,
         prepared: Prepared,
         readback: Readback,
+        surfels: Option<SurfelCounts>,
         search: &SearchOptions,
         start: Instant,
     ) -> Frame {
@@ -262,6 +286,7 @@ impl Renderer {
             fetches: search.count_fetches.then_some(fetches as u64),
             shadow: None,
             shadow_ms: None,
+            surfels,
         }
     }
 }

@@ -9,6 +9,7 @@ use glam::DMat4;
 use crate::error::{GeomtexError, Result};
 use crate::gtex::GeometryTextureSet;
 use crate::mesh::{Mesh, NormalRule};
+use crate::surfels::SurfelHierarchy;
 
 /// What a scene holds; each variant is drawn by its module in `render::kinds`.
 #[derive(Clone)]
@@ -16,6 +17,8 @@ pub enum Object {
     Textures(Arc<GeometryTextureSet>),
     /// A rasterized mesh and the rule its normals follow (the same as `convert`'s).
     Mesh(Arc<Mesh>, NormalRule),
+    /// A surfel hierarchy, splatted with its levels chosen per tile (`max_pixel_error`).
+    Surfels(Arc<SurfelHierarchy>),
 }
 
 #[derive(Clone)]

@@ -77,6 +77,9 @@ pub struct SearchOptions {
     /// level whose nodes are about one pixel at the patch's nearest point, and hits the node's
     /// mid height there instead of descending to the exact bilinear cell.
     pub lod: bool,
+    /// Surfels: each tile's coarsest level whose perpendicular error projects to at most this
+    /// many pixels.
+    pub max_pixel_error: f32,
 }
 
 impl Default for SearchOptions {
@@ -90,6 +93,7 @@ impl Default for SearchOptions {
             max_traversal_steps: 4096,
             count_fetches: false,
             lod: false,
+            max_pixel_error: 1.0,
         }
     }
 }
@@ -124,6 +128,12 @@ impl SearchOptions {
                 "lod needs the max-pyramid search (method='maxmip' or quality='exact')".into(),
             ));
         }
+        if !(self.max_pixel_error.is_finite() && self.max_pixel_error > 0.0) {
+            return Err(GeomtexError::Parameter(format!(
+                "max_pixel_error must be a positive number of pixels, got {}",
+                self.max_pixel_error
+            )));
+        }
         if ok {
             Ok(())
         } else {
@@ -148,6 +158,7 @@ pub struct SearchOverrides {
     pub max_traversal_steps: Option<u32>,
     pub count_fetches: Option<bool>,
     pub lod: Option<bool>,
+    pub max_pixel_error: Option<f32>,
 }
 
 impl SearchOverrides {
@@ -165,6 +176,7 @@ impl SearchOverrides {
                 .unwrap_or(preset.max_traversal_steps),
             count_fetches: self.count_fetches.unwrap_or(preset.count_fetches),
             lod: self.lod.unwrap_or(preset.lod),
+            max_pixel_error: self.max_pixel_error.unwrap_or(preset.max_pixel_error),
         };
         options.validate()?;
         Ok(options)

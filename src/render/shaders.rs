@@ -14,6 +14,7 @@ const GTEX_TYPES: &str = shader!("gtex_types.wgsl");
 const MESH_TYPES: &str = shader!("mesh_types.wgsl");
 const TRACE_TYPES: &str = shader!("trace_types.wgsl");
 const QUERY_TYPES: &str = shader!("query_types.wgsl");
+const SURFELS_TYPES: &str = shader!("surfels_types.wgsl");
 
 const FRAME_BINDINGS: &str = shader!("frame_bindings.wgsl");
 const GTEX_BINDINGS: &str = shader!("gtex_bindings.wgsl");
@@ -22,6 +23,11 @@ const QUERY_BINDINGS: &str = shader!("query_bindings.wgsl");
 const GTEX_TRACE_BINDINGS: &str = shader!("gtex_trace_bindings.wgsl");
 const MESH_TRACE_BINDINGS: &str = shader!("mesh_trace_bindings.wgsl");
 const DEPTH_COPY_BINDINGS: &str = shader!("depth_copy_bindings.wgsl");
+const SURFELS_BINDINGS: &str = shader!("surfels_bindings.wgsl");
+const SURFELS_VIS64_BINDINGS: &str = shader!("surfels_vis64_bindings.wgsl");
+const SURFELS_VIS32_BINDINGS: &str = shader!("surfels_vis32_bindings.wgsl");
+const SURFELS_ARGS_BINDINGS: &str = shader!("surfels_args_bindings.wgsl");
+const SURFELS_RESOLVE_BINDINGS: &str = shader!("surfels_resolve_bindings.wgsl");
 
 const CAMERA_FUNCTIONS: &str = shader!("camera_functions.wgsl");
 const HEIGHTFIELD_FUNCTIONS: &str = shader!("heightfield_functions.wgsl");
@@ -30,12 +36,19 @@ const RAY_BOX_FUNCTIONS: &str = shader!("ray_box_functions.wgsl");
 const TRACE_FUNCTIONS: &str = shader!("trace_functions.wgsl");
 const GTEX_TRACE_FUNCTIONS: &str = shader!("gtex_trace_functions.wgsl");
 const MESH_TRACE_FUNCTIONS: &str = shader!("mesh_trace_functions.wgsl");
+const SURFELS_FUNCTIONS: &str = shader!("surfels_functions.wgsl");
 
 const GTEX_RAYCAST: &str = shader!("gtex_raycast.wgsl");
 const GTEX_TRACE_RAYS: &str = shader!("gtex_trace_rays.wgsl");
 const MESH_TRACE_RAYS: &str = shader!("mesh_trace_rays.wgsl");
 const MESH_RASTER: &str = shader!("mesh_raster.wgsl");
 const DEPTH_COPY: &str = shader!("depth_copy.wgsl");
+const SURFELS_CULL: &str = shader!("surfels_cull.wgsl");
+const SURFELS_ARGS: &str = shader!("surfels_args.wgsl");
+const SURFELS_SPLAT64: &str = shader!("surfels_splat64.wgsl");
+const SURFELS_SPLAT_DEPTH32: &str = shader!("surfels_splat_depth32.wgsl");
+const SURFELS_SPLAT_ID32: &str = shader!("surfels_splat_id32.wgsl");
+const SURFELS_RESOLVE: &str = shader!("surfels_resolve.wgsl");
 
 fn assemble(parts: &[&str]) -> String {
     parts.join("\n")
@@ -116,14 +129,72 @@ pub fn depth_copy() -> String {
     assemble(&[DEPTH_COPY_BINDINGS, DEPTH_COPY])
 }
 
+/// The surfel passes that run before the scene pass (kinds/surfels.rs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SurfelPass {
+    Cull,
+    Args,
+    /// One pass with 64-bit atomics.
+    Splat64,
+    /// The 32-bit fallback's two passes.
+    SplatDepth32,
+    SplatId32,
+}
+
+/// A surfel compute pass's module: the frame's group 0, the kind's group 1 and as group 2 the
+/// splat passes' visibility buffer (of their atomics' width) or the arguments pass's output.
+pub fn surfels_compute(pass: SurfelPass) -> String {
+    let (visibility, entry) = match pass {
+        SurfelPass::Cull => ("", SURFELS_CULL),
+        SurfelPass::Args => (SURFELS_ARGS_BINDINGS, SURFELS_ARGS),
+        SurfelPass::Splat64 => (SURFELS_VIS64_BINDINGS, SURFELS_SPLAT64),
+        SurfelPass::SplatDepth32 => (SURFELS_VIS32_BINDINGS, SURFELS_SPLAT_DEPTH32),
+        SurfelPass::SplatId32 => (SURFELS_VIS32_BINDINGS, SURFELS_SPLAT_ID32),
+    };
+    assemble(&[
+        CAMERA_TYPES,
+        SEARCH_TYPES,
+        SURFELS_TYPES,
+        FRAME_BINDINGS,
+        SURFELS_BINDINGS,
+        visibility,
+        CAMERA_FUNCTIONS,
+        SURFELS_FUNCTIONS,
+        entry,
+    ])
+}
+
+/// The surfel resolve pass, drawn in the scene pass (kinds/surfels.rs).
+pub fn surfels_resolve() -> String {
+    assemble(&[
+        CAMERA_TYPES,
+        SEARCH_TYPES,
+        SURFELS_TYPES,
+        FRAME_BINDINGS,
+        SURFELS_RESOLVE_BINDINGS,
+        CAMERA_FUNCTIONS,
+        SURFELS_FUNCTIONS,
+        SURFELS_RESOLVE,
+    ])
+}
+
 /// Every assembled pipeline module, by name.
-pub fn all() -> [(&'static str, String); 5] {
+pub fn all() -> [(&'static str, String); 11] {
     [
         ("gtex_raycast", gtex_raycast()),
         ("gtex_trace_rays", gtex_trace_rays()),
         ("mesh_trace_rays", mesh_trace_rays()),
         ("mesh_raster", mesh_raster()),
         ("depth_copy", depth_copy()),
+        ("surfels_cull", surfels_compute(SurfelPass::Cull)),
+        ("surfels_args", surfels_compute(SurfelPass::Args)),
+        ("surfels_splat64", surfels_compute(SurfelPass::Splat64)),
+        (
+            "surfels_splat_depth32",
+            surfels_compute(SurfelPass::SplatDepth32),
+        ),
+        ("surfels_splat_id32", surfels_compute(SurfelPass::SplatId32)),
+        ("surfels_resolve", surfels_resolve()),
     ]
 }
 
@@ -135,12 +206,17 @@ mod tests {
         for (name, src) in super::all() {
             let module = naga::front::wgsl::parse_str(&src)
                 .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(&src)));
-            naga::valid::Validator::new(
-                naga::valid::ValidationFlags::all(),
-                naga::valid::Capabilities::default(),
-            )
-            .validate(&module)
-            .unwrap_or_else(|e| panic!("{name}: {e:?}"));
+            // Only the 64-bit splat pass needs more than the defaults; the renderer builds it
+            // only where the adapter has these features (the 32-bit passes elsewhere).
+            let capabilities = if name == "surfels_splat64" {
+                naga::valid::Capabilities::SHADER_INT64
+                    | naga::valid::Capabilities::SHADER_INT64_ATOMIC_MIN_MAX
+            } else {
+                naga::valid::Capabilities::default()
+            };
+            naga::valid::Validator::new(naga::valid::ValidationFlags::all(), capabilities)
+                .validate(&module)
+                .unwrap_or_else(|e| panic!("{name}: {e:?}"));
         }
     }
 

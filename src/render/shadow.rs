@@ -1,6 +1,7 @@
 //! Shadows: after a frame is drawn, one shadow ray per pixel it hit, from the hit (moved off the
 //! surface) toward a light, traced through the scene's texture sets and meshes with the ray-query
-//! tracer (query.rs, any hit). Every object casts and receives shadows.
+//! tracer (query.rs, any hit). Texture sets and meshes cast and receive shadows; surfels receive
+//! them only.
 //!
 //! Spaces: world (f64): hit points are rebuilt from each pixel's world ray and its z-depth, the
 //! light is given in world space, and normals are the frame's world normals.
@@ -82,6 +83,8 @@ fn start_offset(scene: &Scene) -> f64 {
                     let (lo, hi) = mesh.bounds();
                     OFFSET_MESH_DIAGONAL * (hi - lo).length() * scale
                 }
+                // Surfels receive shadows but are not traced (see `casters`).
+                Object::Surfels(..) => 0.0,
             }
         })
         .fold(0.0, f64::max)
@@ -101,11 +104,18 @@ impl Renderer {
     ) -> Result<()> {
         light.validate()?;
         let start = std::time::Instant::now();
+        // Surfels receive shadows but do not cast them: the tracer does not trace splats.
+        let casters = Scene {
+            objects: (scene.objects.iter())
+                .filter(|placed| !matches!(placed.object, Object::Surfels(..)))
+                .cloned()
+                .collect(),
+        };
         let offset = start_offset(scene);
         let (pixels, rays, ranges) = shadow_rays(camera, frame, light, offset)?;
         let mut shadow = vec![false; frame.depth.len()];
-        if !rays.is_empty() {
-            let hits = self.trace_rays(scene, &rays, Some(&ranges), search, true, cancel)?;
+        if !rays.is_empty() && !casters.objects.is_empty() {
+            let hits = self.trace_rays(&casters, &rays, Some(&ranges), search, true, cancel)?;
             for (&i, &id) in pixels.iter().zip(&hits.patch_id) {
                 shadow[i] = id != -1;
             }

@@ -90,8 +90,22 @@ fn make_timestamps(device: &wgpu::Device) -> Timestamps {
     (set, resolve, map_buffer(device, "timestamp readback", 16))
 }
 
+/// A mappable copy of `source` (a COPY_SRC buffer), filled at this point of `encoder`.
+pub(crate) fn copy_for_readback(
+    device: &wgpu::Device,
+    encoder: &mut wgpu::CommandEncoder,
+    source: &wgpu::Buffer,
+) -> wgpu::Buffer {
+    let readback = map_buffer(device, "readback", source.size());
+    encoder.copy_buffer_to_buffer(source, 0, &readback, 0, source.size());
+    readback
+}
+
 /// Maps every buffer, waits once, and returns their bytes (buffers unmapped again).
-fn read_buffers(device: &wgpu::Device, buffers: &[&wgpu::Buffer]) -> Result<Vec<Vec<u8>>> {
+pub(crate) fn read_buffers(
+    device: &wgpu::Device,
+    buffers: &[&wgpu::Buffer],
+) -> Result<Vec<Vec<u8>>> {
     for b in buffers {
         b.slice(..).map_async(wgpu::MapMode::Read, |_| {});
     }
@@ -172,13 +186,26 @@ impl Targets {
         }
     }
 
+    /// Timestamps for a compute pass run before the scene pass: the frame's time then starts
+    /// there (`begin_scene_pass` with `timed_before`).
+    pub fn compute_timestamps(&self) -> Option<wgpu::ComputePassTimestampWrites<'_>> {
+        self.timestamps
+            .as_ref()
+            .map(|(set, _, _)| wgpu::ComputePassTimestampWrites {
+                query_set: set,
+                beginning_of_pass_write_index: Some(0),
+                end_of_pass_write_index: None,
+            })
+    }
+
     /// The pass every object kind draws in: all targets cleared (color to `background`, ids to
     /// -1, albedo to transparent black, depth to 0 = nothing in reversed Z), timed when the
-    /// adapter can.
+    /// adapter can (from this pass's start, or from a compute pass's if `timed_before`).
     pub fn begin_scene_pass<'e>(
         &self,
         encoder: &'e mut wgpu::CommandEncoder,
         background: [f64; 4],
+        timed_before: bool,
     ) -> wgpu::RenderPass<'e> {
         let clear = |c: wgpu::Color| wgpu::Operations {
             load: wgpu::LoadOp::Clear(c),
@@ -226,7 +253,7 @@ impl Targets {
             timestamp_writes: self.timestamps.as_ref().map(|(set, _, _)| {
                 wgpu::RenderPassTimestampWrites {
                     query_set: set,
-                    beginning_of_pass_write_index: Some(0),
+                    beginning_of_pass_write_index: (!timed_before).then_some(0),
                     end_of_pass_write_index: Some(1),
                 }
             }),

@@ -244,6 +244,7 @@ impl Kind for MeshKind {
             vertex_buffer: Some(u.vertices.clone()),
             vertices: u.count,
             instances: 1,
+            compute: None,
         })
     }
 

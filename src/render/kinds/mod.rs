@@ -11,6 +11,7 @@
 
 pub(crate) mod gtex;
 pub(crate) mod mesh;
+pub(crate) mod surfels;
 
 use std::collections::HashMap;
 use std::sync::{Arc, Weak};
@@ -27,13 +28,19 @@ use crate::error::Result;
 /// Every kind the renderer draws, each built once with the frame's group-0 layout and the ray
 /// queries' group-2 layout.
 pub(crate) fn registered(
-    device: &wgpu::Device,
+    gpu: &Gpu,
     frame_layout: &wgpu::BindGroupLayout,
     query_layout: &wgpu::BindGroupLayout,
 ) -> Vec<Box<dyn Kind>> {
+    let device = &gpu.device;
     vec![
         Box::new(gtex::GtexKind::new(device, frame_layout, query_layout)),
         Box::new(mesh::MeshKind::new(device, frame_layout, query_layout)),
+        Box::new(surfels::SurfelsKind::new(
+            device,
+            frame_layout,
+            gpu.int64_atomics,
+        )),
     ]
 }
 
@@ -85,6 +92,8 @@ pub(crate) struct TraceCall {
 /// What every kind needs to know about the frame being drawn.
 pub(crate) struct FrameView<'a> {
     pub lens: &'a Lens,
+    /// Image width and height in pixels.
+    pub size: [u32; 2],
     pub view_from_world: DMat4,
     pub search: &'a SearchOptions,
 }
@@ -110,6 +119,43 @@ pub(crate) struct DrawCall {
     pub vertex_buffer: Option<wgpu::Buffer>,
     pub vertices: u32,
     pub instances: u32,
+    /// Compute passes to run before the scene pass (surfel culling and splatting).
+    pub compute: Option<ComputeWork>,
+}
+
+/// How a compute step is sized: workgroup counts, or read from a buffer a step before wrote.
+pub(crate) enum Dispatch {
+    Groups([u32; 3]),
+    Indirect(wgpu::Buffer),
+}
+
+/// One compute dispatch, after group 0 (the frame's) is bound; `groups` go to 1, 2, ...
+pub(crate) struct ComputeStep {
+    pub pipeline: wgpu::ComputePipeline,
+    pub groups: Vec<wgpu::BindGroup>,
+    pub dispatch: Dispatch,
+}
+
+/// An object's compute passes, in order, and the buffer of counts it leaves for the frame's
+/// figures (u32s, read back after the frame).
+pub(crate) struct ComputeWork {
+    pub steps: Vec<ComputeStep>,
+    pub tally: wgpu::Buffer,
+}
+
+impl ComputeWork {
+    pub fn encode(&self, pass: &mut wgpu::ComputePass<'_>) {
+        for step in &self.steps {
+            pass.set_pipeline(&step.pipeline);
+            for (k, group) in step.groups.iter().enumerate() {
+                pass.set_bind_group(k as u32 + 1, group, &[]);
+            }
+            match &step.dispatch {
+                Dispatch::Groups([x, y, z]) => pass.dispatch_workgroups(*x, *y, *z),
+                Dispatch::Indirect(buffer) => pass.dispatch_workgroups_indirect(buffer, 0),
+            }
+        }
+    }
 }
 
 impl DrawCall {

@@ -359,6 +359,7 @@ impl Kind for GtexKind {
             vertex_buffer: None,
             vertices: CUBE_VERTICES,
             instances: drawn.len() as u32,
+            compute: None,
         })
     }
 

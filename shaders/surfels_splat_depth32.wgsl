@@ -1,0 +1,22 @@
+// Entry point of the first 32-bit splat pass (adapters without 64-bit atomics): every pixel a
+// chosen surfel's disc covers keeps the nearest reversed-Z depth (atomicMax of its bits).
+//
+// Spaces: view (camera-relative) and framebuffer pixels (row 0 at the top).
+
+@compute @workgroup_size(64)
+fn cs_main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let k = splat_thread(id, groups);
+    if (k >= atomicLoad(&tally[TALLY_DRAWN])) {
+        return;
+    }
+    let disc = view_disc(surfels[chosen[k]]);
+    let b = splat_box(disc);
+    for (var y = b.y; y <= b.w; y++) {
+        for (var x = b.x; x <= b.z; x++) {
+            let depth = disc_depth(disc, x, y);
+            if (depth > 0.0) {
+                atomicMax(&visible[2u * (u32(y) * object.sizes.x + u32(x)) + 1u], bitcast<u32>(depth));
+            }
+        }
+    }
+}

@@ -1,0 +1,539 @@
+//! Surfel hierarchies (src/surfels/), drawn as point splats in three compute passes before the
+//! scene pass and one resolve draw inside it:
+//! 1. cull (surfels_cull.wgsl): per tile, frustum test and level choice from the projected
+//!    perpendicular error against `max_pixel_error`; the level's surfels are appended to a list;
+//! 2. dispatch arguments (surfels_args.wgsl): the list's length → indirect workgroup counts;
+//! 3. splat: each listed surfel's disc, ray-intersected per pixel, into a visibility buffer by
+//!    64-bit atomicMax of (reversed-Z depth, index) where the device has 64-bit atomics, else in
+//!    two 32-bit passes (nearest depth, then the index at that depth), chosen when the renderer
+//!    is made;
+//! 4. resolve (surfels_resolve.wgsl), in the scene pass: the winning disc's depth (frag_depth,
+//!    so the shared reversed-Z test composites surfels with meshes and texture sets), normal,
+//!    color and patch id; holes inside the surface filled from a neighbour.
+//!
+//! Spaces: the hierarchy's object space (positions stored relative to its bounding box centre,
+//! f32), view (camera-relative, composed in f64) and framebuffer pixels.
+
+use glam::{DMat3, DMat4, DVec3};
+use wgpu::util::DeviceExt;
+
+use super::{ComputeStep, ComputeWork, Dispatch, DrawCall, FrameView, Kind, Tally, UploadCache};
+use crate::error::{GeomtexError, Result};
+use crate::render::camera::Lens;
+use crate::render::cull::{box_corners, DepthRange};
+use crate::render::device::Gpu;
+use crate::render::gpu_types::{
+    gpu_matrix, normal_matrix, SurfelGpu, SurfelObjectGpu, SurfelTileGpu,
+};
+use crate::render::pipelines::{
+    compute_pipeline, storage_entry, uniform_entry, RasterPipeline, VERTEX_AND_FRAGMENT,
+};
+use crate::render::scene::{Object, SceneObject};
+use crate::render::shaders::{self, SurfelPass};
+use crate::surfels::SurfelHierarchy;
+
+/// u32 slots of the tally buffer (TALLY_SLOTS in surfels_types.wgsl).
+pub(crate) const TALLY_SLOTS: usize = 16;
+/// Where the counts start in the tally: drawn, tiles in view, finest surfels of those tiles,
+/// then one count per level (surfels_types.wgsl).
+pub(crate) const TALLY_DRAWN: usize = 0;
+const SPLAT_GROUP: u32 = 64;
+
+/// One hierarchy on the GPU.
+struct UploadedSurfels {
+    tiles: wgpu::Buffer,
+    surfels: wgpu::Buffer,
+    patches: wgpu::Buffer,
+    tile_count: u32,
+    /// Finest-level surfels: the most any frame can list.
+    finest: u32,
+    patch_count: i32,
+    /// Positions are stored relative to this point (object space, f64).
+    centre: DVec3,
+    lo: DVec3,
+    hi: DVec3,
+}
+
+pub(crate) struct SurfelsKind {
+    compute_layout: wgpu::BindGroupLayout,
+    visibility_layout: wgpu::BindGroupLayout,
+    resolve_layout: wgpu::BindGroupLayout,
+    cull: wgpu::ComputePipeline,
+    args: wgpu::ComputePipeline,
+    /// One 64-bit pass, or the 32-bit fallback's two.
+    splat: Vec<wgpu::ComputePipeline>,
+    resolve: wgpu::RenderPipeline,
+    uploads: UploadCache<SurfelHierarchy, UploadedSurfels>,
+}
+
+fn layout(
+    device: &wgpu::Device,
+    label: &str,
+    entries: &[wgpu::BindGroupLayoutEntry],
+) -> wgpu::BindGroupLayout {
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some(label),
+        entries,
+    })
+}
+
+impl SurfelsKind {
+    pub fn new(
+        device: &wgpu::Device,
+        frame_layout: &wgpu::BindGroupLayout,
+        int64_atomics: bool,
+    ) -> SurfelsKind {
+        let c = wgpu::ShaderStages::COMPUTE;
+        let compute_layout = layout(
+            device,
+            "surfels compute",
+            &[
+                uniform_entry(0, c),
+                storage_entry(1, c, true),
+                storage_entry(2, c, true),
+                storage_entry(3, c, false),
+                storage_entry(4, c, false),
+            ],
+        );
+        let visibility_layout = layout(device, "surfels visibility", &[storage_entry(0, c, false)]);
+        let f = wgpu::ShaderStages::FRAGMENT;
+        let resolve_layout = layout(
+            device,
+            "surfels resolve",
+            &[
+                uniform_entry(0, VERTEX_AND_FRAGMENT),
+                storage_entry(1, f, true),
+                storage_entry(2, f, true),
+                storage_entry(3, f, true),
+            ],
+        );
+        let layouts = [
+            Some(frame_layout),
+            Some(&compute_layout),
+            Some(&visibility_layout),
+        ];
+        let pipeline = |pass: SurfelPass, label: &str| {
+            let source = shaders::surfels_compute(pass);
+            compute_pipeline(device, label, &source, &layouts, &[])
+        };
+        let splat = if int64_atomics {
+            vec![pipeline(SurfelPass::Splat64, "surfels_splat64")]
+        } else {
+            vec![
+                pipeline(SurfelPass::SplatDepth32, "surfels_splat_depth32"),
+                pipeline(SurfelPass::SplatId32, "surfels_splat_id32"),
+            ]
+        };
+        let resolve = RasterPipeline {
+            label: "surfels_resolve",
+            source: shaders::surfels_resolve(),
+            layouts: &[Some(frame_layout), Some(&resolve_layout)],
+            vertex_buffers: &[],
+            cull: None,
+            constants: &[],
+        }
+        .build(device);
+        SurfelsKind {
+            cull: pipeline(SurfelPass::Cull, "surfels_cull"),
+            args: pipeline(SurfelPass::Args, "surfels_args"),
+            splat,
+            resolve,
+            compute_layout,
+            visibility_layout,
+            resolve_layout,
+            uploads: UploadCache::default(),
+        }
+    }
+}
+
+fn storage(device: &wgpu::Device, label: &str, contents: &[u8]) -> wgpu::Buffer {
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents,
+        usage: wgpu::BufferUsages::STORAGE,
+    })
+}
+
+/// The hierarchy's records, positions relative to its centre.
+fn upload(gpu: &Gpu, h: &SurfelHierarchy) -> Result<UploadedSurfels> {
+    let (lo, hi) = h.bounds();
+    let centre = 0.5 * (lo + hi);
+    let tiles: Vec<SurfelTileGpu> = h
+        .tiles
+        .iter()
+        .map(|t| {
+            let mut error = [0.0f32; 8];
+            let mut start = [0u32; 8];
+            for (e, v) in error.iter_mut().zip(&t.error) {
+                *e = *v as f32;
+            }
+            for (s, v) in start.iter_mut().zip(&t.start) {
+                *s = *v;
+            }
+            let c = (t.centre - centre).as_vec3();
+            SurfelTileGpu {
+                sphere: [c.x, c.y, c.z, t.bound as f32],
+                error,
+                start,
+                info: [h.levels, t.patch, 0, 0],
+            }
+        })
+        .collect();
+    let surfels: Vec<SurfelGpu> = h
+        .surfels
+        .iter()
+        .map(|s| SurfelGpu {
+            position: (s.position - centre).as_vec3().to_array(),
+            radius: s.radius as f32,
+            normal: s.normal.as_vec3().to_array(),
+            color: u32::from_le_bytes(s.color),
+        })
+        .collect();
+    let limit = gpu.device.limits().max_storage_buffer_binding_size as usize;
+    if std::mem::size_of_val(surfels.as_slice()) > limit {
+        return Err(GeomtexError::Device(format!(
+            "{} surfels take {} bytes, more than this adapter's storage binding limit of {limit}",
+            surfels.len(),
+            std::mem::size_of_val(surfels.as_slice())
+        )));
+    }
+    let patches: Vec<u32> = h
+        .surfel_tiles()
+        .into_iter()
+        .map(|t| h.tiles[t].patch)
+        .collect();
+    let device = &gpu.device;
+    Ok(UploadedSurfels {
+        tiles: storage(device, "surfel tiles", bytemuck::cast_slice(&tiles)),
+        surfels: storage(device, "surfels", bytemuck::cast_slice(&surfels)),
+        patches: storage(device, "surfel patches", bytemuck::cast_slice(&patches)),
+        tile_count: tiles.len() as u32,
+        finest: h.per_level()[0] as u32,
+        patch_count: h.source.patches.len() as i32,
+        centre,
+        lo,
+        hi,
+    })
+}
+
+/// The frustum's four side planes in view space (inside where n·p + d >= 0), from the pixel
+/// rays at the image's edges.
+fn frustum_planes(lens: &Lens, width: u32, height: u32) -> [[f32; 4]; 4] {
+    let r = lens.ray;
+    let xs = [r[2], width as f64 * r[0] + r[2]];
+    let ys = [r[3], height as f64 * r[1] + r[3]];
+    let (xl, xr) = (xs[0].min(xs[1]), xs[0].max(xs[1]));
+    let (yl, yr) = (ys[0].min(ys[1]), ys[0].max(ys[1]));
+    let plane = |n: DVec3, d: f64| {
+        let len = n.length();
+        [n.x / len, n.y / len, n.z / len, d / len].map(|v| v as f32)
+    };
+    if lens.orthographic {
+        [
+            plane(DVec3::X, -xl),
+            plane(-DVec3::X, xr),
+            plane(DVec3::Y, -yl),
+            plane(-DVec3::Y, yr),
+        ]
+    } else {
+        // x / -z >= xl  <=>  x + xl z >= 0, and so on.
+        [
+            plane(DVec3::new(1.0, 0.0, xl), 0.0),
+            plane(DVec3::new(-1.0, 0.0, -xr), 0.0),
+            plane(DVec3::new(0.0, 1.0, yl), 0.0),
+            plane(DVec3::new(0.0, -1.0, -yr), 0.0),
+        ]
+    }
+}
+
+/// The hierarchy's bounding box on screen in normalized device coordinates (x0, y0, x1, y1),
+/// two pixels wider on every side (hole filling reads neighbours); the whole image when a corner
+/// lies behind the eye.
+fn screen_rect(
+    lens: &Lens,
+    view_from_object: DMat4,
+    u: &UploadedSurfels,
+    size: [u32; 2],
+) -> [f32; 4] {
+    let clip_from_object = lens.clip_from_view * view_from_object;
+    let mut lo = glam::DVec2::splat(f64::INFINITY);
+    let mut hi = glam::DVec2::splat(f64::NEG_INFINITY);
+    for corner in box_corners(u.lo, u.hi) {
+        let c = clip_from_object * corner.extend(1.0);
+        if c.w <= 0.0 {
+            return [-1.0, -1.0, 1.0, 1.0];
+        }
+        let ndc = c.truncate().truncate() / c.w;
+        lo = lo.min(ndc);
+        hi = hi.max(ndc);
+    }
+    let margin = glam::DVec2::new(4.0 / size[0] as f64, 4.0 / size[1] as f64);
+    let lo = (lo - margin).clamp(glam::DVec2::splat(-1.0), glam::DVec2::splat(1.0));
+    let hi = (hi + margin).clamp(glam::DVec2::splat(-1.0), glam::DVec2::splat(1.0));
+    [lo.x, lo.y, hi.x, hi.y].map(|v| v as f32)
+}
+
+/// This frame's buffers of one object: the chosen list, the tally, the splat passes' indirect
+/// arguments and the visibility buffer.
+struct FrameBuffers {
+    chosen: wgpu::Buffer,
+    tally: wgpu::Buffer,
+    dispatch: wgpu::Buffer,
+    visibility: wgpu::Buffer,
+}
+
+fn frame_buffers(device: &wgpu::Device, u: &UploadedSurfels, pixels: u64) -> FrameBuffers {
+    let buffer = |label: &str, size: u64, usage: wgpu::BufferUsages| {
+        device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size,
+            usage: wgpu::BufferUsages::STORAGE | usage,
+            mapped_at_creation: false,
+        })
+    };
+    let none = wgpu::BufferUsages::empty();
+    // New buffers are zeroed: an empty list, a zero tally, no pixel covered.
+    FrameBuffers {
+        chosen: buffer("surfels chosen", 4 * u.finest.max(1) as u64, none),
+        tally: buffer(
+            "surfels tally",
+            4 * TALLY_SLOTS as u64,
+            wgpu::BufferUsages::COPY_SRC,
+        ),
+        dispatch: buffer("surfels dispatch", 12, wgpu::BufferUsages::INDIRECT),
+        visibility: buffer("surfels visibility", 8 * pixels, none),
+    }
+}
+
+fn bind(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    buffers: &[&wgpu::Buffer],
+) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry> = buffers
+        .iter()
+        .enumerate()
+        .map(|(k, b)| wgpu::BindGroupEntry {
+            binding: k as u32,
+            resource: b.as_entire_binding(),
+        })
+        .collect();
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("surfels"),
+        layout,
+        entries: &entries,
+    })
+}
+
+impl SurfelsKind {
+    /// The object's record for this frame.
+    fn record(
+        &self,
+        frame: &FrameView,
+        placed: &SceneObject,
+        u: &UploadedSurfels,
+        first_id: i32,
+    ) -> SurfelObjectGpu {
+        let view_from_object = frame.view_from_world * placed.world_from_object;
+        let view_from_local = view_from_object * DMat4::from_translation(u.centre);
+        let linear = DMat3::from_mat4(view_from_object);
+        let scale = [linear.x_axis, linear.y_axis, linear.z_axis]
+            .iter()
+            .map(|a| a.length())
+            .fold(0.0, f64::max);
+        let [width, height] = frame.size;
+        SurfelObjectGpu {
+            view_from_object: gpu_matrix(view_from_local),
+            world_normal_from_object: normal_matrix(DMat3::from_mat4(placed.world_from_object)),
+            planes: frustum_planes(frame.lens, width, height),
+            params: [
+                frame.search.max_pixel_error,
+                frame.lens.ray[1].abs() as f32,
+                scale as f32,
+                0.0,
+            ],
+            sizes: [width, height, first_id.max(0) as u32, u.tile_count],
+            rect: screen_rect(frame.lens, view_from_object, u, [width, height]),
+        }
+    }
+
+    /// The cull, arguments and splat passes of one object.
+    fn compute_work(
+        &self,
+        device: &wgpu::Device,
+        u: &UploadedSurfels,
+        uniform: &wgpu::Buffer,
+        buffers: &FrameBuffers,
+    ) -> ComputeWork {
+        let group = bind(
+            device,
+            &self.compute_layout,
+            &[
+                uniform,
+                &u.tiles,
+                &u.surfels,
+                &buffers.chosen,
+                &buffers.tally,
+            ],
+        );
+        // Group 2 is one writable buffer in every pass: the arguments, then the visibility.
+        let arguments = bind(device, &self.visibility_layout, &[&buffers.dispatch]);
+        let visibility = bind(device, &self.visibility_layout, &[&buffers.visibility]);
+        let mut steps = vec![
+            ComputeStep {
+                pipeline: self.cull.clone(),
+                groups: vec![group.clone(), arguments.clone()],
+                dispatch: Dispatch::Groups([u.tile_count.div_ceil(SPLAT_GROUP).max(1), 1, 1]),
+            },
+            ComputeStep {
+                pipeline: self.args.clone(),
+                groups: vec![group.clone(), arguments],
+                dispatch: Dispatch::Groups([1, 1, 1]),
+            },
+        ];
+        steps.extend(self.splat.iter().map(|pipeline| ComputeStep {
+            pipeline: pipeline.clone(),
+            groups: vec![group.clone(), visibility.clone()],
+            dispatch: Dispatch::Indirect(buffers.dispatch.clone()),
+        }));
+        ComputeWork {
+            steps,
+            tally: buffers.tally.clone(),
+        }
+    }
+}
+
+impl Kind for SurfelsKind {
+    fn upload(
+        &mut self,
+        gpu: &Gpu,
+        object: &Object,
+        view_from_object: &DMat4,
+        depth: &mut DepthRange,
+    ) -> Result<bool> {
+        let Object::Surfels(h) = object else {
+            return Ok(false);
+        };
+        let u = self.uploads.get_or_upload(h, |h| upload(gpu, h))?;
+        if u.tile_count > 0 {
+            depth.include_box(view_from_object, u.lo, u.hi);
+        }
+        Ok(true)
+    }
+
+    fn draw(
+        &self,
+        gpu: &Gpu,
+        frame: &FrameView,
+        placed: &SceneObject,
+        tally: &mut Tally,
+    ) -> Option<DrawCall> {
+        let Object::Surfels(h) = &placed.object else {
+            return None;
+        };
+        let u = self.uploads.get(h)?;
+        let first_id = tally.patch_ids;
+        tally.patch_ids += u.patch_count;
+        if u.tile_count == 0 {
+            return None;
+        }
+        let device = &gpu.device;
+        let record = self.record(frame, placed, u, first_id);
+        let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("surfel object"),
+            contents: bytemuck::bytes_of(&record),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let [width, height] = frame.size;
+        let buffers = frame_buffers(device, u, width as u64 * height as u64);
+        let compute = self.compute_work(device, u, &uniform, &buffers);
+        let group = bind(
+            device,
+            &self.resolve_layout,
+            &[&uniform, &u.surfels, &u.patches, &buffers.visibility],
+        );
+        Some(DrawCall {
+            pipeline: self.resolve.clone(),
+            group,
+            vertex_buffer: None,
+            vertices: 6,
+            instances: 1,
+            compute: Some(compute),
+        })
+    }
+
+    fn trace(
+        &self,
+        _gpu: &Gpu,
+        _view_from_world: DMat4,
+        placed: &SceneObject,
+        _ids: &mut super::Tally,
+    ) -> Result<Option<super::TraceCall>> {
+        match &placed.object {
+            Object::Surfels(..) => Err(GeomtexError::Parameter(
+                "ray queries through surfels are not supported; query the texture set they \
+                 were built from"
+                    .into(),
+            )),
+            _ => Ok(None),
+        }
+    }
+
+    fn purge(&mut self) {
+        self.uploads.purge();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::camera::Camera;
+
+    /// The view ray through pixel position (px, py) (edges at integers), as camera_ray builds it.
+    fn ray_point(lens: &Lens, px: f64, py: f64, depth: f64) -> DVec3 {
+        let a = [
+            px * lens.ray[0] + lens.ray[2],
+            py * lens.ray[1] + lens.ray[3],
+        ];
+        if lens.orthographic {
+            DVec3::new(a[0], a[1], -depth)
+        } else {
+            DVec3::new(a[0], a[1], -1.0) * depth
+        }
+    }
+
+    fn side(plane: [f32; 4], p: DVec3) -> f64 {
+        let [x, y, z, d] = plane.map(f64::from);
+        x * p.x + y * p.y + z * p.z + d
+    }
+
+    /// The frustum planes pass through the image's edge rays and hold its centre ray inside,
+    /// for both projections.
+    #[test]
+    fn frustum_planes_bound_the_image() {
+        let (w, h) = (320u32, 200u32);
+        let perspective = Camera::look_at(DVec3::new(0.0, 0.0, 5.0), DVec3::ZERO, DVec3::Y, 50.0);
+        let ortho = Camera::orthographic(DMat4::IDENTITY, 3.0);
+        for camera in [perspective.unwrap(), ortho.unwrap()] {
+            let lens = camera.lens(w, h, 1.0, 10.0).unwrap();
+            let planes = frustum_planes(&lens, w, h);
+            let (w, h) = (w as f64, h as f64);
+            for depth in [1.0, 7.0] {
+                let centre = ray_point(&lens, w / 2.0, h / 2.0, depth);
+                assert!(planes.iter().all(|&p| side(p, centre) > 0.0));
+                let edges = [(0.0, h / 2.0), (w, h / 2.0), (w / 2.0, 0.0), (w / 2.0, h)];
+                for (px, py) in edges {
+                    let on_edge = ray_point(&lens, px, py, depth);
+                    let nearest = planes
+                        .iter()
+                        .map(|&p| side(p, on_edge).abs())
+                        .fold(f64::MAX, f64::min);
+                    assert!(nearest < 1e-5 * depth, "{nearest}");
+                    assert!(planes.iter().all(|&p| side(p, on_edge) > -1e-5 * depth));
+                }
+                let outside = ray_point(&lens, -0.1 * w, h / 2.0, depth);
+                assert!(planes.iter().any(|&p| side(p, outside) < 0.0));
+            }
+        }
+    }
+}

@@ -1,0 +1,378 @@
+//! Surfel hierarchies (after Object Textures): every surface texel of a geometry-texture set is a
+//! surfel (a disc with a normal, radius and color); each patch is cut into square tiles of
+//! `tile` texels a side, and within a tile 2x2 neighbouring surfels merge into one parent, level
+//! by level, up to one surfel per tile (tile 8: the paper's 64/16/4/1). Per tile and level the
+//! hierarchy keeps the perpendicular error (how far the finest surfels stray from that level's
+//! discs) and a normal cone, so a renderer can pick each tile's coarsest level that stays within
+//! a pixel budget (render/kinds/surfels.rs).
+//!
+//! Spaces: world (f64, the set's), and patch-local texel grids (column i along u, row j along v)
+//! for the tiling only. Level 0 is the finest.
+
+pub mod file;
+
+use std::sync::Arc;
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::error::{GeomtexError, Result};
+use crate::gtex::{GeometryTextureSet, Patch};
+
+/// Largest tile side (texels): seven levels, the GPU record's room.
+pub const MAX_TILE: u32 = 64;
+/// Most levels a tile can have (log2(MAX_TILE) + 1).
+pub const MAX_LEVELS: usize = 7;
+/// Default tile side: 64/16/4/1 surfels, as in the paper.
+pub const DEFAULT_TILE: u32 = 8;
+/// Steepest tangent plane a finest disc is sized for: |n·z| below this is treated as this, so a
+/// texel seen edge-on by its patch gets a large but finite disc.
+const MIN_SLOPE_COSINE: f64 = 0.25;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Surfel {
+    /// World position.
+    pub position: DVec3,
+    /// World unit normal.
+    pub normal: DVec3,
+    /// Disc radius (world units): covers the texel's footprint (level 0), or every child's disc.
+    pub radius: f64,
+    pub color: [u8; 4],
+    /// Index of the parent surfel one level up; `u32::MAX` at the top level.
+    pub parent: u32,
+    pub level: u8,
+}
+
+/// One tile of a patch: its surfels level by level, with the figures a renderer selects by.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Tile {
+    pub patch: u32,
+    /// First texel (column, row) of the tile in its patch.
+    pub texel: [u32; 2],
+    /// `start[l]..start[l + 1]` are the tile's surfels of level l (indices into `surfels`).
+    pub start: Vec<u32>,
+    /// Per level: the largest distance of the tile's finest surfels (their centres, plus their
+    /// discs' tilt against the ancestor) from the plane of their ancestor at that level; never
+    /// smaller than the level below's (0 at level 0).
+    pub error: Vec<f64>,
+    /// Per level: the normal cone of that level's surfels (unit axis, half angle in radians).
+    pub cone: Vec<(DVec3, f64)>,
+    /// A sphere holding every disc of every level.
+    pub centre: DVec3,
+    pub bound: f64,
+}
+
+/// A surfel hierarchy over a geometry-texture set, kept beside the set it was built from (files
+/// store the set and rebuild the hierarchy, file.rs).
+#[derive(Clone, Debug)]
+pub struct SurfelHierarchy {
+    pub tile: u32,
+    pub levels: u32,
+    pub tiles: Vec<Tile>,
+    pub surfels: Vec<Surfel>,
+    pub source: Arc<GeometryTextureSet>,
+}
+
+/// A tile side's check: a power of two in 1..=MAX_TILE.
+pub fn check_tile(tile: i64) -> Result<u32> {
+    if tile < 1 || tile > MAX_TILE as i64 || (tile & (tile - 1)) != 0 {
+        return Err(GeomtexError::Parameter(format!(
+            "tile must be a power of two from 1 to {MAX_TILE} texels, got {tile}"
+        )));
+    }
+    Ok(tile as u32)
+}
+
+/// A surfel before its tile places it in the hierarchy's list.
+#[derive(Clone, Copy)]
+struct Disc {
+    position: DVec3,
+    normal: DVec3,
+    radius: f64,
+    color: [f64; 4],
+}
+
+impl Disc {
+    /// Area-weighted merge of up to four children (weights r²); the radius covers every child's
+    /// disc from the merged centre.
+    fn merge(children: &[Disc]) -> Disc {
+        let weights: Vec<f64> = children.iter().map(|c| c.radius * c.radius).collect();
+        let total: f64 = weights.iter().sum::<f64>().max(f64::MIN_POSITIVE);
+        let mut position = DVec3::ZERO;
+        let mut normal = DVec3::ZERO;
+        let mut color = [0.0; 4];
+        for (c, w) in children.iter().zip(&weights) {
+            position += c.position * *w;
+            normal += c.normal * *w;
+            for (acc, v) in color.iter_mut().zip(c.color) {
+                *acc += v * w;
+            }
+        }
+        position /= total;
+        let normal = normal.try_normalize().unwrap_or(children[0].normal);
+        let radius = children
+            .iter()
+            .map(|c| c.position.distance(position) + c.radius)
+            .fold(0.0, f64::max);
+        Disc {
+            position,
+            normal,
+            radius,
+            color: color.map(|v| v / total),
+        }
+    }
+}
+
+/// The finest disc of a surface texel: centred on the texel's point, in its tangent plane, with
+/// the radius reaching the texel's four corners lifted onto that plane.
+fn texel_disc(p: &Patch, point: DVec3, normal: DVec3, color: [u8; 4]) -> Disc {
+    let (sx, sy) = (p.extent.x / p.width as f64, p.extent.y / p.height as f64);
+    let local = DVec3::new(
+        normal.dot(p.axes[0]),
+        normal.dot(p.axes[1]),
+        normal.dot(p.axes[2]),
+    );
+    let nz = local.z.abs().max(MIN_SLOPE_COSINE).copysign(local.z);
+    let mut radius: f64 = 0.0;
+    for (dx, dy) in [(0.5, 0.5), (0.5, -0.5), (-0.5, 0.5), (-0.5, -0.5)] {
+        let (x, y) = (dx * sx, dy * sy);
+        let z = -(local.x * x + local.y * y) / nz;
+        radius = radius.max((x * x + y * y + z * z).sqrt());
+    }
+    Disc {
+        position: point,
+        normal,
+        radius,
+        color: color.map(f64::from),
+    }
+}
+
+/// One level of a tile being built: its cells row-major (a disc and its index in the tile's
+/// list, None where empty), and the grid's width and height.
+type LevelGrid = (Vec<Option<(Disc, u32)>>, usize, usize);
+
+/// The tiles of one patch, their surfels numbered from 0 (the caller offsets them).
+fn patch_tiles(p: &Patch, patch: u32, tile: u32, levels: u32) -> Vec<(Tile, Vec<Surfel>)> {
+    let mut grid: Vec<Option<Disc>> = vec![None; p.texels()];
+    for (t, point, normal) in p.surface_texels() {
+        grid[t] = Some(texel_disc(p, point, normal, p.color(t)));
+    }
+    let mut out = Vec::new();
+    for j0 in (0..p.height).step_by(tile as usize) {
+        for i0 in (0..p.width).step_by(tile as usize) {
+            let side = |n: u32, o: u32| tile.min(n - o) as usize;
+            let (w, h) = (side(p.width, i0), side(p.height, j0));
+            let finest: Vec<Option<Disc>> = (0..h)
+                .flat_map(|j| (0..w).map(move |i| (i, j)))
+                .map(|(i, j)| grid[(j0 as usize + j) * p.width as usize + i0 as usize + i])
+                .collect();
+            if finest.iter().any(Option::is_some) {
+                out.push(build_tile(finest, (w, h), patch, [i0, j0], levels));
+            }
+        }
+    }
+    out
+}
+
+/// One tile's levels from its finest discs (`w` x `h`, row-major, None where empty).
+fn build_tile(
+    finest: Vec<Option<Disc>>,
+    (w, h): (usize, usize),
+    patch: u32,
+    texel: [u32; 2],
+    levels: u32,
+) -> (Tile, Vec<Surfel>) {
+    // Per level: its grid of (disc, index within the tile's list) and its side lengths.
+    let mut grids: Vec<LevelGrid> = Vec::new();
+    let mut surfels: Vec<Surfel> = Vec::new();
+    let mut start = vec![0u32];
+    let mut level_grid: Vec<Option<Disc>> = finest;
+    let (mut gw, mut gh) = (w, h);
+    for level in 0..levels {
+        let indexed: Vec<Option<(Disc, u32)>> = level_grid
+            .iter()
+            .map(|d| {
+                d.map(|d| {
+                    surfels.push(Surfel {
+                        position: d.position,
+                        normal: d.normal,
+                        radius: d.radius,
+                        color: d.color.map(|c| c.round().clamp(0.0, 255.0) as u8),
+                        parent: u32::MAX,
+                        level: level as u8,
+                    });
+                    (d, surfels.len() as u32 - 1)
+                })
+            })
+            .collect();
+        start.push(surfels.len() as u32);
+        grids.push((indexed, gw, gh));
+        if level + 1 == levels {
+            break;
+        }
+        let (pw, ph) = (gw.div_ceil(2), gh.div_ceil(2));
+        let (below, bw, bh) = grids.last().expect("just pushed");
+        level_grid = (0..ph)
+            .flat_map(|j| (0..pw).map(move |i| (i, j)))
+            .map(|(i, j)| {
+                let children: Vec<Disc> = [(0, 0), (1, 0), (0, 1), (1, 1)]
+                    .iter()
+                    .map(|&(di, dj)| (2 * i + di, 2 * j + dj))
+                    .filter(|&(ci, cj)| ci < *bw && cj < *bh)
+                    .filter_map(|(ci, cj)| below[cj * bw + ci].map(|(d, _)| d))
+                    .collect();
+                (!children.is_empty()).then(|| Disc::merge(&children))
+            })
+            .collect();
+        (gw, gh) = (pw, ph);
+    }
+    link_parents(&grids, &mut surfels);
+    let tile = tile_figures(&grids, &surfels, patch, texel, start);
+    (tile, surfels)
+}
+
+/// Sets each surfel's parent: the cell (i/2, j/2) one level up.
+fn link_parents(grids: &[LevelGrid], surfels: &mut [Surfel]) {
+    for pair in grids.windows(2) {
+        let ((below, bw, _), (above, aw, _)) = (&pair[0], &pair[1]);
+        for (cell, entry) in below.iter().enumerate() {
+            if let Some((_, index)) = entry {
+                let (i, j) = (cell % bw, cell / bw);
+                let (_, parent) = above[(j / 2) * aw + i / 2].expect("a child's parent exists");
+                surfels[*index as usize].parent = parent;
+            }
+        }
+    }
+}
+
+/// Errors, cones and the bounding sphere of a built tile (surfel indices local to the tile).
+fn tile_figures(
+    grids: &[LevelGrid],
+    surfels: &[Surfel],
+    patch: u32,
+    texel: [u32; 2],
+    start: Vec<u32>,
+) -> Tile {
+    let levels = grids.len();
+    let finest = &surfels[start[0] as usize..start[1] as usize];
+    let mut error = vec![0.0f64; levels];
+    for f in finest {
+        let mut a = f;
+        for e in error.iter_mut().skip(1) {
+            a = &surfels[a.parent as usize];
+            let tilt = f.normal.cross(a.normal).length();
+            *e = e.max((f.position - a.position).dot(a.normal).abs() + f.radius * tilt);
+        }
+    }
+    for l in 1..levels {
+        error[l] = error[l].max(error[l - 1]);
+    }
+    let cone = (0..levels)
+        .map(|l| {
+            let level = &surfels[start[l] as usize..start[l + 1] as usize];
+            let sum: DVec3 = level.iter().map(|s| s.normal * s.radius * s.radius).sum();
+            let axis = sum.try_normalize().unwrap_or(level[0].normal);
+            let angle = level
+                .iter()
+                .map(|s| s.normal.dot(axis).clamp(-1.0, 1.0).acos())
+                .fold(0.0, f64::max);
+            (axis, angle)
+        })
+        .collect();
+    let (lo, hi) = surfels.iter().fold(
+        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+        |(lo, hi), s| (lo.min(s.position), hi.max(s.position)),
+    );
+    let centre = 0.5 * (lo + hi);
+    let bound = surfels
+        .iter()
+        .map(|s| s.position.distance(centre) + s.radius)
+        .fold(0.0, f64::max);
+    Tile {
+        patch,
+        texel,
+        start,
+        error,
+        cone,
+        centre,
+        bound,
+    }
+}
+
+impl SurfelHierarchy {
+    /// The hierarchy of `set` with `tile` x `tile` texel tiles (a power of two up to MAX_TILE).
+    /// Deterministic: the same set and tile give the same hierarchy.
+    pub fn build(source: Arc<GeometryTextureSet>, tile: u32) -> Result<SurfelHierarchy> {
+        let tile = check_tile(tile as i64)?;
+        let levels = tile.trailing_zeros() + 1;
+        let per_patch: Vec<Vec<(Tile, Vec<Surfel>)>> = source
+            .patches
+            .par_iter()
+            .enumerate()
+            .map(|(k, p)| patch_tiles(p, k as u32, tile, levels))
+            .collect();
+        let mut tiles = Vec::new();
+        let mut surfels = Vec::new();
+        for (mut t, local) in per_patch.into_iter().flatten() {
+            let offset = surfels.len() as u32;
+            for s in &mut t.start {
+                *s += offset;
+            }
+            surfels.extend(local.into_iter().map(|mut s| {
+                if s.parent != u32::MAX {
+                    s.parent += offset;
+                }
+                s
+            }));
+            tiles.push(t);
+        }
+        Ok(SurfelHierarchy {
+            tile,
+            levels,
+            tiles,
+            surfels,
+            source,
+        })
+    }
+
+    /// Surfels of each level, finest first.
+    pub fn per_level(&self) -> Vec<usize> {
+        let mut counts = vec![0usize; self.levels as usize];
+        for s in &self.surfels {
+            counts[s.level as usize] += 1;
+        }
+        counts
+    }
+
+    /// Bytes the hierarchy takes on the GPU: a 32-byte record and a patch index per surfel, a
+    /// tile record per tile (render/gpu_types.rs).
+    pub fn gpu_bytes(&self) -> usize {
+        self.surfels.len() * (32 + 4) + self.tiles.len() * 96
+    }
+
+    /// The tile of each surfel.
+    pub fn surfel_tiles(&self) -> Vec<usize> {
+        let mut out = vec![0; self.surfels.len()];
+        for (k, t) in self.tiles.iter().enumerate() {
+            let all = t.start[0] as usize..*t.start.last().expect("levels >= 1") as usize;
+            out[all].fill(k);
+        }
+        out
+    }
+
+    /// World bounding box of every disc.
+    pub fn bounds(&self) -> (DVec3, DVec3) {
+        self.tiles.iter().fold(
+            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |(lo, hi), t| {
+                (
+                    lo.min(t.centre - DVec3::splat(t.bound)),
+                    hi.max(t.centre + DVec3::splat(t.bound)),
+                )
+            },
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests;
