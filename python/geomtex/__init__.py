@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numbers
 import os
+import warnings
 from typing import Any, Callable, Literal
 
 import numpy as np
@@ -125,6 +126,9 @@ def convert(
     max_error: float | None = None,
     max_error_rel: float | None = None,
     error_scope: Literal["set", "chart"] | None = None,
+    partition: Literal["cone", "vsa"] | None = None,
+    cone_angle: float | None = None,
+    chart_size: float | None = None,
     charts: int | None = None,
     chart_error: float | None = None,
     max_charts: int | None = None,
@@ -159,6 +163,20 @@ def convert(
         with the fewest bytes: charts whose tail (a crease, a steep rim) would be dear to remove
         keep it while cheaper charts get finer. ``"chart"`` bounds every chart's own error,
         which costs more where charts differ.
+    partition: how the mesh is cut into charts. ``"vsa"`` (default): the paper's Variational Shape
+        Approximation, driven by ``chart_error`` or ``charts`` (the keywords below). ``"cone"``:
+        each chart grows from a seed while its face normals stay within ``cone_angle`` degrees
+        (default 60) of one axis, so no face comes near folding, and within ``chart_size``
+        (default 0.1) of the bounding-box diagonal from its seed; VSA's L2,1 error only orders
+        the faces a chart takes, a chart turns away faces that would lie over or under its
+        surface (a second sheet), and small charts merge into a neighbour while the cone and
+        size still fit. No cap, no folding repair, linear time (see bench/partition.py).
+        ``stats["charts_capped"]`` is 1 when ``max_charts`` stopped VSA before its target
+        (a warning is also issued).
+    cone_angle: half-angle of a cone chart's normal cone, degrees, in (0, 85].
+    chart_size: largest distance from a cone chart's seed to its faces, as a fraction of the
+        bounding-box diagonal; without ``max_error`` the largest chart sets every patch's
+        texel, so smaller charts mean finer texels and more bytes.
     charts: exact VSA chart count; by default charts are added until the area-weighted mean
         L2,1 error ``sum(area |n - N|^2) / sum(area)`` is at most ``chart_error`` (0.1 by
         default; with ``max_error`` and neither ``charts`` nor ``chart_error`` given, 0.1, 0.2
@@ -189,7 +207,8 @@ def convert(
         ("dilation", dilation), ("height_bits", height_bits)]}
     reals = {name: _number(name, value, float) for name, value in [
         ("texel_size", texel_size), ("max_error", max_error), ("max_error_rel", max_error_rel),
-        ("chart_error", chart_error), ("compactness", compactness), ("crease_angle", crease_angle)]}
+        ("chart_error", chart_error), ("compactness", compactness), ("crease_angle", crease_angle),
+        ("cone_angle", cone_angle), ("chart_size", chart_size)]}
     callback: ProgressCallback | None
     bar = None
     if progress is True:
@@ -209,11 +228,16 @@ def convert(
     else:
         raise ParameterError(f"progress must be True, False, None or a callable, got {progress!r}")
     try:
-        return _core.convert(m, **integers, **reals, error_scope=error_scope, frame=frame,
-                             normals=normals, progress=callback)
+        gts = _core.convert(m, **integers, **reals, error_scope=error_scope, partition=partition,
+                            frame=frame, normals=normals, progress=callback)
     finally:
         if bar is not None:
             bar.close()
+    if gts.stats.get("charts_capped"):
+        warnings.warn(f"max_charts ({gts.stats['vsa_charts']:.0f} charts) stopped VSA above its chart_error "
+                      f"target ({gts.stats['vsa_mean_error']:.3g} > {gts.stats['chart_error']:.3g}); "
+                      "partition='cone' has no cap to hit", RuntimeWarning, stacklevel=2)
+    return gts
 
 
 def show(obj: Any, **options: Any) -> Any:
