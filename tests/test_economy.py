@@ -45,13 +45,15 @@ def test_a_budget_that_cannot_be_met_warns(fandisk: Converted) -> None:
 def test_the_chart_cap_is_a_warning_and_a_stat(fandisk: Converted) -> None:
     with pytest.warns(gt.CapWarning, match=r"stopped at 4 charts \(max_charts\)"):
         capped = gt.convert(fandisk.mesh, max_charts=4)
-    assert capped.stats["chart_cap_hit"] == 1 and capped.stats["vsa_charts"] == 4
+    assert capped.stats["charts_capped"] == 1 and capped.stats["vsa_charts"] == 4
     assert capped.stats["vsa_mean_error"] > 0.1
-    assert fandisk.gts.stats["chart_cap_hit"] == 0
+    assert fandisk.gts.stats["charts_capped"] == 0
     # An exact chart count is what was asked for: no cap.
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        assert gt.convert(fandisk.mesh, charts=4).stats["chart_cap_hit"] == 0
+        assert gt.convert(fandisk.mesh, charts=4).stats["charts_capped"] == 0
+        # The cone partition has no cap to hit.
+        assert gt.convert(fandisk.mesh, partition="cone").stats["charts_capped"] == 0
 
 
 @pytest.mark.parametrize(("keywords", "message"), [

@@ -130,6 +130,9 @@ def convert(
     max_error: float | None = None,
     max_error_rel: float | None = None,
     error_scope: Literal["set", "chart"] | None = None,
+    partition: Literal["cone", "vsa"] | None = None,
+    cone_angle: float | None = None,
+    chart_size: float | None = None,
     charts: int | None = None,
     chart_error: float | None = None,
     max_charts: int | None = None,
@@ -165,6 +168,20 @@ def convert(
         with the fewest bytes: charts whose tail (a crease, a steep rim) would be dear to remove
         keep it while cheaper charts get finer. ``"chart"`` bounds every chart's own error,
         which costs more where charts differ.
+    partition: how the mesh is cut into charts. ``"vsa"`` (default): the paper's Variational Shape
+        Approximation, driven by ``chart_error`` or ``charts`` (the keywords below). ``"cone"``:
+        each chart grows from a seed while its face normals stay within ``cone_angle`` degrees
+        (default 60) of one axis, so no face comes near folding, and within ``chart_size``
+        (default 0.1) of the bounding-box diagonal from its seed; VSA's L2,1 error only orders
+        the faces a chart takes, a chart turns away faces that would lie over or under its
+        surface (a second sheet), and small charts merge into a neighbour while the cone and
+        size still fit. No cap, no folding repair, linear time (see bench/partition.py).
+        ``stats["charts_capped"]`` is 1 when ``max_charts`` stopped VSA before its target
+        (a warning is also issued).
+    cone_angle: half-angle of a cone chart's normal cone, degrees, in (0, 85].
+    chart_size: largest distance from a cone chart's seed to its faces, as a fraction of the
+        bounding-box diagonal; without ``max_error`` the largest chart sets every patch's
+        texel, so smaller charts mean finer texels and more bytes.
     charts: exact VSA chart count; by default charts are added until the area-weighted mean
         L2,1 error ``sum(area |n - N|^2) / sum(area)`` is at most ``chart_error`` (0.1 by
         default; with ``max_error`` and neither ``charts`` nor ``chart_error`` given, 0.1, 0.2
@@ -189,7 +206,7 @@ def convert(
         with a coarser texel (scaled by the square root of the excess) until they fit, at most
         6 times (``stats["max_bytes_coarsenings"]``); not with ``max_error``. If they still do
         not fit, ``stats["max_bytes_exceeded"]`` is 1 and a :class:`CapWarning` says so, as it
-        does when VSA stops at ``max_charts`` above its error target (``stats["chart_cap_hit"]``).
+        does when VSA stops at ``max_charts`` above its error target (``stats["charts_capped"]``).
     progress: True for a tqdm bar, or ``callback(stage, fraction)``; returning False cancels.
 
     The work runs in Rust on all cores with the GIL released.
@@ -201,7 +218,8 @@ def convert(
         ("dilation", dilation), ("height_bits", height_bits), ("max_bytes", max_bytes)]}
     reals = {name: _number(name, value, float) for name, value in [
         ("texel_size", texel_size), ("max_error", max_error), ("max_error_rel", max_error_rel),
-        ("chart_error", chart_error), ("compactness", compactness), ("crease_angle", crease_angle)]}
+        ("chart_error", chart_error), ("compactness", compactness), ("crease_angle", crease_angle),
+        ("cone_angle", cone_angle), ("chart_size", chart_size)]}
     callback: ProgressCallback | None
     bar = None
     if progress is True:
@@ -221,8 +239,8 @@ def convert(
     else:
         raise ParameterError(f"progress must be True, False, None or a callable, got {progress!r}")
     try:
-        gts = _core.convert(m, **integers, **reals, error_scope=error_scope, frame=frame,
-                            normals=normals, progress=callback)
+        gts = _core.convert(m, **integers, **reals, error_scope=error_scope, partition=partition,
+                            frame=frame, normals=normals, progress=callback)
     finally:
         if bar is not None:
             bar.close()
@@ -232,10 +250,10 @@ def convert(
 
 def _warn_caps(stats: dict[str, Any]) -> None:
     """A CapWarning for each cap the conversion hit (never silent)."""
-    if stats.get("chart_cap_hit"):
-        warnings.warn(f"the partition stopped at {stats['vsa_charts']} charts (max_charts) with mean "
-                      f"L2,1 error {stats['vsa_mean_error']:.3g}, above its target; "
-                      f"stats['chart_cap_hit'] is 1", CapWarning, stacklevel=3)
+    if stats.get("charts_capped"):
+        warnings.warn(f"the partition stopped at {stats['vsa_charts']:.0f} charts (max_charts) with mean "
+                      f"L2,1 error {stats['vsa_mean_error']:.3g}, above its target {stats['chart_error']:.3g}; "
+                      "stats['charts_capped'] is 1 (partition='cone' has no cap to hit)", CapWarning, stacklevel=3)
     if stats.get("max_bytes_exceeded"):
         warnings.warn(f"the maps take {stats['bytes']} bytes, over max_bytes={stats['max_bytes']}, "
                       f"after {stats['max_bytes_coarsenings']} coarser texels; "

@@ -17,6 +17,7 @@ __all__ = [
 __version__: str
 
 _ErrorScope = Literal["set", "chart"]
+_Partition = Literal["cone", "vsa"]
 _InPlane = Literal["min_area", "pca"]
 _NormalSource = Literal["crease", "smooth", "flat"]
 _HeightBits = Literal[8, 16]
@@ -137,6 +138,9 @@ def convert(
     max_error: float | None = None,
     max_error_rel: float | None = None,
     error_scope: _ErrorScope | None = None,
+    partition: _Partition | None = None,
+    cone_angle: float | None = None,
+    chart_size: float | None = None,
     charts: int | None = None,
     chart_error: float | None = None,
     max_charts: int | None = None,

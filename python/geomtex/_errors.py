@@ -30,7 +30,7 @@ from ._core import (
 
 class CapWarning(UserWarning):
     """A conversion hit a cap: VSA stopped at ``max_charts`` above its chart-error target
-    (``stats["chart_cap_hit"]``), or the maps still exceed ``max_bytes`` after the texel was
+    (``stats["charts_capped"]``), or the maps still exceed ``max_bytes`` after the texel was
     coarsened (``stats["max_bytes_exceeded"]``)."""
 
 

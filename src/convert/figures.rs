@@ -16,6 +16,8 @@ pub struct StageFigures {
     pub degenerate_faces: usize,
     pub vsa_charts: usize,
     pub vsa_mean_error: f64,
+    /// The chart cap stopped the partition before its target.
+    pub charts_capped: bool,
     pub repair_splits: usize,
     pub folding_before: Folding,
     pub ring_faces_skipped: usize,
@@ -93,7 +95,7 @@ fn chart_figures(
     set: &GeometryTextureSet,
     figures: &StageFigures,
     after: Folding,
-) -> [(&'static str, f64); 11] {
+) -> [(&'static str, f64); 14] {
     let before = figures.folding_before;
     let ring_faces: usize = set.patches.iter().map(|p| p.ring_faces.len()).sum();
     [
@@ -101,6 +103,9 @@ fn chart_figures(
         ("vsa_charts", figures.vsa_charts as f64),
         ("vsa_mean_error", figures.vsa_mean_error),
         ("chart_error", opts.chart_error_target()),
+        ("charts_capped", f64::from(u8::from(figures.charts_capped))),
+        ("cone_angle", opts.cone_angle),
+        ("chart_size", opts.chart_size),
         ("repair_splits", figures.repair_splits as f64),
         ("folding_charts", after.charts as f64),
         ("inverted_triangles", after.inverted_faces as f64),

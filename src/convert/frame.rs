@@ -94,7 +94,7 @@ pub fn choose_z(geo: &MeshGeometry, faces: &[u32]) -> (DVec3, f64) {
 }
 
 /// Any unit vector perpendicular to z, chosen stably.
-fn perpendicular(z: DVec3) -> DVec3 {
+pub fn perpendicular(z: DVec3) -> DVec3 {
     let helper = if z.x.abs() < 0.9 { DVec3::X } else { DVec3::Y };
     (helper - z * helper.dot(z)).normalize()
 }

@@ -1,10 +1,11 @@
 //! Mesh → geometry textures, one call per stage:
-//! geometry (winding, degenerate faces) → partition (VSA) → folding repair → overlap rings →
+//! geometry (winding, degenerate faces) → partition (cone or VSA) → folding repair → overlap rings →
 //! frames → resolution (texel sizes) → raster (with reconstruction error) → dilation → stats.
 //!
 //! Space: world (the mesh's coordinates, f64) in, patch boxes in world out.
 
 pub mod accuracy;
+pub mod cone;
 pub mod draw;
 pub mod figures;
 pub mod frame;
@@ -21,7 +22,9 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-pub use options::{ConvertArgs, ConvertOptions, ErrorScope, InPlane, NormalRule, NormalSource};
+pub use options::{
+    ConvertArgs, ConvertOptions, ErrorScope, InPlane, NormalRule, NormalSource, PartitionMethod,
+};
 pub use progress::Progress;
 
 use crate::error::{GeomtexError, Result};
@@ -36,9 +39,10 @@ use overlap::Ring;
 use progress::{each_chart, Stages};
 use repair::Folding;
 
-/// Converts a mesh to geometry textures. With `max_error` and neither `chart_error` nor
-/// `charts`, each of `ERROR_DRIVEN_CHART_ERRORS` partitions the mesh once and the set within
-/// the bound with the fewest bytes wins (or the most accurate, if none is).
+/// Converts a mesh to geometry textures. With the VSA partition, `max_error` and neither
+/// `chart_error` nor `charts`, each of `ERROR_DRIVEN_CHART_ERRORS` partitions the mesh once and
+/// the set within the bound with the fewest bytes wins (or the most accurate, if none is); the
+/// progress of those runs is reported as one stage, "partition", that only moves forward.
 pub fn convert(
     mesh: &Mesh,
     opts: &ConvertOptions,
@@ -89,17 +93,26 @@ fn convert_any(
     opts: &ConvertOptions,
     progress: Progress,
 ) -> Result<GeometryTextureSet> {
-    if !opts.error_driven() || opts.chart_error.is_some() || opts.charts.is_some() {
+    if opts.partition != PartitionMethod::Vsa
+        || !opts.error_driven()
+        || opts.chart_error.is_some()
+        || opts.charts.is_some()
+    {
         return convert_once(mesh, opts, progress);
     }
     let start = Instant::now();
     let mut best: Option<GeometryTextureSet> = None;
-    for tolerance in ERROR_DRIVEN_CHART_ERRORS {
+    let runs = ERROR_DRIVEN_CHART_ERRORS.len();
+    let reported = std::sync::Mutex::new(0.0);
+    for (run, tolerance) in ERROR_DRIVEN_CHART_ERRORS.into_iter().enumerate() {
         let o = ConvertOptions {
             chart_error: Some(tolerance),
             ..opts.clone()
         };
-        let set = convert_once(mesh, &o, progress)?;
+        let share = |stage: &str, fraction: f64| {
+            progress::share_of_runs(&progress, &reported, (run, runs), stage, fraction)
+        };
+        let set = convert_once(mesh, &o, Progress::new(&share, progress.cancel))?;
         if best
             .as_ref()
             .is_none_or(|b| preference(&set) < preference(b))
@@ -113,6 +126,7 @@ fn convert_any(
     best.stats
         .seconds
         .push(("all_partitions".into(), start.elapsed().as_secs_f64()));
+    progress.report("done", 1.0)?;
     Ok(best)
 }
 
@@ -178,6 +192,7 @@ struct Charted {
     rings: Vec<Ring>,
     vsa_charts: usize,
     vsa_mean_error: f64,
+    charts_capped: bool,
     repair_splits: usize,
     folding_before: Folding,
 }
@@ -190,7 +205,12 @@ fn chart_stages(
 ) -> Result<Charted> {
     let (mesh, geo) = (prepared.mesh.as_ref(), &prepared.geo);
     stages.begin("partition")?;
-    let partition = vsa::partition_mesh(geo, &prepared.active, opts, stages.progress.cancel)?;
+    let partition = match opts.partition {
+        PartitionMethod::Cone => {
+            cone::partition_mesh(geo, &prepared.active, opts, stages.progress)?
+        }
+        PartitionMethod::Vsa => vsa::partition_mesh(geo, &prepared.active, opts, stages.progress)?,
+    };
     stages.end("partition");
 
     stages.begin("repair")?;
@@ -211,6 +231,7 @@ fn chart_stages(
         rings,
         vsa_charts,
         vsa_mean_error: partition.mean_error,
+        charts_capped: partition.capped,
         repair_splits: repaired.splits,
         folding_before,
     })
@@ -316,6 +337,7 @@ fn convert_once(
         degenerate_faces: mesh.faces.len() - prepared.active.len(),
         vsa_charts: charted.vsa_charts,
         vsa_mean_error: charted.vsa_mean_error,
+        charts_capped: charted.charts_capped,
         repair_splits: charted.repair_splits,
         folding_before: charted.folding_before,
         ring_faces_skipped,
@@ -344,11 +366,6 @@ fn convert_once(
         stats: Default::default(),
     };
     set.stats = figures::stats(mesh, geo, opts, &set, figures);
-    // The chart cap stopped VSA short of its error target: said, never silent.
-    let capped = opts.charts.is_none()
-        && charted.vsa_charts >= opts.max_charts
-        && charted.vsa_mean_error > opts.chart_error_target();
-    set.stats.set("chart_cap_hit", capped as u8 as f64);
     set.stats.seconds = stages.into_seconds();
     set.validate()
         .map_err(|e| GeomtexError::Internal(format!("conversion made an impossible set: {e}")))?;

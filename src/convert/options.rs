@@ -43,6 +43,20 @@ pub const DEFAULT_CHART_ERROR: f64 = 0.1;
 /// faces drawn twice) often cost fewer bytes; sharp-creased CAD models still want the finest.
 pub const ERROR_DRIVEN_CHART_ERRORS: [f64; 3] = [0.1, 0.2, 0.3];
 
+/// How the mesh is cut into charts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PartitionMethod {
+    /// Charts as large as a normal cone of `cone_angle` and `chart_size` allow (`cone.rs`).
+    Cone,
+    /// The paper's Variational Shape Approximation, driven by `chart_error` or `charts`.
+    Vsa,
+}
+
+/// Half-angle of a cone chart's normal cone when none is given, degrees.
+pub const DEFAULT_CONE_ANGLE: f64 = 60.0;
+/// Largest distance from a cone chart's seed, as a fraction of the diagonal, when none is given.
+pub const DEFAULT_CHART_SIZE: f64 = 0.1;
+
 /// Keywords of `convert`. `Default` gives the documented defaults, the only place they are set.
 #[derive(Clone, Debug)]
 pub struct ConvertOptions {
@@ -60,6 +74,14 @@ pub struct ConvertOptions {
     pub max_error_rel: Option<f64>,
     /// Whose error `max_error` bounds.
     pub error_scope: ErrorScope,
+    /// How the mesh is cut into charts.
+    pub partition: PartitionMethod,
+    /// Cone partition: largest angle, in degrees, between a chart's face normal and its cone's
+    /// axis; in (0, 85], below 90 so no face comes near inverting.
+    pub cone_angle: f64,
+    /// Cone partition: largest distance from a chart's seed to its faces, as a fraction of the
+    /// bounding-box diagonal (the largest chart sets the texel without `max_error`).
+    pub chart_size: f64,
     /// Exact chart count for VSA (before folding repair). `None`: driven by `chart_error`.
     pub charts: Option<usize>,
     /// Target area-weighted mean L2,1 error of VSA, sum(area |n - N|^2) / sum(area).
@@ -95,6 +117,9 @@ impl Default for ConvertOptions {
             max_error: None,
             max_error_rel: None,
             error_scope: ErrorScope::Set,
+            partition: PartitionMethod::Vsa,
+            cone_angle: DEFAULT_CONE_ANGLE,
+            chart_size: DEFAULT_CHART_SIZE,
             charts: None,
             chart_error: None,
             max_charts: 4096,
@@ -198,8 +223,20 @@ impl ConvertOptions {
         Ok(())
     }
 
-    /// The keywords of VSA.
+    /// The keywords of the partitions.
     fn validate_partition(&self) -> Result<()> {
+        if !(self.cone_angle.is_finite() && self.cone_angle > 0.0 && self.cone_angle <= 85.0) {
+            return parameter(format!(
+                "cone_angle must be in (0, 85] degrees, got {}",
+                self.cone_angle
+            ));
+        }
+        if !(self.chart_size.is_finite() && self.chart_size > 0.0 && self.chart_size <= 10.0) {
+            return parameter(format!(
+                "chart_size must be in (0, 10] (a fraction of the diagonal), got {}",
+                self.chart_size
+            ));
+        }
         if self.charts == Some(0) {
             return parameter("charts must be at least 1".into());
         }
@@ -234,6 +271,22 @@ impl FromStr for ErrorScope {
     }
 }
 
+impl FromStr for PartitionMethod {
+    type Err = GeomtexError;
+
+    /// "cone" | "vsa".
+    fn from_str(s: &str) -> Result<Self> {
+        parse_choice(
+            "partition",
+            s,
+            &[
+                ("cone", PartitionMethod::Cone),
+                ("vsa", PartitionMethod::Vsa),
+            ],
+        )
+    }
+}
+
 impl FromStr for InPlane {
     type Err = GeomtexError;
 
@@ -256,6 +309,9 @@ pub struct ConvertArgs {
     pub max_error: Option<f64>,
     pub max_error_rel: Option<f64>,
     pub error_scope: Option<ErrorScope>,
+    pub partition: Option<PartitionMethod>,
+    pub cone_angle: Option<f64>,
+    pub chart_size: Option<f64>,
     pub charts: Option<i64>,
     pub chart_error: Option<f64>,
     pub max_charts: Option<i64>,
@@ -308,6 +364,9 @@ impl ConvertArgs {
             max_error: self.max_error,
             max_error_rel: self.max_error_rel,
             error_scope: self.error_scope.unwrap_or(default.error_scope),
+            partition: self.partition.unwrap_or(default.partition),
+            cone_angle: self.cone_angle.unwrap_or(default.cone_angle),
+            chart_size: self.chart_size.unwrap_or(default.chart_size),
             charts: self.charts.map(|c| count("charts", c)).transpose()?,
             chart_error: self.chart_error,
             max_charts: count_or("max_charts", self.max_charts, default.max_charts)?,

@@ -4,6 +4,7 @@
 //! Space: none.
 
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::Mutex;
 use std::time::Instant;
 
 use rayon::prelude::*;
@@ -52,6 +53,42 @@ impl<'a> Progress<'a> {
             Err(GeomtexError::Cancelled(stage.into()))
         }
     }
+}
+
+/// The stages of one conversion in the order they run ("resolution" only with `max_error`).
+pub const STAGE_ORDER: [&str; 8] = [
+    "geometry",
+    "partition",
+    "repair",
+    "overlap",
+    "frame",
+    "resolution",
+    "raster",
+    "dilate",
+];
+
+/// Passes on a report of run `run` of `runs` whole conversions (the partitions an error-driven
+/// VSA conversion tries) to `outer` as stage "partition" at (run + position within the run) /
+/// runs, so the caller's bar only moves forward; a report that would move it back (worker
+/// threads report out of order) is not passed on. `reported` holds the last fraction passed on.
+pub fn share_of_runs(
+    outer: &Progress,
+    reported: &Mutex<f64>,
+    (run, runs): (usize, usize),
+    stage: &str,
+    fraction: f64,
+) -> bool {
+    let position = match STAGE_ORDER.iter().position(|&s| s == stage) {
+        Some(k) => (k as f64 + fraction.clamp(0.0, 1.0)) / STAGE_ORDER.len() as f64,
+        None => 1.0, // "done"
+    };
+    let overall = (run as f64 + position) / runs as f64;
+    let mut last = reported.lock().unwrap_or_else(|p| p.into_inner());
+    if overall < *last {
+        return true;
+    }
+    *last = overall;
+    (outer.callback)("partition", overall)
 }
 
 /// The stages of one conversion as they run: each is reported when it begins and timed until

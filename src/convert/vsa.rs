@@ -14,6 +14,7 @@ use std::collections::BinaryHeap;
 use glam::DVec3;
 
 use super::options::ConvertOptions;
+use super::progress::Progress;
 use crate::cancel::{Cancel, NEVER};
 use crate::error::Result;
 use crate::mesh::{Csr, MeshGeometry};
@@ -135,6 +136,8 @@ impl Partition {
 pub struct MeshPartition {
     pub groups: Vec<Vec<u32>>,
     pub mean_error: f64,
+    /// The chart cap (`max_charts`) stopped VSA before its error target.
+    pub capped: bool,
 }
 
 /// Partitions the mesh's `active` (non-degenerate) faces as the options say.
@@ -142,7 +145,7 @@ pub fn partition_mesh(
     geo: &MeshGeometry,
     active: &[u32],
     opts: &ConvertOptions,
-    cancel: &Cancel,
+    progress: Progress,
 ) -> Result<MeshPartition> {
     let mut scratch = vec![NONE; geo.degenerate.len()];
     let set = FaceSet::new(geo, active, &mut scratch);
@@ -158,11 +161,19 @@ pub fn partition_mesh(
         target,
         opts.lloyd_iterations,
         opts.compactness,
-        cancel,
+        progress,
     )?;
+    let capped = match target {
+        ChartTarget::MeanError {
+            tolerance,
+            max_charts,
+        } => part.proxies.len() >= max_charts && part.mean_error > tolerance,
+        ChartTarget::Count(_) => false,
+    };
     Ok(MeshPartition {
         groups: part.groups(&set),
         mean_error: part.mean_error,
+        capped,
     })
 }
 
@@ -415,13 +426,17 @@ fn initial_seeds(set: &FaceSet, k: usize) -> Vec<u32> {
 ///
 /// `compactness` weighs the squared distance to a chart's centre against the L2,1 error, in units
 /// of the typical chart radius (sqrt(area / charts)); 0 gives plain VSA.
+///
+/// Progress of stage "partition": the charts against the target count, or the error's way down
+/// to its target on a log scale, never moving back.
 pub fn partition(
     set: &FaceSet,
     target: ChartTarget,
     lloyd_iterations: usize,
     compactness: f64,
-    cancel: &Cancel,
+    progress: Progress,
 ) -> Result<Partition> {
+    let cancel = progress.cancel;
     if set.is_empty() {
         return Ok(Partition {
             labels: vec![],
@@ -449,11 +464,23 @@ pub fn partition(
     solver.cancel = cancel;
     solver.compactness = scaled(solver.proxies.len());
     solver.lloyd(3);
+    let mut reported = 0.0f64;
+    let mut first_mean = None;
     loop {
         cancel.check("partitioning the mesh")?;
         let regions = solver.region_errors();
         let mean = regions.iter().map(|r| r.0).sum::<f64>() / total_area;
         let count = solver.proxies.len();
+        let start = *first_mean.get_or_insert(mean);
+        let by_count = count as f64 / want.min(cap) as f64;
+        let by_error = if tolerance > 0.0 && start > tolerance {
+            (start / mean.max(tolerance)).ln() / (start / tolerance).ln()
+        } else {
+            0.0
+        };
+        // The last Lloyd iterations take the final tenth.
+        reported = reported.max(0.9 * by_count.max(by_error).min(1.0));
+        progress.report("partition", reported)?;
         if count >= want.min(cap) || mean <= tolerance {
             break;
         }
@@ -540,7 +567,7 @@ mod tests {
         let all: Vec<u32> = (0..m.faces.len() as u32).collect();
         let mut scratch = vec![NONE; m.faces.len()];
         let set = FaceSet::new(&geo, &all, &mut scratch);
-        let p = partition(&set, ChartTarget::Count(6), 10, 0.0, &NEVER).unwrap();
+        let p = partition(&set, ChartTarget::Count(6), 10, 0.0, Progress::silent()).unwrap();
         assert_eq!(p.proxies.len(), 6);
         for (f, &l) in p.labels.iter().enumerate() {
             assert!(
@@ -565,7 +592,7 @@ mod tests {
             },
             5,
             0.0,
-            &NEVER,
+            Progress::silent(),
         )
         .unwrap();
         assert!(

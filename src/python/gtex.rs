@@ -401,7 +401,8 @@ pub fn load(py: Python<'_>, path: &Bound<'_, PyAny>) -> PyResult<PyGeometryTextu
 /// as None takes the core's default).
 #[pyfunction]
 #[pyo3(signature = (mesh, *, max_resolution = None, texel_size = None, max_error = None,
-    max_error_rel = None, error_scope = None, charts = None, chart_error = None, max_charts = None,
+    max_error_rel = None, error_scope = None, partition = None, cone_angle = None,
+    chart_size = None, charts = None, chart_error = None, max_charts = None,
     compactness = None, lloyd_iterations = None, overlap_rings = None, dilation = None,
     frame = None, normals = None, crease_angle = None, height_bits = None, max_bytes = None,
     progress = None))]
@@ -414,6 +415,9 @@ pub fn convert(
     max_error: Option<f64>,
     max_error_rel: Option<f64>,
     error_scope: Option<&Bound<'_, PyAny>>,
+    partition: Option<&Bound<'_, PyAny>>,
+    cone_angle: Option<f64>,
+    chart_size: Option<f64>,
     charts: Option<i64>,
     chart_error: Option<f64>,
     max_charts: Option<i64>,
@@ -436,6 +440,11 @@ pub fn convert(
         error_scope: opt_text(error_scope, "error_scope")?
             .map(|s| s.parse())
             .transpose()?,
+        partition: opt_text(partition, "partition")?
+            .map(|s| s.parse())
+            .transpose()?,
+        cone_angle,
+        chart_size,
         charts,
         chart_error,
         max_charts,
