@@ -7,16 +7,11 @@
 
 @compute @workgroup_size(64)
 fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
-    let i = id.y * query.counts.z + id.x;
-    if (i >= query.counts.x) {
+    let q = trace_query_ray(id);
+    if (q.index < 0) {
         return;
     }
-    let ray = rays[i];
-    let found = trace_nearest(ray.origin, ray.dir, ray.t_min, hits[i].t, query.counts.y == 1u);
-    if (found.item < 0) {
-        return;
-    }
-    let index = pieces[found.item].patch_index;
-    let surface = gtex_surface(index, ray.origin, ray.dir, found.t);
-    hits[i] = QueryHit(surface.normal, found.t, patches[index].maps.ids.y, 0u, 0u, 0u);
+    let index = pieces[q.found.item].patch_index;
+    let surface = gtex_surface(index, q.ray.origin, q.ray.dir, q.found.t);
+    hits[q.index] = QueryHit(surface.normal, q.found.t, patches[index].maps.ids.y, 0u, 0u, 0u);
 }

@@ -8,16 +8,11 @@
 
 @compute @workgroup_size(64)
 fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
-    let i = id.y * query.counts.z + id.x;
-    if (i >= query.counts.x) {
+    let q = trace_query_ray(id);
+    if (q.index < 0) {
         return;
     }
-    let ray = rays[i];
-    let found = trace_nearest(ray.origin, ray.dir, ray.t_min, hits[i].t, query.counts.y == 1u);
-    if (found.item < 0) {
-        return;
-    }
-    let tri = triangles[found.item];
+    let tri = triangles[q.found.item];
     let normal = normalize(cross(tri.b - tri.a, tri.c - tri.a));
-    hits[i] = QueryHit(normal, found.t, traced.ids.x, 0u, 0u, 0u);
+    hits[q.index] = QueryHit(normal, q.found.t, traced.ids.x, 0u, 0u, 0u);
 }

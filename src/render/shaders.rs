@@ -34,6 +34,7 @@ const HEIGHTFIELD_FUNCTIONS: &str = shader!("heightfield_functions.wgsl");
 const GTEX_PIECE_FUNCTIONS: &str = shader!("gtex_piece_functions.wgsl");
 const RAY_BOX_FUNCTIONS: &str = shader!("ray_box_functions.wgsl");
 const TRACE_FUNCTIONS: &str = shader!("trace_functions.wgsl");
+const QUERY_FUNCTIONS: &str = shader!("query_functions.wgsl");
 const GTEX_TRACE_FUNCTIONS: &str = shader!("gtex_trace_functions.wgsl");
 const MESH_TRACE_FUNCTIONS: &str = shader!("mesh_trace_functions.wgsl");
 const SURFELS_FUNCTIONS: &str = shader!("surfels_functions.wgsl");
@@ -86,6 +87,7 @@ pub fn gtex_trace_rays() -> String {
         RAY_BOX_FUNCTIONS,
         GTEX_PIECE_FUNCTIONS,
         TRACE_FUNCTIONS,
+        QUERY_FUNCTIONS,
         GTEX_TRACE_FUNCTIONS,
         GTEX_TRACE_RAYS,
     ])
@@ -104,6 +106,7 @@ pub fn mesh_trace_rays() -> String {
         QUERY_BINDINGS,
         RAY_BOX_FUNCTIONS,
         TRACE_FUNCTIONS,
+        QUERY_FUNCTIONS,
         MESH_TRACE_FUNCTIONS,
         MESH_TRACE_RAYS,
     ])

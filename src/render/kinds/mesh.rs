@@ -16,7 +16,7 @@ use std::sync::OnceLock;
 use glam::{DMat3, DMat4, DVec3};
 use wgpu::util::DeviceExt;
 
-use super::{DrawCall, FrameView, Kind, Tally, TraceCall, UploadCache};
+use super::{storage_buffer, DrawCall, FrameView, Kind, Tally, TraceCall, UploadCache};
 use crate::error::Result;
 use crate::mesh::{Mesh, MeshGeometry, NormalRule};
 use crate::render::bvh::{Aabb, Bvh};
@@ -132,20 +132,6 @@ fn placed_triangles(mesh: &Mesh, view_from_object: &DMat4) -> (Vec<TraceTriangle
             (triangle, Aabb::of_points([a, b, c]))
         })
         .unzip()
-}
-
-fn storage_buffer(
-    gpu: &Gpu,
-    label: &str,
-    contents: &[u8],
-    usage: wgpu::BufferUsages,
-) -> wgpu::Buffer {
-    gpu.device
-        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some(label),
-            contents,
-            usage,
-        })
 }
 
 /// De-indexed vertices, three per face, with their corners' normals under `rule` and base
@@ -271,16 +257,11 @@ impl Kind for MeshKind {
         let (triangles, boxes) =
             placed_triangles(mesh, &(view_from_world * placed.world_from_object));
         let nodes = tree.refit(&boxes);
-        let storage = wgpu::BufferUsages::STORAGE;
         let settings = MeshTraceGpu { ids: [id, 0, 0, 0] };
-        let settings = storage_buffer(gpu, "mesh trace", bytemuck::bytes_of(&settings), storage);
-        let nodes = storage_buffer(
-            gpu,
-            "triangle hierarchy",
-            bytemuck::cast_slice(&nodes),
-            storage,
-        );
-        let triangles = storage_buffer(gpu, "triangles", bytemuck::cast_slice(&triangles), storage);
+        let device = &gpu.device;
+        let settings = storage_buffer(device, "mesh trace", bytemuck::bytes_of(&settings));
+        let nodes = storage_buffer(device, "triangle hierarchy", bytemuck::cast_slice(&nodes));
+        let triangles = storage_buffer(device, "triangles", bytemuck::cast_slice(&triangles));
         let group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("mesh (tracer)"),
             layout: &self.trace_layout,

@@ -17,6 +17,7 @@ use std::collections::HashMap;
 use std::sync::{Arc, Weak};
 
 use glam::DMat4;
+use wgpu::util::DeviceExt;
 
 use super::camera::Lens;
 use super::cull::DepthRange;
@@ -80,6 +81,15 @@ pub(crate) trait Kind: Send {
 
     /// Drops the uploads of objects that no longer exist.
     fn purge(&mut self);
+}
+
+/// A storage buffer holding `contents`.
+pub(crate) fn storage_buffer(device: &wgpu::Device, label: &str, contents: &[u8]) -> wgpu::Buffer {
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents,
+        usage: wgpu::BufferUsages::STORAGE,
+    })
 }
 
 /// One object's ray-query dispatch, after groups 0 and 2 are bound.

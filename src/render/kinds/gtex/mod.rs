@@ -16,9 +16,8 @@ use std::sync::OnceLock;
 
 use bytemuck::Zeroable;
 use glam::{DMat3, DMat4, DVec3};
-use wgpu::util::DeviceExt;
 
-use super::{DrawCall, FrameView, Kind, Tally, TraceCall, UploadCache};
+use super::{storage_buffer, DrawCall, FrameView, Kind, Tally, TraceCall, UploadCache};
 use crate::error::Result;
 use crate::gtex::GeometryTextureSet;
 use crate::heightfield::min_max_pyramid;
@@ -141,15 +140,6 @@ fn textures_layout(
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some(label),
         entries: &entries,
-    })
-}
-
-/// A storage buffer holding `contents`.
-fn storage_buffer(device: &wgpu::Device, label: &str, contents: &[u8]) -> wgpu::Buffer {
-    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some(label),
-        contents,
-        usage: wgpu::BufferUsages::STORAGE,
     })
 }
 
