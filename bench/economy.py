@@ -35,7 +35,7 @@ import numpy as np
 
 import geomtex as gt
 from geomtex import reference
-from geomtex.testing import look_from
+from geomtex.testing import look_from, noisy_isosurface
 
 REPO = Path(__file__).resolve().parents[1]
 MESH_DIR = REPO.parent / "shared" / "meshes"
@@ -48,17 +48,6 @@ MESHES = ["stanford-bunny", "fandisk", "homer", "rocker-arm", "spot", "teapot"]
 def mesh_bytes(mesh: gt.Mesh) -> int:
     """The mesh as float32 vertices and uint32 faces."""
     return 12 * len(np.asarray(mesh.vertices)) + 12 * len(np.asarray(mesh.faces))
-
-
-def noisy_isosurface() -> gt.Mesh:
-    """pymeshlab's noisy isosurface at resolution 96: the issue's rough surface (188,788 faces,
-    3.4 MB as float32/uint32)."""
-    import pymeshlab
-
-    ms = pymeshlab.MeshSet()
-    ms.create_noisy_isosurface(resolution=96)
-    m = ms.current_mesh()
-    return gt.Mesh(m.vertex_matrix(), m.face_matrix())
 
 
 def load(name: str) -> gt.Mesh:

@@ -48,15 +48,6 @@ PARTITIONS = ("vsa", "cone")
 VIEWS = [(1, 0.4, 0.3), (-0.6, 0.3, 1.0), (0.2, -1.0, 0.5), (0.0, 0.2, -1.0), (-1.0, -0.5, -0.2)]
 
 
-def noisy_isosurface() -> gt.Mesh:
-    import pymeshlab
-
-    ms = pymeshlab.MeshSet()
-    ms.create_noisy_isosurface(resolution=96)
-    m = ms.current_mesh()
-    return gt.Mesh(m.vertex_matrix(), m.face_matrix())
-
-
 def displaced_icosphere() -> gt.Mesh:
     import trimesh
 
@@ -69,7 +60,7 @@ def displaced_icosphere() -> gt.Mesh:
 def meshes(names: list[str] | None) -> dict[str, Any]:
     """Name -> a function making the mesh, filtered by substrings of the names."""
     out: dict[str, Any] = {p.stem: (lambda p=p: gt.load_mesh(p)) for p in sorted(MESH_DIR.glob("*.obj"))}
-    out["noisy-isosurface"] = noisy_isosurface
+    out["noisy-isosurface"] = testing.noisy_isosurface
     out["displaced-icosphere"] = displaced_icosphere
     if names:
         out = {k: v for k, v in out.items() if any(n in k for n in names)}
@@ -136,18 +127,12 @@ print(wall, before, after, gts.stats["charts"], dict(gts.stats["seconds"])["part
 
 def bench_big() -> list[dict[str, Any]]:
     """The loop-subdivided bunny, each partition converted in a child process (peak RSS)."""
-    import pymeshlab
-
-    ms = pymeshlab.MeshSet()
-    ms.load_new_mesh(str(MESH_DIR / "stanford-bunny.obj"))
-    while ms.current_mesh().face_number() < 1_000_000:
-        ms.meshing_surface_subdivision_loop(iterations=1, threshold=pymeshlab.PercentageValue(0))
-    m = ms.current_mesh()
-    faces = m.face_number()
+    big = testing.subdivided(gt.load_mesh(MESH_DIR / "stanford-bunny.obj"), 1_000_000)
+    faces = big.n_faces
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "big.npz"
-        np.savez(path, v=m.vertex_matrix(), f=m.face_matrix())
+        np.savez(path, v=big.vertices, f=big.faces)
         for partition in PARTITIONS:
             out = subprocess.run([sys.executable, "-c", CHILD, str(path), partition], check=True,
                                  capture_output=True, text=True).stdout.split()

@@ -37,6 +37,7 @@ import numpy as np
 
 import geomtex as gt
 from geomtex import reference
+from render import dense_bunny  # type: ignore[import-not-found]
 
 REPO = Path(__file__).resolve().parents[1]
 BUNNY = REPO.parent / "shared" / "meshes" / "stanford-bunny.obj"
@@ -49,17 +50,6 @@ DEFAULT_ERROR = 1.0
 # The default tile (the paper's 64/16/4/1) with every error; a 32-texel tile (six levels, down to
 # one surfel per 1024 texels) at the default error, to show what coarser top levels buy far away.
 TILES = (8, 32)
-
-
-def subdivided(path: Path, iterations: int) -> gt.Mesh:
-    import pymeshlab
-
-    ms = pymeshlab.MeshSet()
-    ms.load_new_mesh(str(path))
-    # threshold 0: subdivide every edge (the default skips edges shorter than 1% of the diagonal)
-    ms.meshing_surface_subdivision_loop(iterations=iterations, threshold=pymeshlab.PercentageValue(0.0))
-    m = ms.current_mesh()
-    return gt.Mesh(m.vertex_matrix(), m.face_matrix())
 
 
 def camera(mesh: gt.Mesh, fraction: float) -> gt.Camera:
@@ -246,7 +236,7 @@ def main() -> None:
     errors = (0.5, 1.0, 2.0) if args.quick else ERRORS
     meshes = {"bunny": lambda: gt.load_mesh(BUNNY)}
     if not args.quick:
-        meshes["bunny_loop2"] = lambda: subdivided(BUNNY, 2)
+        meshes["bunny_loop2"] = lambda: dense_bunny(BUNNY, 2)
     states = {name: prepare(make()) for name, make in meshes.items()}
     rows: dict[str, list[dict[str, Any]]] = {name: [] for name in states}
     # Distance by distance, every mesh in turn: the meshes' timings at one coverage are taken

@@ -11,7 +11,7 @@ import pytest
 
 import geomtex as gt
 from geomtex import reference
-from geomtex.testing import look_from
+from geomtex.testing import look_from, noisy_isosurface
 
 from conftest import Converted, converted
 
@@ -73,16 +73,6 @@ def test_the_adapter_holds_about_the_maps(bunny: Converted) -> None:
     frame = r.render(bunny.gts, look_from(bunny.mesh, (0, 0, 1)))
     ratio = frame.stats["texture_bytes"] / bunny.gts.stats["bytes"]
     assert 1.0 < ratio <= 1.8, ratio  # measured 1.63 (Stanford scan)
-
-
-def noisy_isosurface() -> gt.Mesh:
-    """The issue's rough surface: pymeshlab's noisy isosurface at resolution 96 (188,788 faces)."""
-    import pymeshlab
-
-    ms = pymeshlab.MeshSet()
-    ms.create_noisy_isosurface(resolution=96)
-    m = ms.current_mesh()
-    return gt.Mesh(m.vertex_matrix(), m.face_matrix())
 
 
 def test_a_set_past_one_binding_of_pyramid_renders() -> None:

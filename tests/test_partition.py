@@ -20,11 +20,8 @@ BUNNY_CONE = RenderBounds(iou=0.997, depth_median=1e-5, depth_p99=3.5e-4, depth_
 @pytest.fixture(scope="module")
 def noisy() -> gt.Mesh:
     """pymeshlab's noisy isosurface at resolution 64 (57,838 faces)."""
-    pymeshlab = pytest.importorskip("pymeshlab")
-    ms = pymeshlab.MeshSet()
-    ms.create_noisy_isosurface(resolution=64)
-    m = ms.current_mesh()
-    return gt.Mesh(m.vertex_matrix(), m.face_matrix())
+    pytest.importorskip("pymeshlab")
+    return testing.noisy_isosurface(resolution=64)
 
 
 def test_noise_does_not_multiply_cone_charts_and_none_fold(noisy: gt.Mesh) -> None:

@@ -15,14 +15,13 @@
 //!
 //! Space: face normals (unit vectors) and centroids in world space.
 
-use std::cmp::Ordering;
 use std::collections::{BinaryHeap, HashMap};
 
 use glam::{DVec2, DVec3};
 
 use super::options::ConvertOptions;
 use super::progress::Progress;
-use super::vsa::{MeshPartition, NONE};
+use super::vsa::{Candidate, MeshPartition, NONE};
 use crate::error::Result;
 use crate::mesh::MeshGeometry;
 
@@ -65,27 +64,6 @@ impl ConeLimits {
             half_angle: opts.cone_angle.to_radians(),
             radius: (opts.chart_size * diagonal).max(f64::MIN_POSITIVE),
         }
-    }
-}
-
-#[derive(PartialEq)]
-struct Candidate {
-    cost: f64,
-    face: u32,
-}
-impl Eq for Candidate {}
-impl Ord for Candidate {
-    fn cmp(&self, other: &Self) -> Ordering {
-        // Reversed: BinaryHeap is a max-heap and we pop the cheapest first.
-        other
-            .cost
-            .total_cmp(&self.cost)
-            .then_with(|| other.face.cmp(&self.face))
-    }
-}
-impl PartialOrd for Candidate {
-    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
-        Some(self.cmp(other))
     }
 }
 
@@ -159,7 +137,7 @@ struct Grower<'a> {
     labels: Vec<u32>,
     axes: Vec<DVec3>,
     balls: Vec<Ball>,
-    heap: BinaryHeap<Candidate>,
+    heap: BinaryHeap<Candidate<()>>,
     /// Faces a chart turned away: the next seeds, so charts tile outwards from the first.
     rejected: Vec<u32>,
     /// Scratch for `seed_axis`.
@@ -251,7 +229,11 @@ impl Grower<'_> {
         for &nb in self.geo.face_neighbors.row(f as usize) {
             if self.labels[nb as usize] == NONE {
                 let cost = self.cost(nb as usize, origin, axis);
-                self.heap.push(Candidate { cost, face: nb });
+                self.heap.push(Candidate {
+                    cost,
+                    face: nb,
+                    chart: (),
+                });
             }
         }
     }

@@ -177,23 +177,26 @@ pub fn partition_mesh(
     })
 }
 
+/// A face offered to a growing chart: popped cheapest first from a `BinaryHeap` (a max-heap),
+/// ties broken by face index so growth is deterministic; `chart` is what the face would join.
+/// Shared by VSA's flooding and the cone partition (cone.rs).
 #[derive(PartialEq)]
-struct Candidate {
-    error: f64,
-    face: u32,
-    proxy: u32,
+pub(super) struct Candidate<T> {
+    pub cost: f64,
+    pub face: u32,
+    pub chart: T,
 }
-impl Eq for Candidate {}
-impl Ord for Candidate {
+impl<T: PartialEq> Eq for Candidate<T> {}
+impl<T: PartialEq> Ord for Candidate<T> {
     fn cmp(&self, other: &Self) -> Ordering {
-        // Reversed: BinaryHeap is a max-heap and we pop the smallest error first.
+        // Reversed: BinaryHeap is a max-heap and we pop the cheapest first.
         other
-            .error
-            .total_cmp(&self.error)
+            .cost
+            .total_cmp(&self.cost)
             .then_with(|| other.face.cmp(&self.face))
     }
 }
-impl PartialOrd for Candidate {
+impl<T: PartialEq> PartialOrd for Candidate<T> {
     fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
         Some(self.cmp(other))
     }
@@ -208,7 +211,7 @@ struct Solver<'a> {
     centres: Vec<DVec3>,
     seeds: Vec<u32>,
     labels: Vec<u32>,
-    heap: BinaryHeap<Candidate>,
+    heap: BinaryHeap<Candidate<u32>>,
     /// Polled before every Lloyd iteration (one flood of the mesh, ~0.2 s on 330k faces).
     cancel: &'a Cancel,
 }
@@ -248,11 +251,10 @@ impl<'a> Solver<'a> {
     fn push_neighbors(&mut self, f: u32, proxy: u32) {
         for &nb in self.set.neighbors.row(f as usize) {
             if self.labels[nb as usize] == NONE {
-                let error = self.cost(nb as usize, proxy as usize);
                 self.heap.push(Candidate {
-                    error,
+                    cost: self.cost(nb as usize, proxy as usize),
                     face: nb,
-                    proxy,
+                    chart: proxy,
                 });
             }
         }
@@ -276,8 +278,8 @@ impl<'a> Solver<'a> {
             if self.labels[c.face as usize] != NONE {
                 continue;
             }
-            self.labels[c.face as usize] = c.proxy;
-            self.push_neighbors(c.face, c.proxy);
+            self.labels[c.face as usize] = c.chart;
+            self.push_neighbors(c.face, c.chart);
         }
     }
 

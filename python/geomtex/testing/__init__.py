@@ -17,6 +17,7 @@ from .shapes import (
                      grid_mesh,
                      height_field,
                      horizon_stack,
+                     noisy_isosurface,
                      subdivided,
                      wavy_sheet,
 )
@@ -34,6 +35,7 @@ __all__ = [
     "height_field",
     "horizon_stack",
     "look_from",
+    "noisy_isosurface",
     "punch_holes",
     "similar",
     "soup",
