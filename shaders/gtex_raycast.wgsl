@@ -1,8 +1,8 @@
 // Entry points of the geometry-texture raster pass: each visible patch's box is drawn (back
 // faces, so a camera inside a box still gets fragments) and the fragment shader searches the
 // pixel's ray through the patch's height map, the whole box as one piece
-// (gtex_piece_functions.wgsl, shared with the tracer). Rasterizing whole boxes measured faster
-// on lavapipe than tracing camera rays through the hierarchy (see bench/README.md).
+// (gtex_piece_functions.wgsl, shared with the tracer). Every box over a pixel starts a search;
+// the tiled pass (gtex_tiles.wgsl, the default) searches them front to back instead.
 //
 // Spaces: view (camera-relative, see camera_types.wgsl) and patch-local, where the patch's box is
 // the unit cube, x/y are texture u/v and z is height.
@@ -28,37 +28,15 @@ fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) instance
     return VsOut(camera.clip_from_view * view, instance);
 }
 
-struct FsOut {
-    @location(0) color: vec4<f32>,
-    @location(1) normal: vec4<f32>,
-    @location(2) id: i32,
-    // The unshaded base color.
-    @location(3) albedo: vec4<f32>,
-    @builtin(frag_depth) depth: f32,
-}
-
 @fragment
 fn fs_main(in: VsOut) -> FsOut {
     // The whole box, searched from the pyramid's top level.
     let piece = PatchBox(vec3<f32>(0.0), in.patch_index, vec3<f32>(1.0), 31u);
     let ray = camera_ray(camera, in.position.xy);
     let t_hit = piece_search(piece, ray.origin, ray.dir, camera.params.y, 3.0e38);
-    if (COUNT_FETCHES) {
-        atomicAdd(&counters[0], fetches);
-    }
-    if (searches > 0u) {
-        atomicAdd(&counters[1], 1u);
-    }
+    count_work();
     if (t_hit < 0.0) {
         discard;
     }
-    let surface = gtex_surface(piece.patch_index, ray.origin, ray.dir, t_hit);
-    var out: FsOut;
-    out.color = vec4<f32>(headlight(camera, surface.color.rgb, surface.normal, ray.dir), surface.color.a);
-    out.normal = vec4<f32>(surface.normal, 0.0);
-    out.id = patches[piece.patch_index].maps.ids.y;
-    out.albedo = surface.color;
-    // View distance along -Z equals t for both projections (camera_ray's directions have z = -1).
-    out.depth = depth_from_distance(camera, t_hit);
-    return out;
+    return gtex_fragment(piece.patch_index, ray, t_hit);
 }

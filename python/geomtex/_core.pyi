@@ -306,6 +306,7 @@ class Renderer:
         background: npt.ArrayLike | None = None,
         light: Any | None = None,
         max_pixel_error: _Real | None = None,
+        primary: Literal["tiles", "boxes"] | None = None,
     ) -> Frame: ...
     def intersect(
         self,

@@ -61,7 +61,7 @@ class ViewState:
     #: Camera distance from the box centre, in bounding-box diagonals.
     distance: float = 1.3
     yfov_deg: float = 40.0
-    quality: str = "balanced"
+    quality: str = "exact"
     lod: bool = False
     shading: str = "shaded"
     compare: str = "textures"

@@ -455,17 +455,19 @@ impl PyRenderer {
 
     /// Renders a Scene, a GeometryTextureSet or a Mesh seen by `camera`.
     ///
-    /// `quality` picks measured settings ("fast", "balanced" (default) or "exact"); `method`
+    /// `quality` picks measured settings ("fast", "balanced" or "exact", the default); `method`
     /// and the step keywords override them. `count_fetches` uses a counting build of the pipeline
     /// and reports height fetches in `frame.stats`. `lod` (max-pyramid search only) stops each
     /// patch's descent where its nodes are about a pixel. `light` (a DirectionalLight or a
     /// PointLight) casts shadows: `frame.shadow`, and shadowed pixels at half brightness.
     /// `max_pixel_error` (Surfels only, default 1): each tile draws its coarsest level whose
-    /// perpendicular error projects to at most this many pixels.
+    /// perpendicular error projects to at most this many pixels. `primary` ("tiles", default, or
+    /// "boxes") picks how camera rays meet the texture sets' boxes: per pixel nearest first,
+    /// stopping behind the nearest hit, or every box over a pixel searched.
     #[pyo3(signature = (obj, camera, *, quality = None, method = None, steps_per_texel = None,
         min_linear_steps = None, max_linear_steps = None, binary_steps = None,
         max_traversal_steps = None, count_fetches = None, lod = None, background = None,
-        light = None, max_pixel_error = None))]
+        light = None, max_pixel_error = None, primary = None))]
     #[allow(clippy::too_many_arguments)] // one per keyword of Renderer.render
     fn render(
         &self,
@@ -484,6 +486,7 @@ impl PyRenderer {
         background: Option<&Bound<'_, PyAny>>,
         light: Option<&Bound<'_, PyAny>>,
         max_pixel_error: Option<&Bound<'_, PyAny>>,
+        primary: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<PyFrame> {
         let steps = 0..=i64::from(u32::MAX);
         let search = SearchOverrides {
@@ -499,6 +502,7 @@ impl PyRenderer {
             count_fetches: opt_flag(count_fetches, "count_fetches")?,
             lod: opt_flag(lod, "lod")?,
             max_pixel_error: opt_real(max_pixel_error, "max_pixel_error")?.map(|v| v as f32),
+            primary: opt_text(primary, "primary")?.map(|p| p.parse()).transpose()?,
         }
         .resolve()?;
         let camera = camera

@@ -5,7 +5,7 @@
 
 use crate::gtex::StatValue;
 
-use super::search::Method;
+use super::search::{Method, Primary};
 
 /// One rendered image, row-major with row 0 at the top.
 pub struct Frame {
@@ -34,6 +34,8 @@ pub struct Frame {
     pub near: f64,
     /// The height-map search the frame was drawn with.
     pub method: Method,
+    /// How camera rays met the texture sets' boxes.
+    pub primary: Primary,
     /// Height-map searches the tracer started (one per box a ray entered before its nearest hit).
     pub searches: u64,
     /// With `count_fetches`: height-map and pyramid reads.
@@ -117,6 +119,7 @@ impl Frame {
             ("texture_bytes", StatValue::Int(self.texture_bytes as i64)),
             ("near", StatValue::Float(self.near)),
             ("method", StatValue::Text(self.method.as_str())),
+            ("primary", StatValue::Text(self.primary.as_str())),
             ("covered_pixels", count(covered)),
             ("searches", StatValue::Int(self.searches as i64)),
             ("searches_per_pixel", per_pixel(self.searches)),
@@ -177,6 +180,7 @@ mod tests {
             texture_bytes: 0,
             near: 0.25,
             method: Method::MaxMip,
+            primary: Primary::Tiles,
             searches: 0,
             fetches,
             shadow: None,
@@ -197,6 +201,7 @@ mod tests {
             "texture_bytes",
             "near",
             "method",
+            "primary",
             "covered_pixels",
             "searches",
             "searches_per_pixel",
@@ -204,7 +209,7 @@ mod tests {
         assert_eq!(names(&frame(None)), plain);
         let counted = frame(Some(30));
         assert_eq!(
-            names(&counted)[11..],
+            names(&counted)[12..],
             ["fetches", "fetches_per_pixel", "fetches_per_search"]
         );
         let stats = counted.stats();
@@ -212,7 +217,7 @@ mod tests {
         assert_eq!(stats[2].1, StatValue::Int(3));
         assert_eq!(stats[7].1, StatValue::Text("maxmip"));
         // Nothing covered and no searches: the figures divide by one, not zero.
-        assert_eq!(stats[12].1, StatValue::Float(30.0));
         assert_eq!(stats[13].1, StatValue::Float(30.0));
+        assert_eq!(stats[14].1, StatValue::Float(30.0));
     }
 }

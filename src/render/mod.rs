@@ -36,7 +36,7 @@ pub use device::Gpu;
 pub use frame::{Frame, SurfelCounts};
 pub use query::RayHits;
 pub use scene::{Object, Scene, SceneObject};
-pub use search::{Method, Quality, SearchOptions, SearchOverrides};
+pub use search::{Method, Primary, Quality, SearchOptions, SearchOverrides};
 pub use shadow::Light;
 
 use crate::error::{GeomtexError, Result};
@@ -282,6 +282,7 @@ impl Renderer {
             texture_bytes: tally.texture_bytes,
             near: lens.near,
             method: search.method,
+            primary: search.primary,
             searches: searches as u64,
             fetches: search.count_fetches.then_some(fetches as u64),
             shadow: None,

@@ -51,6 +51,13 @@ pub(crate) fn query_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     })
 }
 
+/// The direction every ray runs along, when they all share one (shadow rays toward a
+/// directional light; the query's frame only translates, so it is the same there).
+fn shared_direction(rays: &[(DVec3, DVec3)]) -> Option<DVec3> {
+    let first = rays.first()?.1;
+    rays.iter().all(|r| r.1 == first).then_some(first)
+}
+
 /// Unit directions, or an error naming the first ray that has no direction or is not finite.
 fn checked_rays(rays: &[(DVec3, DVec3)]) -> Result<Vec<(DVec3, DVec3)>> {
     rays.iter()
@@ -100,7 +107,9 @@ impl Renderer {
         let device = self.gpu.device.clone();
         guarded(&device, || {
             let centre = rays.iter().map(|r| r.0).sum::<DVec3>() / rays.len().max(1) as f64;
-            let traces = self.prepare_query(scene, DMat4::from_translation(-centre), search)?;
+            let parallel = shared_direction(rays);
+            let view_from_world = DMat4::from_translation(-centre);
+            let traces = self.prepare_query(scene, view_from_world, search, parallel)?;
             let mut hits = RayHits {
                 distance: Vec::with_capacity(rays.len()),
                 patch_id: Vec::with_capacity(rays.len()),
@@ -122,12 +131,14 @@ impl Renderer {
         })
     }
 
-    /// Uploads what is new and makes each object's dispatch in the query's frame.
+    /// Uploads what is new and makes each object's dispatch in the query's frame (for rays all
+    /// along `parallel`, when given).
     fn prepare_query(
         &mut self,
         scene: &Scene,
         view_from_world: DMat4,
         search: &SearchOptions,
+        parallel: Option<DVec3>,
     ) -> Result<Vec<TraceCall>> {
         let (owners, _) = self.upload_scene(scene, view_from_world)?;
         self.frame_bindings.write_search(&self.gpu.queue, search);
@@ -135,7 +146,11 @@ impl Renderer {
         let mut traces = Vec::new();
         for (placed, owner) in scene.objects.iter().zip(owners) {
             let kind = &self.kinds[owner];
-            traces.extend(kind.trace(&self.gpu, view_from_world, placed, &mut ids)?);
+            let trace = match parallel {
+                Some(d) => kind.trace_parallel(&self.gpu, view_from_world, placed, &mut ids, d)?,
+                None => kind.trace(&self.gpu, view_from_world, placed, &mut ids)?,
+            };
+            traces.extend(trace);
         }
         Ok(traces)
     }

@@ -20,6 +20,8 @@ const FRAME_BINDINGS: &str = shader!("frame_bindings.wgsl");
 const GTEX_BINDINGS: &str = shader!("gtex_bindings.wgsl");
 const MESH_BINDINGS: &str = shader!("mesh_bindings.wgsl");
 const QUERY_BINDINGS: &str = shader!("query_bindings.wgsl");
+const GTEX_PIECES_BINDINGS: &str = shader!("gtex_pieces_bindings.wgsl");
+const GTEX_TILES_BINDINGS: &str = shader!("gtex_tiles_bindings.wgsl");
 const GTEX_TRACE_BINDINGS: &str = shader!("gtex_trace_bindings.wgsl");
 const MESH_TRACE_BINDINGS: &str = shader!("mesh_trace_bindings.wgsl");
 const DEPTH_COPY_BINDINGS: &str = shader!("depth_copy_bindings.wgsl");
@@ -35,11 +37,15 @@ const GTEX_PIECE_FUNCTIONS: &str = shader!("gtex_piece_functions.wgsl");
 const RAY_BOX_FUNCTIONS: &str = shader!("ray_box_functions.wgsl");
 const TRACE_FUNCTIONS: &str = shader!("trace_functions.wgsl");
 const QUERY_FUNCTIONS: &str = shader!("query_functions.wgsl");
+const GTEX_FRAGMENT_FUNCTIONS: &str = shader!("gtex_fragment_functions.wgsl");
+const GTEX_TILES_FUNCTIONS: &str = shader!("gtex_tiles_functions.wgsl");
 const GTEX_TRACE_FUNCTIONS: &str = shader!("gtex_trace_functions.wgsl");
 const MESH_TRACE_FUNCTIONS: &str = shader!("mesh_trace_functions.wgsl");
 const SURFELS_FUNCTIONS: &str = shader!("surfels_functions.wgsl");
 
 const GTEX_RAYCAST: &str = shader!("gtex_raycast.wgsl");
+const GTEX_TILES: &str = shader!("gtex_tiles.wgsl");
+const GTEX_TILES_RAYS: &str = shader!("gtex_tiles_rays.wgsl");
 const GTEX_TRACE_RAYS: &str = shader!("gtex_trace_rays.wgsl");
 const MESH_TRACE_RAYS: &str = shader!("mesh_trace_rays.wgsl");
 const MESH_RASTER: &str = shader!("mesh_raster.wgsl");
@@ -55,19 +61,54 @@ fn assemble(parts: &[&str]) -> String {
     parts.join("\n")
 }
 
-/// The geometry-texture raster pass (kinds/gtex).
-pub fn gtex_raycast() -> String {
+/// A geometry-texture primary pass (kinds/gtex): its extra bindings and its entry points.
+fn gtex_primary(bindings: &[&str], functions: &[&str], entry: &str) -> String {
     assemble(&[
         CAMERA_TYPES,
         SEARCH_TYPES,
         GTEX_TYPES,
         FRAME_BINDINGS,
         GTEX_BINDINGS,
+        &bindings.concat(),
         CAMERA_FUNCTIONS,
         HEIGHTFIELD_FUNCTIONS,
         RAY_BOX_FUNCTIONS,
         GTEX_PIECE_FUNCTIONS,
-        GTEX_RAYCAST,
+        GTEX_FRAGMENT_FUNCTIONS,
+        &functions.concat(),
+        entry,
+    ])
+}
+
+/// The geometry-texture pass drawing every box (kinds/gtex).
+pub fn gtex_raycast() -> String {
+    gtex_primary(&[], &[], GTEX_RAYCAST)
+}
+
+/// The tiled geometry-texture pass, boxes front to back per pixel (kinds/gtex/tiles.rs).
+pub fn gtex_tiles() -> String {
+    let bindings = [GTEX_PIECES_BINDINGS, GTEX_TILES_BINDINGS];
+    gtex_primary(&bindings, &[GTEX_TILES_FUNCTIONS], GTEX_TILES)
+}
+
+/// Parallel ray queries (shadow rays toward a directional light) through geometry-texture sets,
+/// tiled as seen along the rays (kinds/gtex/tiles.rs, query.rs).
+pub fn gtex_tiles_rays() -> String {
+    assemble(&[
+        CAMERA_TYPES,
+        SEARCH_TYPES,
+        GTEX_TYPES,
+        QUERY_TYPES,
+        FRAME_BINDINGS,
+        GTEX_BINDINGS,
+        GTEX_PIECES_BINDINGS,
+        GTEX_TILES_BINDINGS,
+        QUERY_BINDINGS,
+        HEIGHTFIELD_FUNCTIONS,
+        RAY_BOX_FUNCTIONS,
+        GTEX_PIECE_FUNCTIONS,
+        GTEX_TILES_FUNCTIONS,
+        GTEX_TILES_RAYS,
     ])
 }
 
@@ -81,6 +122,7 @@ pub fn gtex_trace_rays() -> String {
         QUERY_TYPES,
         FRAME_BINDINGS,
         GTEX_BINDINGS,
+        GTEX_PIECES_BINDINGS,
         GTEX_TRACE_BINDINGS,
         QUERY_BINDINGS,
         HEIGHTFIELD_FUNCTIONS,
@@ -182,9 +224,11 @@ pub fn surfels_resolve() -> String {
 }
 
 /// Every assembled pipeline module, by name.
-pub fn all() -> [(&'static str, String); 11] {
+pub fn all() -> [(&'static str, String); 13] {
     [
         ("gtex_raycast", gtex_raycast()),
+        ("gtex_tiles", gtex_tiles()),
+        ("gtex_tiles_rays", gtex_tiles_rays()),
         ("gtex_trace_rays", gtex_trace_rays()),
         ("mesh_trace_rays", mesh_trace_rays()),
         ("mesh_raster", mesh_raster()),

@@ -16,7 +16,7 @@ pub(crate) mod surfels;
 use std::collections::HashMap;
 use std::sync::{Arc, Weak};
 
-use glam::DMat4;
+use glam::{DMat4, DVec3};
 use wgpu::util::DeviceExt;
 
 use super::camera::Lens;
@@ -78,6 +78,21 @@ pub(crate) trait Kind: Send {
         placed: &SceneObject,
         ids: &mut Tally,
     ) -> Result<Option<TraceCall>>;
+
+    /// `trace` for a query whose rays all run along `direction` (unit, in the query's frame:
+    /// shadow rays toward a directional light), which a kind may trace another way; by default
+    /// the same dispatch.
+    fn trace_parallel(
+        &self,
+        gpu: &Gpu,
+        view_from_world: DMat4,
+        placed: &SceneObject,
+        ids: &mut Tally,
+        direction: DVec3,
+    ) -> Result<Option<TraceCall>> {
+        let _ = direction;
+        self.trace(gpu, view_from_world, placed, ids)
+    }
 
     /// Drops the uploads of objects that no longer exist.
     fn purge(&mut self);

@@ -1,6 +1,7 @@
-//! Geometry-texture sets. Frames ray cast them per pixel in their patches' boxes
-//! (gtex_raycast.wgsl: one instance of the unit cube per visible patch, the fragment shader
-//! searching the patch's height map). Ray queries trace them (gtex_trace_rays.wgsl): a hierarchy
+//! Geometry-texture sets. Frames ray cast them per pixel in their patches' boxes: by default one
+//! rectangle over the set whose fragments search their screen tile's boxes nearest first
+//! (tiles.rs, gtex_tiles.wgsl), or one instance of the unit cube per visible patch, each fragment
+//! searching its box (gtex_raycast.wgsl, `primary="boxes"`). Ray queries trace them (gtex_trace_rays.wgsl): a hierarchy
 //! (bvh.rs) over thin pieces of the patches' boxes (boxes.rs), both made on the first query of a
 //! set, is walked front to back, and a piece a ray enters before its nearest hit so far gets a
 //! search of its patch's height map over the stretch inside it.
@@ -11,6 +12,7 @@
 //! bounds; for queries, world space translated near the rays) and clip (the lens's, for culling).
 
 mod boxes;
+mod tiles;
 
 use std::sync::OnceLock;
 
@@ -23,31 +25,43 @@ use crate::gtex::GeometryTextureSet;
 use crate::heightfield::min_max_pyramid;
 use crate::render::atlas::Atlas;
 use crate::render::bvh::{Aabb, Bvh};
-use crate::render::cull::{in_frustum, lod_level, DepthRange};
+use crate::render::cull::{box_corners, in_frustum, lod_level, DepthRange};
 use crate::render::device::Gpu;
 use crate::render::gpu_types::{gpu_matrix, normal_matrix, PatchGpu};
 use crate::render::pipelines::{
     compute_pipeline, storage_entry, texture_entry, RasterPipeline, VERTEX_AND_FRAGMENT,
 };
 use crate::render::scene::{Object, SceneObject};
+use crate::render::search::Primary;
 use crate::render::shaders;
 
-use boxes::{patch_boxes, placed as placed_box, PatchBoxGpu};
+use boxes::{patch_boxes, placed as placed_box, PatchBoxGpu, BOX_LEVEL};
+use tiles::TileLists;
 
 /// The unit cube as 12 triangles (gtex_raycast.wgsl's CUBE), one instance per drawn patch.
 const CUBE_VERTICES: u32 = 36;
 
-/// A set on the GPU: its maps and pyramids, and what ray queries walk (made on the first
-/// query, so sets that are only drawn never pay for it).
+/// A rectangle as two triangles (gtex_tiles.wgsl's CORNERS).
+const RECT_VERTICES: u32 = 6;
+
+/// A set on the GPU: its maps and pyramids, and the pieces of its boxes that ray queries walk
+/// and tiled frames list (each made on first use, so a set never pays for what it is not used
+/// for).
 pub(crate) struct GtexUpload {
     atlas: Atlas,
     tracing: OnceLock<Tracing>,
+    tile_pieces: OnceLock<Pieces>,
 }
 
-/// The pieces of a set's boxes (here and on the GPU) and the shape of the hierarchy over them.
+/// Pieces of a set's boxes at one pyramid level (boxes.rs), here and on the GPU.
+struct Pieces {
+    list: Vec<PatchBoxGpu>,
+    buffer: wgpu::Buffer,
+}
+
+/// What ray queries walk: pieces and the shape of the hierarchy over them.
 struct Tracing {
-    pieces: Vec<PatchBoxGpu>,
-    pieces_buffer: wgpu::Buffer,
+    pieces: Pieces,
     bvh: Bvh,
 }
 
@@ -56,53 +70,108 @@ impl GtexUpload {
         Ok(GtexUpload {
             atlas: Atlas::upload(gpu, set)?,
             tracing: OnceLock::new(),
+            tile_pieces: OnceLock::new(),
         })
     }
 
     fn tracing(&self, gpu: &Gpu, set: &GeometryTextureSet) -> &Tracing {
-        self.tracing.get_or_init(|| Tracing::new(gpu, set))
+        self.tracing.get_or_init(|| {
+            let pieces = Pieces::new(gpu, set, BOX_LEVEL);
+            let bounds: Vec<Aabb> = (pieces.list.iter())
+                .map(|b| placed_box(b, &set.patches[b.patch_index as usize].world_from_patch()))
+                .collect();
+            Tracing {
+                bvh: Bvh::build(&bounds),
+                pieces,
+            }
+        })
+    }
+
+    fn tile_pieces(&self, gpu: &Gpu, set: &GeometryTextureSet) -> &Pieces {
+        self.tile_pieces
+            .get_or_init(|| Pieces::whole_boxes(gpu, set))
     }
 }
 
-impl Tracing {
-    fn new(gpu: &Gpu, set: &GeometryTextureSet) -> Tracing {
-        let pieces: Vec<PatchBoxGpu> = (0..)
+impl Pieces {
+    fn new(gpu: &Gpu, set: &GeometryTextureSet, level: u32) -> Pieces {
+        let list: Vec<PatchBoxGpu> = (0..)
             .zip(&set.patches)
-            .flat_map(|(i, p)| patch_boxes(i, p, &min_max_pyramid(p)))
+            .flat_map(|(i, p)| patch_boxes(i, p, &min_max_pyramid(p), level))
             .collect();
-        let bounds: Vec<Aabb> = pieces
-            .iter()
-            .map(|b| placed_box(b, &set.patches[b.patch_index as usize].world_from_patch()))
+        Self::upload(gpu, list)
+    }
+
+    /// Each patch's whole box (the unit cube), searched from its pyramid's top, for the patches
+    /// with any surface. Whole boxes, not the tracer's pieces: on the bunny's five headline views
+    /// level-4 pieces started 2.1–2.2 searches per covered pixel against 2.4–2.6, but took 1.3×
+    /// the CPU time of drawing every box where whole boxes took 0.5–0.6× (longer lists, a slab
+    /// test per listed piece); level 5 took 0.7–0.9×. Not cut to the heights either: a flat chart's heights span a few codes, and a
+    /// box that thin, entered from a far origin in patch-local units (where one unit is its
+    /// height), loses the surface to f32 rounding (a tiled sheet lost half its pixels).
+    fn whole_boxes(gpu: &Gpu, set: &GeometryTextureSet) -> Pieces {
+        let list = (0..)
+            .zip(&set.patches)
+            .filter(|(_, p)| p.heights.iter().any(|&h| h != 0))
+            .map(|(i, _)| PatchBoxGpu {
+                lo: [0.0; 3],
+                patch_index: i,
+                hi: [1.0; 3],
+                // The top of any pyramid (the search clamps it), as gtex_raycast.wgsl's boxes.
+                level: 31,
+            })
             .collect();
-        // A set with no surface at all still binds one (empty) piece; it is never traced.
-        let contents: &[PatchBoxGpu] = if pieces.is_empty() {
+        Self::upload(gpu, list)
+    }
+
+    fn upload(gpu: &Gpu, list: Vec<PatchBoxGpu>) -> Pieces {
+        // A set with no surface at all still binds one (empty) piece; it is never searched.
+        let contents: &[PatchBoxGpu] = if list.is_empty() {
             &[PatchBoxGpu::zeroed()]
         } else {
-            &pieces
+            &list
         };
-        let pieces_buffer = storage_buffer(
+        let buffer = storage_buffer(
             &gpu.device,
             "patch box pieces",
             bytemuck::cast_slice(contents),
         );
-        Tracing {
-            bvh: Bvh::build(&bounds),
-            pieces,
-            pieces_buffer,
+        Pieces { list, buffer }
+    }
+}
+
+/// A primary pass and the same shader with its fetch counter switched on.
+struct PrimaryPipelines {
+    plain: wgpu::RenderPipeline,
+    counting: wgpu::RenderPipeline,
+}
+
+impl PrimaryPipelines {
+    fn pick(&self, count_fetches: bool) -> wgpu::RenderPipeline {
+        if count_fetches {
+            self.counting.clone()
+        } else {
+            self.plain.clone()
         }
     }
 }
 
 pub(crate) struct GtexKind {
-    /// Group 1 of the raster pass (gtex_bindings.wgsl).
+    /// Group 1 of the box pass (gtex_bindings.wgsl).
     layout: wgpu::BindGroupLayout,
-    /// Group 1 of ray queries (gtex_bindings.wgsl + gtex_trace_bindings.wgsl).
+    /// Group 1 of the tiled pass (gtex_bindings.wgsl + gtex_tiles_bindings.wgsl).
+    tiles_layout: wgpu::BindGroupLayout,
+    /// Group 1 of ray queries (gtex_bindings.wgsl + gtex_pieces_bindings.wgsl +
+    /// gtex_trace_bindings.wgsl).
     trace_layout: wgpu::BindGroupLayout,
+    /// Group 1 of parallel ray queries (gtex_bindings.wgsl + gtex_pieces_bindings.wgsl +
+    /// gtex_tiles_bindings.wgsl).
+    tiles_trace_layout: wgpu::BindGroupLayout,
     sampler: wgpu::Sampler,
-    pipeline: wgpu::RenderPipeline,
-    /// The same shader with its fetch counter switched on.
-    counting_pipeline: wgpu::RenderPipeline,
+    boxes: PrimaryPipelines,
+    tiles: PrimaryPipelines,
     trace_pipeline: wgpu::ComputePipeline,
+    tiles_trace_pipeline: wgpu::ComputePipeline,
     uploads: UploadCache<GeometryTextureSet, GtexUpload>,
 }
 
@@ -177,22 +246,53 @@ impl GtexKind {
             &[Some(frame_layout), Some(&trace_layout), Some(query_layout)],
             &[],
         );
-        let pipeline = |label, constants| {
-            RasterPipeline {
-                label,
-                source: shaders::gtex_raycast(),
-                layouts: &[Some(frame_layout), Some(&layout)],
-                vertex_buffers: &[],
-                // Back faces of each box: a camera inside a box still gets its fragments.
-                cull: Some(wgpu::Face::Front),
-                constants,
-            }
-            .build(device)
+        let tile_entries = |stages: wgpu::ShaderStages| {
+            let reads = stages.difference(wgpu::ShaderStages::VERTEX);
+            [7, 9, 10, 11].map(|b| storage_entry(b, if b == 9 { stages } else { reads }, true))
         };
-        let counting = [("COUNT_FETCHES", 1.0)];
+        let tiles_layout = textures_layout(
+            device,
+            "geometry textures (tiles)",
+            VERTEX_AND_FRAGMENT,
+            &tile_entries(VERTEX_AND_FRAGMENT),
+        );
+        let tiles_trace_layout = textures_layout(
+            device,
+            "geometry textures (parallel rays)",
+            compute,
+            &tile_entries(compute),
+        );
+        let tiles_trace_pipeline = compute_pipeline(
+            device,
+            "gtex_tiles_rays",
+            &shaders::gtex_tiles_rays(),
+            &[Some(frame_layout), Some(&tiles_trace_layout), Some(query_layout)],
+            &[],
+        );
+        let pipelines = |label: &str, source: String, group: &wgpu::BindGroupLayout, cull| {
+            let build = |label: &str, constants: &[(&str, f64)]| {
+                RasterPipeline {
+                    label,
+                    source: source.clone(),
+                    layouts: &[Some(frame_layout), Some(group)],
+                    vertex_buffers: &[],
+                    cull,
+                    constants,
+                }
+                .build(device)
+            };
+            PrimaryPipelines {
+                plain: build(label, &[]),
+                counting: build(&format!("{label} (counting fetches)"), &[("COUNT_FETCHES", 1.0)]),
+            }
+        };
         GtexKind {
-            pipeline: pipeline("gtex_raycast", &[]),
-            counting_pipeline: pipeline("gtex_raycast (counting fetches)", &counting),
+            // Back faces of each box: a camera inside a box still gets its fragments.
+            boxes: pipelines("gtex_raycast", shaders::gtex_raycast(), &layout, Some(wgpu::Face::Front)),
+            tiles: pipelines("gtex_tiles", shaders::gtex_tiles(), &tiles_layout, None),
+            tiles_layout,
+            tiles_trace_layout,
+            tiles_trace_pipeline,
             sampler: device.create_sampler(&wgpu::SamplerDescriptor {
                 label: Some("linear clamp"),
                 address_mode_u: wgpu::AddressMode::ClampToEdge,
@@ -252,6 +352,33 @@ impl GtexKind {
             .unzip()
     }
 
+    /// For a ray query in the frame `view_from_world`: the set, its upload, the records of all
+    /// its patches (ids continuing from `ids`, which it advances) and each one's
+    /// view_from_patch; `None` when the object is not a set or was not uploaded.
+    #[allow(clippy::type_complexity)] // the four things every query dispatch of a set starts from
+    fn query_records<'a>(
+        &'a self,
+        view_from_world: DMat4,
+        placed: &'a SceneObject,
+        ids: &mut Tally,
+    ) -> Option<(&'a GeometryTextureSet, &'a GtexUpload, Vec<PatchGpu>, Vec<DMat4>)> {
+        let Object::Textures(set) = &placed.object else {
+            return None;
+        };
+        let upload = self.uploads.get(set)?;
+        let placing = Placing {
+            view_from_object: view_from_world * placed.world_from_object,
+            world_from_object: placed.world_from_object,
+            lens: None,
+            lod: false,
+            first_id: ids.patch_ids,
+        };
+        ids.patch_ids += set.patches.len() as i32;
+        // No lens: every patch is placed (none culled).
+        let (records, placements) = Self::records(&placing, set, &upload.atlas);
+        Some((set, upload, records, placements.into_iter().flatten().collect()))
+    }
+
     /// Group 1 under `layout`: the set's records and maps, then `extra` (binding, resource).
     fn bind_group(
         &self,
@@ -285,6 +412,45 @@ impl GtexKind {
             entries: &entries,
         })
     }
+}
+
+/// The corners of each piece whose patch is placed (by its view_from_patch), with the piece's
+/// index.
+fn piece_corners<'a>(
+    pieces: &'a Pieces,
+    placements: &'a [Option<DMat4>],
+) -> impl Iterator<Item = (u32, [DVec3; 8])> + 'a {
+    (0..).zip(&pieces.list).filter_map(|(k, b)| {
+        let view_from_patch = placements[b.patch_index as usize]?;
+        let lo = DVec3::from(b.lo.map(f64::from));
+        let hi = DVec3::from(b.hi.map(f64::from));
+        Some((k, box_corners(lo, hi).map(|c| view_from_patch.transform_point3(c))))
+    })
+}
+
+/// The buffers of `tiles` (gtex_tiles_bindings.wgsl).
+fn tile_buffers(device: &wgpu::Device, tiles: &TileLists) -> [wgpu::Buffer; 3] {
+    [
+        storage_buffer(device, "tiles", bytemuck::bytes_of(&tiles.header)),
+        storage_buffer(device, "tile ranges", bytemuck::cast_slice(&tiles.ranges)),
+        // Never empty: at least one tile is covered, so it lists a piece.
+        storage_buffer(device, "tile entries", bytemuck::cast_slice(&tiles.entries)),
+    ]
+}
+
+/// Group-1 entries binding `pieces` and the tiles' `buffers` (gtex_pieces_bindings.wgsl,
+/// gtex_tiles_bindings.wgsl).
+fn tile_entries<'a>(
+    pieces: &'a Pieces,
+    buffers: &'a [wgpu::Buffer; 3],
+) -> Vec<(u32, wgpu::BindingResource<'a>)> {
+    let [header, ranges, entries] = buffers;
+    vec![
+        (7, pieces.buffer.as_entire_binding()),
+        (9, header.as_entire_binding()),
+        (10, ranges.as_entire_binding()),
+        (11, entries.as_entire_binding()),
+    ]
 }
 
 impl Kind for GtexKind {
@@ -328,27 +494,37 @@ impl Kind for GtexKind {
         let (records, placements) = Self::records(&placing, set, &upload.atlas);
         tally.patch_ids += set.patches.len() as i32;
         tally.texture_bytes += upload.atlas.bytes;
-        let drawn: Vec<PatchGpu> = records
-            .into_iter()
-            .zip(&placements)
-            .filter_map(|(record, placement)| placement.map(|_| record))
-            .collect();
-        tally.patches_drawn += drawn.len();
-        tally.patches_culled += set.patches.len() - drawn.len();
-        if drawn.is_empty() {
+        let visible = placements.iter().flatten().count();
+        tally.patches_drawn += visible;
+        tally.patches_culled += set.patches.len() - visible;
+        if visible == 0 {
             return None;
         }
-        let pipeline = if frame.search.count_fetches {
-            &self.counting_pipeline
-        } else {
-            &self.pipeline
-        };
+        let device = &gpu.device;
+        let count = frame.search.count_fetches;
+        if frame.search.primary == Primary::Boxes {
+            let drawn: Vec<PatchGpu> = (records.into_iter().zip(&placements))
+                .filter_map(|(record, placement)| placement.map(|_| record))
+                .collect();
+            return Some(DrawCall {
+                pipeline: self.boxes.pick(count),
+                group: self.bind_group(device, &self.layout, upload, &drawn, vec![]),
+                vertex_buffer: None,
+                vertices: CUBE_VERTICES,
+                instances: drawn.len() as u32,
+                compute: None,
+            });
+        }
+        let pieces = upload.tile_pieces(gpu, set);
+        let tiles = TileLists::build(piece_corners(pieces, &placements), frame.lens, frame.size)?;
+        let buffers = tile_buffers(device, &tiles);
+        let extra = tile_entries(pieces, &buffers);
         Some(DrawCall {
-            pipeline: pipeline.clone(),
-            group: self.bind_group(&gpu.device, &self.layout, upload, &drawn, vec![]),
+            pipeline: self.tiles.pick(count),
+            group: self.bind_group(device, &self.tiles_layout, upload, &records, extra),
             vertex_buffer: None,
-            vertices: CUBE_VERTICES,
-            instances: drawn.len() as u32,
+            vertices: RECT_VERTICES,
+            instances: 1,
             compute: None,
         })
     }
@@ -360,28 +536,16 @@ impl Kind for GtexKind {
         placed: &SceneObject,
         ids: &mut Tally,
     ) -> Result<Option<TraceCall>> {
-        let Object::Textures(set) = &placed.object else {
+        let Some((set, upload, records, view_from_patch)) =
+            self.query_records(view_from_world, placed, ids)
+        else {
             return Ok(None);
         };
-        let Some(upload) = self.uploads.get(set) else {
-            return Ok(None);
-        };
-        let placing = Placing {
-            view_from_object: view_from_world * placed.world_from_object,
-            world_from_object: placed.world_from_object,
-            lens: None,
-            lod: false,
-            first_id: ids.patch_ids,
-        };
-        ids.patch_ids += set.patches.len() as i32;
         let tracing = upload.tracing(gpu, set);
-        if tracing.pieces.is_empty() {
+        if tracing.pieces.list.is_empty() {
             return Ok(None);
         }
-        // No lens: every patch is placed (none culled).
-        let (records, placements) = Self::records(&placing, set, &upload.atlas);
-        let view_from_patch: Vec<DMat4> = placements.into_iter().flatten().collect();
-        let bounds: Vec<Aabb> = (tracing.pieces.iter())
+        let bounds: Vec<Aabb> = (tracing.pieces.list.iter())
             .map(|b| placed_box(b, &view_from_patch[b.patch_index as usize]))
             .collect();
         let nodes = tracing.bvh.refit(&bounds);
@@ -389,11 +553,40 @@ impl Kind for GtexKind {
         let nodes = storage_buffer(device, "piece hierarchy", bytemuck::cast_slice(&nodes));
         let extra = vec![
             (6, nodes.as_entire_binding()),
-            (7, tracing.pieces_buffer.as_entire_binding()),
+            (7, tracing.pieces.buffer.as_entire_binding()),
         ];
         Ok(Some(TraceCall {
             pipeline: self.trace_pipeline.clone(),
             group: self.bind_group(device, &self.trace_layout, upload, &records, extra),
+        }))
+    }
+
+    /// Parallel rays walk tiles seen along their direction (tiles.rs, `parallel`) instead of
+    /// the hierarchy: each ray stays in one tile.
+    fn trace_parallel(
+        &self,
+        gpu: &Gpu,
+        view_from_world: DMat4,
+        placed: &SceneObject,
+        ids: &mut Tally,
+        direction: DVec3,
+    ) -> Result<Option<TraceCall>> {
+        let Some((set, upload, records, view_from_patch)) =
+            self.query_records(view_from_world, placed, ids)
+        else {
+            return Ok(None);
+        };
+        let pieces = upload.tile_pieces(gpu, set);
+        let placements: Vec<Option<DMat4>> = view_from_patch.into_iter().map(Some).collect();
+        let Some(tiles) = tiles::parallel(piece_corners(pieces, &placements), direction) else {
+            return Ok(None);
+        };
+        let buffers = tile_buffers(&gpu.device, &tiles);
+        let extra = tile_entries(pieces, &buffers);
+        let group = self.bind_group(&gpu.device, &self.tiles_trace_layout, upload, &records, extra);
+        Ok(Some(TraceCall {
+            pipeline: self.tiles_trace_pipeline.clone(),
+            group,
         }))
     }
 

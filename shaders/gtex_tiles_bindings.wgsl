@@ -1,0 +1,25 @@
+// Group 1 of the tiled passes (frames, parallel ray queries), after gtex_bindings.wgsl's and
+// gtex_pieces_bindings.wgsl's: the tiles' lists of pieces
+// (src/render/kinds/gtex/tiles.rs).
+//
+// Spaces: the tiles' pixels (framebuffer pixels, row 0 at the top, for frames; the grid's for
+// parallel rays), normalized device coordinates for the rectangle; entry depths are depths along
+// the tiles' view direction.
+
+struct Tiles {
+    // x, y: tiles across and down; z: pixels on a tile's side.
+    size: vec4<u32>,
+    // Frames: the rectangle the lists cover in normalized device coordinates: x0, y0, x1, y1.
+    rect: vec4<f32>,
+    // Parallel rays: the grid's frame (its -Z along the rays) from the query's frame, and its
+    // pixels: pixel = (grid xy - zw) / xy.
+    grid_from_view: mat4x4<f32>,
+    grid: vec4<f32>,
+}
+
+@group(1) @binding(9) var<storage, read> tiles: Tiles;
+// Per tile (row-major): first entry, entry count.
+@group(1) @binding(10) var<storage, read> tile_ranges: array<vec2<u32>>;
+// Per entry: index of a piece in `pieces`, the nearest view depth of its box (f32 bits); nearest
+// first.
+@group(1) @binding(11) var<storage, read> tile_entries: array<vec2<u32>>;

@@ -1,0 +1,289 @@
+//! Screen tiles for primary frames: each tile of the image lists the patch boxes that may cover
+//! it, nearest first, so a pixel searches boxes front to back and stops once the next box starts
+//! behind its nearest hit (gtex_tiles.wgsl). Drawing every box and searching each fragment
+//! started 4.8–6.1 searches per covered pixel on the bunny, since writing frag_depth switches
+//! early depth testing off; camera rays through the tracer's hierarchy cut that but cost more per
+//! ray on lavapipe (bench/README.md). A camera's rays share one origin and sweep the image in
+//! order, so sorting boxes once per tile replaces the per-ray walk.
+//!
+//! Spaces: view (camera-relative, OpenGL-style: depth along the view is -z, which is also the ray
+//! parameter t of camera_ray's rays) and framebuffer pixels (row 0 at the top, centres at +0.5).
+
+use glam::{DMat3, DMat4, DVec3};
+
+use crate::render::camera::Lens;
+use crate::render::gpu_types::gpu_matrix;
+
+/// Pixels on a side of a tile. 8 keeps lists short at silhouettes and the lists' bytes small
+/// (4,096 tiles at 512²).
+pub(crate) const TILE: u32 = 8;
+
+/// One entry of a tile's list: the index of a box (a piece, boxes.rs) and the nearest view depth
+/// of its box (f32 bits), the depth at which no hit in it can be nearer.
+pub(crate) type Entry = [u32; 2];
+
+/// gtex_tiles_bindings.wgsl's `Tiles`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub(crate) struct TilesHeader {
+    /// Tiles across and down, TILE, unused.
+    pub size: [u32; 4],
+    /// Frames: the draw's rectangle in normalized device coordinates: x0, y0, x1, y1.
+    pub rect_ndc: [f32; 4],
+    /// Parallel rays: the grid's frame from the query's, and pixel = (grid xy - zw) / xy.
+    pub grid_from_view: [[f32; 4]; 4],
+    pub grid: [f32; 4],
+}
+
+/// Pixels on a side of the grid parallel rays are tiled on (64 x 64 tiles).
+const GRID_PIXELS: u32 = 512;
+
+/// The tiles of one set in one frame, as gtex_tiles_bindings.wgsl reads them.
+pub(crate) struct TileLists {
+    pub header: TilesHeader,
+    /// Per tile (row-major): first entry, entry count.
+    pub ranges: Vec<[u32; 2]>,
+    pub entries: Vec<Entry>,
+}
+
+/// Where a box lies on screen: its pixel rectangle [x0, y0, x1, y1) and nearest view depth.
+#[derive(Clone, Copy, Debug)]
+struct Footprint {
+    rect: [u32; 4],
+    near: f64,
+}
+
+/// The footprint of the box with view-space `corners`, or `None` when it covers no pixel.
+/// Conservative: a box reaching behind the near plane covers the whole image.
+fn footprint(corners: &[DVec3; 8], lens: &Lens, size: [u32; 2]) -> Option<Footprint> {
+    let near = corners.iter().map(|c| -c.z).fold(f64::INFINITY, f64::min);
+    let whole = [0, 0, size[0], size[1]];
+    if !lens.orthographic && near <= lens.near * 0.5 {
+        return Some(Footprint {
+            rect: whole,
+            near: near.max(0.0),
+        });
+    }
+    // View point → pixel: invert camera_ray's a = pixel * ray.xy + ray.zw.
+    let [sx, sy, ox, oy] = lens.ray;
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for c in corners {
+        let a = if lens.orthographic {
+            [c.x, c.y]
+        } else {
+            [c.x / -c.z, c.y / -c.z]
+        };
+        let p = [(a[0] - ox) / sx, (a[1] - oy) / sy];
+        for k in 0..2 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    // One pixel of slack each way: a pixel whose centre is inside the box's outline is covered,
+    // and rounding must never drop one.
+    let clamp = |v: f64, k: usize| v.clamp(0.0, size[k] as f64) as u32;
+    let rect = [
+        clamp(lo[0].floor() - 1.0, 0),
+        clamp(lo[1].floor() - 1.0, 1),
+        clamp(hi[0].ceil() + 1.0, 0),
+        clamp(hi[1].ceil() + 1.0, 1),
+    ];
+    (rect[2] > rect[0] && rect[3] > rect[1]).then_some(Footprint { rect, near })
+}
+
+impl TileLists {
+    /// The lists for `boxes` (each an index and its eight corners in view space) seen through
+    /// `lens` on an image of `size` pixels; `None` when no box covers a pixel.
+    pub fn build(
+        boxes: impl Iterator<Item = (u32, [DVec3; 8])>,
+        lens: &Lens,
+        size: [u32; 2],
+    ) -> Option<TileLists> {
+        let mut boxes: Vec<(u32, Footprint)> = boxes
+            .filter_map(|(i, corners)| Some((i, footprint(&corners, lens, size)?)))
+            .collect();
+        if boxes.is_empty() {
+            return None;
+        }
+        // Nearest first, so each tile's list comes out sorted.
+        boxes.sort_by(|a, b| a.1.near.total_cmp(&b.1.near));
+        let across = size[0].div_ceil(TILE);
+        let down = size[1].div_ceil(TILE);
+        let mut lists: Vec<Vec<Entry>> = vec![Vec::new(); (across * down) as usize];
+        let mut rect = [u32::MAX, u32::MAX, 0, 0];
+        for (index, f) in &boxes {
+            let entry = [*index, (f.near as f32).to_bits()];
+            for ty in f.rect[1] / TILE..f.rect[3].div_ceil(TILE) {
+                for tx in f.rect[0] / TILE..f.rect[2].div_ceil(TILE) {
+                    lists[(ty * across + tx) as usize].push(entry);
+                }
+            }
+            for k in 0..2 {
+                rect[k] = rect[k].min(f.rect[k]);
+                rect[k + 2] = rect[k + 2].max(f.rect[k + 2]);
+            }
+        }
+        let mut ranges = Vec::with_capacity(lists.len());
+        let mut entries = Vec::with_capacity(lists.iter().map(Vec::len).sum());
+        for list in lists {
+            ranges.push([entries.len() as u32, list.len() as u32]);
+            entries.extend(list);
+        }
+        let ndc = |v: u32, k: usize| 2.0 * v as f32 / size[k] as f32 - 1.0;
+        let header = TilesHeader {
+            size: [across, down, TILE, 0],
+            // Pixel rows run down, NDC y up.
+            rect_ndc: [ndc(rect[0], 0), -ndc(rect[1], 1), ndc(rect[2], 0), -ndc(rect[3], 1)],
+            grid_from_view: [[0.0; 4]; 4],
+            grid: [0.0; 4],
+        };
+        Some(TileLists {
+            header,
+            ranges,
+            entries,
+        })
+    }
+}
+
+/// The lists for `boxes` (index and corners in the query's frame) tiled as seen along
+/// `direction` (unit): an orthographic grid whose -Z is the direction, over the boxes' extent,
+/// so that each ray along `direction` stays in one tile (gtex_tiles_rays.wgsl).
+pub(crate) fn parallel(
+    boxes: impl Iterator<Item = (u32, [DVec3; 8])>,
+    direction: DVec3,
+) -> Option<TileLists> {
+    let up = if direction.y.abs() < 0.9 {
+        DVec3::Y
+    } else {
+        DVec3::X
+    };
+    // A rotation whose rows are the grid's axes: -Z along the rays.
+    let z = -direction;
+    let x = up.cross(z).normalize();
+    let grid_from_view = DMat4::from_mat3(DMat3::from_cols(x, z.cross(x), z).transpose());
+    let boxes: Vec<(u32, [DVec3; 8])> = boxes
+        .map(|(i, corners)| (i, corners.map(|c| grid_from_view.transform_point3(c))))
+        .collect();
+    let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+    for c in boxes.iter().flat_map(|(_, corners)| corners) {
+        lo = lo.min(*c);
+        hi = hi.max(*c);
+    }
+    let side = f64::from(GRID_PIXELS);
+    // A pixel never narrower than f32 can tell apart at the boxes' extent, and a margin so that
+    // no box touches the grid's edge.
+    let extent = (hi - lo).max(DVec3::splat(1e-6 * (hi - lo).abs().max_element().max(1e-30)));
+    let lo = lo - 0.01 * extent;
+    let extent = 1.02 * extent;
+    let (sx, sy) = (extent.x / side, extent.y / side);
+    let lens = Lens {
+        orthographic: true,
+        ray: [sx, sy, lo.x, lo.y],
+        clip_from_view: DMat4::IDENTITY,
+        near: 0.0,
+        far: 0.0,
+    };
+    let mut lists = TileLists::build(boxes.into_iter(), &lens, [GRID_PIXELS; 2])?;
+    lists.header.grid_from_view = gpu_matrix(grid_from_view);
+    lists.header.grid = [sx, sy, lo.x, lo.y].map(|v| v as f32);
+    Some(lists)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::camera::Camera;
+    use crate::render::cull::unit_cube_corners;
+    use glam::DMat4;
+
+    /// The view-space corners of the unit cube under each of `view_from_box`, numbered in order.
+    fn corners(view_from_box: &[DMat4]) -> impl Iterator<Item = (u32, [DVec3; 8])> + '_ {
+        (0..).zip(view_from_box.iter().map(|m| unit_cube_corners().map(|c| m.transform_point3(c))))
+    }
+
+    fn lens_and_view(size: [u32; 2]) -> (Lens, DMat4) {
+        let camera = Camera::look_at(DVec3::new(0.0, 0.0, 5.0), DVec3::ZERO, DVec3::Y, 40.0).unwrap();
+        let lens = camera.lens(size[0], size[1], 3.0, 7.0).unwrap();
+        (lens, camera.view_from_world())
+    }
+
+    #[test]
+    fn every_covered_pixel_lists_its_boxes_nearest_first() {
+        let size = [64, 48];
+        let (lens, view_from_world) = lens_and_view(size);
+        // Three boxes one behind another, and one off to the side.
+        let boxes: Vec<DMat4> = [(0.0, 1.0), (0.0, -1.0), (0.0, 0.0), (1.5, 0.0)]
+            .iter()
+            .map(|&(x, z)| {
+                view_from_world
+                    * DMat4::from_translation(DVec3::new(x - 0.25, -0.25, z))
+                    * DMat4::from_scale(DVec3::splat(0.5))
+            })
+            .collect();
+        let tiles = TileLists::build(corners(&boxes), &lens, size).unwrap();
+        let centre = ((size[1] / 2 / TILE) * tiles.header.size[0] + size[0] / 2 / TILE) as usize;
+        let [first, count] = tiles.ranges[centre];
+        let listed: Vec<u32> = (first..first + count)
+            .map(|k| tiles.entries[k as usize][0])
+            .collect();
+        assert_eq!(listed, vec![0, 2, 1], "the centre tile lists the row, nearest first");
+        let corner = tiles.ranges[0];
+        assert_eq!(corner[1], 0, "the top-left tile lists nothing");
+        let [x0, y0, x1, y1] = tiles.header.rect_ndc;
+        assert!(x0 > -1.0 && x1 < 1.0 && y0 < 1.0 && y1 > -1.0 && x0 < x1 && y1 < y0);
+    }
+
+    #[test]
+    fn a_box_around_the_camera_covers_the_whole_image_from_depth_zero() {
+        let size = [32, 32];
+        let (lens, view_from_world) = lens_and_view(size);
+        let around = view_from_world
+            * DMat4::from_translation(DVec3::new(-1.0, -1.0, 4.0))
+            * DMat4::from_scale(DVec3::splat(2.0));
+        let tiles = TileLists::build(corners(&[around]), &lens, size).unwrap();
+        assert_eq!(tiles.header.rect_ndc, [-1.0, 1.0, 1.0, -1.0]);
+        assert!(tiles.ranges.iter().all(|r| r[1] == 1));
+        assert_eq!(f32::from_bits(tiles.entries[0][1]), 0.0);
+    }
+
+    /// The tile a ray along the grid's direction from `origin` falls in (as gtex_tiles_rays.wgsl
+    /// finds it), or `None` outside the grid.
+    fn tile_of(tiles: &TileLists, origin: DVec3) -> Option<usize> {
+        let m = glam::Mat4::from_cols_array_2d(&tiles.header.grid_from_view).as_dmat4();
+        let p = m.transform_point3(origin);
+        let [sx, sy, ox, oy] = tiles.header.grid.map(f64::from);
+        let pixel = [(p.x - ox) / sx, (p.y - oy) / sy];
+        let extent = f64::from(tiles.header.size[0] * TILE);
+        if pixel.iter().any(|&v| !(0.0..extent).contains(&v)) {
+            return None;
+        }
+        let [tx, ty] = pixel.map(|v| (v as u32 / TILE) as usize);
+        Some(ty * tiles.header.size[0] as usize + tx)
+    }
+
+    #[test]
+    fn parallel_rays_find_the_boxes_they_pass_through() {
+        let direction = DVec3::new(0.3, -1.0, 0.2).normalize();
+        let boxes = [
+            DMat4::IDENTITY,
+            DMat4::from_translation(DVec3::new(3.0, 0.0, 0.0)),
+        ];
+        let tiles = parallel(corners(&boxes), direction).unwrap();
+        let listed = |origin: DVec3| -> Vec<u32> {
+            let Some(tile) = tile_of(&tiles, origin) else {
+                return vec![];
+            };
+            let [first, count] = tiles.ranges[tile];
+            (first..first + count)
+                .map(|k| tiles.entries[k as usize][0])
+                .collect()
+        };
+        // From above each box's centre, back along the direction: that box is listed.
+        for (index, centre) in [(0, DVec3::splat(0.5)), (1, DVec3::new(3.5, 0.5, 0.5))] {
+            assert!(listed(centre - 4.0 * direction).contains(&index));
+        }
+        // Between the boxes, and far off to the side: neither.
+        assert!(listed(DVec3::new(2.0, 0.5, 0.5) - 4.0 * direction).is_empty());
+        assert!(listed(DVec3::new(0.5, 0.5, 40.0)).is_empty());
+    }
+}
