@@ -5,7 +5,8 @@ the pixels the model covers, so it beats rasterizing the dense mesh only below s
 coverage. This script measures, in one run and on one wgpu adapter:
 
 * **headline (512x512)**: the Stanford bunny from five views at 1.7 x its diagonal; per view
-  the geometry-texture frame (wall and GPU ms), the original mesh rasterized by the same
+  the geometry-texture frame (wall and GPU ms, searches per covered pixel; default tiled pass,
+  and the pass drawing every box beside it), the original mesh rasterized by the same
   renderer, and trimesh + embree ray casting of the same pixel rays (its intersector built
   once and kept, as trimesh users run it), with accuracy against the latter (hit-mask IoU,
   |depth difference| / diagonal, normal angle, NaN count);
@@ -199,14 +200,15 @@ def camera(centre: np.ndarray, direction: Vec3, distance: float,
                              up=up, yfov_deg=YFOV_DEG)
 
 
-def time_render(renderer: gt.Renderer, obj: Any, cam: gt.Camera, repeats: int) -> tuple[Any, dict]:
+def time_render(renderer: gt.Renderer, obj: Any, cam: gt.Camera, repeats: int,
+                **options: Any) -> tuple[Any, dict]:
     """One warm-up render, then ``repeats`` timed ones; medians of wall and GPU ms."""
-    renderer.render(obj, cam)
+    renderer.render(obj, cam, **options)
     walls, gpus, cpus = [], [], []
     frame: Any = None
     for _ in range(repeats):
         t0 = time.perf_counter()
-        frame = renderer.render(obj, cam)
+        frame = renderer.render(obj, cam, **options)
         walls.append(1000.0 * (time.perf_counter() - t0))
         stats = frame.stats
         gpus.append(stats["gpu_ms"])
@@ -221,6 +223,9 @@ def time_render(renderer: gt.Renderer, obj: Any, cam: gt.Camera, repeats: int) -
         "gpu_ms_runs": gpus,
         "patches_drawn": stats.get("patches_drawn"),
         "meshes_drawn": stats.get("meshes_drawn"),
+        "searches_per_pixel": stats.get("searches_per_pixel"),
+        "primary": stats.get("primary"),
+        "method": stats.get("method"),
         "near": stats.get("near"),
     }
 
@@ -286,12 +291,14 @@ def headline(mesh: gt.Mesh, gts: Any, repeats: int, idle: float, retries: int) -
 
         def block() -> dict[str, Any]:
             frame, t_gt = time_render(renderer, gts, cam, repeats)
+            # The pass tiles replaced: every box drawn, each fragment searching its box.
+            _, t_boxes = time_render(renderer, gts, cam, repeats, primary="boxes")
             _, t_mesh = time_render(renderer, mesh, cam, repeats)
             ref, t_tm = time_trimesh(caster, cam, HEADLINE_SIZE, TRIMESH_REPEATS)
             return {
                 "view": name, "direction": direction, "up": up,
                 "distance_diag": HEADLINE_DISTANCE, "size": HEADLINE_SIZE,
-                "geomtex": t_gt, "mesh_raster": t_mesh, "trimesh": t_tm,
+                "geomtex": t_gt, "geomtex_boxes": t_boxes, "mesh_raster": t_mesh, "trimesh": t_tm,
                 "trimesh_over_geomtex": t_tm["wall_ms"] / t_gt["wall_ms"],
                 "accuracy": accuracy(frame, ref, diag, normals=True),
             }
@@ -382,14 +389,18 @@ def _ms(x: float | None) -> str:
 
 
 def headline_table(records: list[dict[str, Any]]) -> str:
-    header = ("view", "px", "geomtex ms (wall/gpu)", "mesh raster ms (wall/gpu)", "trimesh ms",
+    header = ("view", "px", "geomtex ms (wall/gpu)", "searches/px", "boxes ms (wall)", "searches/px",
+              "mesh raster ms (wall/gpu)", "trimesh ms",
               "trimesh/geomtex", "IoU", "|dz|/diag med", "|dz|/diag p99", "normal deg med", "NaN")
     rows = []
     for r in records:
         a = r["accuracy"]
+        boxes = r.get("geomtex_boxes") or {}
+        spp = lambda t: f"{t['searches_per_pixel']:.2f}" if t.get("searches_per_pixel") else "-"  # noqa: E731
         rows.append((
             r["view"], f"{a['covered_px']:,}",
-            f"{_ms(r['geomtex']['wall_ms'])} / {_ms(r['geomtex']['gpu_ms'])}",
+            f"{_ms(r['geomtex']['wall_ms'])} / {_ms(r['geomtex']['gpu_ms'])}", spp(r["geomtex"]),
+            _ms(boxes.get("wall_ms")), spp(boxes),
             f"{_ms(r['mesh_raster']['wall_ms'])} / {_ms(r['mesh_raster']['gpu_ms'])}",
             _ms(r["trimesh"]["wall_ms"]), f"{r['trimesh_over_geomtex']:.1f}x",
             f"{a['iou']:.4f}", f"{a['depth_median']:.1e}", f"{a['depth_p99']:.1e}",
@@ -627,7 +638,8 @@ def main(argv: list[str] | None = None) -> None:
             "sweep_size": SWEEP_SIZE, "sweep_direction": SWEEP_DIRECTION,
             "sweep_distances_diag": distances.tolist(), "wait_idle_s": args.wait_idle,
             "retries": args.retries, "busy_flag": BUSY_FLAG,
-            "render_settings": "defaults (steps_per_texel 0.5, min/max linear steps 2/1024, binary steps 8)",
+            "render_settings": "defaults (quality exact: max-pyramid search; primary tiles); "
+                               "geomtex_boxes: primary='boxes'",
             "paper_crossover_px": PAPER_CROSSOVER_PX,
         },
         "meshes": meshes,

@@ -502,7 +502,9 @@ impl PyRenderer {
             count_fetches: opt_flag(count_fetches, "count_fetches")?,
             lod: opt_flag(lod, "lod")?,
             max_pixel_error: opt_real(max_pixel_error, "max_pixel_error")?.map(|v| v as f32),
-            primary: opt_text(primary, "primary")?.map(|p| p.parse()).transpose()?,
+            primary: opt_text(primary, "primary")?
+                .map(|p| p.parse())
+                .transpose()?,
         }
         .resolve()?;
         let camera = camera

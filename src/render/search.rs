@@ -62,7 +62,11 @@ impl FromStr for Primary {
     type Err = GeomtexError;
 
     fn from_str(s: &str) -> Result<Primary> {
-        parse_choice("primary", s, &[("tiles", Primary::Tiles), ("boxes", Primary::Boxes)])
+        parse_choice(
+            "primary",
+            s,
+            &[("tiles", Primary::Tiles), ("boxes", Primary::Boxes)],
+        )
     }
 }
 

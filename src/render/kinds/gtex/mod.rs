@@ -266,7 +266,11 @@ impl GtexKind {
             device,
             "gtex_tiles_rays",
             &shaders::gtex_tiles_rays(),
-            &[Some(frame_layout), Some(&tiles_trace_layout), Some(query_layout)],
+            &[
+                Some(frame_layout),
+                Some(&tiles_trace_layout),
+                Some(query_layout),
+            ],
             &[],
         );
         let pipelines = |label: &str, source: String, group: &wgpu::BindGroupLayout, cull| {
@@ -283,12 +287,20 @@ impl GtexKind {
             };
             PrimaryPipelines {
                 plain: build(label, &[]),
-                counting: build(&format!("{label} (counting fetches)"), &[("COUNT_FETCHES", 1.0)]),
+                counting: build(
+                    &format!("{label} (counting fetches)"),
+                    &[("COUNT_FETCHES", 1.0)],
+                ),
             }
         };
         GtexKind {
             // Back faces of each box: a camera inside a box still gets its fragments.
-            boxes: pipelines("gtex_raycast", shaders::gtex_raycast(), &layout, Some(wgpu::Face::Front)),
+            boxes: pipelines(
+                "gtex_raycast",
+                shaders::gtex_raycast(),
+                &layout,
+                Some(wgpu::Face::Front),
+            ),
             tiles: pipelines("gtex_tiles", shaders::gtex_tiles(), &tiles_layout, None),
             tiles_layout,
             tiles_trace_layout,
@@ -361,7 +373,12 @@ impl GtexKind {
         view_from_world: DMat4,
         placed: &'a SceneObject,
         ids: &mut Tally,
-    ) -> Option<(&'a GeometryTextureSet, &'a GtexUpload, Vec<PatchGpu>, Vec<DMat4>)> {
+    ) -> Option<(
+        &'a GeometryTextureSet,
+        &'a GtexUpload,
+        Vec<PatchGpu>,
+        Vec<DMat4>,
+    )> {
         let Object::Textures(set) = &placed.object else {
             return None;
         };
@@ -376,7 +393,12 @@ impl GtexKind {
         ids.patch_ids += set.patches.len() as i32;
         // No lens: every patch is placed (none culled).
         let (records, placements) = Self::records(&placing, set, &upload.atlas);
-        Some((set, upload, records, placements.into_iter().flatten().collect()))
+        Some((
+            set,
+            upload,
+            records,
+            placements.into_iter().flatten().collect(),
+        ))
     }
 
     /// Group 1 under `layout`: the set's records and maps, then `extra` (binding, resource).
@@ -424,7 +446,10 @@ fn piece_corners<'a>(
         let view_from_patch = placements[b.patch_index as usize]?;
         let lo = DVec3::from(b.lo.map(f64::from));
         let hi = DVec3::from(b.hi.map(f64::from));
-        Some((k, box_corners(lo, hi).map(|c| view_from_patch.transform_point3(c))))
+        Some((
+            k,
+            box_corners(lo, hi).map(|c| view_from_patch.transform_point3(c)),
+        ))
     })
 }
 
@@ -583,7 +608,13 @@ impl Kind for GtexKind {
         };
         let buffers = tile_buffers(&gpu.device, &tiles);
         let extra = tile_entries(pieces, &buffers);
-        let group = self.bind_group(&gpu.device, &self.tiles_trace_layout, upload, &records, extra);
+        let group = self.bind_group(
+            &gpu.device,
+            &self.tiles_trace_layout,
+            upload,
+            &records,
+            extra,
+        );
         Ok(Some(TraceCall {
             pipeline: self.tiles_trace_pipeline.clone(),
             group,

@@ -133,7 +133,12 @@ impl TileLists {
         let header = TilesHeader {
             size: [across, down, TILE, 0],
             // Pixel rows run down, NDC y up.
-            rect_ndc: [ndc(rect[0], 0), -ndc(rect[1], 1), ndc(rect[2], 0), -ndc(rect[3], 1)],
+            rect_ndc: [
+                ndc(rect[0], 0),
+                -ndc(rect[1], 1),
+                ndc(rect[2], 0),
+                -ndc(rect[3], 1),
+            ],
             grid_from_view: [[0.0; 4]; 4],
             grid: [0.0; 4],
         };
@@ -172,7 +177,9 @@ pub(crate) fn parallel(
     let side = f64::from(GRID_PIXELS);
     // A pixel never narrower than f32 can tell apart at the boxes' extent, and a margin so that
     // no box touches the grid's edge.
-    let extent = (hi - lo).max(DVec3::splat(1e-6 * (hi - lo).abs().max_element().max(1e-30)));
+    let extent = (hi - lo).max(DVec3::splat(
+        1e-6 * (hi - lo).abs().max_element().max(1e-30),
+    ));
     let lo = lo - 0.01 * extent;
     let extent = 1.02 * extent;
     let (sx, sy) = (extent.x / side, extent.y / side);
@@ -198,11 +205,16 @@ mod tests {
 
     /// The view-space corners of the unit cube under each of `view_from_box`, numbered in order.
     fn corners(view_from_box: &[DMat4]) -> impl Iterator<Item = (u32, [DVec3; 8])> + '_ {
-        (0..).zip(view_from_box.iter().map(|m| unit_cube_corners().map(|c| m.transform_point3(c))))
+        (0..).zip(
+            view_from_box
+                .iter()
+                .map(|m| unit_cube_corners().map(|c| m.transform_point3(c))),
+        )
     }
 
     fn lens_and_view(size: [u32; 2]) -> (Lens, DMat4) {
-        let camera = Camera::look_at(DVec3::new(0.0, 0.0, 5.0), DVec3::ZERO, DVec3::Y, 40.0).unwrap();
+        let camera =
+            Camera::look_at(DVec3::new(0.0, 0.0, 5.0), DVec3::ZERO, DVec3::Y, 40.0).unwrap();
         let lens = camera.lens(size[0], size[1], 3.0, 7.0).unwrap();
         (lens, camera.view_from_world())
     }
@@ -226,7 +238,11 @@ mod tests {
         let listed: Vec<u32> = (first..first + count)
             .map(|k| tiles.entries[k as usize][0])
             .collect();
-        assert_eq!(listed, vec![0, 2, 1], "the centre tile lists the row, nearest first");
+        assert_eq!(
+            listed,
+            vec![0, 2, 1],
+            "the centre tile lists the row, nearest first"
+        );
         let corner = tiles.ranges[0];
         assert_eq!(corner[1], 0, "the top-left tile lists nothing");
         let [x0, y0, x1, y1] = tiles.header.rect_ndc;
