@@ -293,12 +293,14 @@ def headline(mesh: gt.Mesh, gts: Any, repeats: int, idle: float, retries: int) -
             frame, t_gt = time_render(renderer, gts, cam, repeats)
             # The pass tiles replaced: every box drawn, each fragment searching its box.
             _, t_boxes = time_render(renderer, gts, cam, repeats, primary="boxes")
+            # The former default quality, tiled.
+            _, t_balanced = time_render(renderer, gts, cam, repeats, quality="balanced")
             _, t_mesh = time_render(renderer, mesh, cam, repeats)
             ref, t_tm = time_trimesh(caster, cam, HEADLINE_SIZE, TRIMESH_REPEATS)
             return {
                 "view": name, "direction": direction, "up": up,
                 "distance_diag": HEADLINE_DISTANCE, "size": HEADLINE_SIZE,
-                "geomtex": t_gt, "geomtex_boxes": t_boxes, "mesh_raster": t_mesh, "trimesh": t_tm,
+                "geomtex": t_gt, "geomtex_boxes": t_boxes, "geomtex_balanced": t_balanced, "mesh_raster": t_mesh, "trimesh": t_tm,
                 "trimesh_over_geomtex": t_tm["wall_ms"] / t_gt["wall_ms"],
                 "accuracy": accuracy(frame, ref, diag, normals=True),
             }
@@ -639,7 +641,7 @@ def main(argv: list[str] | None = None) -> None:
             "sweep_distances_diag": distances.tolist(), "wait_idle_s": args.wait_idle,
             "retries": args.retries, "busy_flag": BUSY_FLAG,
             "render_settings": "defaults (quality exact: max-pyramid search; primary tiles); "
-                               "geomtex_boxes: primary='boxes'",
+                               "geomtex_boxes: primary='boxes'; geomtex_balanced: quality='balanced'",
             "paper_crossover_px": PAPER_CROSSOVER_PX,
         },
         "meshes": meshes,
