@@ -102,8 +102,8 @@ def test_fetch_counts_follow_the_work(bunny: Converted) -> None:
     centre = (lo + hi) / 2
     cam = gt.Camera.look_at(centre + np.array([1, 0.8, 1.0]) * bunny.mesh.diagonal, centre, yfov_deg=40)
     fetches = {}
-    settings = {"s1": dict(quality="balanced", steps_per_texel=1.0), "s4": dict(quality="balanced", steps_per_texel=4.0),
-                "exact": dict(quality="exact")}
+    settings = {"s1": dict(quality="balanced", steps_per_texel=1.0),
+                "s4": dict(quality="balanced", steps_per_texel=4.0), "exact": dict(quality="exact")}
     for name, kw in settings.items():
         f = r.render(bunny.gts, cam, count_fetches=True, **kw)
         fetches[name] = f.stats["fetches_per_pixel"]
