@@ -8,6 +8,10 @@ first hits with locations, the throughput of each (million rays per second), hit
 and the distance error against embree (fraction of the bounding-box diagonal); and the same rays
 through the bunny *as a mesh* in a ``gt.Scene`` (the tracer's hierarchy over its triangles).
 
+Parallel rays: 1M rays sharing one direction, from random points on a plane beside the bunny's
+box across it (what shadow rays toward a directional light are), which the tracer walks through
+tiles seen along that direction instead of the hierarchy; same figures.
+
 Shadows: the bunny (converted, then as a mesh) on a ground plane (a mesh) at 512², three
 directional lights: the frame with and without ``light=``, and the shadow mask against embree's
 shadow rays cast from embree's own hits (tests/test_shadows.py at 128²).
@@ -51,8 +55,25 @@ def timed(call: Callable[[], Any], repeats: int) -> tuple[Any, float]:
     return result, float(np.median(walls))
 
 
-def measure(gts: Any, caster: Any, mesh: gt.Mesh, n: int) -> dict[str, Any]:
-    origins, dirs = rays_around(mesh, n)
+PARALLEL_DIRECTION = (0.3, -1.0, 0.2)
+
+
+def parallel_rays(mesh: gt.Mesh, n: int, seed: int = 7) -> tuple[np.ndarray, np.ndarray]:
+    """``n`` rays along PARALLEL_DIRECTION from random points of a square one diagonal behind
+    the box's centre (against the direction), half a diagonal on a side either way."""
+    lo, hi = (np.asarray(b, dtype=np.float64) for b in mesh.bounds)
+    diag, centre = float(mesh.diagonal), (lo + hi) / 2
+    d = np.asarray(PARALLEL_DIRECTION) / np.linalg.norm(PARALLEL_DIRECTION)
+    u = np.cross(d, [1.0, 0.0, 0.0])
+    u /= np.linalg.norm(u)
+    v = np.cross(d, u)
+    ab = np.random.default_rng(seed).uniform(-0.5 * diag, 0.5 * diag, (n, 2))
+    origins = centre - diag * d + ab[:, :1] * u + ab[:, 1:] * v
+    return origins, np.tile(d, (n, 1))
+
+
+def measure(gts: Any, caster: Any, mesh: gt.Mesh, n: int, parallel: bool = False) -> dict[str, Any]:
+    origins, dirs = parallel_rays(mesh, n) if parallel else rays_around(mesh, n)
     diag = mesh.diagonal
     repeats = 3 if n <= 100_000 else 1
     foreign = ForeignCpu()
@@ -73,7 +94,7 @@ def measure(gts: Any, caster: Any, mesh: gt.Mesh, n: int) -> dict[str, Any]:
         "mesh_first_ms": mesh_ms, "mesh_mrays_s": n / mesh_ms / 1e3, "embree_over_mesh": mesh_ms / embree_ms,
         "mesh_hit_agreement": float(np.mean(mesh_hits.hit == np.isfinite(ref))),
         "mesh_distance_p99": float(np.percentile(mesh_err, 99)), "mesh_distance_max": float(mesh_err.max()),
-        "rays": n, "geomtex_first_ms": gt_ms, "geomtex_any_ms": any_ms, "embree_ms": embree_ms,
+        "rays": n, "parallel": parallel, "geomtex_first_ms": gt_ms, "geomtex_any_ms": any_ms, "embree_ms": embree_ms,
         "geomtex_mrays_s": n / gt_ms / 1e3, "embree_mrays_s": n / embree_ms / 1e3,
         "embree_over_geomtex": gt_ms / embree_ms,
         "hit_agreement": float(np.mean(hits.hit == np.isfinite(ref))),
@@ -155,10 +176,15 @@ def main() -> None:
               f"embree {r['embree_ms']:7.1f} ms, embree {r['embree_over_geomtex']:.1f}x faster; agreement "
               f"{r['hit_agreement']:.5f}, p99 {r['distance_p99']:.1e} of the diagonal; as a mesh "
               f"{r['mesh_first_ms']:8.1f} ms, agreement {r['mesh_hit_agreement']:.5f}, p99 {r['mesh_distance_p99']:.1e}")
+    wait_idle(args.wait_idle)
+    parallel = measure(gts, caster, mesh, COUNTS_QUICK[-1] if args.quick else COUNTS_FULL[-1], parallel=True)
+    print(f"{parallel['rays']:>9,} parallel rays: geomtex {parallel['geomtex_first_ms']:8.1f} ms, embree "
+          f"{parallel['embree_ms']:7.1f} ms ({parallel['embree_over_geomtex']:.1f}x); agreement "
+          f"{parallel['hit_agreement']:.5f}, p99 {parallel['distance_p99']:.1e}; as a mesh {parallel['mesh_first_ms']:8.1f} ms")
     shadow_records = shadows(gts, mesh, False) + shadows(gts, mesh, True)
     OUT.mkdir(parents=True, exist_ok=True)
     result = {"machine": machine_info(), "embree_build_and_first_cast_s": build_s, "records": records,
-              "shadows": shadow_records}
+              "parallel": parallel, "shadows": shadow_records}
     (OUT / "rays.json").write_text(json.dumps(result, indent=2))
     plot(records, OUT / "rays.png")
 
