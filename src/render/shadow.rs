@@ -112,11 +112,8 @@ impl Renderer {
                 .collect(),
         };
         let offset = start_offset(scene);
-        let (pixels, rays, ranges, facing_away) = shadow_rays(camera, frame, light, offset)?;
+        let (pixels, rays, ranges) = shadow_rays(camera, frame, light, offset)?;
         let mut shadow = vec![false; frame.depth.len()];
-        for i in facing_away {
-            shadow[i] = true;
-        }
         if !rays.is_empty() && !casters.objects.is_empty() {
             let hits = self.trace_rays(&casters, &rays, Some(&ranges), search, true, cancel)?;
             for (&i, &id) in pixels.iter().zip(&hits.patch_id) {
@@ -134,23 +131,19 @@ impl Renderer {
     }
 }
 
-/// Pixels hit whose surface faces the light (their index), and from each the shadow ray (start
-/// moved `offset` off the surface, unit direction toward the light) with the stretch that counts
-/// (`offset`, the light's distance); then the pixels whose surface, on the side the camera sees,
-/// faces away from the light: in their own shadow, with no ray to trace. Those rays would cross
-/// the object they start on, the costliest ones (a third of a shadowed frame's time on the
-/// bunny), to find what their normal already says.
-#[allow(clippy::type_complexity)] // three parallel lists, one entry per ray, and the rest
+/// Pixels hit (their index), and from each the shadow ray (start moved `offset` off the surface,
+/// unit direction toward the light) with the stretch that counts (`offset`, the light's
+/// distance).
+#[allow(clippy::type_complexity)] // three parallel lists, one entry per hit pixel
 fn shadow_rays(
     camera: &Camera,
     frame: &Frame,
     light: &Light,
     offset: f64,
-) -> Result<(Vec<usize>, Vec<(DVec3, DVec3)>, Vec<(f64, f64)>, Vec<usize>)> {
+) -> Result<(Vec<usize>, Vec<(DVec3, DVec3)>, Vec<(f64, f64)>)> {
     let lens = camera.lens(frame.width, frame.height, 1.0, 2.0)?;
     let forward = camera.forward();
     let (mut pixels, mut rays, mut ranges) = (Vec::new(), Vec::new(), Vec::new());
-    let mut facing_away = Vec::new();
     for (i, &depth) in frame.depth.iter().enumerate() {
         if !depth.is_finite() {
             continue;
@@ -164,13 +157,9 @@ fn shadow_rays(
         let n = if n.dot(d) > 0.0 { -n } else { n };
         let start = point + n * offset;
         let (toward, distance) = light.toward(start);
-        if n.dot(toward) <= 0.0 {
-            facing_away.push(i);
-            continue;
-        }
         pixels.push(i);
         rays.push((start, toward));
         ranges.push((offset, distance));
     }
-    Ok((pixels, rays, ranges, facing_away))
+    Ok((pixels, rays, ranges))
 }
