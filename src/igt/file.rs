@@ -10,7 +10,8 @@
 //!          cell offsets u32[cells + 1] (cells: the grids' width x height summed) |
 //!          list payload: count u32, entry indices u32[] |
 //!          entries: count u32, each face u32 | grid u32 | corners 6 f32 |
-//!          face grid u32[faces] | normals f32[faces * 9] | colors u8[faces * 12] (flag 1) |
+//!          face grid u32[faces] | vertex count u32 | positions f64[vertices * 3] |
+//!          faces u32[faces * 3] | normals f32[faces * 9] | colors u8[faces * 12] (flag 1) |
 //!          texture coordinates f32[faces * 6] (flag 2) | image width u32, height u32,
 //!          RGBA8 pixels (flag 4)
 //! ```
@@ -22,7 +23,7 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use glam::DVec2;
+use glam::{DVec2, DVec3};
 
 use super::{Attributes, Entry, Grid, InverseGeometricTexture, Primary, MAX_RESOLUTION};
 use crate::appearance::Image;
@@ -52,7 +53,7 @@ fn flags(a: &Attributes) -> u32 {
 fn encode_payload(igt: &InverseGeometricTexture) -> Vec<u8> {
     let a = &igt.attributes;
     let mut p = Vec::new();
-    put_u32s(&mut p, [igt.resolution, igt.faces() as u32, flags(a)]);
+    put_u32s(&mut p, [igt.resolution, igt.face_count() as u32, flags(a)]);
     put_named(&mut p, &igt.stats);
     put_u32s(&mut p, [igt.grids.len() as u32]);
     for g in &igt.grids {
@@ -72,6 +73,11 @@ fn encode_payload(igt: &InverseGeometricTexture) -> Vec<u8> {
         put_f32s(&mut p, e.corners.iter().flatten().copied());
     }
     put_u32s(&mut p, igt.face_grid.iter().copied());
+    put_u32s(&mut p, [igt.positions.len() as u32]);
+    for v in &igt.positions {
+        put_f64s(&mut p, &v.to_array());
+    }
+    put_u32s(&mut p, igt.faces.iter().flatten().copied());
     put_f32s(&mut p, a.normals.iter().flatten().flatten().copied());
     if let Some(c) = &a.colors {
         p.extend(c.iter().flatten().flatten());
@@ -224,6 +230,28 @@ fn read_attributes(r: &mut Reader, faces: usize, flags: u32) -> Text<Attributes>
     })
 }
 
+/// The detailed mesh's positions and faces.
+fn read_geometry(r: &mut Reader, faces: usize) -> Text<(Vec<DVec3>, Vec<[u32; 3]>)> {
+    let n = r.u32("vertex count")? as usize;
+    let b = r.take(n.saturating_mul(24), "positions")?;
+    let positions: Vec<DVec3> = b
+        .chunks_exact(8)
+        .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
+        .collect::<Vec<_>>()
+        .chunks_exact(3)
+        .map(DVec3::from_slice)
+        .collect();
+    if positions.iter().any(|p| !p.is_finite()) {
+        return Err("a vertex position is not finite".into());
+    }
+    let idx = u32s(r, faces * 3, "faces")?;
+    if let Some(k) = idx.iter().position(|&v| v as usize >= n) {
+        return Err(format!("face {} names vertex {} of {n}", k / 3, idx[k]));
+    }
+    let tris = idx.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+    Ok((positions, tris))
+}
+
 /// The texture a file's bytes hold, or what is wrong with them.
 pub fn decode(bytes: &[u8]) -> Text<InverseGeometricTexture> {
     if bytes.len() < HEADER || &bytes[..8] != MAGIC {
@@ -283,6 +311,7 @@ pub fn decode(bytes: &[u8]) -> Text<InverseGeometricTexture> {
     {
         return Err(format!("face {f} names grid {}", face_grid[f]));
     }
+    let (positions, mesh_faces) = read_geometry(&mut r, faces as usize)?;
     let attributes = read_attributes(&mut r, faces as usize, flags)?;
     if r.pos != payload.len() {
         return Err(format!("{} bytes of trailing data", payload.len() - r.pos));
@@ -295,6 +324,8 @@ pub fn decode(bytes: &[u8]) -> Text<InverseGeometricTexture> {
         cell_entries,
         entries,
         face_grid,
+        positions,
+        faces: mesh_faces,
         attributes,
         stats,
         histogram: Vec::new(),

@@ -110,6 +110,9 @@ pub struct InverseGeometricTexture {
     pub entries: Vec<Entry>,
     /// Per detailed face: the grid it belongs to (u32::MAX for degenerate faces, never listed).
     pub face_grid: Vec<u32>,
+    /// The detailed mesh's geometry (kept for simplification; not uploaded to the GPU).
+    pub positions: Vec<DVec3>,
+    pub faces: Vec<[u32; 3]>,
     pub attributes: Attributes,
     /// Named figures (list lengths, bytes per part, seconds per stage).
     pub stats: Vec<(String, f64)>,
@@ -156,6 +159,8 @@ pub fn build(
         cell_entries,
         entries,
         face_grid,
+        positions: mesh.positions.clone(),
+        faces: mesh.faces.clone(),
         attributes,
         stats: Vec::new(),
         histogram: Vec::new(),
@@ -387,7 +392,7 @@ impl InverseGeometricTexture {
         self.cell_start.len() - 1
     }
 
-    pub fn faces(&self) -> usize {
+    pub fn face_count(&self) -> usize {
         self.face_grid.len()
     }
 
@@ -410,7 +415,7 @@ impl InverseGeometricTexture {
     /// Bytes of each part as the GPU holds it: (hash, lists, triangles, attributes, image).
     pub fn part_bytes(&self) -> [usize; 5] {
         let a = &self.attributes;
-        let faces = self.faces();
+        let faces = self.face_count();
         let attributes = faces * NORMAL_BYTES
             + a.colors.as_ref().map_or(0, |_| faces * COLOR_BYTES)
             + a.uv.as_ref().map_or(0, |_| faces * UV_BYTES);
@@ -442,7 +447,7 @@ impl InverseGeometricTexture {
         let bytes = self.part_bytes();
         let total: usize = bytes[..4].iter().sum();
         let figures = [
-            ("faces", self.faces() as f64),
+            ("faces", self.face_count() as f64),
             ("grids", self.grids.len() as f64),
             ("cells", cells as f64),
             ("empty_cells", (cells - filled) as f64),
@@ -456,7 +461,7 @@ impl InverseGeometricTexture {
             ("bytes_attributes", bytes[3] as f64),
             ("bytes_image", bytes[4] as f64),
             ("bytes", total as f64),
-            ("bytes_per_face", total as f64 / self.faces().max(1) as f64),
+            ("bytes_per_face", total as f64 / self.face_count().max(1) as f64),
         ];
         for (name, v) in figures {
             self.set(name, v);
@@ -466,3 +471,37 @@ impl InverseGeometricTexture {
 
 #[cfg(test)]
 mod tests;
+
+/// A simplified mesh shaded through an inverse geometric texture: each of its faces names the
+/// grid its points are projected into (for the charts primary, the chart of the detailed
+/// surface around it; grid 0 for a spherical or cylindrical map).
+#[derive(Clone, Debug)]
+pub struct IgtMesh {
+    pub igt: Arc<InverseGeometricTexture>,
+    pub mesh: Mesh,
+    pub face_grid: Vec<u32>,
+}
+
+impl IgtMesh {
+    pub fn new(igt: Arc<InverseGeometricTexture>, mesh: Mesh, face_grid: Vec<i64>) -> Result<Self> {
+        if face_grid.len() != mesh.faces.len() {
+            return Err(GeomtexError::Parameter(format!(
+                "{} face grids for {} faces",
+                face_grid.len(),
+                mesh.faces.len()
+            )));
+        }
+        let n = igt.grids.len() as i64;
+        if let Some(f) = face_grid.iter().position(|&g| !(0..n).contains(&g)) {
+            return Err(GeomtexError::Parameter(format!(
+                "face {f} names grid {} but the texture has {n} grids",
+                face_grid[f]
+            )));
+        }
+        Ok(IgtMesh {
+            igt,
+            mesh,
+            face_grid: face_grid.into_iter().map(|g| g as u32).collect(),
+        })
+    }
+}
