@@ -36,8 +36,8 @@ use figures::StageFigures;
 use frame::ChartFrame;
 use options::ERROR_DRIVEN_CHART_ERRORS;
 use overlap::Ring;
-pub use progress::Stages;
 use progress::each_chart;
+pub use progress::Stages;
 use repair::Folding;
 
 /// Converts a mesh to geometry textures. With the VSA partition, `max_error` and neither

@@ -131,15 +131,16 @@ fn read_grid(r: &mut Reader, k: usize, first_cell: u64) -> Text<Grid> {
     let cell = DVec2::new(r.f64(&what)?, r.f64(&what)?);
     let (width, height) = (r.u32(&what)?, r.u32(&what)?);
     let finite = origin.is_finite() && axes.iter().all(|a| a.is_finite()) && cell.is_finite();
-    let orthonormal = (0..3).all(|i| {
-        (0..3).all(|j| (axes[i].dot(axes[j]) - f64::from(u8::from(i == j))).abs() < 1e-6)
-    });
+    let orthonormal = (0..3)
+        .all(|i| (0..3).all(|j| (axes[i].dot(axes[j]) - f64::from(u8::from(i == j))).abs() < 1e-6));
     if !finite || !orthonormal || cell.min_element() < 0.0 {
         return Err(format!("{what}: not a finite orthonormal frame"));
     }
     for (side, n) in [("width", width), ("height", height)] {
         if !(1..=MAX_RESOLUTION).contains(&n) {
-            return Err(format!("{what}: {side} {n} is not 1 to {MAX_RESOLUTION} cells"));
+            return Err(format!(
+                "{what}: {side} {n} is not 1 to {MAX_RESOLUTION} cells"
+            ));
         }
     }
     if first_cell + width as u64 * height as u64 >= 1 << 31 {
@@ -218,7 +219,9 @@ fn read_attributes(r: &mut Reader, faces: usize, flags: u32) -> Text<Attributes>
     let image = if flags & 4 != 0 {
         let (w, h) = (r.u32("image size")? as usize, r.u32("image size")? as usize);
         let pixels = r.take(w.saturating_mul(h).saturating_mul(4), "image pixels")?;
-        Some(Arc::new(Image::new(w, h, pixels).map_err(|e| e.to_string())?))
+        Some(Arc::new(
+            Image::new(w, h, pixels).map_err(|e| e.to_string())?,
+        ))
     } else {
         None
     };
@@ -293,11 +296,18 @@ pub fn decode(bytes: &[u8]) -> Text<InverseGeometricTexture> {
         grids.push(g);
     }
     if grids.is_empty() || (primary.wraps() && grids.len() != 1) {
-        return Err(format!("{} grids for a {} primary", grids.len(), primary.name()));
+        return Err(format!(
+            "{} grids for a {} primary",
+            grids.len(),
+            primary.name()
+        ));
     }
     let (cell_start, cell_entries) = read_lists(&mut r, cells as usize)?;
     let entries = read_entries(&mut r, faces, grids.len() as u32)?;
-    if let Some(k) = cell_entries.iter().position(|&e| e as usize >= entries.len()) {
+    if let Some(k) = cell_entries
+        .iter()
+        .position(|&e| e as usize >= entries.len())
+    {
         return Err(format!(
             "list payload item {k} names entry {} of {}",
             cell_entries[k],

@@ -45,7 +45,11 @@ pub fn edge(a: DVec2, b: DVec2, p: DVec2) -> f64 {
 /// Barycentric coordinates of `p` in triangle `t` and whether it lies inside (edges included);
 /// `None` for a triangle of zero area.
 pub fn barycentric(t: &[DVec2; 3], p: DVec2) -> Option<([f64; 3], bool)> {
-    let w = [edge(t[1], t[2], p), edge(t[2], t[0], p), edge(t[0], t[1], p)];
+    let w = [
+        edge(t[1], t[2], p),
+        edge(t[2], t[0], p),
+        edge(t[0], t[1], p),
+    ];
     let sum = w[0] + w[1] + w[2];
     if sum == 0.0 {
         return None;

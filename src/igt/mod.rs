@@ -178,11 +178,7 @@ pub fn build(
 /// and ring faces.
 type Owners = Vec<(Vec<u32>, Vec<u32>)>;
 
-fn chart_grids(
-    mesh: &Mesh,
-    opts: &IgtOptions,
-    stages: &mut Stages,
-) -> Result<(Vec<Grid>, Owners)> {
+fn chart_grids(mesh: &Mesh, opts: &IgtOptions, stages: &mut Stages) -> Result<(Vec<Grid>, Owners)> {
     let planes = chart_planes(mesh, &opts.charts, stages)?;
     let target = (opts.resolution as f64).powi(2);
     let area: f64 = planes
@@ -326,7 +322,11 @@ fn lists(
                 cells.clear();
                 grid.overlapped_cells(primary, &e.corners64(), &mut cells);
                 let id = (start + k) as u64;
-                pairs.extend(cells.iter().map(|&c| (((grid.first_cell + c) as u64) << 32) | id));
+                pairs.extend(
+                    cells
+                        .iter()
+                        .map(|&c| (((grid.first_cell + c) as u64) << 32) | id),
+                );
             }
             pairs
         },
@@ -354,12 +354,18 @@ fn attributes(mesh: &Mesh, opts: &IgtOptions) -> Attributes {
         .into_iter()
         .map(|c| c.map(|n| n.as_vec3().to_array()))
         .collect();
+    // Face colors before vertex colors, as the mesh itself is drawn (Mesh::face_color).
     let colors = if !opts.colors {
         None
-    } else if let Some(vc) = &mesh.colors {
-        Some(mesh.faces.iter().map(|t| t.map(|v| vc[v as usize])).collect())
+    } else if let Some(fc) = &mesh.appearance.face_colors {
+        Some(fc.iter().map(|&c| [c; 3]).collect())
     } else {
-        (mesh.appearance.face_colors.as_ref()).map(|fc| fc.iter().map(|&c| [c; 3]).collect())
+        (mesh.colors.as_ref()).map(|vc| {
+            mesh.faces
+                .iter()
+                .map(|t| t.map(|v| vc[v as usize]))
+                .collect()
+        })
     };
     let texture = mesh.appearance.texture.as_ref().filter(|_| opts.uv);
     let uv = texture.map(|t| match &t.coords {
@@ -368,7 +374,10 @@ fn attributes(mesh: &Mesh, opts: &IgtOptions) -> Attributes {
             .iter()
             .map(|f| f.map(|v| uv[v as usize].as_vec2().to_array()))
             .collect(),
-        TextureCoords::PerCorner(c) => c.iter().map(|f| f.map(|p| p.as_vec2().to_array())).collect(),
+        TextureCoords::PerCorner(c) => c
+            .iter()
+            .map(|f| f.map(|p| p.as_vec2().to_array()))
+            .collect(),
     });
     Attributes {
         normals,
@@ -451,7 +460,10 @@ impl InverseGeometricTexture {
             ("grids", self.grids.len() as f64),
             ("cells", cells as f64),
             ("empty_cells", (cells - filled) as f64),
-            ("empty_fraction", (cells - filled) as f64 / cells.max(1) as f64),
+            (
+                "empty_fraction",
+                (cells - filled) as f64 / cells.max(1) as f64,
+            ),
             ("entries", self.entries.len() as f64),
             ("list_mean", sum as f64 / filled.max(1) as f64),
             ("list_max", max as f64),
@@ -461,7 +473,10 @@ impl InverseGeometricTexture {
             ("bytes_attributes", bytes[3] as f64),
             ("bytes_image", bytes[4] as f64),
             ("bytes", total as f64),
-            ("bytes_per_face", total as f64 / self.face_count().max(1) as f64),
+            (
+                "bytes_per_face",
+                total as f64 / self.face_count().max(1) as f64,
+            ),
         ];
         for (name, v) in figures {
             self.set(name, v);

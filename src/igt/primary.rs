@@ -91,7 +91,11 @@ impl Grid {
     /// `p` in this grid's primary space (cell units); u in [0, width) when the primary wraps.
     pub fn project(&self, primary: Primary, p: DVec3) -> DVec2 {
         let d = p - self.origin;
-        let l = DVec3::new(d.dot(self.axes[0]), d.dot(self.axes[1]), d.dot(self.axes[2]));
+        let l = DVec3::new(
+            d.dot(self.axes[0]),
+            d.dot(self.axes[1]),
+            d.dot(self.axes[2]),
+        );
         let longitude = || {
             let turn = (l.y.atan2(l.x) / std::f64::consts::TAU).rem_euclid(1.0);
             // rem_euclid can round up to exactly 1.
@@ -169,7 +173,10 @@ impl Grid {
         } else {
             i1 = i1.min(i0 + w - 1);
         }
-        let (j0, j1) = ((lo.y.floor() as i64).max(0), (hi.y.floor() as i64).min(h - 1));
+        let (j0, j1) = (
+            (lo.y.floor() as i64).max(0),
+            (hi.y.floor() as i64).min(h - 1),
+        );
         for j in j0..=j1 {
             for i in i0..=i1 {
                 if triangle_overlaps_cell(t, DVec2::new(i as f64, j as f64)) {
@@ -194,10 +201,11 @@ pub fn triangle_overlaps_cell(t: &[DVec2; 3], c: DVec2) -> bool {
             continue;
         }
         let range = |pts: &[DVec2]| {
-            pts.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
-                let d = n.dot(*p) / scale;
-                (a.min(d), b.max(d))
-            })
+            pts.iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+                    let d = n.dot(*p) / scale;
+                    (a.min(d), b.max(d))
+                })
         };
         let (tlo, thi) = range(t);
         let (blo, bhi) = range(&box_corners);
@@ -215,9 +223,16 @@ mod tests {
 
     #[test]
     fn overlap_is_exact_on_simple_cases() {
-        let t = [DVec2::new(0.5, 0.5), DVec2::new(2.5, 0.5), DVec2::new(0.5, 2.5)];
+        let t = [
+            DVec2::new(0.5, 0.5),
+            DVec2::new(2.5, 0.5),
+            DVec2::new(0.5, 2.5),
+        ];
         assert!(triangle_overlaps_cell(&t, DVec2::new(0.0, 0.0)));
-        assert!(triangle_overlaps_cell(&t, DVec2::new(1.0, 1.0)), "the hypotenuse touches");
+        assert!(
+            triangle_overlaps_cell(&t, DVec2::new(1.0, 1.0)),
+            "the hypotenuse touches"
+        );
         assert!(!triangle_overlaps_cell(&t, DVec2::new(1.6, 1.6)));
         let grid = Grid {
             origin: DVec3::ZERO,

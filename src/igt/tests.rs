@@ -67,7 +67,9 @@ fn lookup_finds_the_face_under_its_own_points() {
                     wrong += 1;
                     continue;
                 }
-                let err = (0..3).map(|k| (hit.bary[k] - l[k]).abs()).fold(0.0, f64::max);
+                let err = (0..3)
+                    .map(|k| (hit.bary[k] - l[k]).abs())
+                    .fold(0.0, f64::max);
                 worst = worst.max(err);
                 wrong += usize::from(!hit.inside);
             }
@@ -75,11 +77,19 @@ fn lookup_finds_the_face_under_its_own_points() {
         // Charts: exact; the spherical map bends triangles near the poles (this sphere's fans),
         // whose straight-edged images then overlap their neighbours (measured: 0 and 46 of 6624
         // points).
-        let allowed = if primary == Primary::Charts { 0 } else { total / 100 };
+        let allowed = if primary == Primary::Charts {
+            0
+        } else {
+            total / 100
+        };
         assert!(wrong <= allowed, "{primary:?}: {wrong} of {total}");
         // Barycentrics: the charts' projection is affine, so only the f32 corners round them
         // (measured 2.1e-6); the spherical map is not, worst in the pole fans (measured 0.23).
-        let bound = if primary == Primary::Charts { 1e-5 } else { 0.6 };
+        let bound = if primary == Primary::Charts {
+            1e-5
+        } else {
+            0.6
+        };
         eprintln!("{primary:?}: {wrong} of {total} wrong or outside, barycentric error {worst}");
         assert!(worst < bound, "{primary:?}: barycentric error {worst}");
     }

@@ -177,21 +177,33 @@ impl PyIgt {
     #[getter]
     fn normals<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray3<f32>> {
         let n = &self.inner.attributes.normals;
-        image(py, n.iter().flatten().flatten().copied().collect(), (n.len(), 3, 3))
+        image(
+            py,
+            n.iter().flatten().flatten().copied().collect(),
+            (n.len(), 3, 3),
+        )
     }
 
     /// (F, 3, 4) uint8 corner colors, or None.
     #[getter]
     fn colors<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray3<u8>>> {
         let c = self.inner.attributes.colors.as_ref()?;
-        Some(image(py, c.iter().flatten().flatten().copied().collect(), (c.len(), 3, 4)))
+        Some(image(
+            py,
+            c.iter().flatten().flatten().copied().collect(),
+            (c.len(), 3, 4),
+        ))
     }
 
     /// (F, 3, 2) float32 corner texture coordinates, or None.
     #[getter]
     fn uv<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray3<f32>>> {
         let c = self.inner.attributes.uv.as_ref()?;
-        Some(image(py, c.iter().flatten().flatten().copied().collect(), (c.len(), 3, 2)))
+        Some(image(
+            py,
+            c.iter().flatten().flatten().copied().collect(),
+            (c.len(), 3, 2),
+        ))
     }
 
     /// (H, W, 4) uint8 texture image, row 0 at the top, or None.
@@ -227,7 +239,12 @@ impl PyIgt {
             inner.lookup_many(&pts, grids.as_deref())
         })?;
         let faces = PyArray1::from_iter(py, hits.iter().map(|h| h.face));
-        let bary = matrix(py, hits.iter().flat_map(|h| h.bary).collect(), hits.len(), 3);
+        let bary = matrix(
+            py,
+            hits.iter().flat_map(|h| h.bary).collect(),
+            hits.len(),
+            3,
+        );
         let inside = PyArray1::from_iter(py, hits.iter().map(|h| h.inside));
         Ok((faces, bary, inside))
     }
@@ -280,9 +297,9 @@ impl PyIgt {
     /// A texture from the bytes of a .gtigt file; FormatError for anything not an intact one.
     #[staticmethod]
     fn from_bytes(py: Python<'_>, data: &[u8]) -> PyResult<Self> {
-        let igt = py
-            .detach(|| file::decode(data))
-            .map_err(|e| GeomtexError::Format(format!("InverseGeometricTexture.from_bytes: {e}")))?;
+        let igt = py.detach(|| file::decode(data)).map_err(|e| {
+            GeomtexError::Format(format!("InverseGeometricTexture.from_bytes: {e}"))
+        })?;
         Ok(PyIgt::wrap(igt))
     }
 
