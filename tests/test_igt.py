@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import geomtex as gt
+
 from conftest import SHARED_MESHES, pymeshlab_bunny_path
 
 
@@ -69,7 +70,8 @@ def test_every_triangle_is_listed_in_every_cell_it_covers() -> None:
     local = cell_of - g["first_cell"][grid_of]
     ci, cj = local % g["shape"][grid_of, 0], local // g["shape"][grid_of, 0]
     lo, hi = corners[entries].min(axis=1), corners[entries].max(axis=1)
-    reach = (lo[:, 0] <= ci + 1 + 1e-3) & (hi[:, 0] >= ci - 1e-3) & (lo[:, 1] <= cj + 1 + 1e-3) & (hi[:, 1] >= cj - 1e-3)
+    reach = (lo[:, 0] <= ci + 1 + 1e-3) & (hi[:, 0] >= ci - 1e-3)
+    reach &= (lo[:, 1] <= cj + 1 + 1e-3) & (hi[:, 1] >= cj - 1e-3)
     assert reach.all()
     s = igt.stats
     assert s["faces"] == len(igt.faces) and sum(s["histogram"]) == s["cells"]
