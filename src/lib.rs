@@ -12,6 +12,7 @@ pub mod filters;
 pub mod grids;
 pub mod gtex;
 pub mod heightfield;
+pub mod igt;
 pub mod mesh;
 pub mod render;
 pub mod surfels;

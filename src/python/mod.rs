@@ -6,6 +6,7 @@ mod args;
 mod arrays;
 mod errors;
 mod gtex;
+mod igt;
 mod mesh;
 mod render;
 mod surfels;
@@ -20,6 +21,10 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(gtex::convert, m)?)?;
     m.add_function(wrap_pyfunction!(gtex::load, m)?)?;
     m.add_class::<surfels::PySurfels>()?;
+    m.add_class::<igt::PyIgt>()?;
+    m.add_class::<igt::PyIgtMesh>()?;
+    m.add_function(wrap_pyfunction!(igt::build_igt, m)?)?;
+    m.add_function(wrap_pyfunction!(igt::load_igt, m)?)?;
     m.add_function(wrap_pyfunction!(surfels::load_surfels, m)?)?;
     m.add_class::<render::PyCamera>()?;
     m.add_class::<render::PyScene>()?;
