@@ -5,6 +5,7 @@
 mod args;
 mod arrays;
 mod errors;
+mod gdm;
 mod gtex;
 mod mesh;
 mod render;
@@ -21,6 +22,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(gtex::load, m)?)?;
     m.add_class::<surfels::PySurfels>()?;
     m.add_function(wrap_pyfunction!(surfels::load_surfels, m)?)?;
+    m.add_class::<gdm::PyGdmVolume>()?;
+    m.add_function(wrap_pyfunction!(gdm::gdm_explicit_mesh, m)?)?;
     m.add_class::<render::PyCamera>()?;
     m.add_class::<render::PyScene>()?;
     m.add_class::<render::PyRenderer>()?;
