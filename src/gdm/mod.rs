@@ -13,3 +13,19 @@ pub mod volume;
 pub use distance::{distance_function, DistanceFunction, Marcher, DEFAULT_DIRECTIONS};
 pub use shell::{Shell, TileSurface};
 pub use volume::{Pattern, Volume, PATTERNS};
+
+use std::sync::Arc;
+
+/// A shell ready to render: the prisms over a base mesh and the tile they carry, drawn in
+/// `color` (RGBA).
+pub struct GdmShell {
+    pub shell: Shell,
+    pub volume: Arc<Volume>,
+    pub color: [u8; 4],
+    /// Straight pieces each prism's ray is cut into in texture space (each piece's ends mapped
+    /// exactly), so the march follows the prism's curved map.
+    pub pieces: u32,
+}
+
+/// Default pieces per prism.
+pub const DEFAULT_PIECES: u32 = 4;

@@ -17,7 +17,10 @@ use super::arrays::{flat, rows, ArrayPair};
 use super::errors::heavy;
 use super::gtex::reporting;
 use crate::error::{parse_choice, GeomtexError};
-use crate::gdm::{distance_function, Marcher, Pattern, Shell, TileSurface, Volume, PATTERNS};
+use crate::gdm::{
+    distance_function, GdmShell, Marcher, Pattern, Shell, TileSurface, Volume, DEFAULT_PIECES,
+    PATTERNS,
+};
 
 /// A mesostructure tile: an occupancy grid (x, y periodic), optional per-voxel RGBA.
 #[pyclass(name = "GdmVolume", module = "geomtex._core", frozen)]
@@ -164,6 +167,99 @@ impl PyGdmVolume {
     }
 }
 
+fn points(a: &PyReadonlyArray2<'_, f64>) -> Vec<DVec3> {
+    flat(a).chunks_exact(3).map(DVec3::from_slice).collect()
+}
+
+fn triangles(a: &PyReadonlyArray2<'_, u32>) -> Vec<[u32; 3]> {
+    flat(a)
+        .chunks_exact(3)
+        .map(|t| [t[0], t[1], t[2]])
+        .collect()
+}
+
+/// A shell from the package's checked arrays: (V, 3) positions and unit normals, (F, 3) faces,
+/// (F, 3, 2) texture coordinates in tiles.
+fn shell_of(
+    positions: &PyReadonlyArray2<'_, f64>,
+    normals: &PyReadonlyArray2<'_, f64>,
+    faces: &PyReadonlyArray2<'_, u32>,
+    uv: &PyReadonlyArray3<'_, f64>,
+    thickness: f64,
+    size: [usize; 3],
+) -> PyResult<Shell> {
+    let shell = Shell {
+        positions: points(positions),
+        normals: points(normals),
+        faces: triangles(faces),
+        uv: flat(uv)
+            .chunks_exact(6)
+            .map(|c| std::array::from_fn(|k| DVec2::new(c[2 * k], c[2 * k + 1])))
+            .collect(),
+        thickness,
+        size,
+    };
+    let checks = [
+        shell.normals.len() == shell.positions.len(),
+        shell.uv.len() == shell.faces.len(),
+        (shell.faces.iter().flatten()).all(|&k| (k as usize) < shell.positions.len()),
+        thickness.is_finite() && thickness > 0.0,
+    ];
+    if checks.contains(&false) {
+        return Err(GeomtexError::Parameter(
+            "shell: normals, uv, faces or thickness do not fit the base mesh".into(),
+        )
+        .into());
+    }
+    Ok(shell)
+}
+
+/// A shell the renderer draws: prisms over a base mesh carrying a volume (see geomtex.gdm.Shell).
+#[pyclass(name = "GdmShell", module = "geomtex._core", frozen)]
+pub struct PyGdmShell {
+    pub(crate) inner: Arc<GdmShell>,
+}
+
+#[pymethods]
+impl PyGdmShell {
+    #[new]
+    #[pyo3(signature = (positions, normals, faces, uv, thickness, volume, color, pieces = None))]
+    #[allow(clippy::too_many_arguments)] // the shell's parts, as the package's Shell holds them
+    fn new(
+        positions: PyReadonlyArray2<'_, f64>,
+        normals: PyReadonlyArray2<'_, f64>,
+        faces: PyReadonlyArray2<'_, u32>,
+        uv: PyReadonlyArray3<'_, f64>,
+        thickness: f64,
+        volume: &PyGdmVolume,
+        color: (u8, u8, u8, u8),
+        pieces: Option<u32>,
+    ) -> PyResult<Self> {
+        let volume = volume.inner.clone();
+        let shell = shell_of(&positions, &normals, &faces, &uv, thickness, volume.size)?;
+        let pieces = pieces.unwrap_or(DEFAULT_PIECES);
+        if !(1..=64).contains(&pieces) {
+            return Err(
+                GeomtexError::Parameter(format!("pieces must be in 1..=64, got {pieces}")).into(),
+            );
+        }
+        Ok(PyGdmShell {
+            inner: Arc::new(GdmShell {
+                shell,
+                volume,
+                color: [color.0, color.1, color.2, color.3],
+                pieces,
+            }),
+        })
+    }
+
+    /// Prisms (base faces).
+    #[getter]
+    fn prisms(&self) -> usize {
+        self.inner.shell.faces.len()
+    }
+}
+
 /// The explicit mesh of a shell: the tile's surface (vertices in voxel units over one period,
 /// faces) clipped to each base face's prism and mapped into object space; (vertices, faces).
 #[pyfunction]
@@ -179,38 +275,8 @@ pub fn gdm_explicit_mesh<'py>(
     tile_vertices: PyReadonlyArray2<'_, f64>,
     tile_faces: PyReadonlyArray2<'_, u32>,
 ) -> ArrayPair<'py, numpy::PyArray2<f64>, numpy::PyArray2<u32>> {
-    let points = |a: &PyReadonlyArray2<'_, f64>| -> Vec<DVec3> {
-        flat(a).chunks_exact(3).map(DVec3::from_slice).collect()
-    };
-    let triangles = |a: &PyReadonlyArray2<'_, u32>| -> Vec<[u32; 3]> {
-        flat(a)
-            .chunks_exact(3)
-            .map(|t| [t[0], t[1], t[2]])
-            .collect()
-    };
     let size = [size.0, size.1, size.2];
-    let shell = Shell {
-        positions: points(&positions),
-        normals: points(&normals),
-        faces: triangles(&faces),
-        uv: flat(&uv)
-            .chunks_exact(6)
-            .map(|c| std::array::from_fn(|k| DVec2::new(c[2 * k], c[2 * k + 1])))
-            .collect(),
-        thickness,
-        size,
-    };
-    let checks = [
-        shell.normals.len() == shell.positions.len(),
-        shell.uv.len() == shell.faces.len(),
-        (shell.faces.iter().flatten()).all(|&k| (k as usize) < shell.positions.len()),
-    ];
-    if checks.contains(&false) {
-        return Err(GeomtexError::Parameter(
-            "shell: normals, uv or faces do not match the base mesh".into(),
-        )
-        .into());
-    }
+    let shell = shell_of(&positions, &normals, &faces, &uv, thickness, size)?;
     let tile = TileSurface::new(points(&tile_vertices), triangles(&tile_faces), size)?;
     let (v, f) = heavy(py, "building a shell's explicit mesh", move |_| {
         Ok(shell.explicit_mesh(&tile))

@@ -23,6 +23,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<surfels::PySurfels>()?;
     m.add_function(wrap_pyfunction!(surfels::load_surfels, m)?)?;
     m.add_class::<gdm::PyGdmVolume>()?;
+    m.add_class::<gdm::PyGdmShell>()?;
     m.add_function(wrap_pyfunction!(gdm::gdm_explicit_mesh, m)?)?;
     m.add_class::<render::PyCamera>()?;
     m.add_class::<render::PyScene>()?;
