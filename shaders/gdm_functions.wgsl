@@ -136,7 +136,7 @@ fn gdm_inverse2(m: mat2x2<f32>) -> mat2x2<f32> {
     return mat2x2<f32>(vec2<f32>(m[1].y, -m[0].y), vec2<f32>(-m[1].x, m[0].x)) * (1.0 / det);
 }
 
-fn gdm_weights(pr: Prism, t: vec3<f32>) -> vec3<f32> {
+fn gdm_weights_at(pr: Prism, t: vec3<f32>) -> vec3<f32> {
     let w = gdm_inverse2(gdm_uv_matrix(pr)) * (t.xy - pr.uv01.xy);
     return vec3<f32>(w, t.z / f32(shell.size.z));
 }
@@ -235,6 +235,56 @@ fn gdm_march(a: vec3<f32>, dir: vec3<f32>, len: f32) -> f32 {
     return -1.0;
 }
 
+// The SVD-compressed distance d(x, y, z, theta, phi) at texture point t (trilinear over voxel
+// centres, x and y wrapped) for the sampled direction nearest the unit direction dir.
+fn gdm_lookup(t: vec3<f32>, dir: vec3<f32>) -> f32 {
+    let n = vec3<i32>(shell.size.xyz);
+    let counts = shell.lookup;
+    let pi = 3.14159265;
+    let theta = acos(clamp(dir.z, -1.0, 1.0));
+    var phi = atan2(dir.y, dir.x);
+    if (phi < 0.0) {
+        phi += 2.0 * pi;
+    }
+    let a = u32(clamp(round(theta * f32(counts.x) / pi - 0.5), 0.0, f32(counts.x - 1u)));
+    let b = u32(round(phi * f32(counts.y) / (2.0 * pi))) % counts.y;
+    let s = t - 0.5;
+    let base = floor(s);
+    let f = s - base;
+    var acc = 0.0;
+    for (var c = 0; c < 8; c++) {
+        let o = vec3<i32>(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+        let v = vec3<i32>(base) + o;
+        let i = ((v.x % n.x) + n.x) % n.x;
+        let j = ((v.y % n.y) + n.y) % n.y;
+        let z = u32(clamp(v.z, 0, n.z - 1));
+        let wt = mix(1.0 - f, f, vec3<f32>(o));
+        var d = 0.0;
+        for (var k = 0u; k < counts.z; k++) {
+            let w = gdm_terms_w[((u32(i * n.y + j)) * counts.y + b) * counts.z + k];
+            d += w * gdm_terms_e[(k * counts.x + a) * u32(n.z) + z];
+        }
+        acc += wt.x * wt.y * wt.z * d;
+    }
+    return acc;
+}
+
+// The paper's lookup along one straight piece: the distance the table gives from its start,
+// kept when it falls within the piece and the field confirms solid there (a miss in the table
+// holds the distance to the slab's boundary instead, where there is none); -1 otherwise.
+fn gdm_lookup_piece(a: vec3<f32>, dir: vec3<f32>, len: f32) -> f32 {
+    let d = max(gdm_lookup(a, dir), 0.0);
+    if (d > len) {
+        return -1.0;
+    }
+    for (var k = 0; k < 3; k++) {
+        if (gdm_field(a + dir * (d + 0.5 * f32(k))) >= 0.5) {
+            return d;
+        }
+    }
+    return -1.0;
+}
+
 // World normal at texture point t: the field's gradient taken through the prism's map
 // (inverse transpose of d X / d T).
 fn gdm_normal(pr: Prism, t: vec3<f32>, w: vec3<f32>) -> vec3<f32> {
@@ -274,10 +324,15 @@ fn gdm_trace_prism(pr: Prism, origin: vec3<f32>, dir: vec3<f32>, near: f32) -> G
         let len = length(t_next - t_prev);
         if (len > 1e-6) {
             let dir_t = (t_next - t_prev) / len;
-            let s = gdm_march(t_prev, dir_t, len);
+            var s: f32;
+            if (shell.lookup.w == 1u) {
+                s = gdm_lookup_piece(t_prev, dir_t, len);
+            } else {
+                s = gdm_march(t_prev, dir_t, len);
+            }
             if (s >= 0.0) {
                 let th = t_prev + dir_t * s;
-                let wh = gdm_weights(pr, th);
+                let wh = gdm_weights_at(pr, th);
                 let view = shell.view_from_object * vec4<f32>(gdm_forward(pr, wh), 1.0);
                 return GdmHit(-view.z, gdm_normal(pr, th, wh));
             }

@@ -14,6 +14,9 @@ struct GdmObject {
     color: vec4<f32>,
     // x: id written to the id target.
     ids: vec4<i32>,
+    // The GDM lookup (SVD terms in gdm_bindings.wgsl): x, y: theta and phi counts, z: terms k,
+    // w: 1 to look up instead of marching exactly.
+    lookup: vec4<u32>,
 }
 
 // One prism: base corners p (local), top corners q = p + thickness * n (shared vertex normals),

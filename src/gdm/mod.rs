@@ -25,6 +25,20 @@ pub struct GdmShell {
     /// Straight pieces each prism's ray is cut into in texture space (each piece's ends mapped
     /// exactly), so the march follows the prism's curved map.
     pub pieces: u32,
+    /// When set, the paper's lookup in the SVD-compressed distance function replaces the exact
+    /// march.
+    pub lookup: Option<CompressedTable>,
+}
+
+/// A distance function as k SVD terms: d = sum_i W_i(x, y, phi) E_i(theta, z).
+pub struct CompressedTable {
+    /// [theta, phi] direction counts.
+    pub directions: [usize; 2],
+    pub k: usize,
+    /// W[((x * ny + y) * n_phi + phi) * k + i].
+    pub weights: Vec<f32>,
+    /// E[(i * n_theta + theta) * nz + z].
+    pub eigen: Vec<f32>,
 }
 
 /// Default pieces per prism.

@@ -18,8 +18,8 @@ use super::errors::heavy;
 use super::gtex::reporting;
 use crate::error::{parse_choice, GeomtexError};
 use crate::gdm::{
-    distance_function, GdmShell, Marcher, Pattern, Shell, TileSurface, Volume, DEFAULT_PIECES,
-    PATTERNS,
+    distance_function, CompressedTable, GdmShell, Marcher, Pattern, Shell, TileSurface, Volume,
+    DEFAULT_PIECES, PATTERNS,
 };
 
 /// A mesostructure tile: an occupancy grid (x, y periodic), optional per-voxel RGBA.
@@ -214,6 +214,28 @@ fn shell_of(
     Ok(shell)
 }
 
+/// SVD terms from the package's (nx, ny, phi, k) weights and (k, theta, nz) eigen-maps.
+fn table_of(
+    weights: &PyReadonlyArray4<'_, f32>,
+    eigen: &PyReadonlyArray3<'_, f32>,
+    size: [usize; 3],
+) -> PyResult<CompressedTable> {
+    let (w, e) = (weights.shape(), eigen.shape());
+    if w[..2] != size[..2] || e[2] != size[2] || w[3] != e[0] || w[3] == 0 || w[2] == 0 || e[1] == 0
+    {
+        return Err(GeomtexError::Parameter(format!(
+            "lookup: weights {w:?} and eigen-maps {e:?} do not fit a {size:?} volume"
+        ))
+        .into());
+    }
+    Ok(CompressedTable {
+        directions: [e[1], w[2]],
+        k: w[3],
+        weights: flat(weights),
+        eigen: flat(eigen),
+    })
+}
+
 /// A shell the renderer draws: prisms over a base mesh carrying a volume (see geomtex.gdm.Shell).
 #[pyclass(name = "GdmShell", module = "geomtex._core", frozen)]
 pub struct PyGdmShell {
@@ -223,7 +245,8 @@ pub struct PyGdmShell {
 #[pymethods]
 impl PyGdmShell {
     #[new]
-    #[pyo3(signature = (positions, normals, faces, uv, thickness, volume, color, pieces = None))]
+    #[pyo3(signature = (positions, normals, faces, uv, thickness, volume, color, pieces = None,
+        lookup = None))]
     #[allow(clippy::too_many_arguments)] // the shell's parts, as the package's Shell holds them
     fn new(
         positions: PyReadonlyArray2<'_, f64>,
@@ -234,8 +257,10 @@ impl PyGdmShell {
         volume: &PyGdmVolume,
         color: (u8, u8, u8, u8),
         pieces: Option<u32>,
+        lookup: Option<(PyReadonlyArray4<'_, f32>, PyReadonlyArray3<'_, f32>)>,
     ) -> PyResult<Self> {
         let volume = volume.inner.clone();
+        let volume_size = volume.size;
         let shell = shell_of(&positions, &normals, &faces, &uv, thickness, volume.size)?;
         let pieces = pieces.unwrap_or(DEFAULT_PIECES);
         if !(1..=64).contains(&pieces) {
@@ -249,6 +274,9 @@ impl PyGdmShell {
                 volume,
                 color: [color.0, color.1, color.2, color.3],
                 pieces,
+                lookup: lookup
+                    .map(|(w, e)| table_of(&w, &e, volume_size))
+                    .transpose()?,
             }),
         })
     }

@@ -79,6 +79,7 @@ pub(crate) struct GdmObjectGpu {
     pub size: [u32; 4],
     pub color: [f32; 4],
     pub ids: [i32; 4],
+    pub lookup: [u32; 4],
 }
 
 /// `Prism` in gdm_types.wgsl.
@@ -173,7 +174,7 @@ wgsl_size!(MeshObjectGpu, 144);
 const _: () = assert!(offset_of!(MeshObjectGpu, world_normal_from_object) == 64);
 const _: () = assert!(offset_of!(MeshObjectGpu, ids) == 128);
 
-wgsl_size!(GdmObjectGpu, 240);
+wgsl_size!(GdmObjectGpu, 256);
 const _: () = assert!(offset_of!(GdmObjectGpu, size) == 192);
 const _: () = assert!(offset_of!(GdmObjectGpu, ids) == 224);
 wgsl_size!(PrismGpu, 128);

@@ -23,6 +23,8 @@ struct UploadedShell {
     count: u32,
     prisms: wgpu::Buffer,
     radii: wgpu::Buffer,
+    weights: wgpu::Buffer,
+    eigen: wgpu::Buffer,
     centre: DVec3,
     lo: DVec3,
     hi: DVec3,
@@ -44,6 +46,8 @@ impl GdmKind {
                 uniform_entry(0, VERTEX_AND_FRAGMENT),
                 storage_entry(1, fragment, true),
                 storage_entry(2, fragment, true),
+                storage_entry(3, fragment, true),
+                storage_entry(4, fragment, true),
             ],
         });
         let vertex_layout = wgpu::VertexBufferLayout {
@@ -150,7 +154,14 @@ fn upload(gpu: &Gpu, object: &GdmShell) -> UploadedShell {
         contents: bytemuck::cast_slice(&vertices),
         usage: wgpu::BufferUsages::VERTEX,
     });
+    // One float stands in for the terms of a shell without a lookup (bindings need a buffer).
+    let (weights, eigen) = match &object.lookup {
+        Some(t) => (t.weights.as_slice(), t.eigen.as_slice()),
+        None => (&[0.0f32][..], &[0.0f32][..]),
+    };
     UploadedShell {
+        weights: storage_buffer(device, "gdm weights", bytemuck::cast_slice(weights)),
+        eigen: storage_buffer(device, "gdm eigen-maps", bytemuck::cast_slice(eigen)),
         vertices: buffer,
         count: vertices.len() as u32,
         prisms: storage_buffer(device, "gdm prisms", bytemuck::cast_slice(&prisms)),
@@ -201,6 +212,10 @@ impl Kind for GdmKind {
             size: [nx, ny, nz, shell.pieces.max(1)],
             color: shell.color.map(|c| f32::from(c) / 255.0),
             ids: [-2 - tally.meshes_drawn as i32, 0, 0, 0],
+            lookup: shell.lookup.as_ref().map_or([1, 1, 0, 0], |t| {
+                let [nt, np] = t.directions.map(|n| n as u32);
+                [nt, np, t.k as u32, 1]
+            }),
         };
         tally.meshes_drawn += 1;
         let device = &gpu.device;
@@ -224,6 +239,14 @@ impl Kind for GdmKind {
                 wgpu::BindGroupEntry {
                     binding: 2,
                     resource: u.radii.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: u.weights.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: u.eigen.as_entire_binding(),
                 },
             ],
         });
