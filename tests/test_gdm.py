@@ -195,7 +195,7 @@ def test_gdm_lookup_renders_but_is_coarser_than_the_march(torus_chain: tuple) ->
                        thickness=0.08, uv=shell.uv, lookup=packed)
     frame = gt.Renderer(RENDER_SIZE, RENDER_SIZE).render(lookup, cam)
     iou, p99, _ = compare(frame, ref)
-    # Measured at 256^2: IoU 0.61, depth p99 1.0 (the nearest of 16 x 32 directions and 8 SVD terms).
+    # Measured at 256^2: IoU 0.61 (nearest of 16 x 32 directions, 8 SVD terms).
     assert 0.3 < iou < 0.9
 
 
