@@ -16,7 +16,6 @@ centres of equal steps of [0, pi]; phi the azimuth from +x, at equal steps from 
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass, field
 from typing import Any, Callable, Literal
 
@@ -92,10 +91,10 @@ class Volume:
     def from_mesh(cls, mesh: Any, size: Any = DEFAULT_SIZE, *, check_seams: bool = True) -> Volume:
         """A watertight mesh voxelized into one tile: its bounding box's x and y span the tile, its
         z span the tile's height (a voxel is solid when its centre is inside)."""
-        import trimesh
+        from ._mesh import as_mesh
 
-        tm = mesh if isinstance(mesh, trimesh.Trimesh) else trimesh.load(mesh, force="mesh") \
-            if isinstance(mesh, (str, os.PathLike)) else _core_to_trimesh(mesh)
+        tm: Any = _core_to_trimesh(as_mesh(mesh))
+        tm.merge_vertices()
         if not tm.is_watertight:
             raise MeshError("Volume.from_mesh needs a watertight mesh (inside must be defined)")
         n = np.array(_size(size))
@@ -310,7 +309,7 @@ class Shell:
         rgba = np.asarray(color)
         if rgba.shape != (4,) or rgba.dtype.kind not in "iu" or (rgba < 0).any() or (rgba > 255).any():
             raise ParameterError(f"color must be four integers in 0..255 (RGBA), got {color!r}")
-        self.color = tuple(int(c) for c in rgba)
+        self.color: tuple[int, int, int, int] = (int(rgba[0]), int(rgba[1]), int(rgba[2]), int(rgba[3]))
         if isinstance(pieces, bool) or not isinstance(pieces, (int, np.integer)) or not 1 <= pieces <= 64:
             raise ParameterError(f"pieces must be an integer in 1..64, got {pieces!r}")
         self.pieces = int(pieces)
