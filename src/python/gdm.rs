@@ -124,7 +124,7 @@ impl PyGdmVolume {
         let max_t = max_t.map(|m| real(m, "max_t")).transpose()?;
         let o = flat(&origins);
         let d = flat(&directions);
-        if o.len() != d.len() || o.len() % 3 != 0 {
+        if o.len() != d.len() || !o.len().is_multiple_of(3) {
             return Err(GeomtexError::Parameter(
                 "origins and directions must both be (N, 3)".into(),
             )
