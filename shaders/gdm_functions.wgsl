@@ -287,13 +287,17 @@ fn gdm_lookup_piece(a: vec3<f32>, dir: vec3<f32>, len: f32) -> f32 {
 
 // World normal at texture point t: the field's gradient taken through the prism's map
 // (inverse transpose of d X / d T).
-fn gdm_normal(pr: Prism, t: vec3<f32>, w: vec3<f32>) -> vec3<f32> {
+fn gdm_normal(pr: Prism, t: vec3<f32>, w: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
     let e = 0.5;
-    let g = vec3<f32>(
+    var g = vec3<f32>(
         gdm_field(t + vec3<f32>(e, 0.0, 0.0)) - gdm_field(t - vec3<f32>(e, 0.0, 0.0)),
         gdm_field(t + vec3<f32>(0.0, e, 0.0)) - gdm_field(t - vec3<f32>(0.0, e, 0.0)),
         gdm_field(t + vec3<f32>(0.0, 0.0, e)) - gdm_field(t - vec3<f32>(0.0, 0.0, e)),
     );
+    // A feature as thin as the differences' step can leave no gradient: face the ray instead.
+    if (dot(g, g) < 1e-12) {
+        g = dir;
+    }
     let jw = gdm_jacobian(pr, w);
     let m = gdm_inverse2(gdm_uv_matrix(pr));
     let a = jw[0] * m[0].x + jw[1] * m[0].y;
@@ -334,7 +338,7 @@ fn gdm_trace_prism(pr: Prism, origin: vec3<f32>, dir: vec3<f32>, near: f32) -> G
                 let th = t_prev + dir_t * s;
                 let wh = gdm_weights_at(pr, th);
                 let view = shell.view_from_object * vec4<f32>(gdm_forward(pr, wh), 1.0);
-                return GdmHit(-view.z, gdm_normal(pr, th, wh));
+                return GdmHit(-view.z, gdm_normal(pr, th, wh, dir_t));
             }
         }
         w_prev = w;
