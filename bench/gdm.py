@@ -85,7 +85,7 @@ def cameras(mesh: trimesh.Trimesh, views: int, up: int) -> list[gt.Camera]:
 
 
 def tolerant(depth: np.ndarray, ref: np.ndarray) -> np.ndarray:
-    """|depth - the nearest reference depth in the pixel's 3x3 neighbourhood| (1-pixel tolerance)."""
+    """|depth - nearest reference depth in its 3x3 neighbourhood| (a one-pixel tolerance)."""
     pad = np.pad(ref, 1, constant_values=np.nan)
     h, w = ref.shape
     stack = np.stack([pad[i:i + h, j:j + w] for i in range(3) for j in range(3)])
