@@ -9,6 +9,7 @@ pub mod cancel;
 pub mod convert;
 pub mod error;
 pub mod filters;
+pub mod gdm;
 pub mod grids;
 pub mod gtex;
 pub mod heightfield;

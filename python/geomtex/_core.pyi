@@ -10,7 +10,7 @@ from typing_extensions import disjoint_base
 
 __all__ = [
     "Mesh", "GeometryTextureSet", "Surfels", "convert", "load", "load_surfels", "InverseGeometricTexture", "IgtMesh", "build_igt", "load_igt", "__version__", "Camera", "Scene",
-    "Renderer", "Frame",
+    "Renderer", "Frame", "GdmVolume", "GdmShell", "gdm_explicit_mesh",
     "GeomtexError", "MeshError", "ParameterError", "FormatError", "FileError", "CancelledError",
     "DeviceError", "InternalError",
 ]
@@ -156,6 +156,38 @@ def convert(
     progress: Callable[[str, float], bool | None] | None = None,
 ) -> GeometryTextureSet: ...
 def load(path: str | os.PathLike[str]) -> GeometryTextureSet: ...
+
+@final
+class GdmVolume:
+    def __new__(cls, occupancy: npt.NDArray[np.uint8], colors: npt.NDArray[np.uint8] | None = None,
+                check_seams: bool = True) -> GdmVolume: ...
+    @staticmethod
+    def procedural(pattern: Any, size: tuple[int, int, int]) -> GdmVolume: ...
+    @property
+    def size(self) -> tuple[int, int, int]: ...
+    @property
+    def occupancy(self) -> npt.NDArray[np.bool_]: ...
+    @property
+    def colors(self) -> npt.NDArray[np.uint8] | None: ...
+    def empty_radius(self) -> npt.NDArray[np.uint8]: ...
+    def march(self, origins: npt.NDArray[np.float64], directions: npt.NDArray[np.float64],
+              max_t: Any = None) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.bool_]]: ...
+    def distance_function(self, directions: tuple[int, int], progress: Callable[[str, float], Any] | None = None
+                          ) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.bool_]]: ...
+
+@final
+class GdmShell:
+    def __new__(cls, positions: npt.NDArray[np.float64], normals: npt.NDArray[np.float64],
+                faces: npt.NDArray[np.uint32], uv: npt.NDArray[np.float64], thickness: float, volume: GdmVolume,
+                color: tuple[int, int, int, int], pieces: int | None = None,
+                lookup: tuple[npt.NDArray[np.float32], npt.NDArray[np.float32]] | None = None) -> GdmShell: ...
+    @property
+    def prisms(self) -> int: ...
+
+def gdm_explicit_mesh(positions: npt.NDArray[np.float64], normals: npt.NDArray[np.float64],
+                      faces: npt.NDArray[np.uint32], uv: npt.NDArray[np.float64], thickness: float,
+                      size: tuple[int, int, int], tile_vertices: npt.NDArray[np.float64],
+                      tile_faces: npt.NDArray[np.uint32]) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.uint32]]: ...
 
 @final
 class Surfels:

@@ -5,6 +5,7 @@
 mod args;
 mod arrays;
 mod errors;
+mod gdm;
 mod gtex;
 mod igt;
 mod mesh;
@@ -26,6 +27,9 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(igt::build_igt, m)?)?;
     m.add_function(wrap_pyfunction!(igt::load_igt, m)?)?;
     m.add_function(wrap_pyfunction!(surfels::load_surfels, m)?)?;
+    m.add_class::<gdm::PyGdmVolume>()?;
+    m.add_class::<gdm::PyGdmShell>()?;
+    m.add_function(wrap_pyfunction!(gdm::gdm_explicit_mesh, m)?)?;
     m.add_class::<render::PyCamera>()?;
     m.add_class::<render::PyScene>()?;
     m.add_class::<render::PyRenderer>()?;
