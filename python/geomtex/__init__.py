@@ -18,7 +18,7 @@ import numpy as np
 # machines; geomtex picks its adapter itself, so the layer is not needed.
 os.environ.setdefault("NODEVICE_SELECT", "1")
 
-from . import _core, _grids, _pickle, _preview, _rays  # noqa: E402
+from . import _core, _grids, _pickle, _preview, _rays, gdm, igt  # noqa: E402
 from ._core import Camera, Frame, GeometryTextureSet, Surfels, __version__  # noqa: E402
 from ._errors import (  # noqa: E402
     CancelledError,
@@ -59,6 +59,8 @@ __all__ = [
     "__version__",
     "as_mesh",
     "convert",
+    "gdm",
+    "igt",
     "load",
     "load_mesh",
     "load_surfels",

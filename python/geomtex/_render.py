@@ -14,12 +14,15 @@ import numpy.typing as npt
 from . import _core
 from ._mesh import AppearanceWarning, as_mesh
 
-_NATIVE = (_core.Scene, _core.GeometryTextureSet, _core.Mesh, _core.Surfels)
+_NATIVE = (_core.Scene, _core.GeometryTextureSet, _core.Mesh, _core.Surfels, _core.GdmShell)
 
 
 def renderable(obj: Any) -> Any:
     """`obj` itself if the extension draws it, else a Mesh made from it; a textured mesh is
     drawn with its texture's color at each corner only, with an AppearanceWarning."""
+    core_shell = getattr(obj, "_core_shell", None)  # a geomtex.gdm.Shell
+    if core_shell is not None:
+        return core_shell()
     drawn = obj if isinstance(obj, _NATIVE) else as_mesh(obj)
     if isinstance(drawn, _core.Mesh) and drawn.textured:
         warnings.warn("a rasterized mesh shows its texture's color at each corner only; convert it "

@@ -36,7 +36,8 @@ use figures::StageFigures;
 use frame::ChartFrame;
 use options::ERROR_DRIVEN_CHART_ERRORS;
 use overlap::Ring;
-use progress::{each_chart, Stages};
+use progress::each_chart;
+pub use progress::Stages;
 use repair::Folding;
 
 /// Converts a mesh to geometry textures. With the VSA partition, `max_error` and neither
@@ -304,6 +305,44 @@ fn raster_stages(
     })
 }
 
+/// A chart as inverse geometric textures use it (igt/): its faces, its overlap ring and its
+/// frame, whose orthographic projection along z is fold-free for the faces by construction.
+pub struct ChartPlane {
+    pub faces: Vec<u32>,
+    pub ring: Vec<u32>,
+    pub frame: ChartFrame,
+}
+
+/// The geometry, partition, repair, overlap and frame stages of a conversion alone (one
+/// partition, no rasterizing): the charts and their frames, timed into `stages`.
+pub fn chart_planes(
+    mesh: &Mesh,
+    opts: &ConvertOptions,
+    stages: &mut Stages,
+) -> Result<Vec<ChartPlane>> {
+    opts.validate()?;
+    stages.begin("geometry")?;
+    let prepared = prepare(mesh, stages.progress)?;
+    stages.end("geometry");
+    let charted = chart_stages(&prepared, opts, stages)?;
+    stages.begin("frame")?;
+    let planes = charted
+        .charts
+        .into_par_iter()
+        .zip(charted.rings)
+        .map(|(c, ring)| {
+            let frame = ChartFrame::new(&prepared.mesh, &c.faces, &ring.faces, c.z, opts.in_plane);
+            ChartPlane {
+                faces: c.faces,
+                ring: ring.faces,
+                frame,
+            }
+        })
+        .collect();
+    stages.end("frame");
+    Ok(planes)
+}
+
 /// One conversion with one partition target.
 fn convert_once(
     mesh: &Mesh,
@@ -374,11 +413,11 @@ fn convert_once(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     /// A UV sphere of radius 1 (poles are fans): closed, so it can never be a single height field.
-    fn uv_sphere(rings: usize, segments: usize) -> Mesh {
+    pub(crate) fn uv_sphere(rings: usize, segments: usize) -> Mesh {
         let mut pos = vec![0.0, 0.0, 1.0];
         for r in 1..rings {
             let theta = std::f64::consts::PI * r as f64 / rings as f64;

@@ -35,19 +35,19 @@ pub const MAGIC: &[u8; 8] = b"GTEX\r\n\x1a\n";
 pub const VERSION: u32 = 5;
 const HEADER: usize = 32;
 
-fn put_f64s(out: &mut Vec<u8>, v: &[f64]) {
+pub(crate) fn put_f64s(out: &mut Vec<u8>, v: &[f64]) {
     for x in v {
         out.extend_from_slice(&x.to_le_bytes());
     }
 }
 
-fn put_name(out: &mut Vec<u8>, name: &str) {
+pub(crate) fn put_name(out: &mut Vec<u8>, name: &str) {
     let b = name.as_bytes();
     out.extend_from_slice(&(b.len().min(u16::MAX as usize) as u16).to_le_bytes());
     out.extend_from_slice(&b[..b.len().min(u16::MAX as usize)]);
 }
 
-fn put_named(out: &mut Vec<u8>, list: &[(String, f64)]) {
+pub(crate) fn put_named(out: &mut Vec<u8>, list: &[(String, f64)]) {
     out.extend_from_slice(&(list.len() as u32).to_le_bytes());
     for (name, v) in list {
         put_name(out, name);
@@ -112,13 +112,13 @@ pub fn encode(set: &GeometryTextureSet) -> Vec<u8> {
 }
 
 /// A bounds-checked reader that names what it was reading when the data ran out.
-struct Reader<'a> {
-    data: &'a [u8],
-    pos: usize,
+pub(crate) struct Reader<'a> {
+    pub(crate) data: &'a [u8],
+    pub(crate) pos: usize,
 }
 
 impl<'a> Reader<'a> {
-    fn take(&mut self, n: usize, what: &str) -> Result<&'a [u8], String> {
+    pub(crate) fn take(&mut self, n: usize, what: &str) -> Result<&'a [u8], String> {
         if self.data.len() - self.pos < n {
             return Err(format!(
                 "truncated: {what} needs {n} bytes at payload offset {} but only {} remain",
@@ -130,28 +130,28 @@ impl<'a> Reader<'a> {
         self.pos += n;
         Ok(s)
     }
-    fn u16(&mut self, what: &str) -> Result<u16, String> {
+    pub(crate) fn u16(&mut self, what: &str) -> Result<u16, String> {
         Ok(u16::from_le_bytes(self.take(2, what)?.try_into().unwrap()))
     }
-    fn u32(&mut self, what: &str) -> Result<u32, String> {
+    pub(crate) fn u32(&mut self, what: &str) -> Result<u32, String> {
         Ok(u32::from_le_bytes(self.take(4, what)?.try_into().unwrap()))
     }
-    fn f64(&mut self, what: &str) -> Result<f64, String> {
+    pub(crate) fn f64(&mut self, what: &str) -> Result<f64, String> {
         Ok(f64::from_le_bytes(self.take(8, what)?.try_into().unwrap()))
     }
-    fn vec3(&mut self, what: &str) -> Result<DVec3, String> {
+    pub(crate) fn vec3(&mut self, what: &str) -> Result<DVec3, String> {
         Ok(DVec3::new(
             self.f64(what)?,
             self.f64(what)?,
             self.f64(what)?,
         ))
     }
-    fn name(&mut self, what: &str) -> Result<String, String> {
+    pub(crate) fn name(&mut self, what: &str) -> Result<String, String> {
         let len = self.u16(what)? as usize;
         String::from_utf8(self.take(len, what)?.to_vec())
             .map_err(|_| format!("{what}: a name is not UTF-8"))
     }
-    fn named(&mut self, what: &str) -> Result<Vec<(String, f64)>, String> {
+    pub(crate) fn named(&mut self, what: &str) -> Result<Vec<(String, f64)>, String> {
         let n = self.u32(what)? as usize;
         let mut out = Vec::with_capacity(n.min(4096));
         for _ in 0..n {
@@ -160,7 +160,7 @@ impl<'a> Reader<'a> {
         }
         Ok(out)
     }
-    fn named_arrays(&mut self, what: &str) -> Result<Vec<(String, Vec<f64>)>, String> {
+    pub(crate) fn named_arrays(&mut self, what: &str) -> Result<Vec<(String, Vec<f64>)>, String> {
         let n = self.u32(what)? as usize;
         let mut out = Vec::with_capacity(n.min(4096));
         for _ in 0..n {

@@ -466,14 +466,27 @@ pub fn convert(
 }
 
 /// Runs a conversion with the GIL released, calling `progress(stage, fraction)` with the GIL
-/// taken back. An exception raised by the callback (KeyboardInterrupt from tqdm, say) stops the
-/// conversion and is re-raised as it was.
+/// taken back (`with_progress`).
 fn convert_reporting(
     py: Python<'_>,
     mesh: Arc<crate::mesh::Mesh>,
     options: &ConvertOptions,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<GeometryTextureSet> {
+    with_progress(py, "converting", progress, |p| {
+        crate::convert::convert(&mesh, options, p)
+    })
+}
+
+/// Runs `work` with the GIL released (`heavy`), its progress reports calling
+/// `progress(stage, fraction)` with the GIL taken back. An exception raised by the callback
+/// (KeyboardInterrupt from tqdm, say) stops the work and is re-raised as it was.
+pub(crate) fn with_progress<T: Send>(
+    py: Python<'_>,
+    what: &str,
+    progress: Option<Py<PyAny>>,
+    work: impl FnOnce(Progress) -> crate::error::Result<T> + Send,
+) -> PyResult<T> {
     let callback_error: Mutex<Option<PyErr>> = Mutex::new(None);
     let report = |stage: &str, fraction: f64| -> bool {
         let Some(callback) = &progress else {
@@ -487,9 +500,7 @@ fn convert_reporting(
             }
         })
     };
-    let result = heavy(py, "converting", |cancel| {
-        crate::convert::convert(&mesh, options, Progress::new(&report, cancel))
-    });
+    let result = heavy(py, what, |cancel| work(Progress::new(&report, cancel)));
     let raised = callback_error
         .into_inner()
         .unwrap_or_else(|p| p.into_inner());

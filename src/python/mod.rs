@@ -5,7 +5,9 @@
 mod args;
 mod arrays;
 mod errors;
+mod gdm;
 mod gtex;
+mod igt;
 mod mesh;
 mod render;
 mod surfels;
@@ -20,7 +22,14 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(gtex::convert, m)?)?;
     m.add_function(wrap_pyfunction!(gtex::load, m)?)?;
     m.add_class::<surfels::PySurfels>()?;
+    m.add_class::<igt::PyIgt>()?;
+    m.add_class::<igt::PyIgtMesh>()?;
+    m.add_function(wrap_pyfunction!(igt::build_igt, m)?)?;
+    m.add_function(wrap_pyfunction!(igt::load_igt, m)?)?;
     m.add_function(wrap_pyfunction!(surfels::load_surfels, m)?)?;
+    m.add_class::<gdm::PyGdmVolume>()?;
+    m.add_class::<gdm::PyGdmShell>()?;
+    m.add_function(wrap_pyfunction!(gdm::gdm_explicit_mesh, m)?)?;
     m.add_class::<render::PyCamera>()?;
     m.add_class::<render::PyScene>()?;
     m.add_class::<render::PyRenderer>()?;

@@ -14,6 +14,7 @@ use super::args::{
 };
 use super::arrays::{image, mat4_to_numpy, matrix, ArrayPair};
 use super::errors::{heavy, parameter_error};
+use super::gdm::PyGdmShell;
 use super::gtex::{set_stats, PyGeometryTextureSet};
 use super::mesh::PyMesh;
 use super::surfels::PySurfels;
@@ -229,6 +230,14 @@ fn scene_object(
             ));
         }
         Object::Surfels(s.get().inner.clone())
+    } else if let Ok(s) = obj.cast::<PyGdmShell>() {
+        if normals.is_some() {
+            return Err(parameter_error(
+                "normals and crease_angle apply to meshes; a shell's normals come from its volume"
+                    .into(),
+            ));
+        }
+        Object::Gdm(s.get().inner.clone())
     } else {
         return Err(parameter_error(format!(
             "expected a GeometryTextureSet, Surfels, a Mesh or a trimesh, got {}",
@@ -310,6 +319,10 @@ impl PyScene {
                     Object::Surfels(h) => {
                         let make = || Ok(Py::new(py, PySurfels { inner: h.clone() })?.into_any());
                         (shared(Arc::as_ptr(h).cast(), &make)?, pose, None, None)
+                    }
+                    Object::Gdm(g) => {
+                        let make = || Ok(Py::new(py, PyGdmShell { inner: g.clone() })?.into_any());
+                        (shared(Arc::as_ptr(g).cast(), &make)?, pose, None, None)
                     }
                     Object::Mesh(mesh, rule) => {
                         let make = || {

@@ -69,6 +69,36 @@ pub(crate) struct MeshVertex {
     pub color: [u8; 4],
 }
 
+/// `GdmObject` in gdm_types.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+pub(crate) struct GdmObjectGpu {
+    pub view_from_object: [[f32; 4]; 4],
+    pub object_from_view: [[f32; 4]; 4],
+    pub world_normal_from_object: [[f32; 4]; 4],
+    pub size: [u32; 4],
+    pub color: [f32; 4],
+    pub ids: [i32; 4],
+    pub lookup: [u32; 4],
+}
+
+/// `Prism` in gdm_types.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+pub(crate) struct PrismGpu {
+    pub corners: [[f32; 4]; 6],
+    pub uv01: [f32; 4],
+    pub uv2: [f32; 4],
+}
+
+/// `VsIn` in gdm_raster.wgsl (vertex buffer 0: Float32x3, Uint32).
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+pub(crate) struct GdmVertex {
+    pub position: [f32; 3],
+    pub prism: u32,
+}
+
 /// A matrix as the GPU takes it (f32, column-major).
 pub(crate) fn gpu_matrix(m: DMat4) -> [[f32; 4]; 4] {
     m.as_mat4().to_cols_array_2d()
@@ -143,6 +173,12 @@ const _: () = assert!(offset_of!(PatchGpu, pyramid_at) == 224);
 wgsl_size!(MeshObjectGpu, 144);
 const _: () = assert!(offset_of!(MeshObjectGpu, world_normal_from_object) == 64);
 const _: () = assert!(offset_of!(MeshObjectGpu, ids) == 128);
+
+wgsl_size!(GdmObjectGpu, 256);
+const _: () = assert!(offset_of!(GdmObjectGpu, size) == 192);
+const _: () = assert!(offset_of!(GdmObjectGpu, ids) == 224);
+wgsl_size!(PrismGpu, 128);
+const _: () = assert!(size_of::<GdmVertex>() == 16);
 
 // A vertex buffer, not a WGSL struct: tightly packed as the attribute formats say.
 const _: () = assert!(size_of::<MeshVertex>() == 28);

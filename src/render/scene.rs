@@ -7,6 +7,7 @@ use std::sync::Arc;
 use glam::DMat4;
 
 use crate::error::{GeomtexError, Result};
+use crate::gdm::GdmShell;
 use crate::gtex::GeometryTextureSet;
 use crate::mesh::{Mesh, NormalRule};
 use crate::surfels::SurfelHierarchy;
@@ -19,6 +20,8 @@ pub enum Object {
     Mesh(Arc<Mesh>, NormalRule),
     /// A surfel hierarchy, splatted with its levels chosen per tile (`max_pixel_error`).
     Surfels(Arc<SurfelHierarchy>),
+    /// A displacement shell: mesostructure tiled over a base mesh's prisms (gdm).
+    Gdm(Arc<GdmShell>),
 }
 
 #[derive(Clone)]

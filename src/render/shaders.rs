@@ -12,6 +12,10 @@ const CAMERA_TYPES: &str = shader!("camera_types.wgsl");
 const SEARCH_TYPES: &str = shader!("search_types.wgsl");
 const GTEX_TYPES: &str = shader!("gtex_types.wgsl");
 const MESH_TYPES: &str = shader!("mesh_types.wgsl");
+const GDM_TYPES: &str = shader!("gdm_types.wgsl");
+const GDM_BINDINGS: &str = shader!("gdm_bindings.wgsl");
+const GDM_FUNCTIONS: &str = shader!("gdm_functions.wgsl");
+const GDM_RASTER: &str = shader!("gdm_raster.wgsl");
 const TRACE_TYPES: &str = shader!("trace_types.wgsl");
 const QUERY_TYPES: &str = shader!("query_types.wgsl");
 const SURFELS_TYPES: &str = shader!("surfels_types.wgsl");
@@ -169,6 +173,20 @@ pub fn mesh_raster() -> String {
     ])
 }
 
+/// The displacement-shell pass (kinds/gdm.rs).
+pub fn gdm_raster() -> String {
+    assemble(&[
+        CAMERA_TYPES,
+        SEARCH_TYPES,
+        GDM_TYPES,
+        FRAME_BINDINGS,
+        GDM_BINDINGS,
+        CAMERA_FUNCTIONS,
+        GDM_FUNCTIONS,
+        GDM_RASTER,
+    ])
+}
+
 /// The depth copy pass (targets.rs).
 pub fn depth_copy() -> String {
     assemble(&[DEPTH_COPY_BINDINGS, DEPTH_COPY])
@@ -224,8 +242,9 @@ pub fn surfels_resolve() -> String {
 }
 
 /// Every assembled pipeline module, by name.
-pub fn all() -> [(&'static str, String); 13] {
+pub fn all() -> [(&'static str, String); 14] {
     [
+        ("gdm_raster", gdm_raster()),
         ("gtex_raycast", gtex_raycast()),
         ("gtex_tiles", gtex_tiles()),
         ("gtex_tiles_rays", gtex_tiles_rays()),

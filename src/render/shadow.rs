@@ -83,8 +83,8 @@ fn start_offset(scene: &Scene) -> f64 {
                     let (lo, hi) = mesh.bounds();
                     OFFSET_MESH_DIAGONAL * (hi - lo).length() * scale
                 }
-                // Surfels receive shadows but are not traced (see `casters`).
-                Object::Surfels(..) => 0.0,
+                // Surfels and shells receive shadows but are not traced (see `casters`).
+                Object::Surfels(..) | Object::Gdm(..) => 0.0,
             }
         })
         .fold(0.0, f64::max)
@@ -107,7 +107,7 @@ impl Renderer {
         // Surfels receive shadows but do not cast them: the tracer does not trace splats.
         let casters = Scene {
             objects: (scene.objects.iter())
-                .filter(|placed| !matches!(placed.object, Object::Surfels(..)))
+                .filter(|placed| !matches!(placed.object, Object::Surfels(..) | Object::Gdm(..)))
                 .cloned()
                 .collect(),
         };

@@ -9,6 +9,7 @@
 //! Spaces: world (f64), each object's own (placed by `world_from_object`) and view
 //! (camera-relative); every matrix a kind gives the GPU is composed in f64 as view_from_*.
 
+pub(crate) mod gdm;
 pub(crate) mod gtex;
 pub(crate) mod mesh;
 pub(crate) mod surfels;
@@ -42,6 +43,7 @@ pub(crate) fn registered(
             frame_layout,
             gpu.int64_atomics,
         )),
+        Box::new(gdm::GdmKind::new(device, frame_layout)),
     ]
 }
 

@@ -1,0 +1,228 @@
+"""Benchmark of generalized displacement maps (issue 18): mesostructure tiles over a base mesh,
+rendered per pixel through the prisms.
+
+In one run, on one wgpu adapter: chain links and a weave at 64x64x16 and 64x64x32, tiled over a
+decimated bunny (pymeshlab's bunny, quadric decimation to ~3k faces, box-projected texture
+coordinates) and over a torus (its own continuous texture coordinates), rendered from ``--views``
+views around each at ``--size``:
+
+* against trimesh + embree ray casting of ``shell.to_mesh()`` (the explicit reference): coverage
+  IoU, depth p99 (raw, and in voxels: thickness / nz), median normal angle, for the exact march
+  and for the paper's lookup in the SVD-compressed 5D distance function (16 x 32 directions,
+  k = 8), side by side;
+* frame time (whole render call, median of the views) of each, and of rasterizing the explicit
+  mesh through the same renderer; bytes of the volume, the compressed table and the explicit
+  mesh (float32 vertices + uint32 faces);
+* the SVD trade on the chain at 64x64x16: reconstruction error (rms, voxels) and bytes against
+  k = 1..16 for 8 x 16 and 16 x 32 directions.
+
+Results: ``bench/results/gdm.json`` and ``bench/results/gdm.png``.
+
+Run from the repository root::
+
+    nice python bench/gdm.py                         # 512^2, five views (long on lavapipe)
+    nice python bench/gdm.py --size 256 --views 3    # what the committed figures used
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+import platform
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import trimesh
+
+import geomtex as gt
+from geomtex import gdm, reference
+
+REPO = Path(__file__).resolve().parents[1]
+OUT = REPO / "bench" / "results"
+YFOV = 45.0
+K = 8
+
+
+def bunny_base() -> tuple[trimesh.Trimesh, float]:
+    import pymeshlab
+
+    path = Path(pymeshlab.__file__).parent / "tests" / "sample_meshes" / "bunny.obj"
+    ms = pymeshlab.MeshSet()
+    ms.load_new_mesh(str(path))
+    ms.meshing_decimation_quadric_edge_collapse(targetfacenum=3000, preservenormal=True)
+    m = ms.current_mesh()
+    tm = trimesh.Trimesh(m.vertex_matrix(), m.face_matrix(), process=True)
+    return tm, float(np.linalg.norm(tm.extents))
+
+
+def shells(base: str, vol: gdm.Volume, packed: gdm.CompressedGDM) -> tuple[gdm.Shell, gdm.Shell, float]:
+    if base == "torus":
+        tor, uv = gdm.uv_torus(1.0, 0.35, (48, 24))
+        t = 0.08
+        make = lambda **kw: gdm.Shell(tor, vol, thickness=t, uv=uv * [12, 4], **kw)  # noqa: E731
+    else:
+        tm, diag = bunny_base()
+        t = 0.012 * diag
+        make = lambda **kw: gdm.Shell(tm, vol, thickness=t, tiles=(10, 10), **kw)  # noqa: E731
+    return make(), make(lookup=packed), t
+
+
+def cameras(mesh: trimesh.Trimesh, views: int, up: int) -> list[gt.Camera]:
+    """Views around the `up` axis (2: the torus's z, 1: the bunny's y), each a little above."""
+    lo, hi = mesh.bounds
+    centre, size = (lo + hi) / 2, float(np.linalg.norm(hi - lo))
+    a1, a2 = [(0, 1), (2, 0)][up == 1]
+    out = []
+    for k in range(views):
+        a = 2 * np.pi * k / views + 0.3
+        offset = np.zeros(3)
+        offset[a1], offset[a2], offset[up] = np.cos(a), np.sin(a), 0.55 + 0.2 * np.sin(3 * a)
+        out.append(gt.Camera.look_at(centre + size * 0.9 * offset, centre, up=tuple(np.eye(3)[up]), yfov_deg=YFOV))
+    return out
+
+
+def tolerant(depth: np.ndarray, ref: np.ndarray) -> np.ndarray:
+    """|depth - nearest reference depth in its 3x3 neighbourhood| (a one-pixel tolerance)."""
+    pad = np.pad(ref, 1, constant_values=np.nan)
+    h, w = ref.shape
+    stack = np.stack([pad[i:i + h, j:j + w] for i in range(3) for j in range(3)])
+    with np.errstate(invalid="ignore"):
+        return np.nanmin(np.abs(stack - depth[None]), axis=0)
+
+
+def accuracy(frame: Any, ref: dict) -> dict[str, float]:
+    a, b = np.isfinite(frame.depth), np.isfinite(ref["depth"])
+    both = a & b
+    d = np.abs(frame.depth[both] - ref["depth"][both])
+    r = np.where(b, ref["depth"], np.nan)
+    d1 = tolerant(np.where(a, frame.depth, np.nan), r)[both]
+    cos = np.abs(np.einsum("ij,ij->i", frame.normal[both], ref["normal"][both]))
+    return {"iou": float((a & b).sum() / max((a | b).sum(), 1)), "p99": float(np.quantile(d, 0.99)) if d.size else 0.0,
+            "p99_1px": float(np.quantile(d1, 0.99)) if d.size else 0.0,
+            "normal_nan": int(np.isnan(cos).sum()),
+            "normal_deg": float(np.degrees(np.nanmedian(np.arccos(np.clip(cos, 0, 1))))) if d.size else 0.0}
+
+
+def timed(renderer: gt.Renderer, obj: Any, cam: gt.Camera) -> tuple[Any, float]:
+    t = time.perf_counter()
+    frame = renderer.render(obj, cam)
+    return frame, time.perf_counter() - t
+
+
+def run_case(pattern: str, nz: int, base: str, size: int, views: int) -> dict[str, Any]:
+    vol = gdm.Volume.procedural(pattern, (64, 64, nz))  # type: ignore[arg-type]
+    t = time.perf_counter()
+    table = vol.distance_function((16, 32))
+    precompute = time.perf_counter() - t
+    packed = table.compress(K)
+    exact, lookup, thickness = shells(base, vol, packed)
+    up = 2 if base == "torus" else 1
+    t = time.perf_counter()
+    explicit = exact.to_mesh()
+    to_mesh_s = time.perf_counter() - t
+    caster = reference.RayCaster(explicit)
+    renderer = gt.Renderer(size, size)
+    explicit_gt = gt.as_mesh(explicit)
+    rows: dict[str, list] = {"exact": [], "lookup": [], "ms_exact": [], "ms_lookup": [], "ms_mesh": []}
+    renderer.render(exact, cameras(explicit, 1, up)[0])  # warm-up: pipelines and uploads
+    renderer.render(lookup, cameras(explicit, 1, up)[0])
+    renderer.render(explicit_gt, cameras(explicit, 1, up)[0])
+    for cam in cameras(explicit, views, up):
+        ref = caster.cast(cam, size, size)
+        for name, shell in (("exact", exact), ("lookup", lookup)):
+            frame, s = timed(renderer, shell, cam)
+            rows[name].append(accuracy(frame, ref))
+            rows[f"ms_{name}"].append(1000 * s)
+        rows["ms_mesh"].append(1000 * timed(renderer, explicit_gt, cam)[1])
+    voxel = thickness / nz
+    summary: dict[str, Any] = {"pattern": pattern, "size": [64, 64, nz], "base": base, "base_faces": len(exact.faces),
+                               "thickness": thickness, "voxel": voxel, "precompute_s": precompute,
+                               "to_mesh_s": to_mesh_s, "explicit_faces": len(explicit.faces),
+                               "bytes_volume": vol.nbytes, "bytes_table": table.nbytes, "bytes_svd": packed.nbytes,
+                               "bytes_explicit": int(len(explicit.vertices) * 12 + len(explicit.faces) * 12),
+                               "svd_rms": packed.error["rms"]}
+    for name in ("exact", "lookup"):
+        r = rows[name]
+        summary[name] = {"iou_min": min(x["iou"] for x in r), "p99_max": max(x["p99"] for x in r),
+                         "p99_voxels_max": max(x["p99"] for x in r) / voxel,
+                         "p99_1px_voxels_max": max(x["p99_1px"] for x in r) / voxel,
+                         "normal_deg_max": max(x["normal_deg"] for x in r), "views": r,
+                         "ms_median": float(np.median(rows[f"ms_{name}"]))}
+    summary["mesh_ms_median"] = float(np.median(rows["ms_mesh"]))
+    return summary
+
+
+def svd_trade() -> list[dict[str, Any]]:
+    vol = gdm.Volume.procedural("chain", (64, 64, 16))
+    out = []
+    for dirs in ((8, 16), (16, 32)):
+        table = vol.distance_function(dirs)
+        for k in (1, 2, 4, 8, 12, 16):
+            p = table.compress(k)
+            out.append({"directions": list(dirs), "k": k, "rms": p.error["rms"], "p99": p.error["p99"],
+                        "bytes": p.nbytes, "table_bytes": table.nbytes})
+    return out
+
+
+def plot(results: dict[str, Any], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4))
+    for dirs in ((8, 16), (16, 32)):
+        rows = [r for r in results["svd"] if r["directions"] == list(dirs)]
+        a.plot([r["k"] for r in rows], [r["rms"] for r in rows], "o-", label=f"{dirs[0]}x{dirs[1]} directions")
+        for r in rows:
+            a.annotate(f"{r['bytes'] / 1e6:.1f} MB", (r["k"], r["rms"]), fontsize=6)
+    a.set_xlabel("SVD terms k")
+    a.set_ylabel("rms error of d (voxels)")
+    a.set_title("chain 64x64x16: SVD trade")
+    a.legend()
+    labels = [f"{c['pattern']}/{c['size'][2]}\n{c['base']}" for c in results["cases"]]
+    x = np.arange(len(labels))
+    for off, key, name in ((-0.25, "exact", "exact march"), (0.0, "lookup", "GDM lookup k=8")):
+        b.bar(x + off, [c[key]["ms_median"] for c in results["cases"]], 0.25, label=name)
+    b.bar(x + 0.25, [c["mesh_ms_median"] for c in results["cases"]], 0.25, label="to_mesh() rasterized")
+    b.set_xticks(x, labels, fontsize=7)
+    b.set_ylabel("frame ms (whole call)")
+    b.set_yscale("log")
+    b.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--size", type=int, default=512)
+    ap.add_argument("--views", type=int, default=5)
+    args = ap.parse_args()
+    cases = []
+    for base in ("torus", "bunny"):
+        for pattern in ("chain", "weave"):
+            for nz in (16, 32):
+                c = run_case(pattern, nz, base, args.size, args.views)
+                cases.append(c)
+                print(f"{base:6} {pattern:6} nz={nz:2} | exact IoU {c['exact']['iou_min']:.4f} p99 "
+                      f"{c['exact']['p99_voxels_max']:.2f} vox (1 px tol. {c['exact']['p99_1px_voxels_max']:.2f}) normal {c['exact']['normal_deg_max']:.1f} deg "
+                      f"{c['exact']['ms_median']:.0f} ms | lookup IoU {c['lookup']['iou_min']:.3f} p99 "
+                      f"{c['lookup']['p99_voxels_max']:.1f} vox {c['lookup']['ms_median']:.0f} ms | mesh "
+                      f"{c['mesh_ms_median']:.0f} ms ({c['explicit_faces']} faces) | bytes vol {c['bytes_volume']} "
+                      f"svd {c['bytes_svd']} explicit {c['bytes_explicit']}", flush=True)
+    results = {"date": datetime.datetime.now(datetime.timezone.utc).isoformat(), "machine": platform.platform(),
+               "adapter": gt.Renderer(8, 8).adapter_info, "size": args.size, "views": args.views, "k": K,
+               "cases": cases, "svd": svd_trade()}
+    for r in results["svd"]:
+        print(f"svd {r['directions']} k={r['k']:2}: rms {r['rms']:.3f} vox, {r['bytes'] / 1e6:.2f} MB "
+              f"(table {r['table_bytes'] / 1e6:.1f} MB)")
+    OUT.mkdir(parents=True, exist_ok=True)
+    (OUT / "gdm.json").write_text(json.dumps(results, indent=1, default=str))
+    plot(results, OUT / "gdm.png")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,395 @@
+"""Generalized displacement maps (Wang et al. 2004): non-height-field mesostructure (chain links,
+weaves, lattices) tiled over a base mesh.
+
+>>> import geomtex as gt
+>>> vol = gt.gdm.Volume.procedural("chain", size=(64, 64, 16))
+>>> gdm = vol.distance_function(directions=(16, 32))   # d(x, y, z, theta, phi), in voxels
+>>> packed = gdm.compress(k=8); packed.error             # SVD: rms / max / relative error
+>>> shell = gt.gdm.Shell(base_mesh, vol, thickness=0.02, tiles=(8, 8))
+>>> reference = shell.to_mesh()                          # trimesh: the tile's surface per prism
+
+Spaces: texture space is in voxel units of the tile: voxel (i, j, k) is the cube [i, i+1) x
+[j, j+1) x [k, k+1); x and y repeat (the tile is periodic), z = 0 lies on the base surface and
+z = nz on the shell's top. Directions: theta the polar angle from +z (the outward normal), at the
+centres of equal steps of [0, pi]; phi the azimuth from +x, at equal steps from 0.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Callable, Literal
+
+import numpy as np
+import numpy.typing as npt
+
+from . import _core
+from ._errors import MeshError, ParameterError
+
+Pattern = Literal["chain", "weave", "lattice"]
+DEFAULT_DIRECTIONS = (16, 32)
+DEFAULT_SIZE = (64, 64, 16)
+
+
+def _size(size: Any, what: str = "size") -> tuple[int, int, int]:
+    try:
+        t = tuple(int(s) for s in size)
+        ok = len(t) == 3 and all(float(a) == float(b) for a, b in zip(t, size))
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise ParameterError(f"{what} must be three voxel counts (nx, ny, nz), got {size!r}")
+    return t  # type: ignore[return-value]
+
+
+def _occupancy(grid: Any) -> npt.NDArray[np.uint8]:
+    try:
+        a = np.asarray(grid)
+    except (TypeError, ValueError) as e:
+        raise ParameterError(f"occupancy must be an (nx, ny, nz) array, got {type(grid).__name__}") from e
+    if a.ndim != 3 or a.dtype.kind not in "biuf":
+        raise ParameterError(f"occupancy must be an (nx, ny, nz) array of bools or numbers, got shape "
+                             f"{a.shape} dtype {a.dtype}")
+    if a.dtype.kind == "f":
+        if not np.isfinite(a).all():
+            bad = np.argwhere(~np.isfinite(a))[0]
+            raise ParameterError(f"occupancy holds NaN or inf (first at voxel {tuple(int(b) for b in bad)})")
+        return np.ascontiguousarray(a >= 0.5, dtype=np.uint8)
+    return np.ascontiguousarray(a != 0, dtype=np.uint8)
+
+
+class Volume:
+    """A mesostructure tile: an occupancy grid indexed [x, y, z], periodic in x and y.
+
+    ``occupancy``: bools, integers (non-zero = solid) or floats (>= 0.5 = solid), shape (nx, ny,
+    nz), 2..512 voxels a side. ``colors``: optional (nx, ny, nz, 4) uint8 RGBA. A grid that does
+    not tile (more than half the solid voxels on its x or y faces have no solid neighbour across
+    the seam), an empty or a full grid raises ParameterError; ``check_seams=False`` accepts a
+    grid that does not tile.
+    """
+
+    def __init__(self, occupancy: Any, colors: Any = None, *, check_seams: bool = True) -> None:
+        if isinstance(occupancy, _core.GdmVolume):
+            self._core = occupancy
+            return
+        grid = _occupancy(occupancy)
+        rgba = None
+        if colors is not None:
+            rgba = np.asarray(colors)
+            if rgba.shape != grid.shape + (4,) or rgba.dtype.kind not in "iu":
+                raise ParameterError(f"colors must be {grid.shape + (4,)} uint8, got shape {rgba.shape} "
+                                     f"dtype {rgba.dtype}")
+            rgba = np.ascontiguousarray(np.clip(rgba, 0, 255), dtype=np.uint8)
+        self._core = _core.GdmVolume(grid, rgba, bool(check_seams))
+
+    @classmethod
+    def procedural(cls, pattern: Pattern, size: Any = DEFAULT_SIZE) -> Volume:
+        """A built-in tile: ``"chain"`` (interlocking links, flat and upright), ``"weave"`` (threads
+        over and under) or ``"lattice"`` (rods on two levels joined by posts)."""
+        return cls(_core.GdmVolume.procedural(pattern, _size(size)))
+
+    @classmethod
+    def from_mesh(cls, mesh: Any, size: Any = DEFAULT_SIZE, *, check_seams: bool = True) -> Volume:
+        """A watertight mesh voxelized into one tile: its bounding box's x and y span the tile, its
+        z span the tile's height (a voxel is solid when its centre is inside)."""
+        from ._mesh import as_mesh
+
+        tm: Any = _core_to_trimesh(as_mesh(mesh))
+        tm.merge_vertices()
+        if not tm.is_watertight:
+            raise MeshError("Volume.from_mesh needs a watertight mesh (inside must be defined)")
+        n = np.array(_size(size))
+        lo, hi = tm.bounds
+        axes = [lo[a] + (np.arange(n[a]) + 0.5) / n[a] * (hi[a] - lo[a]) for a in range(3)]
+        centres = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+        inside = tm.contains(centres).reshape(tuple(n))
+        return cls(inside, check_seams=check_seams)
+
+    @property
+    def size(self) -> tuple[int, int, int]:
+        return self._core.size  # type: ignore[no-any-return]
+
+    @property
+    def occupancy(self) -> npt.NDArray[np.bool_]:
+        return self._core.occupancy  # type: ignore[no-any-return]
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes of the exact representation the tracer walks: one occupancy bit and one byte of
+        empty-space radius per voxel."""
+        n = int(np.prod(self.size))
+        return n // 8 + n
+
+    def empty_radius(self) -> npt.NDArray[np.uint8]:
+        """(nx, ny, nz) Chebyshev distance in voxels to the nearest solid voxel (0 on solid)."""
+        return self._core.empty_radius()  # type: ignore[no-any-return]
+
+    def march(self, origins: Any, directions: Any,
+              max_t: float | None = None) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.bool_]]:
+        """Exact first solid voxel along (N, 3) texture-space rays (directions normalized here):
+        (t in voxels, hit); a miss ends where the ray leaves the slab 0 <= z <= nz."""
+        o = np.ascontiguousarray(np.asarray(origins, dtype=np.float64).reshape(-1, 3))
+        d = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
+        norm = np.linalg.norm(d, axis=1, keepdims=True)
+        if not (np.isfinite(o).all() and np.isfinite(d).all() and (norm > 0).all()):
+            raise ParameterError("march: origins and directions must be finite, directions non-zero")
+        return self._core.march(o, np.ascontiguousarray(d / norm), max_t)  # type: ignore[no-any-return]
+
+    def distance_function(self, directions: Any = DEFAULT_DIRECTIONS,
+                          progress: Callable[[str, float], Any] | None = None) -> DistanceFunction:
+        """The 5D function d(x, y, z, theta, phi) from every voxel centre along (theta, phi)
+        direction counts (default the paper's 16 x 32); in parallel, GIL released, cancellable
+        (``progress(stage, fraction)`` returning False stops it with CancelledError)."""
+        try:
+            counts = tuple(int(c) for c in directions)
+        except (TypeError, ValueError):
+            counts = ()
+        if len(counts) != 2:
+            raise ParameterError(f"directions must be (theta, phi) counts, got {directions!r}")
+        d, hit = self._core.distance_function(counts, progress)
+        return DistanceFunction(self, d, hit)
+
+
+def _core_to_trimesh(mesh: Any) -> Any:
+    import trimesh
+
+    return trimesh.Trimesh(np.asarray(mesh.vertices), np.asarray(mesh.faces), process=False)
+
+
+def direction_vectors(directions: Any = DEFAULT_DIRECTIONS) -> npt.NDArray[np.float64]:
+    """(theta, phi, 3) unit vectors of the sampled directions, as the core samples them."""
+    nt, nphi = directions
+    theta = (np.arange(nt) + 0.5) * np.pi / nt
+    phi = np.arange(nphi) * 2 * np.pi / nphi
+    t, p = np.meshgrid(theta, phi, indexing="ij")
+    return np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], axis=-1)
+
+
+@dataclass
+class DistanceFunction:
+    """d(x, y, z, theta, phi) in voxels, shape (nx, ny, nz, theta, phi), misses replaced by the
+    distance to the slab's top or bottom (``hit`` False there)."""
+
+    volume: Volume
+    distance: npt.NDArray[np.float32]
+    hit: npt.NDArray[np.bool_]
+    _svd: Any = field(default=None, repr=False)
+
+    @property
+    def directions(self) -> tuple[int, int]:
+        return self.distance.shape[3], self.distance.shape[4]
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes of the uncompressed table as float32."""
+        return int(self.distance.size * 4)
+
+    def matrix(self) -> npt.NDArray[np.float32]:
+        """The table as the paper factors it: rows (x, y, phi), columns (theta, z)."""
+        nx, ny, nz, nt, nphi = self.distance.shape
+        return self.distance.transpose(0, 1, 4, 3, 2).reshape(nx * ny * nphi, nt * nz)
+
+    def compress(self, k: int = 8) -> CompressedGDM:
+        """The k-term SVD: weight maps W_i(x, y, phi) and eigen-maps E_i(theta, z), with the
+        reconstruction error (voxels) over the whole table."""
+        nx, ny, nz, nt, nphi = self.distance.shape
+        most = min(nx * ny * nphi, nt * nz)
+        if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 1 <= k <= most:
+            raise ParameterError(f"k must be an integer in 1..{most} (the table's rank bound), got {k!r}")
+        if self._svd is None:
+            u, s, vt = np.linalg.svd(self.matrix().astype(np.float64), full_matrices=False)
+            self._svd = (u, s, vt)
+        u, s, vt = self._svd
+        weights = (u[:, :k] * s[:k]).astype(np.float32)
+        eigen = vt[:k].astype(np.float32)
+        packed = CompressedGDM(weights.reshape(nx, ny, nphi, k), eigen.reshape(k, nt, nz), self.distance.shape)
+        residual = packed.reconstruct() - self.distance
+        packed.error = {
+            "rms": float(np.sqrt(np.mean(residual.astype(np.float64) ** 2))),
+            "max": float(np.abs(residual).max()),
+            "p99": float(np.quantile(np.abs(residual), 0.99)),
+            "relative": float(np.linalg.norm(s[k:]) / np.linalg.norm(s)),
+        }
+        return packed
+
+
+@dataclass
+class CompressedGDM:
+    """A distance function as k SVD terms: d ~ sum_i W_i(x, y, phi) E_i(theta, z)."""
+
+    weights: npt.NDArray[np.float32]  # (nx, ny, phi, k)
+    eigen: npt.NDArray[np.float32]  # (k, theta, nz)
+    shape: tuple[int, ...]
+    error: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def k(self) -> int:
+        return int(self.eigen.shape[0])
+
+    @property
+    def nbytes(self) -> int:
+        return int(self.weights.nbytes + self.eigen.nbytes)
+
+    def reconstruct(self) -> npt.NDArray[np.float32]:
+        """The full (nx, ny, nz, theta, phi) table from the k terms."""
+        return np.einsum("xypk,ktz->xyztp", self.weights, self.eigen)
+
+
+def _welded_normals(vertices: npt.NDArray[np.float64], faces: npt.NDArray[np.int64]) -> npt.NDArray[np.float64]:
+    """Area-weighted vertex normals summed over every vertex at the same position, so copies of a
+    vertex split at a texture seam extrude alike (no cracks between their prisms)."""
+    _, group = np.unique(np.round(vertices, 12), axis=0, return_inverse=True)
+    group = group.reshape(-1)
+    tri = vertices[faces]
+    face_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])  # length = 2 x area
+    summed = np.zeros((group.max() + 1, 3))
+    for c in range(3):
+        np.add.at(summed, group[faces[:, c]], face_n)
+    n = summed[group]
+    length = np.linalg.norm(n, axis=1, keepdims=True)
+    if (length < 1e-300).any():
+        raise MeshError("Shell: a vertex has no normal (its faces cancel or are degenerate)")
+    return n / length
+
+
+def box_uv(vertices: npt.NDArray[np.float64], faces: npt.NDArray[np.int64]) -> npt.NDArray[np.float64]:
+    """Generated texture coordinates, per corner (F, 3, 2): each face projected on the bounding
+    box's side its normal faces most (axes ordered to keep its winding), in units of the box's
+    largest side. Seams where the side changes cut the mesostructure."""
+    tri = vertices[faces]
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    axis = np.abs(n).argmax(axis=1)
+    sign = np.sign(n[np.arange(len(n)), axis])
+    lo = vertices.min(axis=0)
+    scale = float((vertices.max(axis=0) - lo).max())
+    local = (tri - lo) / scale
+    # (u, v) axes per dominant axis with u x v = +axis; a negative side mirrors u.
+    uv_axes = np.array([[1, 2], [2, 0], [0, 1]])
+    uv = np.take_along_axis(local, uv_axes[axis][:, None, :].repeat(3, axis=1), axis=2)
+    uv[:, :, 0] *= sign[:, None]
+    return uv
+
+
+class Shell:
+    """A volume tiled over a base mesh: every triangle extruded along its vertices' shared normals
+    by ``thickness`` (object units) into a prism.
+
+    Rendered by ``Renderer.render(shell, camera)`` or ``Scene.add(shell)``: per pixel, the ray
+    through each prism is cut into ``pieces`` straight texture-space pieces (their ends mapped
+    exactly) and the tile is marched for the first surface; with ``lookup`` (a CompressedGDM of
+    this volume) each piece instead takes the paper's one lookup in the SVD-compressed distance
+    function. Drawn in ``color`` (RGBA).
+
+    Texture coordinates (in tiles: 1.0 = one tile): ``uv`` as (V, 2) per vertex or (F, 3, 2) per
+    corner; else the base mesh's own UVs times ``tiles``; else generated by ``box_uv`` times
+    ``tiles`` (default (8, 8): eight tiles across the bounding box's largest side).
+    """
+
+    def __init__(self, base_mesh: Any, volume: Volume, thickness: float, *,
+                 tiles: Any = (8, 8), uv: Any = None, color: Any = (200, 170, 110, 255),
+                 pieces: int = 4, lookup: CompressedGDM | None = None) -> None:
+        from ._mesh import as_mesh
+
+        mesh = as_mesh(base_mesh)
+        if not isinstance(volume, Volume):
+            raise ParameterError(f"volume must be a geomtex.gdm.Volume, got {type(volume).__name__}")
+        t = float(thickness) if isinstance(thickness, (int, float, np.number)) else float("nan")
+        if not np.isfinite(t) or t <= 0:
+            raise ParameterError(f"thickness must be a positive number, got {thickness!r}")
+        try:
+            scale = np.array([float(x) for x in tiles])
+        except (TypeError, ValueError):
+            scale = np.zeros(0)
+        if scale.shape != (2,) or not np.isfinite(scale).all() or (scale <= 0).any():
+            raise ParameterError(f"tiles must be two positive numbers (u, v), got {tiles!r}")
+        self.vertices = np.asarray(mesh.vertices, dtype=np.float64)
+        self.faces = np.asarray(mesh.faces, dtype=np.int64)
+        self.volume, self.thickness, self.tiles = volume, t, tuple(scale)
+        self.normals = _welded_normals(self.vertices, self.faces)
+        self.uv, self.uv_source = self._texture_coordinates(mesh, uv, scale)
+        rgba = np.asarray(color)
+        if rgba.shape != (4,) or rgba.dtype.kind not in "iu" or (rgba < 0).any() or (rgba > 255).any():
+            raise ParameterError(f"color must be four integers in 0..255 (RGBA), got {color!r}")
+        self.color: tuple[int, int, int, int] = (int(rgba[0]), int(rgba[1]), int(rgba[2]), int(rgba[3]))
+        if isinstance(pieces, bool) or not isinstance(pieces, (int, np.integer)) or not 1 <= pieces <= 64:
+            raise ParameterError(f"pieces must be an integer in 1..64, got {pieces!r}")
+        self.pieces = int(pieces)
+        if lookup is not None and (not isinstance(lookup, CompressedGDM) or lookup.shape[:3] != volume.size):
+            raise ParameterError("lookup must be a CompressedGDM of this shell's volume (DistanceFunction.compress)")
+        self.lookup = lookup
+        self._drawn: Any = None
+
+    def _texture_coordinates(self, mesh: Any, uv: Any, scale: npt.NDArray[np.float64]) -> tuple[Any, str]:
+        nv, nf = len(self.vertices), len(self.faces)
+        if uv is not None:
+            a = np.asarray(uv, dtype=np.float64)
+            if a.shape == (nv, 2):
+                a = a[self.faces]
+            if a.shape != (nf, 3, 2) or not np.isfinite(a).all():
+                raise ParameterError(f"uv must be finite (V, 2) = ({nv}, 2) or (F, 3, 2) = ({nf}, 3, 2), "
+                                     f"got shape {a.shape}")
+            return np.ascontiguousarray(a), "given"
+        if mesh.uv is not None:
+            return np.ascontiguousarray(np.asarray(mesh.uv, dtype=np.float64)[self.faces] * scale), "mesh"
+        return np.ascontiguousarray(box_uv(self.vertices, self.faces) * scale), "box"
+
+    def _core_shell(self) -> Any:
+        """The extension's copy the renderer draws (made once)."""
+        if getattr(self, "_drawn", None) is None:
+            self._drawn = _core.GdmShell(
+                self.vertices, self.normals, np.ascontiguousarray(self.faces, dtype=np.uint32), self.uv,
+                self.thickness, self.volume._core, self.color, self.pieces,
+                None if self.lookup is None else (np.ascontiguousarray(self.lookup.weights),
+                                                  np.ascontiguousarray(self.lookup.eigen)))
+        return self._drawn
+
+    def tile_surface(self) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]:
+        """The tile's surface over one period (marching cubes at 0.5 of the occupancy sampled at
+        voxel centres, x and y wrapped, empty below and above): vertices in voxel units with x, y
+        in [0.5, n + 0.5] and z in [0, nz], faces wound outward."""
+        from skimage import measure
+
+        occ = self.volume.occupancy.astype(np.float32)
+        nx, ny, nz = occ.shape
+        grid = np.zeros((nx + 1, ny + 1, nz + 2), np.float32)
+        grid[:, :, 1:-1] = np.pad(occ, ((0, 1), (0, 1), (0, 0)), mode="wrap")
+        verts, faces, normals, _ = measure.marching_cubes(grid, level=0.5, allow_degenerate=False)
+        verts = verts.astype(np.float64) + np.array([0.5, 0.5, -0.5])
+        # Outward winding: the returned normals point down the field's gradient, out of the solid.
+        tri = verts[faces]
+        cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        if np.einsum("ij,ij->", cross, normals[faces].sum(axis=1)) < 0:
+            faces = faces[:, ::-1]
+        return verts, np.ascontiguousarray(faces, dtype=np.int64)
+
+    def to_mesh(self) -> Any:
+        """The explicit reference: the tile's surface clipped to every prism's texture triangle and
+        mapped through the prism's map, as a trimesh.Trimesh (welded)."""
+        import trimesh
+
+        tv, tf = self.tile_surface()
+        v, f = _core.gdm_explicit_mesh(
+            self.vertices, self.normals, np.ascontiguousarray(self.faces, dtype=np.uint32), self.uv,
+            self.thickness, self.volume.size, tv, np.ascontiguousarray(tf, dtype=np.uint32))
+        mesh = trimesh.Trimesh(v, f.astype(np.int64), process=True)
+        # Clipping near a prism's corners leaves slivers that welding folds onto their neighbours.
+        mesh.update_faces(mesh.nondegenerate_faces(height=1e-12))
+        mesh.update_faces(mesh.unique_faces())
+        mesh.remove_unreferenced_vertices()
+        return mesh
+
+
+def uv_torus(major: float = 1.0, minor: float = 0.35, sections: tuple[int, int] = (48, 24)) -> tuple[Any, Any]:
+    """A torus base mesh with continuous texture coordinates: (trimesh.Trimesh, (V, 2) uv in
+    [0, 1] around the ring and the tube). Vertices repeat along the two seams so uv can run from
+    0 to 1; with whole tile counts the mesostructure continues across them."""
+    import trimesh
+
+    nu, nv = sections
+    u, v = np.meshgrid(np.linspace(0, 1, nu + 1), np.linspace(0, 1, nv + 1), indexing="ij")
+    a, b = 2 * np.pi * u, 2 * np.pi * v
+    ring = major + minor * np.cos(b)
+    pts = np.stack([ring * np.cos(a), ring * np.sin(a), minor * np.sin(b)], axis=-1).reshape(-1, 3)
+    idx = np.arange((nu + 1) * (nv + 1)).reshape(nu + 1, nv + 1)
+    q = np.stack([idx[:-1, :-1], idx[1:, :-1], idx[1:, 1:], idx[:-1, 1:]], axis=-1).reshape(-1, 4)
+    faces = np.concatenate([q[:, [0, 1, 2]], q[:, [0, 2, 3]]])
+    return trimesh.Trimesh(pts, faces, process=False), np.stack([u, v], axis=-1).reshape(-1, 2)

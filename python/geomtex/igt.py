@@ -1,0 +1,106 @@
+"""Inverse geometric textures: shade a strongly simplified mesh with a detailed mesh's attributes.
+
+>>> import geomtex as gt
+>>> igt = gt.igt.build(gt.load_mesh("bunny.obj"), primary="charts", resolution=512)
+>>> igt.stats["list_mean"], igt.stats["bytes"]
+>>> low = gt.igt.simplify(igt, 1400)          # IgtMesh: render it like a mesh
+>>> frame = gt.Renderer(512, 512).render(low, camera)
+
+Per cell of a primary parameterization (the conversion's charts, each projected along its own
+axis, or a spherical or cylindrical map) the texture lists the detailed triangles overlapping
+the cell. A point of the simplified surface is projected into the primary space, the listed
+triangle containing it is found, and that triangle's normal, color or texture coordinates are
+interpolated there.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any, Callable, Literal, Sequence
+
+import numpy as np
+
+from . import _core
+from ._core import IgtMesh, InverseGeometricTexture
+from ._errors import ParameterError
+from ._mesh import as_mesh
+
+__all__ = ["IgtMesh", "InverseGeometricTexture", "build", "load", "simplify"]
+
+
+def build(
+    mesh: Any,
+    *,
+    primary: Literal["charts", "spherical", "cylindrical"] = "charts",
+    resolution: int | None = None,
+    attributes: Sequence[str] | None = None,
+    normals: Literal["crease", "smooth", "flat"] | None = None,
+    crease_angle: float | None = None,
+    charts: int | None = None,
+    progress: Callable[[str, float], Any] | None = None,
+) -> InverseGeometricTexture:
+    """The inverse geometric texture of a detailed mesh (Mesh, trimesh or path).
+
+    primary: "charts" (the conversion's fold-free charts, bijective by construction),
+    "spherical" (star-shaped meshes) or "cylindrical". resolution: about resolution² cells over
+    the whole primary space (default 512). attributes: which of "normals", "colors", "uv" to
+    keep (default all the mesh has; normals always). normals / crease_angle: the normal rule, as
+    for convert. charts: a fixed chart count for the partition. progress(stage, fraction)."""
+    if isinstance(attributes, str):
+        attributes = [attributes]
+    return _core.build_igt(
+        as_mesh(mesh),
+        primary=primary,
+        resolution=resolution,
+        attributes=None if attributes is None else list(attributes),
+        normals=normals,
+        crease_angle=crease_angle,
+        charts=charts,
+        progress=progress,
+    )
+
+
+def load(path: str | os.PathLike[str]) -> InverseGeometricTexture:
+    """Reads a .gtigt file (``InverseGeometricTexture.save``); FormatError if it is not an
+    intact one."""
+    return _core.load_igt(path)
+
+
+def simplify(igt: InverseGeometricTexture, target_faces: int) -> IgtMesh:
+    """The detailed mesh simplified to about `target_faces` faces (pymeshlab's quadric edge
+    collapse, normals preserved), as an IgtMesh shaded through `igt`.
+
+    Every simplified face is assigned the grid (chart) of the detailed face nearest to its
+    centroid, and its points are projected along that chart's axis: the simplified surface
+    lies close to the detailed surface it replaces, so that chart is the one whose projection
+    is bijective there. (Keeping chart boundaries in the decimation would pin the boundaries'
+    detailed edges and cap how far a mesh can be simplified.)"""
+    if not isinstance(target_faces, (int, np.integer)) or isinstance(target_faces, bool):
+        raise ParameterError(f"target_faces must be an integer, got {target_faces!r}")
+    faces = igt.faces
+    if not 4 <= int(target_faces) <= len(faces):
+        raise ParameterError(
+            f"target_faces must be 4 to the detailed mesh's {len(faces)} faces, got {target_faces}"
+        )
+    try:
+        import pymeshlab
+    except ImportError as e:  # pragma: no cover - depends on the environment
+        raise ImportError("geomtex.igt.simplify needs pymeshlab: pip install pymeshlab") from e
+    from scipy.spatial import cKDTree
+
+    vertices = igt.vertices
+    ms = pymeshlab.MeshSet()
+    ms.add_mesh(pymeshlab.Mesh(vertex_matrix=vertices, face_matrix=faces.astype(np.int32)))
+    ms.meshing_decimation_quadric_edge_collapse(
+        targetfacenum=int(target_faces), preservenormal=True, qualitythr=0.5
+    )
+    low = ms.current_mesh()
+    v = np.asarray(low.vertex_matrix(), dtype=np.float64)
+    f = np.asarray(low.face_matrix(), dtype=np.int64)
+    face_grid = np.zeros(len(f), dtype=np.int64)
+    if igt.primary == "charts":
+        listed = np.flatnonzero(igt.face_grid >= 0)
+        centroids = vertices[faces[listed]].mean(axis=1)
+        _, nearest = cKDTree(centroids).query(v[f].mean(axis=1))
+        face_grid = igt.face_grid[listed[nearest]]
+    return igt.shade(v, f, face_grid.tolist())

@@ -1,0 +1,348 @@
+// A ray through one prism of a displacement shell: the prism's entry and exit (its top, bottom
+// and fins, each fin as the two triangles the raster pass draws), the exact inverse of the
+// prism's map (Newton), and the march through the tile for the first crossing of the occupancy's
+// trilinear 0.5 level (the surface marching cubes extracts for Shell.to_mesh), skipping the
+// empty boxes the radius grid vouches for.
+//
+// Spaces: see gdm_types.wgsl. The prism's map takes weights (w1, w2, h) to
+//   X = sum_k w_k (p_k + h (q_k - p_k)),  w0 = 1 - w1 - w2,
+// and texture space to weights affinely: T = (sum_k w_k uv_k, h * nz).
+
+const GDM_NUDGE: f32 = 1e-4;
+// Step of the fine search near solid voxels (voxels), refined by bisection.
+const GDM_FINE_STEP: f32 = 0.25;
+
+struct GdmHit {
+    // View distance along -Z (camera_ray's t), -1 for none.
+    t: f32,
+    // World-space unit normal.
+    normal: vec3<f32>,
+}
+
+fn gdm_corners(pr: Prism) -> array<vec3<f32>, 6> {
+    return array<vec3<f32>, 6>(pr.p0.xyz, pr.p1.xyz, pr.p2.xyz, pr.q0.xyz, pr.q1.xyz, pr.q2.xyz);
+}
+
+// Two-sided ray-triangle distance, -1 on a miss.
+fn gdm_ray_triangle(o: vec3<f32>, d: vec3<f32>, a: vec3<f32>, b: vec3<f32>, c: vec3<f32>) -> f32 {
+    let e1 = b - a;
+    let e2 = c - a;
+    let pv = cross(d, e2);
+    let det = dot(e1, pv);
+    if (abs(det) < 1e-20) {
+        return -1.0;
+    }
+    let s = o - a;
+    let u = dot(s, pv) / det;
+    let qv = cross(s, e1);
+    let v = dot(d, qv) / det;
+    // A hair of slack so a ray through a shared edge meets both triangles.
+    if (u < -1e-5 || v < -1e-5 || u + v > 1.0 + 1e-5) {
+        return -1.0;
+    }
+    return dot(e2, qv) / det;
+}
+
+// (t_in, t_out) of the ray in the prism's polyhedron; t_out < t_in when it misses.
+fn gdm_prism_interval(pr: Prism, o: vec3<f32>, d: vec3<f32>) -> vec2<f32> {
+    var c = gdm_corners(pr);
+    let bits = u32(pr.p0.w);
+    var lo = 3.0e38;
+    var hi = -3.0e38;
+    for (var f = 0u; f < 8u; f++) {
+        var i: vec3<u32>;
+        if (f == 0u) {
+            i = vec3<u32>(3u, 4u, 5u);
+        } else if (f == 1u) {
+            i = vec3<u32>(0u, 2u, 1u);
+        } else {
+            let e = (f - 2u) / 2u;
+            let a = e;
+            let b = (e + 1u) % 3u;
+            let second = (f - 2u) % 2u == 1u;
+            if ((bits >> e) & 1u) == 1u {
+                i = select(vec3<u32>(a, b, b + 3u), vec3<u32>(a, b + 3u, a + 3u), second);
+            } else {
+                i = select(vec3<u32>(a, b, a + 3u), vec3<u32>(b, b + 3u, a + 3u), second);
+            }
+        }
+        let t = gdm_ray_triangle(o, d, c[i.x], c[i.y], c[i.z]);
+        if (t > -0.5) {
+            lo = min(lo, t);
+            hi = max(hi, t);
+        }
+    }
+    return vec2<f32>(lo, hi);
+}
+
+fn gdm_forward(pr: Prism, w: vec3<f32>) -> vec3<f32> {
+    let w0 = 1.0 - w.x - w.y;
+    let a = mix(pr.p0.xyz, pr.q0.xyz, w.z);
+    let b = mix(pr.p1.xyz, pr.q1.xyz, w.z);
+    let c = mix(pr.p2.xyz, pr.q2.xyz, w.z);
+    return w0 * a + w.x * b + w.y * c;
+}
+
+// Columns of d X / d (w1, w2, h) at w.
+fn gdm_jacobian(pr: Prism, w: vec3<f32>) -> mat3x3<f32> {
+    let a = mix(pr.p0.xyz, pr.q0.xyz, w.z);
+    let b = mix(pr.p1.xyz, pr.q1.xyz, w.z);
+    let c = mix(pr.p2.xyz, pr.q2.xyz, w.z);
+    let e0 = pr.q0.xyz - pr.p0.xyz;
+    let e1 = pr.q1.xyz - pr.p1.xyz;
+    let e2 = pr.q2.xyz - pr.p2.xyz;
+    return mat3x3<f32>(b - a, c - a, e0 + w.x * (e1 - e0) + w.y * (e2 - e0));
+}
+
+// Solves J x = r by Cramer's rule.
+fn gdm_solve(j: mat3x3<f32>, r: vec3<f32>) -> vec3<f32> {
+    let det = dot(j[0], cross(j[1], j[2]));
+    if (abs(det) < 1e-30) {
+        return vec3<f32>(0.0);
+    }
+    return vec3<f32>(dot(r, cross(j[1], j[2])), dot(j[0], cross(r, j[2])), dot(j[0], cross(j[1], r))) / det;
+}
+
+// The weights of local point x, by Newton's method from `guess`.
+fn gdm_inverse(pr: Prism, x: vec3<f32>, guess: vec3<f32>) -> vec3<f32> {
+    var w = guess;
+    for (var k = 0; k < 6; k++) {
+        w = w + gdm_solve(gdm_jacobian(pr, w), x - gdm_forward(pr, w));
+    }
+    return w;
+}
+
+fn gdm_uv(pr: Prism, k: u32) -> vec2<f32> {
+    if (k == 0u) {
+        return pr.uv01.xy;
+    } else if (k == 1u) {
+        return pr.uv01.zw;
+    }
+    return pr.uv2.xy;
+}
+
+fn gdm_texture_point(pr: Prism, w: vec3<f32>) -> vec3<f32> {
+    let uv = pr.uv01.xy + w.x * (pr.uv01.zw - pr.uv01.xy) + w.y * (pr.uv2.xy - pr.uv01.xy);
+    return vec3<f32>(uv, w.z * f32(shell.size.z));
+}
+
+// d (uv) / d (w1, w2) as columns; its inverse maps texture steps to weight steps.
+fn gdm_uv_matrix(pr: Prism) -> mat2x2<f32> {
+    return mat2x2<f32>(pr.uv01.zw - pr.uv01.xy, pr.uv2.xy - pr.uv01.xy);
+}
+
+fn gdm_inverse2(m: mat2x2<f32>) -> mat2x2<f32> {
+    let det = m[0].x * m[1].y - m[1].x * m[0].y;
+    return mat2x2<f32>(vec2<f32>(m[1].y, -m[0].y), vec2<f32>(-m[1].x, m[0].x)) * (1.0 / det);
+}
+
+fn gdm_weights_at(pr: Prism, t: vec3<f32>) -> vec3<f32> {
+    let w = gdm_inverse2(gdm_uv_matrix(pr)) * (t.xy - pr.uv01.xy);
+    return vec3<f32>(w, t.z / f32(shell.size.z));
+}
+
+// Empty-space radius of voxel v, the tile repeated in x and y; 1 (empty, no skip) outside z.
+fn gdm_radius(v: vec3<i32>) -> u32 {
+    let n = vec3<i32>(shell.size.xyz);
+    if (v.z < 0 || v.z >= n.z) {
+        return 1u;
+    }
+    let i = ((v.x % n.x) + n.x) % n.x;
+    let j = ((v.y % n.y) + n.y) % n.y;
+    return radii[u32((i * n.y + j) * n.z + v.z)];
+}
+
+fn gdm_solid(v: vec3<i32>) -> f32 {
+    if (v.z < 0 || v.z >= i32(shell.size.z)) {
+        return 0.0;
+    }
+    return select(0.0, 1.0, gdm_radius(v) == 0u);
+}
+
+// The occupancy sampled at voxel centres, interpolated trilinearly at texture point t.
+fn gdm_field(t: vec3<f32>) -> f32 {
+    let s = t - 0.5;
+    let b = floor(s);
+    let f = s - b;
+    let v = vec3<i32>(b);
+    var acc = 0.0;
+    for (var k = 0; k < 8; k++) {
+        let o = vec3<i32>(k & 1, (k >> 1) & 1, (k >> 2) & 1);
+        let wt = mix(1.0 - f, f, vec3<f32>(o));
+        acc += wt.x * wt.y * wt.z * gdm_solid(v + o);
+    }
+    return acc;
+}
+
+// First s in [s0, s1] where the field along a + dir * s reaches 0.5, or -1.
+fn gdm_fine_search(a: vec3<f32>, dir: vec3<f32>, s0: f32, s1: f32) -> f32 {
+    if (gdm_field(a + dir * s0) >= 0.5) {
+        return s0;
+    }
+    var prev = s0;
+    loop {
+        if (prev >= s1) {
+            return -1.0;
+        }
+        let next = min(prev + GDM_FINE_STEP, s1);
+        if (gdm_field(a + dir * next) >= 0.5) {
+            var lo = prev;
+            var hi = next;
+            for (var k = 0; k < 8; k++) {
+                let mid = 0.5 * (lo + hi);
+                if (gdm_field(a + dir * mid) >= 0.5) {
+                    hi = mid;
+                } else {
+                    lo = mid;
+                }
+            }
+            return hi;
+        }
+        prev = next;
+    }
+    return -1.0;
+}
+
+// Distance along the unit texture direction `dir` from `a` to the first surface, within `len`;
+// -1 for none. Voxels within one of solid are searched finely; farther ones are skipped in
+// boxes the radius grid guarantees free of the field's 0.5 level (radius - 2 around them).
+fn gdm_march(a: vec3<f32>, dir: vec3<f32>, len: f32) -> f32 {
+    var s = 0.0;
+    for (var step = 0; step < 4096; step++) {
+        if (s >= len) {
+            break;
+        }
+        let v = floor(a + dir * (s + GDM_NUDGE));
+        let r = gdm_radius(vec3<i32>(v));
+        let reach = f32(max(i32(r) - 2, 0));
+        var exit = 3.0e38;
+        for (var axis = 0; axis < 3; axis++) {
+            let d = dir[axis];
+            if (d != 0.0) {
+                let face = select(v[axis] - reach, v[axis] + 1.0 + reach, d > 0.0);
+                exit = min(exit, (face - a[axis]) / d);
+            }
+        }
+        exit = max(exit, s + GDM_NUDGE);
+        if (r <= 1u) {
+            let hit = gdm_fine_search(a, dir, s, min(exit, len));
+            if (hit >= 0.0) {
+                return hit;
+            }
+        }
+        s = exit;
+    }
+    return -1.0;
+}
+
+// The SVD-compressed distance d(x, y, z, theta, phi) at texture point t (trilinear over voxel
+// centres, x and y wrapped) for the sampled direction nearest the unit direction dir.
+fn gdm_lookup(t: vec3<f32>, dir: vec3<f32>) -> f32 {
+    let n = vec3<i32>(shell.size.xyz);
+    let counts = shell.lookup;
+    let pi = 3.14159265;
+    let theta = acos(clamp(dir.z, -1.0, 1.0));
+    var phi = atan2(dir.y, dir.x);
+    if (phi < 0.0) {
+        phi += 2.0 * pi;
+    }
+    let a = u32(clamp(round(theta * f32(counts.x) / pi - 0.5), 0.0, f32(counts.x - 1u)));
+    let b = u32(round(phi * f32(counts.y) / (2.0 * pi))) % counts.y;
+    let s = t - 0.5;
+    let base = floor(s);
+    let f = s - base;
+    var acc = 0.0;
+    for (var c = 0; c < 8; c++) {
+        let o = vec3<i32>(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+        let v = vec3<i32>(base) + o;
+        let i = ((v.x % n.x) + n.x) % n.x;
+        let j = ((v.y % n.y) + n.y) % n.y;
+        let z = u32(clamp(v.z, 0, n.z - 1));
+        let wt = mix(1.0 - f, f, vec3<f32>(o));
+        var d = 0.0;
+        for (var k = 0u; k < counts.z; k++) {
+            let w = gdm_terms_w[((u32(i * n.y + j)) * counts.y + b) * counts.z + k];
+            d += w * gdm_terms_e[(k * counts.x + a) * u32(n.z) + z];
+        }
+        acc += wt.x * wt.y * wt.z * d;
+    }
+    return acc;
+}
+
+// The paper's lookup along one straight piece: the distance the table gives from its start,
+// kept when it falls within the piece and the field confirms solid there (a miss in the table
+// holds the distance to the slab's boundary instead, where there is none); -1 otherwise.
+fn gdm_lookup_piece(a: vec3<f32>, dir: vec3<f32>, len: f32) -> f32 {
+    let d = max(gdm_lookup(a, dir), 0.0);
+    if (d > len) {
+        return -1.0;
+    }
+    for (var k = 0; k < 3; k++) {
+        if (gdm_field(a + dir * (d + 0.5 * f32(k))) >= 0.5) {
+            return d;
+        }
+    }
+    return -1.0;
+}
+
+// World normal at texture point t: the field's gradient taken through the prism's map
+// (inverse transpose of d X / d T).
+fn gdm_normal(pr: Prism, t: vec3<f32>, w: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
+    let e = 0.5;
+    var g = vec3<f32>(
+        gdm_field(t + vec3<f32>(e, 0.0, 0.0)) - gdm_field(t - vec3<f32>(e, 0.0, 0.0)),
+        gdm_field(t + vec3<f32>(0.0, e, 0.0)) - gdm_field(t - vec3<f32>(0.0, e, 0.0)),
+        gdm_field(t + vec3<f32>(0.0, 0.0, e)) - gdm_field(t - vec3<f32>(0.0, 0.0, e)),
+    );
+    // A feature as thin as the differences' step can leave no gradient: face the ray instead.
+    if (dot(g, g) < 1e-12) {
+        g = dir;
+    }
+    let jw = gdm_jacobian(pr, w);
+    let m = gdm_inverse2(gdm_uv_matrix(pr));
+    let a = jw[0] * m[0].x + jw[1] * m[0].y;
+    let b = jw[0] * m[1].x + jw[1] * m[1].y;
+    let c = jw[2] / f32(shell.size.z);
+    let det = dot(a, cross(b, c));
+    // Out of the solid: down the field's gradient.
+    let n_object = -(cross(b, c) * g.x + cross(c, a) * g.y + cross(a, b) * g.z) * sign(det);
+    return normalize((shell.world_normal_from_object * vec4<f32>(n_object, 0.0)).xyz);
+}
+
+// The ray (view space, dir with z = -1) through prism `pr`, from `near` on.
+fn gdm_trace_prism(pr: Prism, origin: vec3<f32>, dir: vec3<f32>, near: f32) -> GdmHit {
+    let o = (shell.object_from_view * vec4<f32>(origin, 1.0)).xyz;
+    let d = (shell.object_from_view * vec4<f32>(dir, 0.0)).xyz;
+    let span = gdm_prism_interval(pr, o, d);
+    let t0 = max(span.x, near);
+    if (span.y < t0) {
+        return GdmHit(-1.0, vec3<f32>(0.0));
+    }
+    let pieces = shell.size.w;
+    var w_prev = gdm_inverse(pr, o + d * t0, vec3<f32>(1.0 / 3.0, 1.0 / 3.0, 0.5));
+    var t_prev = gdm_texture_point(pr, w_prev);
+    for (var k = 1u; k <= pieces; k++) {
+        let x = o + d * mix(t0, span.y, f32(k) / f32(pieces));
+        let w = gdm_inverse(pr, x, w_prev);
+        let t_next = gdm_texture_point(pr, w);
+        let len = length(t_next - t_prev);
+        if (len > 1e-6) {
+            let dir_t = (t_next - t_prev) / len;
+            var s: f32;
+            if (shell.lookup.w == 1u) {
+                s = gdm_lookup_piece(t_prev, dir_t, len);
+            } else {
+                s = gdm_march(t_prev, dir_t, len);
+            }
+            if (s >= 0.0) {
+                let th = t_prev + dir_t * s;
+                let wh = gdm_weights_at(pr, th);
+                let view = shell.view_from_object * vec4<f32>(gdm_forward(pr, wh), 1.0);
+                return GdmHit(-view.z, gdm_normal(pr, th, wh, dir_t));
+            }
+        }
+        w_prev = w;
+        t_prev = t_next;
+    }
+    return GdmHit(-1.0, vec3<f32>(0.0));
+}

@@ -1,0 +1,49 @@
+// Entry points of the displacement-shell pass: each prism's back faces are drawn (so a camera
+// inside a prism still gets fragments), and the fragment finds where the pixel's ray enters and
+// leaves that prism, maps the segment into texture space piece by piece through the prism's
+// exact inverse map, and marches the tile for its first surface (gdm_functions.wgsl). The hit's
+// true depth is written, so prisms, meshes and patches composite in one depth buffer and the
+// silhouette is the mesostructure's, not the prism's.
+//
+// Spaces: see gdm_types.wgsl.
+
+struct VsIn {
+    @location(0) position: vec3<f32>,
+    @location(1) prism: u32,
+}
+
+struct VsOut {
+    @builtin(position) position: vec4<f32>,
+    @location(0) @interpolate(flat) prism: u32,
+}
+
+@vertex
+fn vs_main(v: VsIn) -> VsOut {
+    let view = shell.view_from_object * vec4<f32>(v.position, 1.0);
+    return VsOut(camera.clip_from_view * view, v.prism);
+}
+
+struct FsOut {
+    @location(0) color: vec4<f32>,
+    @location(1) normal: vec4<f32>,
+    @location(2) id: i32,
+    @location(3) albedo: vec4<f32>,
+    @builtin(frag_depth) depth: f32,
+}
+
+@fragment
+fn fs_main(in: VsOut) -> FsOut {
+    let ray = camera_ray(camera, in.position.xy);
+    let hit = gdm_trace_prism(prisms[in.prism], ray.origin, ray.dir, camera.params.y);
+    if (hit.t < 0.0) {
+        discard;
+    }
+    var out: FsOut;
+    out.color = vec4<f32>(headlight(camera, shell.color.rgb, hit.normal, ray.dir), shell.color.a);
+    out.normal = vec4<f32>(hit.normal, 0.0);
+    out.id = shell.ids.x;
+    out.albedo = shell.color;
+    // View distance along -Z equals t for both projections (camera_ray's directions have z = -1).
+    out.depth = depth_from_distance(camera, hit.t);
+    return out;
+}

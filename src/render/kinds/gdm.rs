@@ -1,0 +1,283 @@
+//! Displacement shells (gdm): each prism's back faces are rasterized (gdm_raster.wgsl) and each
+//! fragment traces its pixel's ray through that prism's piece of mesostructure, writing the hit's
+//! true depth into the shared reversed-Z buffer. Not traced by ray queries or shadow rays yet.
+//!
+//! Spaces: the shell's object space, stored relative to its bounding box's centre ("local", f32);
+//! view (camera-relative); texture space in voxels of the tile (gdm/volume.rs).
+
+use glam::{DMat3, DMat4, DVec3};
+use wgpu::util::DeviceExt;
+
+use super::{storage_buffer, DrawCall, FrameView, Kind, Tally, TraceCall, UploadCache};
+use crate::error::{GeomtexError, Result};
+use crate::gdm::GdmShell;
+use crate::render::cull::DepthRange;
+use crate::render::device::Gpu;
+use crate::render::gpu_types::{gpu_matrix, normal_matrix, GdmObjectGpu, GdmVertex, PrismGpu};
+use crate::render::pipelines::{storage_entry, uniform_entry, RasterPipeline, VERTEX_AND_FRAGMENT};
+use crate::render::scene::{Object, SceneObject};
+use crate::render::shaders;
+
+struct UploadedShell {
+    vertices: wgpu::Buffer,
+    count: u32,
+    prisms: wgpu::Buffer,
+    radii: wgpu::Buffer,
+    weights: wgpu::Buffer,
+    eigen: wgpu::Buffer,
+    centre: DVec3,
+    lo: DVec3,
+    hi: DVec3,
+}
+
+pub(crate) struct GdmKind {
+    layout: wgpu::BindGroupLayout,
+    pipeline: wgpu::RenderPipeline,
+    uploads: UploadCache<GdmShell, UploadedShell>,
+}
+
+impl GdmKind {
+    pub fn new(device: &wgpu::Device, frame_layout: &wgpu::BindGroupLayout) -> GdmKind {
+        let fragment = wgpu::ShaderStages::FRAGMENT;
+        // Group 1 of gdm_bindings.wgsl.
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("gdm shell"),
+            entries: &[
+                uniform_entry(0, VERTEX_AND_FRAGMENT),
+                storage_entry(1, fragment, true),
+                storage_entry(2, fragment, true),
+                storage_entry(3, fragment, true),
+                storage_entry(4, fragment, true),
+            ],
+        });
+        let vertex_layout = wgpu::VertexBufferLayout {
+            array_stride: size_of::<GdmVertex>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Uint32],
+        };
+        let pipeline = RasterPipeline {
+            label: "gdm_raster",
+            source: shaders::gdm_raster(),
+            layouts: &[Some(frame_layout), Some(&layout)],
+            vertex_buffers: &[Some(vertex_layout)],
+            // Back faces: one fragment per prism and pixel, and a camera inside still sees it.
+            cull: Some(wgpu::Face::Front),
+            constants: &[],
+        }
+        .build(device);
+        GdmKind {
+            layout,
+            pipeline,
+            uploads: UploadCache::default(),
+        }
+    }
+}
+
+/// The eight triangles of a prism (corners 0-2 base, 3-5 top), counter-clockwise from outside;
+/// fin e is split by the diagonal `bits` bit e names (as gdm_prism_interval does).
+fn prism_triangles(bits: u32) -> [[usize; 3]; 8] {
+    let mut t = [
+        [3, 4, 5],
+        [0, 2, 1],
+        [0; 3],
+        [0; 3],
+        [0; 3],
+        [0; 3],
+        [0; 3],
+        [0; 3],
+    ];
+    for e in 0..3 {
+        let (a, b) = (e, (e + 1) % 3);
+        let pair = if bits >> e & 1 == 1 {
+            [[a, b, b + 3], [a, b + 3, a + 3]]
+        } else {
+            [[a, b, a + 3], [b, b + 3, a + 3]]
+        };
+        t[2 + 2 * e] = pair[0];
+        t[3 + 2 * e] = pair[1];
+    }
+    t
+}
+
+fn upload(gpu: &Gpu, object: &GdmShell) -> UploadedShell {
+    let s = &object.shell;
+    let lift = |k: u32, h: f64| s.positions[k as usize] + s.normals[k as usize] * (h * s.thickness);
+    let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+    for k in 0..s.positions.len() as u32 {
+        for h in [0.0, 1.0] {
+            lo = lo.min(lift(k, h));
+            hi = hi.max(lift(k, h));
+        }
+    }
+    let centre = 0.5 * (lo + hi);
+    let scale = [s.size[0] as f64, s.size[1] as f64];
+    let mut prisms = Vec::with_capacity(s.faces.len());
+    let mut vertices = Vec::with_capacity(s.faces.len() * 24);
+    for (f, tri) in s.faces.iter().enumerate() {
+        // Fin e's diagonal runs from the lower vertex id's base corner to the other's top.
+        let bits = (0..3).fold(0u32, |acc, e| {
+            acc | (u32::from(tri[e] < tri[(e + 1) % 3]) << e)
+        });
+        let corners: [DVec3; 6] =
+            std::array::from_fn(|c| lift(tri[c % 3], (c / 3) as f64) - centre);
+        let mut record = PrismGpu {
+            corners: corners.map(|c| {
+                let v = c.as_vec3();
+                [v.x, v.y, v.z, 0.0]
+            }),
+            uv01: [0.0; 4],
+            uv2: [0.0; 4],
+        };
+        record.corners[0][3] = bits as f32;
+        let uv = s.uv[f].map(|t| [(t.x * scale[0]) as f32, (t.y * scale[1]) as f32]);
+        record.uv01 = [uv[0][0], uv[0][1], uv[1][0], uv[1][1]];
+        record.uv2 = [uv[2][0], uv[2][1], 0.0, 0.0];
+        prisms.push(record);
+        for t in prism_triangles(bits) {
+            for c in t {
+                vertices.push(GdmVertex {
+                    position: corners[c].as_vec3().to_array(),
+                    prism: f as u32,
+                });
+            }
+        }
+    }
+    let radii: Vec<u32> = object
+        .volume
+        .empty_radius()
+        .into_iter()
+        .map(u32::from)
+        .collect();
+    let device = &gpu.device;
+    let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("gdm prism faces"),
+        contents: bytemuck::cast_slice(&vertices),
+        usage: wgpu::BufferUsages::VERTEX,
+    });
+    // One float stands in for the terms of a shell without a lookup (bindings need a buffer).
+    let (weights, eigen) = match &object.lookup {
+        Some(t) => (t.weights.as_slice(), t.eigen.as_slice()),
+        None => (&[0.0f32][..], &[0.0f32][..]),
+    };
+    UploadedShell {
+        weights: storage_buffer(device, "gdm weights", bytemuck::cast_slice(weights)),
+        eigen: storage_buffer(device, "gdm eigen-maps", bytemuck::cast_slice(eigen)),
+        vertices: buffer,
+        count: vertices.len() as u32,
+        prisms: storage_buffer(device, "gdm prisms", bytemuck::cast_slice(&prisms)),
+        radii: storage_buffer(device, "gdm radii", bytemuck::cast_slice(&radii)),
+        centre,
+        lo,
+        hi,
+    }
+}
+
+impl Kind for GdmKind {
+    fn upload(
+        &mut self,
+        gpu: &Gpu,
+        object: &Object,
+        view_from_object: &DMat4,
+        depth: &mut DepthRange,
+    ) -> Result<bool> {
+        let Object::Gdm(shell) = object else {
+            return Ok(false);
+        };
+        if shell.shell.faces.is_empty() {
+            return Ok(true);
+        }
+        let u = self.uploads.get_or_upload(shell, |s| Ok(upload(gpu, s)))?;
+        depth.include_box(view_from_object, u.lo, u.hi);
+        Ok(true)
+    }
+
+    fn draw(
+        &self,
+        gpu: &Gpu,
+        frame: &FrameView,
+        placed: &SceneObject,
+        tally: &mut Tally,
+    ) -> Option<DrawCall> {
+        let Object::Gdm(shell) = &placed.object else {
+            return None;
+        };
+        let u = self.uploads.get(shell)?;
+        let view_from_local =
+            frame.view_from_world * placed.world_from_object * DMat4::from_translation(u.centre);
+        let [nx, ny, nz] = shell.volume.size.map(|n| n as u32);
+        let record = GdmObjectGpu {
+            view_from_object: gpu_matrix(view_from_local),
+            object_from_view: gpu_matrix(view_from_local.inverse()),
+            world_normal_from_object: normal_matrix(DMat3::from_mat4(placed.world_from_object)),
+            size: [nx, ny, nz, shell.pieces.max(1)],
+            color: shell.color.map(|c| f32::from(c) / 255.0),
+            ids: [-2 - tally.meshes_drawn as i32, 0, 0, 0],
+            lookup: shell.lookup.as_ref().map_or([1, 1, 0, 0], |t| {
+                let [nt, np] = t.directions.map(|n| n as u32);
+                [nt, np, t.k as u32, 1]
+            }),
+        };
+        tally.meshes_drawn += 1;
+        let device = &gpu.device;
+        let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("gdm shell"),
+            contents: bytemuck::bytes_of(&record),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("gdm shell"),
+            layout: &self.layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: u.prisms.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: u.radii.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: u.weights.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: u.eigen.as_entire_binding(),
+                },
+            ],
+        });
+        Some(DrawCall {
+            pipeline: self.pipeline.clone(),
+            group,
+            vertex_buffer: Some(u.vertices.clone()),
+            vertices: u.count,
+            instances: 1,
+            compute: None,
+        })
+    }
+
+    fn trace(
+        &self,
+        _gpu: &Gpu,
+        _view_from_world: DMat4,
+        placed: &SceneObject,
+        _ids: &mut Tally,
+    ) -> Result<Option<TraceCall>> {
+        match &placed.object {
+            Object::Gdm(..) => Err(GeomtexError::Parameter(
+                "ray queries through displacement shells are not supported yet; query \
+                 shell.to_mesh()"
+                    .into(),
+            )),
+            _ => Ok(None),
+        }
+    }
+
+    fn purge(&mut self) {
+        self.uploads.purge();
+    }
+}
