@@ -219,6 +219,7 @@ impl PyIgt {
     /// else the nearest listed one. Returns (face (N,) int64, -1 where nothing is listed near;
     /// barycentric (N, 3) float64; inside (N,) bool, False where the fallback answered).
     #[pyo3(signature = (points, grids = None))]
+    #[allow(clippy::type_complexity)] // face ids, barycentrics and inside flags, as numpy arrays
     fn lookup<'py>(
         &self,
         py: Python<'py>,
