@@ -9,7 +9,8 @@ import numpy.typing as npt
 from typing_extensions import disjoint_base
 
 __all__ = [
-    "Mesh", "GeometryTextureSet", "Surfels", "convert", "load", "load_surfels", "InverseGeometricTexture", "IgtMesh", "build_igt", "load_igt", "__version__", "Camera", "Scene",
+    "Mesh", "GeometryTextureSet", "Surfels", "convert", "load", "load_surfels",
+    "InverseGeometricTexture", "IgtMesh", "build_igt", "load_igt", "__version__", "Camera", "Scene",
     "Renderer", "Frame", "GdmVolume", "GdmShell", "gdm_explicit_mesh",
     "GeomtexError", "MeshError", "ParameterError", "FormatError", "FileError", "CancelledError",
     "DeviceError", "InternalError",
