@@ -37,3 +37,14 @@ fn headlight(cam: Camera, base: vec3<f32>, world_normal: vec3<f32>, view_dir: ve
     let lambert = abs(dot(normalize(n), normalize(view_dir)));
     return base * (0.25 + 0.75 * lambert);
 }
+
+// The two triangles of a screen rectangle: corner (x from bit 0, y from bit 1) of each vertex.
+const RECT_CORNERS = array<u32, 6>(0u, 1u, 3u, 0u, 3u, 2u);
+
+// Vertex `vertex` (0..6) of the rectangle `rect` (x0, y0, x1, y1 in normalized device
+// coordinates), as a clip-space position: passes that draw one rectangle over what they cover.
+fn rect_vertex(rect: vec4<f32>, vertex: u32) -> vec4<f32> {
+    let c = RECT_CORNERS[vertex];
+    let xy = vec2<f32>(select(rect.x, rect.z, (c & 1u) != 0u), select(rect.y, rect.w, (c & 2u) != 0u));
+    return vec4<f32>(xy, 0.5, 1.0);
+}

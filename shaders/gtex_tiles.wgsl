@@ -10,15 +10,9 @@ struct VsOut {
     @builtin(position) position: vec4<f32>,
 }
 
-// The rectangle as two triangles: corner (x from bit 0, y from bit 1) of each vertex.
-const CORNERS = array<u32, 6>(0u, 1u, 3u, 0u, 3u, 2u);
-
 @vertex
 fn vs_main(@builtin(vertex_index) vertex: u32) -> VsOut {
-    let c = CORNERS[vertex];
-    let r = tiles.rect;
-    let xy = vec2<f32>(select(r.x, r.z, (c & 1u) != 0u), select(r.y, r.w, (c & 2u) != 0u));
-    return VsOut(vec4<f32>(xy, 0.5, 1.0));
+    return VsOut(rect_vertex(tiles.rect, vertex));
 }
 
 @fragment

@@ -29,15 +29,13 @@ pub(crate) struct PatchBoxGpu {
 
 const _: () = assert!(size_of::<PatchBoxGpu>() == 32);
 
-/// The pieces of patch `index` at pyramid `level` (its top level if it has fewer), from its
-/// min-max pyramid (heightfield::min_max_pyramid).
+/// The pieces of patch `index`, from its min-max pyramid (heightfield::min_max_pyramid).
 pub(crate) fn patch_boxes(
     index: u32,
     p: &Patch,
     pyramid: &[(u32, u32, Vec<u32>)],
-    level: u32,
 ) -> Vec<PatchBoxGpu> {
-    let level = level.min(pyramid.len().saturating_sub(1) as u32);
+    let level = BOX_LEVEL.min(pyramid.len().saturating_sub(1) as u32);
     let (nw, nh, values) = &pyramid[level as usize];
     let cells = f64::from(1u32 << level);
     let code_max = f64::from(p.code_max());
@@ -108,7 +106,7 @@ mod tests {
     #[test]
     fn pieces_hold_the_surface() {
         let p = wavy_patch(200, 150);
-        let boxes = patch_boxes(3, &p, &min_max_pyramid(&p), BOX_LEVEL);
+        let boxes = patch_boxes(3, &p, &min_max_pyramid(&p));
         assert!(boxes
             .iter()
             .all(|b| b.patch_index == 3 && b.level == BOX_LEVEL));

@@ -35,13 +35,13 @@ use crate::render::scene::{Object, SceneObject};
 use crate::render::search::Primary;
 use crate::render::shaders;
 
-use boxes::{patch_boxes, placed as placed_box, PatchBoxGpu, BOX_LEVEL};
+use boxes::{patch_boxes, placed as placed_box, PatchBoxGpu};
 use tiles::TileLists;
 
 /// The unit cube as 12 triangles (gtex_raycast.wgsl's CUBE), one instance per drawn patch.
 const CUBE_VERTICES: u32 = 36;
 
-/// A rectangle as two triangles (gtex_tiles.wgsl's CORNERS).
+/// A rectangle as two triangles (camera_functions.wgsl's RECT_CORNERS).
 const RECT_VERTICES: u32 = 6;
 
 /// A set on the GPU: its maps and pyramids, and the pieces of its boxes that ray queries walk
@@ -76,7 +76,7 @@ impl GtexUpload {
 
     fn tracing(&self, gpu: &Gpu, set: &GeometryTextureSet) -> &Tracing {
         self.tracing.get_or_init(|| {
-            let pieces = Pieces::new(gpu, set, BOX_LEVEL);
+            let pieces = Pieces::new(gpu, set);
             let bounds: Vec<Aabb> = (pieces.list.iter())
                 .map(|b| placed_box(b, &set.patches[b.patch_index as usize].world_from_patch()))
                 .collect();
@@ -94,10 +94,11 @@ impl GtexUpload {
 }
 
 impl Pieces {
-    fn new(gpu: &Gpu, set: &GeometryTextureSet, level: u32) -> Pieces {
+    /// The tracer's pieces (boxes.rs).
+    fn new(gpu: &Gpu, set: &GeometryTextureSet) -> Pieces {
         let list: Vec<PatchBoxGpu> = (0..)
             .zip(&set.patches)
-            .flat_map(|(i, p)| patch_boxes(i, p, &min_max_pyramid(p), level))
+            .flat_map(|(i, p)| patch_boxes(i, p, &min_max_pyramid(p)))
             .collect();
         Self::upload(gpu, list)
     }
@@ -246,7 +247,7 @@ impl GtexKind {
             &[Some(frame_layout), Some(&trace_layout), Some(query_layout)],
             &[],
         );
-        let tile_entries = |stages: wgpu::ShaderStages| {
+        let tile_layout_entries = |stages: wgpu::ShaderStages| {
             let reads = stages.difference(wgpu::ShaderStages::VERTEX);
             [7, 9, 10, 11].map(|b| storage_entry(b, if b == 9 { stages } else { reads }, true))
         };
@@ -254,13 +255,13 @@ impl GtexKind {
             device,
             "geometry textures (tiles)",
             VERTEX_AND_FRAGMENT,
-            &tile_entries(VERTEX_AND_FRAGMENT),
+            &tile_layout_entries(VERTEX_AND_FRAGMENT),
         );
         let tiles_trace_layout = textures_layout(
             device,
             "geometry textures (parallel rays)",
             compute,
-            &tile_entries(compute),
+            &tile_layout_entries(compute),
         );
         let tiles_trace_pipeline = compute_pipeline(
             device,
