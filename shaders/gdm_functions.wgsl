@@ -13,7 +13,7 @@ const GDM_NUDGE: f32 = 1e-4;
 const GDM_FINE_STEP: f32 = 0.25;
 
 struct GdmHit {
-    // View distance along -Z (camera_ray's t), -1 for none.
+    // The ray's parameter at the hit (the same in every affine frame of the ray), -1 for none.
     t: f32,
     // World-space unit normal.
     normal: vec3<f32>,
@@ -285,44 +285,54 @@ fn gdm_lookup_piece(a: vec3<f32>, dir: vec3<f32>, len: f32) -> f32 {
     return -1.0;
 }
 
-// World normal at texture point t: the field's gradient taken through the prism's map
-// (inverse transpose of d X / d T).
-fn gdm_normal(pr: Prism, t: vec3<f32>, w: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
+// The field's gradient at texture point t (central differences); `dir` where a feature as thin
+// as the differences' step leaves none.
+fn gdm_gradient(t: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
     let e = 0.5;
-    var g = vec3<f32>(
+    let g = vec3<f32>(
         gdm_field(t + vec3<f32>(e, 0.0, 0.0)) - gdm_field(t - vec3<f32>(e, 0.0, 0.0)),
         gdm_field(t + vec3<f32>(0.0, e, 0.0)) - gdm_field(t - vec3<f32>(0.0, e, 0.0)),
         gdm_field(t + vec3<f32>(0.0, 0.0, e)) - gdm_field(t - vec3<f32>(0.0, 0.0, e)),
     );
-    // A feature as thin as the differences' step can leave no gradient: face the ray instead.
-    if (dot(g, g) < 1e-12) {
-        g = dir;
-    }
+    return select(g, dir, dot(g, g) < 1e-12);
+}
+
+// Columns of d X / d T at weights w: local steps per texture voxel along x, y and z.
+fn gdm_local_from_texture(pr: Prism, w: vec3<f32>) -> mat3x3<f32> {
     let jw = gdm_jacobian(pr, w);
     let m = gdm_inverse2(gdm_uv_matrix(pr));
     let a = jw[0] * m[0].x + jw[1] * m[0].y;
     let b = jw[0] * m[1].x + jw[1] * m[1].y;
-    let c = jw[2] / f32(shell.size.z);
-    let det = dot(a, cross(b, c));
-    // Out of the solid: down the field's gradient.
-    let n_object = -(cross(b, c) * g.x + cross(c, a) * g.y + cross(a, b) * g.z) * sign(det);
+    return mat3x3<f32>(a, b, jw[2] / f32(shell.size.z));
+}
+
+// World normal for the field's gradient g at weights w: the gradient taken through the prism's
+// map (inverse transpose of d X / d T), pointing out of the solid.
+fn gdm_normal(pr: Prism, g: vec3<f32>, w: vec3<f32>) -> vec3<f32> {
+    let j = gdm_local_from_texture(pr, w);
+    let det = dot(j[0], cross(j[1], j[2]));
+    let n_object = -(cross(j[1], j[2]) * g.x + cross(j[2], j[0]) * g.y + cross(j[0], j[1]) * g.z) * sign(det);
     return normalize((shell.world_normal_from_object * vec4<f32>(n_object, 0.0)).xyz);
 }
 
-// The ray (view space, dir with z = -1) through prism `pr`, from `near` on.
-fn gdm_trace_prism(pr: Prism, origin: vec3<f32>, dir: vec3<f32>, near: f32) -> GdmHit {
-    let o = (shell.object_from_view * vec4<f32>(origin, 1.0)).xyz;
-    let d = (shell.object_from_view * vec4<f32>(dir, 0.0)).xyz;
+// The first surface the ray o + t d (local space) meets inside prism `pr` from t_lo on, if it
+// comes before t_hi. The pieces follow the prism's whole span from t_lo, whatever t_hi, so a
+// search again with another t_hi finds the same hit.
+fn gdm_trace_prism(pr: Prism, o: vec3<f32>, d: vec3<f32>, t_lo: f32, t_hi: f32) -> GdmHit {
     let span = gdm_prism_interval(pr, o, d);
-    let t0 = max(span.x, near);
-    if (span.y < t0) {
+    let t0 = max(span.x, t_lo);
+    let t1 = span.y;
+    if (t1 < t0 || t0 >= t_hi) {
         return GdmHit(-1.0, vec3<f32>(0.0));
     }
     let pieces = shell.size.w;
     var w_prev = gdm_inverse(pr, o + d * t0, vec3<f32>(1.0 / 3.0, 1.0 / 3.0, 0.5));
     var t_prev = gdm_texture_point(pr, w_prev);
     for (var k = 1u; k <= pieces; k++) {
-        let x = o + d * mix(t0, span.y, f32(k) / f32(pieces));
+        if (mix(t0, t1, f32(k - 1u) / f32(pieces)) >= t_hi) {
+            break;
+        }
+        let x = o + d * mix(t0, t1, f32(k) / f32(pieces));
         let w = gdm_inverse(pr, x, w_prev);
         let t_next = gdm_texture_point(pr, w);
         let len = length(t_next - t_prev);
@@ -337,8 +347,11 @@ fn gdm_trace_prism(pr: Prism, origin: vec3<f32>, dir: vec3<f32>, near: f32) -> G
             if (s >= 0.0) {
                 let th = t_prev + dir_t * s;
                 let wh = gdm_weights_at(pr, th);
-                let view = shell.view_from_object * vec4<f32>(gdm_forward(pr, wh), 1.0);
-                return GdmHit(-view.z, gdm_normal(pr, th, wh, dir_t));
+                let t = dot(gdm_forward(pr, wh) - o, d) / dot(d, d);
+                if (t >= t_hi) {
+                    break;
+                }
+                return GdmHit(t, gdm_normal(pr, gdm_gradient(th, dir_t), wh));
             }
         }
         w_prev = w;

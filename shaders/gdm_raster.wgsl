@@ -34,7 +34,11 @@ struct FsOut {
 @fragment
 fn fs_main(in: VsOut) -> FsOut {
     let ray = camera_ray(camera, in.position.xy);
-    let hit = gdm_trace_prism(prisms[in.prism], ray.origin, ray.dir, camera.params.y);
+    // The ray's parameter is its view distance along -Z (camera_ray's directions have z = -1),
+    // in local space too (an affine map keeps it).
+    let o = (shell.object_from_view * vec4<f32>(ray.origin, 1.0)).xyz;
+    let d = (shell.object_from_view * vec4<f32>(ray.dir, 0.0)).xyz;
+    let hit = gdm_trace_prism(prisms[in.prism], o, d, camera.params.y, 3.0e38);
     if (hit.t < 0.0) {
         discard;
     }
@@ -43,7 +47,6 @@ fn fs_main(in: VsOut) -> FsOut {
     out.normal = vec4<f32>(hit.normal, 0.0);
     out.id = shell.ids.x;
     out.albedo = shell.color;
-    // View distance along -Z equals t for both projections (camera_ray's directions have z = -1).
     out.depth = depth_from_distance(camera, hit.t);
     return out;
 }

@@ -31,13 +31,13 @@ def bunny_on_ground(bunny: Converted, as_mesh: bool = False) -> tuple[gt.Scene, 
     return scene, whole, camera, diag
 
 
-def embree_shadow(whole: trimesh.Trimesh, camera: gt.Camera, direction: np.ndarray, diag: float
-                  ) -> tuple[np.ndarray, np.ndarray]:
+def embree_shadow(whole: trimesh.Trimesh, camera: gt.Camera, direction: np.ndarray, diag: float,
+                  size: int = SIZE) -> tuple[np.ndarray, np.ndarray]:
     """Embree's hit mask and, from its own hits (moved 1e-4 diagonal off the surface), whether
     each hit sees the light."""
     caster = reference.RayCaster(whole)
-    ref = caster.cast(camera, SIZE, SIZE)
-    o, d = (a.reshape(-1, 3) for a in camera.rays(SIZE, SIZE))
+    ref = caster.cast(camera, size, size)
+    o, d = (a.reshape(-1, 3) for a in camera.rays(size, size))
     depth = ref["depth"].reshape(-1)
     hit = np.isfinite(depth)
     points = o[hit] + d[hit] * (depth[hit] / (d[hit] @ np.asarray(camera.forward)))[:, None]
@@ -45,9 +45,9 @@ def embree_shadow(whole: trimesh.Trimesh, camera: gt.Camera, direction: np.ndarr
     n = np.where(((n * d[hit]).sum(1) > 0)[:, None], -n, n)
     to_light = -direction / np.linalg.norm(direction)
     _, index, _ = caster.first_hits(points + n * 1e-4 * diag, np.tile(to_light, (len(points), 1)))
-    shadow = np.zeros(SIZE * SIZE, bool)
+    shadow = np.zeros(size * size, bool)
     shadow[np.flatnonzero(hit)[index]] = True
-    return hit.reshape(SIZE, SIZE), shadow.reshape(SIZE, SIZE)
+    return hit.reshape(size, size), shadow.reshape(size, size)
 
 
 def near_edge(mask: np.ndarray) -> np.ndarray:

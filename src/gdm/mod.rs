@@ -43,3 +43,31 @@ pub struct CompressedTable {
 
 /// Default pieces per prism.
 pub const DEFAULT_PIECES: u32 = 4;
+
+impl GdmShell {
+    /// A tile voxel's longer edge in object units: the shell's thickness over the tile's layers,
+    /// or a voxel's extent along the base surface (the median over faces of the square root of
+    /// a face's area over its area in texture voxels).
+    pub fn voxel_size(&self) -> f64 {
+        let s = &self.shell;
+        let vertical = s.thickness / s.size[2].max(1) as f64;
+        let [nx, ny] = [s.size[0] as f64, s.size[1] as f64];
+        let mut along: Vec<f64> = (s.faces.iter().zip(&s.uv))
+            .map(|(f, uv)| {
+                let [a, b, c] = f.map(|k| s.positions[k as usize]);
+                let area = 0.5 * (b - a).cross(c - a).length();
+                let [p, q, r] = uv.map(|t| glam::DVec2::new(t.x * nx, t.y * ny));
+                let texels = 0.5 * (q - p).perp_dot(r - p).abs();
+                if texels > 0.0 {
+                    (area / texels).sqrt()
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        // The median: a sliver of texture space (a seam of a generated layout) would blow the
+        // largest up.
+        along.sort_by(f64::total_cmp);
+        vertical.max(along.get(along.len() / 2).copied().unwrap_or(0.0))
+    }
+}

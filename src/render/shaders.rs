@@ -16,6 +16,9 @@ const GDM_TYPES: &str = shader!("gdm_types.wgsl");
 const GDM_BINDINGS: &str = shader!("gdm_bindings.wgsl");
 const GDM_FUNCTIONS: &str = shader!("gdm_functions.wgsl");
 const GDM_RASTER: &str = shader!("gdm_raster.wgsl");
+const GDM_TRACE_BINDINGS: &str = shader!("gdm_trace_bindings.wgsl");
+const GDM_TRACE_FUNCTIONS: &str = shader!("gdm_trace_functions.wgsl");
+const GDM_TRACE_RAYS: &str = shader!("gdm_trace_rays.wgsl");
 const TRACE_TYPES: &str = shader!("trace_types.wgsl");
 const QUERY_TYPES: &str = shader!("query_types.wgsl");
 const SURFELS_TYPES: &str = shader!("surfels_types.wgsl");
@@ -187,6 +190,26 @@ pub fn gdm_raster() -> String {
     ])
 }
 
+/// Ray queries through displacement shells (kinds/gdm.rs, query.rs).
+pub fn gdm_trace_rays() -> String {
+    assemble(&[
+        CAMERA_TYPES,
+        SEARCH_TYPES,
+        GDM_TYPES,
+        TRACE_TYPES,
+        QUERY_TYPES,
+        FRAME_BINDINGS,
+        GDM_TRACE_BINDINGS,
+        QUERY_BINDINGS,
+        RAY_BOX_FUNCTIONS,
+        TRACE_FUNCTIONS,
+        QUERY_FUNCTIONS,
+        GDM_FUNCTIONS,
+        GDM_TRACE_FUNCTIONS,
+        GDM_TRACE_RAYS,
+    ])
+}
+
 /// The depth copy pass (targets.rs).
 pub fn depth_copy() -> String {
     assemble(&[DEPTH_COPY_BINDINGS, DEPTH_COPY])
@@ -242,9 +265,10 @@ pub fn surfels_resolve() -> String {
 }
 
 /// Every assembled pipeline module, by name.
-pub fn all() -> [(&'static str, String); 14] {
+pub fn all() -> [(&'static str, String); 15] {
     [
         ("gdm_raster", gdm_raster()),
+        ("gdm_trace_rays", gdm_trace_rays()),
         ("gtex_raycast", gtex_raycast()),
         ("gtex_tiles", gtex_tiles()),
         ("gtex_tiles_rays", gtex_tiles_rays()),

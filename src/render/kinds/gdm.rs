@@ -1,20 +1,27 @@
 //! Displacement shells (gdm): each prism's back faces are rasterized (gdm_raster.wgsl) and each
 //! fragment traces its pixel's ray through that prism's piece of mesostructure, writing the hit's
-//! true depth into the shared reversed-Z buffer. Not traced by ray queries or shadow rays yet.
+//! true depth into the shared reversed-Z buffer. Ray queries and shadow rays walk a hierarchy over
+//! the prisms (trace_functions.wgsl), each leaf traced by the same prism march
+//! (gdm_trace_functions.wgsl), so shells cast shadows onto themselves and everything else.
 //!
 //! Spaces: the shell's object space, stored relative to its bounding box's centre ("local", f32);
 //! view (camera-relative); texture space in voxels of the tile (gdm/volume.rs).
+
+use std::sync::OnceLock;
 
 use glam::{DMat3, DMat4, DVec3};
 use wgpu::util::DeviceExt;
 
 use super::{storage_buffer, DrawCall, FrameView, Kind, Tally, TraceCall, UploadCache};
-use crate::error::{GeomtexError, Result};
+use crate::error::Result;
 use crate::gdm::GdmShell;
+use crate::render::bvh::{Aabb, Bvh};
 use crate::render::cull::DepthRange;
 use crate::render::device::Gpu;
 use crate::render::gpu_types::{gpu_matrix, normal_matrix, GdmObjectGpu, GdmVertex, PrismGpu};
-use crate::render::pipelines::{storage_entry, uniform_entry, RasterPipeline, VERTEX_AND_FRAGMENT};
+use crate::render::pipelines::{
+    compute_pipeline, storage_entry, uniform_entry, RasterPipeline, VERTEX_AND_FRAGMENT,
+};
 use crate::render::scene::{Object, SceneObject};
 use crate::render::shaders;
 
@@ -25,6 +32,10 @@ struct UploadedShell {
     radii: wgpu::Buffer,
     weights: wgpu::Buffer,
     eigen: wgpu::Buffer,
+    /// Each prism's six corners (local space), which bound it: the prism's map blends them.
+    corners: Vec<[DVec3; 6]>,
+    /// The hierarchy over the prisms for ray queries, built on the first one.
+    tree: OnceLock<Bvh>,
     centre: DVec3,
     lo: DVec3,
     hi: DVec3,
@@ -33,11 +44,32 @@ struct UploadedShell {
 pub(crate) struct GdmKind {
     layout: wgpu::BindGroupLayout,
     pipeline: wgpu::RenderPipeline,
+    trace_layout: wgpu::BindGroupLayout,
+    trace_pipeline: wgpu::ComputePipeline,
     uploads: UploadCache<GdmShell, UploadedShell>,
 }
 
 impl GdmKind {
-    pub fn new(device: &wgpu::Device, frame_layout: &wgpu::BindGroupLayout) -> GdmKind {
+    pub fn new(
+        device: &wgpu::Device,
+        frame_layout: &wgpu::BindGroupLayout,
+        query_layout: &wgpu::BindGroupLayout,
+    ) -> GdmKind {
+        let compute = wgpu::ShaderStages::COMPUTE;
+        // Group 1 of gdm_trace_bindings.wgsl.
+        let trace_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("gdm shell (tracer)"),
+            entries: &(0..6)
+                .map(|binding| storage_entry(binding, compute, true))
+                .collect::<Vec<_>>(),
+        });
+        let trace_pipeline = compute_pipeline(
+            device,
+            "gdm_trace_rays",
+            &shaders::gdm_trace_rays(),
+            &[Some(frame_layout), Some(&trace_layout), Some(query_layout)],
+            &[],
+        );
         let fragment = wgpu::ShaderStages::FRAGMENT;
         // Group 1 of gdm_bindings.wgsl.
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -68,6 +100,8 @@ impl GdmKind {
         GdmKind {
             layout,
             pipeline,
+            trace_layout,
+            trace_pipeline,
             uploads: UploadCache::default(),
         }
     }
@@ -112,6 +146,7 @@ fn upload(gpu: &Gpu, object: &GdmShell) -> UploadedShell {
     let centre = 0.5 * (lo + hi);
     let scale = [s.size[0] as f64, s.size[1] as f64];
     let mut prisms = Vec::with_capacity(s.faces.len());
+    let mut prism_corners = Vec::with_capacity(s.faces.len());
     let mut vertices = Vec::with_capacity(s.faces.len() * 24);
     for (f, tri) in s.faces.iter().enumerate() {
         // Fin e's diagonal runs from the lower vertex id's base corner to the other's top.
@@ -133,6 +168,7 @@ fn upload(gpu: &Gpu, object: &GdmShell) -> UploadedShell {
         record.uv01 = [uv[0][0], uv[0][1], uv[1][0], uv[1][1]];
         record.uv2 = [uv[2][0], uv[2][1], 0.0, 0.0];
         prisms.push(record);
+        prism_corners.push(corners);
         for t in prism_triangles(bits) {
             for c in t {
                 vertices.push(GdmVertex {
@@ -166,10 +202,57 @@ fn upload(gpu: &Gpu, object: &GdmShell) -> UploadedShell {
         count: vertices.len() as u32,
         prisms: storage_buffer(device, "gdm prisms", bytemuck::cast_slice(&prisms)),
         radii: storage_buffer(device, "gdm radii", bytemuck::cast_slice(&radii)),
+        corners: prism_corners,
+        tree: OnceLock::new(),
         centre,
         lo,
         hi,
     }
+}
+
+/// The shell's record (gdm_types.wgsl), with `view_from_world` the frame's (or a query's) view;
+/// its hits get `id`.
+fn shell_record(
+    shell: &GdmShell,
+    u: &UploadedShell,
+    view_from_world: DMat4,
+    world_from_object: DMat4,
+    id: i32,
+) -> GdmObjectGpu {
+    let view_from_local = view_from_world * world_from_object * DMat4::from_translation(u.centre);
+    let [nx, ny, nz] = shell.volume.size.map(|n| n as u32);
+    GdmObjectGpu {
+        view_from_object: gpu_matrix(view_from_local),
+        object_from_view: gpu_matrix(view_from_local.inverse()),
+        world_normal_from_object: normal_matrix(DMat3::from_mat4(world_from_object)),
+        size: [nx, ny, nz, shell.pieces.max(1)],
+        color: shell.color.map(|c| f32::from(c) / 255.0),
+        ids: [id, 0, 0, 0],
+        lookup: shell.lookup.as_ref().map_or([1, 1, 0, 0], |t| {
+            let [nt, np] = t.directions.map(|n| n as u32);
+            [nt, np, t.k as u32, 1]
+        }),
+    }
+}
+
+/// A bind group of whole buffers at bindings 0, 1, ... in order.
+fn bind_group(
+    device: &wgpu::Device,
+    label: &str,
+    layout: &wgpu::BindGroupLayout,
+    buffers: &[&wgpu::Buffer],
+) -> wgpu::BindGroup {
+    let entries: Vec<_> = (buffers.iter().enumerate())
+        .map(|(binding, buffer)| wgpu::BindGroupEntry {
+            binding: binding as u32,
+            resource: buffer.as_entire_binding(),
+        })
+        .collect();
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout,
+        entries: &entries,
+    })
 }
 
 impl Kind for GdmKind {
@@ -202,57 +285,25 @@ impl Kind for GdmKind {
             return None;
         };
         let u = self.uploads.get(shell)?;
-        let view_from_local =
-            frame.view_from_world * placed.world_from_object * DMat4::from_translation(u.centre);
-        let [nx, ny, nz] = shell.volume.size.map(|n| n as u32);
-        let record = GdmObjectGpu {
-            view_from_object: gpu_matrix(view_from_local),
-            object_from_view: gpu_matrix(view_from_local.inverse()),
-            world_normal_from_object: normal_matrix(DMat3::from_mat4(placed.world_from_object)),
-            size: [nx, ny, nz, shell.pieces.max(1)],
-            color: shell.color.map(|c| f32::from(c) / 255.0),
-            ids: [-2 - tally.meshes_drawn as i32, 0, 0, 0],
-            lookup: shell.lookup.as_ref().map_or([1, 1, 0, 0], |t| {
-                let [nt, np] = t.directions.map(|n| n as u32);
-                [nt, np, t.k as u32, 1]
-            }),
-        };
+        let id = -2 - tally.meshes_drawn as i32;
         tally.meshes_drawn += 1;
+        let record = shell_record(
+            shell,
+            u,
+            frame.view_from_world,
+            placed.world_from_object,
+            id,
+        );
         let device = &gpu.device;
         let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("gdm shell"),
             contents: bytemuck::bytes_of(&record),
             usage: wgpu::BufferUsages::UNIFORM,
         });
-        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("gdm shell"),
-            layout: &self.layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: u.prisms.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: u.radii.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 3,
-                    resource: u.weights.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 4,
-                    resource: u.eigen.as_entire_binding(),
-                },
-            ],
-        });
+        let buffers = [&buffer, &u.prisms, &u.radii, &u.weights, &u.eigen];
         Some(DrawCall {
             pipeline: self.pipeline.clone(),
-            group,
+            group: bind_group(device, "gdm shell", &self.layout, &buffers),
             vertex_buffer: Some(u.vertices.clone()),
             vertices: u.count,
             instances: 1,
@@ -262,19 +313,38 @@ impl Kind for GdmKind {
 
     fn trace(
         &self,
-        _gpu: &Gpu,
-        _view_from_world: DMat4,
+        gpu: &Gpu,
+        view_from_world: DMat4,
         placed: &SceneObject,
-        _ids: &mut Tally,
+        ids: &mut Tally,
     ) -> Result<Option<TraceCall>> {
-        match &placed.object {
-            Object::Gdm(..) => Err(GeomtexError::Parameter(
-                "ray queries through displacement shells are not supported yet; query \
-                 shell.to_mesh()"
-                    .into(),
-            )),
-            _ => Ok(None),
-        }
+        let Object::Gdm(shell) = &placed.object else {
+            return Ok(None);
+        };
+        // Hits get the id the shell's pixels get in a frame.
+        let id = -2 - ids.meshes_drawn as i32;
+        ids.meshes_drawn += 1;
+        let Some(u) = self.uploads.get(shell) else {
+            return Ok(None);
+        };
+        let boxes = |from_local: DMat4| -> Vec<Aabb> {
+            (u.corners.iter())
+                .map(|c| Aabb::of_points(c.iter().map(|&p| from_local.transform_point3(p))))
+                .collect()
+        };
+        let tree = u.tree.get_or_init(|| Bvh::build(&boxes(DMat4::IDENTITY)));
+        let query_from_local =
+            view_from_world * placed.world_from_object * DMat4::from_translation(u.centre);
+        let nodes = tree.refit(&boxes(query_from_local));
+        let record = shell_record(shell, u, view_from_world, placed.world_from_object, id);
+        let device = &gpu.device;
+        let record = storage_buffer(device, "gdm shell", bytemuck::bytes_of(&record));
+        let nodes = storage_buffer(device, "prism hierarchy", bytemuck::cast_slice(&nodes));
+        let buffers = [&record, &u.prisms, &u.radii, &u.weights, &u.eigen, &nodes];
+        Ok(Some(TraceCall {
+            pipeline: self.trace_pipeline.clone(),
+            group: bind_group(device, "gdm shell (tracer)", &self.trace_layout, &buffers),
+        }))
     }
 
     fn purge(&mut self) {

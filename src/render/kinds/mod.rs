@@ -43,7 +43,7 @@ pub(crate) fn registered(
             frame_layout,
             gpu.int64_atomics,
         )),
-        Box::new(gdm::GdmKind::new(device, frame_layout)),
+        Box::new(gdm::GdmKind::new(device, frame_layout, query_layout)),
     ]
 }
 
