@@ -267,3 +267,22 @@ def test_shell_shadows_agree_with_embree_on_to_mesh(torus_chain: tuple,
     # Shells are lit by the same rule as every other object: shadowed pixels darkened.
     plain = r.render(shell, cam)
     assert np.array_equal(lit.color[~lit.shadow], plain.color[~lit.shadow])
+
+
+def test_shells_and_volumes_pickle_exactly(torus_chain: tuple) -> None:
+    import pickle
+
+    shell, cam, _ = torus_chain
+    vol = gdm.Volume(shell.volume.occupancy, np.full(shell.volume.size + (4,), 7, np.uint8))
+    back = pickle.loads(pickle.dumps(vol))
+    assert np.array_equal(back.occupancy, vol.occupancy)
+    assert np.array_equal(back._core.colors, vol._core.colors)
+    table = gdm.Volume.procedural("weave", (16, 16, 8)).distance_function((4, 8))
+    table.compress(2)
+    blob = pickle.dumps(table)
+    assert len(blob) < 2 * table.distance.nbytes + table.hit.nbytes  # no SVD cache inside
+    assert np.array_equal(pickle.loads(blob).distance, table.distance)
+    copy = pickle.loads(pickle.dumps(shell))
+    r = gt.Renderer(64, 64)
+    a, b = r.render(shell, cam), r.render(copy, cam)
+    assert np.array_equal(a.depth, b.depth, equal_nan=True) and np.array_equal(a.color, b.color)

@@ -81,6 +81,11 @@ class Volume:
             rgba = np.ascontiguousarray(np.clip(rgba, 0, 255), dtype=np.uint8)
         self._core = _core.GdmVolume(grid, rgba, bool(check_seams))
 
+    def __reduce__(self) -> tuple[Any, ...]:
+        # As its grid and colors; the extension's copy is made anew from them, identical.
+        colors = self._core.colors
+        return (_volume_from_arrays, (self.occupancy, None if colors is None else colors.reshape(self.size + (4,))))
+
     @classmethod
     def procedural(cls, pattern: Pattern, size: Any = DEFAULT_SIZE) -> Volume:
         """A built-in tile: ``"chain"`` (interlocking links, flat and upright), ``"weave"`` (threads
@@ -149,6 +154,11 @@ class Volume:
         return DistanceFunction(self, d, hit)
 
 
+def _volume_from_arrays(occupancy: npt.NDArray[np.bool_], colors: npt.NDArray[np.uint8] | None) -> Volume:
+    """Unpickles a Volume (its seams were checked when it was first made)."""
+    return Volume(occupancy, colors, check_seams=False)
+
+
 def _core_to_trimesh(mesh: Any) -> Any:
     import trimesh
 
@@ -173,6 +183,10 @@ class DistanceFunction:
     distance: npt.NDArray[np.float32]
     hit: npt.NDArray[np.bool_]
     _svd: Any = field(default=None, repr=False)
+
+    def __getstate__(self) -> dict[str, Any]:
+        # Without the SVD cache: its U alone is rows x columns float64, far more than the table.
+        return {**self.__dict__, "_svd": None}
 
     @property
     def directions(self) -> tuple[int, int]:
@@ -320,6 +334,10 @@ class Shell:
             raise ParameterError("lookup must be a CompressedGDM of this shell's volume (DistanceFunction.compress)")
         self.lookup = lookup
         self._drawn: Any = None
+
+    def __getstate__(self) -> dict[str, Any]:
+        # Without the extension's copy (made again on the first draw after unpickling).
+        return {**self.__dict__, "_drawn": None}
 
     def _texture_coordinates(self, mesh: Any, uv: Any, scale: npt.NDArray[np.float64]) -> tuple[Any, str]:
         nv, nf = len(self.vertices), len(self.faces)
