@@ -335,13 +335,26 @@ fn tile_figures(
     }
 }
 
+/// One patch's tiles (with their surfels numbered from 0) and the nodes above them (numbered
+/// from 0 within the patch).
+type PatchParts = (Vec<(Tile, Vec<Surfel>)>, Vec<Node>);
+
+/// An index moved by `by`; u32::MAX (none) stays.
+fn offset(index: u32, by: u32) -> u32 {
+    if index == u32::MAX {
+        index
+    } else {
+        index + by
+    }
+}
+
 impl SurfelHierarchy {
     /// The hierarchy of `set` with `tile` x `tile` texel tiles (a power of two up to MAX_TILE).
     /// Deterministic: the same set and tile give the same hierarchy.
     pub fn build(source: Arc<GeometryTextureSet>, tile: u32) -> Result<SurfelHierarchy> {
         let tile = check_tile(tile as i64)?;
         let levels = tile.trailing_zeros() + 1;
-        let per_patch: Vec<(Vec<(Tile, Vec<Surfel>)>, Vec<Node>)> = source
+        let per_patch: Vec<PatchParts> = source
             .patches
             .par_iter()
             .enumerate()
@@ -357,11 +370,11 @@ impl SurfelHierarchy {
         for (patch_tiles, mut patch_nodes) in per_patch {
             let first = all_nodes.len() as u32;
             for n in &mut patch_nodes {
-                n.parent = n.parent.checked_add(first).unwrap_or(u32::MAX);
+                n.parent = offset(n.parent, first);
             }
             all_nodes.extend(patch_nodes);
             for (mut t, local) in patch_tiles {
-                t.parent = t.parent.checked_add(first).unwrap_or(u32::MAX);
+                t.parent = offset(t.parent, first);
                 Self::append_tile(&mut tiles, &mut surfels, t, local);
             }
         }
