@@ -239,20 +239,21 @@ fn upload(gpu: &Gpu, h: &SurfelHierarchy) -> Result<UploadedSurfels> {
         })
         .collect();
     let device = &gpu.device;
-    let mut node_records = nodes.clone();
+    let node_count = nodes.len() as u32;
+    let mut node_records = nodes;
+    // A zero-length binding is invalid: one unused record where there are no nodes.
     if node_records.is_empty() {
         node_records.push(bytemuck::Zeroable::zeroed());
     }
     Ok(UploadedSurfels {
         tiles: storage(device, "surfel tiles", bytemuck::cast_slice(&tiles)),
-        // A zero-length binding is invalid: one unused record where there are no nodes.
         nodes: storage(device, "surfel nodes", bytemuck::cast_slice(&node_records)),
         surfels: storage(device, "surfels", bytemuck::cast_slice(&surfels)),
         patches: storage(device, "surfel patches", bytemuck::cast_slice(&patches)),
         clips: storage(device, "surfel clips", bytemuck::cast_slice(&clips)),
         patch_frames: storage(device, "surfel patch frames", bytemuck::cast_slice(&frames)),
         tile_count: tiles.len() as u32,
-        node_count: nodes.len() as u32,
+        node_count,
         finest: h.per_level()[0] as u32,
         patch_count: h.source.patches.len() as i32,
         centre,
