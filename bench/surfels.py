@@ -28,6 +28,7 @@ from __future__ import annotations
 import argparse
 import datetime
 import json
+import os
 import platform
 import time
 from pathlib import Path
@@ -134,6 +135,7 @@ def measure(name: str, state: dict[str, Any], fraction: float, renderer: gt.Rend
                "gpu_ms_min": gpu_min, "wall_ms": wall_ms, "surfels_drawn": s["surfels_drawn"],
                "surfels_finest_in_view": s["surfels_considered"],
                "surfels_per_level": [s[f"surfels_level_{k}"] for k in range(surfels.levels)],
+               "surfels_above_tiles": s["surfels_above_tiles"],
                **accuracy(frame, ref, state["diagonal"])}
         compared = err == DEFAULT_ERROR and tile == TILES[0]
         if compared:
@@ -171,6 +173,7 @@ def summary(results: dict[str, Any]) -> dict[str, Any]:
             "mesh_over_surfels_ms": {str(row["fraction"]): row["mesh_raster_gpu_ms"] / row["gpu_ms"] for row in d},
             "gtex_over_surfels_ms": {str(row["fraction"]): row["gtex_gpu_ms"] / row["gpu_ms"] for row in d},
             "surfels_drawn": {str(row["fraction"]): row["surfels_drawn"] for row in d},
+            "surfels_above_tiles": {str(row["fraction"]): row["surfels_above_tiles"] for row in d},
             f"tile{TILES[1]}_surfels_gpu_ms": {str(row["fraction"]): row["gpu_ms"] for row in big},
             f"tile{TILES[1]}_surfels_drawn": {str(row["fraction"]): row["surfels_drawn"] for row in big},
             f"tile{TILES[1]}_iou_min": min(row["iou"] for row in big),
@@ -237,6 +240,7 @@ def main() -> None:
     meshes = {"bunny": lambda: gt.load_mesh(BUNNY)}
     if not args.quick:
         meshes["bunny_loop2"] = lambda: dense_bunny(BUNNY, 2)
+    load_before = os.getloadavg()
     states = {name: prepare(make()) for name, make in meshes.items()}
     rows: dict[str, list[dict[str, Any]]] = {name: [] for name in states}
     # Distance by distance, every mesh in turn: the meshes' timings at one coverage are taken
@@ -257,6 +261,9 @@ def main() -> None:
         "size": SIZE,
         "yfov_deg": YFOV,
         "repeats": args.repeats,
+        # 1/5/15-minute load averages (2 cores shared with other builds): timings are noisy.
+        "loadavg_start": load_before,
+        "loadavg_end": os.getloadavg(),
         "summary": summary(results),
         "meshes": results,
     }

@@ -71,15 +71,6 @@ fn disc_distance(d: ViewDisc, px: vec2<f32>, reach: f32) -> f32 {
     return t;
 }
 
-// Reversed-Z depth where pixel (x, y) sees the disc, 0 on a miss.
-fn disc_depth(d: ViewDisc, x: i32, y: i32) -> f32 {
-    let t = disc_distance(d, vec2<f32>(f32(x), f32(y)) + 0.5, 1.0);
-    if (t < 0.0) {
-        return 0.0;
-    }
-    return depth_from_distance(camera, t);
-}
-
 // The index of the chosen-list entry this splat thread draws (dispatches are rows of
 // DISPATCH_ROW workgroups), or a value >= the drawn count past the end.
 fn splat_thread(id: vec3<u32>, groups: vec3<u32>) -> u32 {

@@ -3,7 +3,7 @@
 // depth (frag_depth, so the shared reversed-Z test composites surfels with every other kind),
 // normal, color and patch id. A pixel no disc reached is filled from its nearest neighbour, on
 // that neighbour's disc plane, when covered neighbours lie on two opposite sides of it (a hole
-// inside the surface); the silhouette never grows.
+// inside the surface) and that disc, grown to twice its radius, reaches the pixel.
 //
 // Spaces: view (camera-relative) and framebuffer pixels (row 0 at the top); world normals out.
 
@@ -58,11 +58,14 @@ fn fill_hole(x: i32, y: i32) -> vec2<u32> {
     if (!opposite) {
         return vec2<u32>(0u);
     }
+    // Only where that disc, grown to twice its radius, reaches: a gap between discs of about a
+    // pixel or more is filled, a notch in a silhouette that sub-pixel discs outline is not.
     let disc = view_disc(surfels[near.x]);
     let t = disc_distance(disc, vec2<f32>(f32(x), f32(y)) + 0.5, 2.0);
-    if (t > 0.0) {
-        near.y = bitcast<u32>(depth_from_distance(camera, t));
+    if (t <= 0.0) {
+        return vec2<u32>(0u);
     }
+    near.y = bitcast<u32>(depth_from_distance(camera, t));
     return near;
 }
 

@@ -9,11 +9,13 @@ fn cs_main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups
     if (k >= atomicLoad(&tally[TALLY_DRAWN])) {
         return;
     }
-    let disc = view_disc(surfels[chosen[k]]);
+    let index = chosen[k];
+    let disc = view_disc(surfels[index]);
+    let clip = disc_clip(index);
     let b = splat_box(disc);
     for (var y = b.y; y <= b.w; y++) {
         for (var x = b.x; x <= b.z; x++) {
-            let depth = disc_depth(disc, x, y);
+            let depth = clipped_depth(disc, clip, x, y);
             if (depth > 0.0) {
                 atomicMax(&visible[2u * (u32(y) * object.sizes.x + u32(x)) + 1u], bitcast<u32>(depth));
             }

@@ -12,10 +12,11 @@ fn cs_main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups
     }
     let index = chosen[k];
     let disc = view_disc(surfels[index]);
+    let clip = disc_clip(index);
     let b = splat_box(disc);
     for (var y = b.y; y <= b.w; y++) {
         for (var x = b.x; x <= b.z; x++) {
-            let depth = disc_depth(disc, x, y);
+            let depth = clipped_depth(disc, clip, x, y);
             let p = 2u * (u32(y) * object.sizes.x + u32(x));
             if (depth > 0.0 && bitcast<u32>(depth) == atomicLoad(&visible[p + 1u])) {
                 atomicMax(&visible[p], index);

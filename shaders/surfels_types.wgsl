@@ -11,8 +11,26 @@ struct SurfelTile {
     error: array<vec4<f32>, 2>,
     // First surfel of level l at [l / 4][l % 4]; entry [levels] is the tile's end.
     start: array<vec4<u32>, 2>,
-    // x: levels, y: patch index within the set.
+    // x: levels, y: patch index within the set, z: the node above the tile (NO_NODE: none).
     info: vec4<u32>,
+    // Normal cone of the tile's finest surfels (object space): unit axis, half angle (radians).
+    cone: vec4<f32>,
+}
+
+// A node of a patch's quadtree above its tiles (src/surfels/nodes.rs): one surfel standing for
+// its 2x2 children.
+struct SurfelNode {
+    // xyz: centre of a sphere holding every disc below (object space), w: its radius.
+    sphere: vec4<f32>,
+    // Normal cone of the finest surfels below: unit axis, half angle (radians).
+    cone: vec4<f32>,
+    // Its error (object units), never smaller than a child's.
+    error: f32,
+    // Its surfel (index into `surfels`, after every tile's).
+    surfel: u32,
+    // The node one level up, NO_NODE at a root.
+    parent: u32,
+    level: u32,
 }
 
 struct Surfel {
@@ -22,6 +40,13 @@ struct Surfel {
     normal: vec3<f32>,
     // RGBA8 (unpack4x8unorm).
     color: u32,
+}
+
+// A patch's texel grid in object space: texel coordinate u = dot(u.xyz, p) + u.w of an
+// object-space point p (texel i spans u in [i, i + 1]), v likewise.
+struct PatchFrame {
+    u: vec4<f32>,
+    v: vec4<f32>,
 }
 
 struct SurfelObject {
@@ -37,14 +62,24 @@ struct SurfelObject {
     // The resolve pass's rectangle in normalized device coordinates (x0, y0, x1, y1): the
     // hierarchy's bounding box on screen, a few pixels wider.
     rect: vec4<f32>,
+    // x: nodes above the tiles.
+    counts: vec4<u32>,
 }
 
-// The tally's slots: surfels listed, tiles in view, finest surfels of those tiles, then the
-// surfels listed per level.
+// The tally's slots: surfels listed, tiles in view, finest surfels of those tiles, the surfels
+// listed per tile level, then the node surfels listed (every level above the tile).
 const TALLY_DRAWN: u32 = 0u;
 const TALLY_TILES: u32 = 1u;
 const TALLY_FINEST: u32 = 2u;
 const TALLY_LEVEL0: u32 = 3u;
+const TALLY_NODES: u32 = 10u;
+const NO_NODE: u32 = 0xffffffffu;
+// A tile or node that may show a silhouette (its normal cone holds a direction perpendicular to
+// some view ray through its sphere) is held to this share of max_pixel_error: there its error
+// moves the outline sideways, and coverage at 1/16 of the image height (a ~130-pixel outline)
+// tolerates only a few pixels' change (the bunny at 512²: a share of 1/8 left IoU 0.977
+// there, 1/16 left 0.990).
+const SILHOUETTE_SHARE: f32 = 0.0625;
 const TALLY_SLOTS: u32 = 16u;
 // Splatting threads per workgroup, and the most workgroups a dispatch row takes.
 const SPLAT_GROUP: u32 = 64u;

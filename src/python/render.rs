@@ -473,8 +473,9 @@ impl PyRenderer {
     /// and reports height fetches in `frame.stats`. `lod` (max-pyramid search only) stops each
     /// patch's descent where its nodes are about a pixel. `light` (a DirectionalLight or a
     /// PointLight) casts shadows: `frame.shadow`, and shadowed pixels at half brightness.
-    /// `max_pixel_error` (Surfels only, default 1): each tile draws its coarsest level whose
-    /// perpendicular error projects to at most this many pixels. `primary` ("tiles", default, or
+    /// `max_pixel_error` (Surfels only, default 1): a cut of each patch's tiles and the nodes
+    /// above them is drawn, each part at its coarsest level whose perpendicular error projects to
+    /// at most this many pixels of depth (1/16 of it where a silhouette may show). `primary` ("tiles", default, or
     /// "boxes") picks how camera rays meet the texture sets' boxes: per pixel nearest first,
     /// stopping behind the nearest hit, or every box over a pixel searched.
     #[pyo3(signature = (obj, camera, *, quality = None, method = None, steps_per_texel = None,

@@ -158,7 +158,8 @@ impl PySurfels {
             .into_pyarray(py)
     }
 
-    /// tile, levels, tiles, surfels, surfels_per_level (finest first), bytes (GPU records).
+    /// tile, levels, tiles, surfels, surfels_per_level (finest first), nodes and nodes_per_level
+    /// (the quadtree above the tiles, lowest level first), bytes (GPU records).
     #[getter]
     fn stats<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let h = &self.inner;
@@ -168,6 +169,8 @@ impl PySurfels {
         d.set_item("tiles", h.tiles.len())?;
         d.set_item("surfels", h.surfels.len())?;
         d.set_item("surfels_per_level", h.per_level())?;
+        d.set_item("nodes", h.nodes.len())?;
+        d.set_item("nodes_per_level", h.nodes_per_level())?;
         d.set_item("bytes", h.gpu_bytes())?;
         Ok(d)
     }

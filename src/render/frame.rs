@@ -70,6 +70,8 @@ pub struct SurfelCounts {
     pub tiles: u64,
     /// Surfels splatted per level, finest first.
     pub per_level: [u64; crate::surfels::MAX_LEVELS],
+    /// Surfels splatted from the nodes above the tiles (every level there).
+    pub nodes: u64,
 }
 
 impl SurfelCounts {
@@ -90,6 +92,7 @@ impl SurfelCounts {
             for (acc, v) in sum.per_level.iter_mut().zip(&t[at + 3..]) {
                 *acc += *v as u64;
             }
+            sum.nodes += t[super::kinds::surfels::TALLY_NODES] as u64;
         }
         Ok(Some(sum))
     }
@@ -137,6 +140,7 @@ impl Frame {
                 ("surfels_considered", n(s.considered)),
                 ("surfels_drawn", n(s.drawn)),
                 ("surfel_tiles_drawn", n(s.tiles)),
+                ("surfels_above_tiles", n(s.nodes)),
             ]);
             stats.extend(
                 SURFEL_LEVELS

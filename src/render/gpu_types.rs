@@ -248,6 +248,19 @@ pub(crate) struct SurfelTileGpu {
     pub error: [f32; 8],
     pub start: [u32; 8],
     pub info: [u32; 4],
+    pub cone: [f32; 4],
+}
+
+/// `SurfelNode` in surfels_types.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+pub(crate) struct SurfelNodeGpu {
+    pub sphere: [f32; 4],
+    pub cone: [f32; 4],
+    pub error: f32,
+    pub surfel: u32,
+    pub parent: u32,
+    pub level: u32,
 }
 
 /// `Surfel` in surfels_types.wgsl.
@@ -270,14 +283,19 @@ pub(crate) struct SurfelObjectGpu {
     pub params: [f32; 4],
     pub sizes: [u32; 4],
     pub rect: [f32; 4],
+    pub counts: [u32; 4],
 }
 
-wgsl_size!(SurfelTileGpu, 96);
+wgsl_size!(SurfelTileGpu, 112);
 const _: () = assert!(offset_of!(SurfelTileGpu, start) == 48);
 const _: () = assert!(offset_of!(SurfelTileGpu, info) == 80);
+const _: () = assert!(offset_of!(SurfelTileGpu, cone) == 96);
+wgsl_size!(SurfelNodeGpu, 48);
+const _: () = assert!(offset_of!(SurfelNodeGpu, error) == 32);
 wgsl_size!(SurfelGpu, 32);
 const _: () = assert!(offset_of!(SurfelGpu, normal) == 16);
-wgsl_size!(SurfelObjectGpu, 240);
+wgsl_size!(SurfelObjectGpu, 256);
+const _: () = assert!(offset_of!(SurfelObjectGpu, counts) == 240);
 const _: () = assert!(offset_of!(SurfelObjectGpu, planes) == 128);
 const _: () = assert!(offset_of!(SurfelObjectGpu, params) == 192);
 const _: () = assert!(offset_of!(SurfelObjectGpu, sizes) == 208);

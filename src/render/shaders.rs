@@ -49,6 +49,7 @@ const GTEX_TILES_FUNCTIONS: &str = shader!("gtex_tiles_functions.wgsl");
 const GTEX_TRACE_FUNCTIONS: &str = shader!("gtex_trace_functions.wgsl");
 const MESH_TRACE_FUNCTIONS: &str = shader!("mesh_trace_functions.wgsl");
 const SURFELS_FUNCTIONS: &str = shader!("surfels_functions.wgsl");
+const SURFELS_CLIP_FUNCTIONS: &str = shader!("surfels_clip_functions.wgsl");
 
 const GTEX_RAYCAST: &str = shader!("gtex_raycast.wgsl");
 const GTEX_TILES: &str = shader!("gtex_tiles.wgsl");
@@ -246,6 +247,7 @@ pub fn surfels_compute(pass: SurfelPass) -> String {
         visibility,
         CAMERA_FUNCTIONS,
         SURFELS_FUNCTIONS,
+        SURFELS_CLIP_FUNCTIONS,
         entry,
     ])
 }

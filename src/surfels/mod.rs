@@ -4,12 +4,17 @@
 //! by level, up to one surfel per tile (tile 8: the paper's 64/16/4/1). Per tile and level the
 //! hierarchy keeps the perpendicular error (how far the finest surfels stray from that level's
 //! discs) and a normal cone, so a renderer can pick each tile's coarsest level that stays within
-//! a pixel budget (render/kinds/surfels.rs).
+//! a pixel budget (render/kinds/surfels.rs). Above the tiles, each patch's tiles form a quadtree
+//! of nodes (2x2 tiles or nodes merged into one surfel per node, up to one node per patch), so a
+//! far model draws fewer surfels than it has tiles (nodes.rs).
 //!
 //! Spaces: world (f64, the set's), and patch-local texel grids (column i along u, row j along v)
 //! for the tiling only. Level 0 is the finest.
 
 pub mod file;
+mod nodes;
+
+pub use nodes::Node;
 
 use std::sync::Arc;
 
@@ -41,6 +46,10 @@ pub struct Surfel {
     /// Index of the parent surfel one level up; `u32::MAX` at the top level.
     pub parent: u32,
     pub level: u8,
+    /// The box of surface texels it stands for in its patch's grid: first column, first row,
+    /// end column, end row (exclusive). The renderer clips the disc to it (plus a margin), so a
+    /// coarse disc, sized to cover its children, does not reach past the surface they cover.
+    pub texels: [u32; 4],
 }
 
 /// One tile of a patch: its surfels level by level, with the figures a renderer selects by.
@@ -60,6 +69,8 @@ pub struct Tile {
     /// A sphere holding every disc of every level.
     pub centre: DVec3,
     pub bound: f64,
+    /// The node one level above the tile (index into `SurfelHierarchy::nodes`), or u32::MAX.
+    pub parent: u32,
 }
 
 /// A surfel hierarchy over a geometry-texture set, kept beside the set it was built from (files
@@ -70,6 +81,9 @@ pub struct SurfelHierarchy {
     pub levels: u32,
     pub tiles: Vec<Tile>,
     pub surfels: Vec<Surfel>,
+    /// The quadtree nodes above the tiles, patch by patch, each level's nodes before the next
+    /// level's.
+    pub nodes: Vec<Node>,
     pub source: Arc<GeometryTextureSet>,
 }
 
@@ -90,6 +104,7 @@ struct Disc {
     normal: DVec3,
     radius: f64,
     color: [f64; 4],
+    texels: [u32; 4],
 }
 
 impl Disc {
@@ -114,18 +129,29 @@ impl Disc {
             .iter()
             .map(|c| c.position.distance(position) + c.radius)
             .fold(0.0, f64::max);
+        let texels = children.iter().fold([u32::MAX, u32::MAX, 0, 0], |b, c| {
+            let t = c.texels;
+            [
+                b[0].min(t[0]),
+                b[1].min(t[1]),
+                b[2].max(t[2]),
+                b[3].max(t[3]),
+            ]
+        });
         Disc {
             position,
             normal,
             radius,
             color: color.map(|v| v / total),
+            texels,
         }
     }
 }
 
 /// The finest disc of a surface texel: centred on the texel's point, in its tangent plane, with
 /// the radius reaching the texel's four corners lifted onto that plane.
-fn texel_disc(p: &Patch, point: DVec3, normal: DVec3, color: [u8; 4]) -> Disc {
+fn texel_disc(p: &Patch, t: usize, point: DVec3, normal: DVec3) -> Disc {
+    let (i, j) = ((t % p.width as usize) as u32, (t / p.width as usize) as u32);
     let (sx, sy) = (p.extent.x / p.width as f64, p.extent.y / p.height as f64);
     let local = DVec3::new(
         normal.dot(p.axes[0]),
@@ -143,7 +169,8 @@ fn texel_disc(p: &Patch, point: DVec3, normal: DVec3, color: [u8; 4]) -> Disc {
         position: point,
         normal,
         radius,
-        color: color.map(f64::from),
+        color: p.color(t).map(f64::from),
+        texels: [i, j, i + 1, j + 1],
     }
 }
 
@@ -155,7 +182,7 @@ type LevelGrid = (Vec<Option<(Disc, u32)>>, usize, usize);
 fn patch_tiles(p: &Patch, patch: u32, tile: u32, levels: u32) -> Vec<(Tile, Vec<Surfel>)> {
     let mut grid: Vec<Option<Disc>> = vec![None; p.texels()];
     for (t, point, normal) in p.surface_texels() {
-        grid[t] = Some(texel_disc(p, point, normal, p.color(t)));
+        grid[t] = Some(texel_disc(p, t, point, normal));
     }
     let mut out = Vec::new();
     for j0 in (0..p.height).step_by(tile as usize) {
@@ -200,6 +227,7 @@ fn build_tile(
                         color: d.color.map(|c| c.round().clamp(0.0, 255.0) as u8),
                         parent: u32::MAX,
                         level: level as u8,
+                        texels: d.texels,
                     });
                     (d, surfels.len() as u32 - 1)
                 })
@@ -245,6 +273,14 @@ fn link_parents(grids: &[LevelGrid], surfels: &mut [Surfel]) {
     }
 }
 
+/// How far a coarse disc (centre, unit normal) strays from one finest surfel `f` below it: f's
+/// distance from the disc's plane plus f's disc's tilt against it. (The disc's rim, reaching
+/// past the texels it stands for, is clipped away when drawn: Surfel::texels.)
+fn disc_error(f: &Surfel, centre: DVec3, normal: DVec3) -> f64 {
+    let tilt = f.normal.cross(normal).length();
+    (f.position - centre).dot(normal).abs() + f.radius * tilt
+}
+
 /// Errors, cones and the bounding sphere of a built tile (surfel indices local to the tile).
 fn tile_figures(
     grids: &[LevelGrid],
@@ -260,8 +296,7 @@ fn tile_figures(
         let mut a = f;
         for e in error.iter_mut().skip(1) {
             a = &surfels[a.parent as usize];
-            let tilt = f.normal.cross(a.normal).length();
-            *e = e.max((f.position - a.position).dot(a.normal).abs() + f.radius * tilt);
+            *e = e.max(disc_error(f, a.position, a.normal));
         }
     }
     for l in 1..levels {
@@ -296,6 +331,20 @@ fn tile_figures(
         cone,
         centre,
         bound,
+        parent: u32::MAX,
+    }
+}
+
+/// One patch's tiles (with their surfels numbered from 0) and the nodes above them (numbered
+/// from 0 within the patch).
+type PatchParts = (Vec<(Tile, Vec<Surfel>)>, Vec<Node>);
+
+/// An index moved by `by`; u32::MAX (none) stays.
+fn offset(index: u32, by: u32) -> u32 {
+    if index == u32::MAX {
+        index
+    } else {
+        index + by
     }
 }
 
@@ -305,34 +354,58 @@ impl SurfelHierarchy {
     pub fn build(source: Arc<GeometryTextureSet>, tile: u32) -> Result<SurfelHierarchy> {
         let tile = check_tile(tile as i64)?;
         let levels = tile.trailing_zeros() + 1;
-        let per_patch: Vec<Vec<(Tile, Vec<Surfel>)>> = source
+        let per_patch: Vec<PatchParts> = source
             .patches
             .par_iter()
             .enumerate()
-            .map(|(k, p)| patch_tiles(p, k as u32, tile, levels))
+            .map(|(k, p)| {
+                let mut tiles = patch_tiles(p, k as u32, tile, levels);
+                let nodes = nodes::patch_nodes(&mut tiles, tile, levels);
+                (tiles, nodes)
+            })
             .collect();
         let mut tiles = Vec::new();
         let mut surfels = Vec::new();
-        for (mut t, local) in per_patch.into_iter().flatten() {
-            let offset = surfels.len() as u32;
-            for s in &mut t.start {
-                *s += offset;
+        let mut all_nodes = Vec::new();
+        for (patch_tiles, mut patch_nodes) in per_patch {
+            let first = all_nodes.len() as u32;
+            for n in &mut patch_nodes {
+                n.parent = offset(n.parent, first);
             }
-            surfels.extend(local.into_iter().map(|mut s| {
-                if s.parent != u32::MAX {
-                    s.parent += offset;
-                }
-                s
-            }));
-            tiles.push(t);
+            all_nodes.extend(patch_nodes);
+            for (mut t, local) in patch_tiles {
+                t.parent = offset(t.parent, first);
+                Self::append_tile(&mut tiles, &mut surfels, t, local);
+            }
         }
         Ok(SurfelHierarchy {
             tile,
             levels,
             tiles,
             surfels,
+            nodes: all_nodes,
             source,
         })
+    }
+
+    /// Appends one tile and its surfels (numbered from 0 within the tile) to the lists.
+    fn append_tile(
+        tiles: &mut Vec<Tile>,
+        surfels: &mut Vec<Surfel>,
+        mut t: Tile,
+        local: Vec<Surfel>,
+    ) {
+        let offset = surfels.len() as u32;
+        for s in &mut t.start {
+            *s += offset;
+        }
+        surfels.extend(local.into_iter().map(|mut s| {
+            if s.parent != u32::MAX {
+                s.parent += offset;
+            }
+            s
+        }));
+        tiles.push(t);
     }
 
     /// Surfels of each level, finest first.
@@ -344,10 +417,26 @@ impl SurfelHierarchy {
         counts
     }
 
-    /// Bytes the hierarchy takes on the GPU: a 32-byte record and a patch index per surfel, a
-    /// tile record per tile (render/gpu_types.rs).
+    /// Bytes the hierarchy takes on the GPU: a 32-byte record and a patch index per surfel
+    /// (nodes' surfels too), a tile record per tile and a node record per node
+    /// (render/gpu_types.rs).
     pub fn gpu_bytes(&self) -> usize {
-        self.surfels.len() * (32 + 4) + self.tiles.len() * 96
+        (self.surfels.len() + self.nodes.len()) * (32 + 4)
+            + self.tiles.len() * 112
+            + self.nodes.len() * 48
+    }
+
+    /// Nodes per level above the tiles, lowest first (empty when every patch is one tile).
+    pub fn nodes_per_level(&self) -> Vec<usize> {
+        let mut counts = Vec::new();
+        for n in &self.nodes {
+            let k = (n.surfel.level as u32 - self.levels) as usize;
+            if counts.len() <= k {
+                counts.resize(k + 1, 0);
+            }
+            counts[k] += 1;
+        }
+        counts
     }
 
     /// The tile of each surfel.

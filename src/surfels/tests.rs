@@ -171,3 +171,68 @@ fn files_round_trip_and_corruption_is_refused() {
     tile[12] = 8;
     assert!(file::decode(&tile).unwrap_err().contains("checksum"));
 }
+
+/// The finest surfels below a node: those of every tile whose chain of parents reaches it.
+fn finest_below(h: &SurfelHierarchy, node: usize) -> Vec<&Surfel> {
+    let reaches = |mut n: u32| loop {
+        if n == node as u32 {
+            return true;
+        }
+        if n == u32::MAX {
+            return false;
+        }
+        n = h.nodes[n as usize].parent;
+    };
+    (h.tiles.iter().filter(|t| reaches(t.parent)))
+        .flat_map(|t| &h.surfels[t.start[0] as usize..t.start[1] as usize])
+        .collect()
+}
+
+#[test]
+fn nodes_above_the_tiles_nest_and_their_errors_never_fall() {
+    let h = SurfelHierarchy::build(Arc::new(curved_set()), 4).unwrap();
+    assert!(!h.nodes.is_empty());
+    // One root per patch with more than one tile; every tile of such a patch has a parent.
+    let roots = h.nodes.iter().filter(|n| n.parent == u32::MAX).count();
+    let mut tiles_per_patch = vec![0usize; h.source.patches.len()];
+    for t in &h.tiles {
+        tiles_per_patch[t.patch as usize] += 1;
+    }
+    assert_eq!(roots, tiles_per_patch.iter().filter(|&&n| n > 1).count());
+    for t in &h.tiles {
+        assert_eq!(t.parent == u32::MAX, tiles_per_patch[t.patch as usize] == 1);
+        if t.parent != u32::MAX {
+            let p = &h.nodes[t.parent as usize];
+            assert!(p.error >= *t.error.last().unwrap());
+            assert!(p.centre.distance(t.centre) + t.bound <= p.bound * (1.0 + 1e-12));
+            assert_eq!(p.surfel.level as u32, h.levels);
+        }
+    }
+    for (k, n) in h.nodes.iter().enumerate() {
+        if n.parent != u32::MAX {
+            let p = &h.nodes[n.parent as usize];
+            assert!(p.error >= n.error && p.surfel.level == n.surfel.level + 1);
+            assert!(p.centre.distance(n.centre) + n.bound <= p.bound * (1.0 + 1e-12));
+        }
+        // The node's error bounds every finest surfel below against its disc; its cone holds
+        // their normals; its texel box holds theirs.
+        let below = finest_below(&h, k);
+        assert!(!below.is_empty());
+        let d = &n.surfel;
+        for f in below {
+            let off = (f.position - d.position).dot(d.normal).abs();
+            assert!(off <= n.error + 1e-12, "{off} > {}", n.error);
+            assert!(f.normal.dot(n.cone.0).clamp(-1.0, 1.0).acos() <= n.cone.1 + 1e-9);
+            let (b, t) = (d.texels, f.texels);
+            assert!(b[0] <= t[0] && b[1] <= t[1] && b[2] >= t[2] && b[3] >= t[3]);
+        }
+    }
+    // Four to one, rounded up per patch: each level holds fewer nodes than the one below and at
+    // least a quarter of them.
+    let per = h.nodes_per_level();
+    assert!(
+        per.windows(2).all(|w| w[1] * 4 >= w[0] && w[1] < w[0]),
+        "{per:?}"
+    );
+    assert!(per[0] * 4 >= h.tiles.len() - tiles_per_patch.iter().filter(|&&n| n == 1).count());
+}

@@ -1,7 +1,8 @@
 //! Surfel hierarchies (src/surfels/), drawn as point splats in three compute passes before the
 //! scene pass and one resolve draw inside it:
-//! 1. cull (surfels_cull.wgsl): per tile, frustum test and level choice from the projected
-//!    perpendicular error against `max_pixel_error`; the level's surfels are appended to a list;
+//! 1. cull (surfels_cull.wgsl): per tile and per node above the tiles, frustum test and a cut
+//!    of each patch's quadtree by projected error against `max_pixel_error` (a share of it where
+//!    a silhouette may show); the chosen surfels are appended to a list;
 //! 2. dispatch arguments (surfels_args.wgsl): the list's length → indirect workgroup counts;
 //! 3. splat: each listed surfel's disc, ray-intersected per pixel, into a visibility buffer by
 //!    64-bit atomicMax of (reversed-Z depth, index) where the device has 64-bit atomics, else in
@@ -23,7 +24,7 @@ use crate::render::camera::Lens;
 use crate::render::cull::{box_corners, DepthRange};
 use crate::render::device::Gpu;
 use crate::render::gpu_types::{
-    gpu_matrix, normal_matrix, SurfelGpu, SurfelObjectGpu, SurfelTileGpu,
+    gpu_matrix, normal_matrix, SurfelGpu, SurfelNodeGpu, SurfelObjectGpu, SurfelTileGpu,
 };
 use crate::render::pipelines::{
     compute_pipeline, storage_entry, uniform_entry, RasterPipeline, VERTEX_AND_FRAGMENT,
@@ -37,14 +38,20 @@ pub(crate) const TALLY_SLOTS: usize = 16;
 /// Where the counts start in the tally: drawn, tiles in view, finest surfels of those tiles,
 /// then one count per level (surfels_types.wgsl).
 pub(crate) const TALLY_DRAWN: usize = 0;
+/// The tally's slot of node surfels (TALLY_NODES in surfels_types.wgsl).
+pub(crate) const TALLY_NODES: usize = 10;
 const SPLAT_GROUP: u32 = 64;
 
 /// One hierarchy on the GPU.
 struct UploadedSurfels {
     tiles: wgpu::Buffer,
+    nodes: wgpu::Buffer,
     surfels: wgpu::Buffer,
     patches: wgpu::Buffer,
+    clips: wgpu::Buffer,
+    patch_frames: wgpu::Buffer,
     tile_count: u32,
+    node_count: u32,
     /// Finest-level surfels: the most any frame can list.
     finest: u32,
     patch_count: i32,
@@ -93,6 +100,10 @@ impl SurfelsKind {
                 storage_entry(2, c, true),
                 storage_entry(3, c, false),
                 storage_entry(4, c, false),
+                storage_entry(5, c, true),
+                storage_entry(6, c, true),
+                storage_entry(7, c, true),
+                storage_entry(8, c, true),
             ],
         );
         let visibility_layout = layout(device, "surfels visibility", &[storage_entry(0, c, false)]);
@@ -175,19 +186,34 @@ fn upload(gpu: &Gpu, h: &SurfelHierarchy) -> Result<UploadedSurfels> {
                 sphere: [c.x, c.y, c.z, t.bound as f32],
                 error,
                 start,
-                info: [h.levels, t.patch, 0, 0],
+                info: [h.levels, t.patch, t.parent, 0],
+                cone: cone_record(t.cone[0]),
             }
         })
         .collect();
-    let surfels: Vec<SurfelGpu> = h
-        .surfels
-        .iter()
-        .map(|s| SurfelGpu {
-            position: (s.position - centre).as_vec3().to_array(),
-            radius: s.radius as f32,
-            normal: s.normal.as_vec3().to_array(),
-            color: u32::from_le_bytes(s.color),
+    let first_node = h.surfels.len() as u32;
+    let nodes: Vec<SurfelNodeGpu> = (h.nodes.iter().enumerate())
+        .map(|(k, n)| {
+            let c = (n.centre - centre).as_vec3();
+            SurfelNodeGpu {
+                sphere: [c.x, c.y, c.z, n.bound as f32],
+                cone: cone_record(n.cone),
+                error: n.error as f32,
+                surfel: first_node + k as u32,
+                parent: n.parent,
+                level: n.surfel.level as u32,
+            }
         })
+        .collect();
+    let surfel_record = |s: &crate::surfels::Surfel| SurfelGpu {
+        position: (s.position - centre).as_vec3().to_array(),
+        radius: s.radius as f32,
+        normal: s.normal.as_vec3().to_array(),
+        color: u32::from_le_bytes(s.color),
+    };
+    let surfels: Vec<SurfelGpu> = (h.surfels.iter())
+        .chain(h.nodes.iter().map(|n| &n.surfel))
+        .map(surfel_record)
         .collect();
     let limit = gpu.device.limits().max_storage_buffer_binding_size as usize;
     if std::mem::size_of_val(surfels.as_slice()) > limit {
@@ -201,19 +227,68 @@ fn upload(gpu: &Gpu, h: &SurfelHierarchy) -> Result<UploadedSurfels> {
         .surfel_tiles()
         .into_iter()
         .map(|t| h.tiles[t].patch)
+        .chain(h.nodes.iter().map(|n| n.patch))
+        .collect();
+    let clips = clip_boxes(h);
+    let frames: Vec<[f32; 8]> = (h.source.patches.iter())
+        .flat_map(|p| {
+            let u = p.axes[0] * (p.width as f64 / p.extent.x);
+            let v = p.axes[1] * (p.height as f64 / p.extent.y);
+            let (u0, v0) = (u.dot(centre - p.origin), v.dot(centre - p.origin));
+            [[u.x, u.y, u.z, u0, v.x, v.y, v.z, v0].map(|x| x as f32)]
+        })
         .collect();
     let device = &gpu.device;
+    let node_count = nodes.len() as u32;
+    let mut node_records = nodes;
+    // A zero-length binding is invalid: one unused record where there are no nodes.
+    if node_records.is_empty() {
+        node_records.push(bytemuck::Zeroable::zeroed());
+    }
     Ok(UploadedSurfels {
         tiles: storage(device, "surfel tiles", bytemuck::cast_slice(&tiles)),
+        nodes: storage(device, "surfel nodes", bytemuck::cast_slice(&node_records)),
         surfels: storage(device, "surfels", bytemuck::cast_slice(&surfels)),
         patches: storage(device, "surfel patches", bytemuck::cast_slice(&patches)),
+        clips: storage(device, "surfel clips", bytemuck::cast_slice(&clips)),
+        patch_frames: storage(device, "surfel patch frames", bytemuck::cast_slice(&frames)),
         tile_count: tiles.len() as u32,
+        node_count,
         finest: h.per_level()[0] as u32,
         patch_count: h.source.patches.len() as i32,
         centre,
         lo,
         hi,
     })
+}
+
+/// Per surfel (tiles' then nodes'), the box of texels it is clipped to (u0, v0, u1, v1 in its
+/// patch's texel grid): its texels, wider by half a texel (so neighbouring discs tilted against
+/// each other leave no crack on their shared edge) and by its level's error (which their
+/// planes may differ by there).
+fn clip_boxes(h: &SurfelHierarchy) -> Vec<[f32; 4]> {
+    let boxed = |s: &crate::surfels::Surfel, patch: u32, error: f64| {
+        let p = &h.source.patches[patch as usize];
+        let mu = 0.5 + error * p.width as f64 / p.extent.x;
+        let mv = 0.5 + error * p.height as f64 / p.extent.y;
+        let t = s.texels.map(|v| v as f64);
+        [t[0] - mu, t[1] - mv, t[2] + mu, t[3] + mv].map(|v| v as f32)
+    };
+    let mut out = Vec::with_capacity(h.surfels.len() + h.nodes.len());
+    for t in &h.tiles {
+        for (l, range) in t.start.windows(2).enumerate() {
+            let level = &h.surfels[range[0] as usize..range[1] as usize];
+            out.extend(level.iter().map(|s| boxed(s, t.patch, t.error[l])));
+        }
+    }
+    out.extend(h.nodes.iter().map(|n| boxed(&n.surfel, n.patch, n.error)));
+    out
+}
+
+/// A cone (unit axis, half angle) as the shaders take it, in f32.
+fn cone_record((axis, angle): (DVec3, f64)) -> [f32; 4] {
+    let a = axis.as_vec3();
+    [a.x, a.y, a.z, angle as f32]
 }
 
 /// The frustum's four side planes in view space (inside where n·p + d >= 0), from the pixel
@@ -294,7 +369,12 @@ fn frame_buffers(device: &wgpu::Device, u: &UploadedSurfels, pixels: u64) -> Fra
     let none = wgpu::BufferUsages::empty();
     // New buffers are zeroed: an empty list, a zero tally, no pixel covered.
     FrameBuffers {
-        chosen: buffer("surfels chosen", 4 * u.finest.max(1) as u64, none),
+        // A cut lists at most one surfel per finest one; nodes on top for rounding's sake.
+        chosen: buffer(
+            "surfels chosen",
+            4 * (u.finest + u.node_count).max(1) as u64,
+            none,
+        ),
         tally: buffer(
             "surfels tally",
             4 * TALLY_SLOTS as u64,
@@ -354,6 +434,7 @@ impl SurfelsKind {
             ],
             sizes: [width, height, first_id.max(0) as u32, u.tile_count],
             rect: screen_rect(frame.lens, view_from_object, u, [width, height]),
+            counts: [u.node_count, 0, 0, 0],
         }
     }
 
@@ -374,6 +455,10 @@ impl SurfelsKind {
                 &u.surfels,
                 &buffers.chosen,
                 &buffers.tally,
+                &u.nodes,
+                &u.clips,
+                &u.patches,
+                &u.patch_frames,
             ],
         );
         // Group 2 is one writable buffer in every pass: the arguments, then the visibility.
@@ -383,7 +468,11 @@ impl SurfelsKind {
             ComputeStep {
                 pipeline: self.cull.clone(),
                 groups: vec![group.clone(), arguments.clone()],
-                dispatch: Dispatch::Groups([u.tile_count.div_ceil(SPLAT_GROUP).max(1), 1, 1]),
+                dispatch: Dispatch::Groups([
+                    (u.tile_count + u.node_count).div_ceil(SPLAT_GROUP).max(1),
+                    1,
+                    1,
+                ]),
             },
             ComputeStep {
                 pipeline: self.args.clone(),
