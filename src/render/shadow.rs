@@ -79,15 +79,19 @@ fn start_offset(scene: &Scene) -> f64 {
                 .fold(0.0, f64::max);
             match &placed.object {
                 Object::Textures(set) => OFFSET_TEXELS * set.texel_size * scale,
-                Object::Mesh(mesh, _) => {
-                    let (lo, hi) = mesh.bounds();
-                    OFFSET_MESH_DIAGONAL * (hi - lo).length() * scale
-                }
+                Object::Mesh(mesh, _) => mesh_offset(mesh, scale),
+                // Shaded simplified meshes receive shadows as meshes do.
+                Object::Igt(shaded) => mesh_offset(&shaded.mesh, scale),
                 // Surfels and shells receive shadows but are not traced (see `casters`).
                 Object::Surfels(..) | Object::Gdm(..) => 0.0,
             }
         })
         .fold(0.0, f64::max)
+}
+
+fn mesh_offset(mesh: &crate::mesh::Mesh, scale: f64) -> f64 {
+    let (lo, hi) = mesh.bounds();
+    OFFSET_MESH_DIAGONAL * (hi - lo).length() * scale
 }
 
 impl Renderer {
@@ -104,10 +108,16 @@ impl Renderer {
     ) -> Result<()> {
         light.validate()?;
         let start = std::time::Instant::now();
-        // Surfels receive shadows but do not cast them: the tracer does not trace splats.
+        // Surfels, shells and shaded simplified meshes receive shadows but do not cast them: the
+        // tracer does not trace them.
         let casters = Scene {
             objects: (scene.objects.iter())
-                .filter(|placed| !matches!(placed.object, Object::Surfels(..) | Object::Gdm(..)))
+                .filter(|placed| {
+                    !matches!(
+                        placed.object,
+                        Object::Surfels(..) | Object::Gdm(..) | Object::Igt(..)
+                    )
+                })
                 .cloned()
                 .collect(),
         };
