@@ -9,7 +9,7 @@
 const IGT_TAU: f32 = 6.283185307179586;
 const IGT_PI: f32 = 3.141592653589793;
 // Rings of neighbouring cells searched when nothing listed contains the point (lookup.rs).
-const IGT_MAX_RING: i32 = 3;
+const IGT_MAX_RING: i32 = 1;
 
 fn igt_wraps() -> bool {
     return object.info.x != 0u;
@@ -72,30 +72,34 @@ fn igt_barycentric(a: vec2<f32>, b: vec2<f32>, c: vec2<f32>, p: vec2<f32>) -> ve
     return vec4<f32>(w / sum, select(0.0, 1.0, inside));
 }
 
-// Squared distance from p to its nearest point of (a, b, c), and that point's barycentrics.
+// Squared distance from p to segment (a, b), and where its nearest point lies (0 at a, 1 at b).
+fn igt_segment(a: vec2<f32>, b: vec2<f32>, p: vec2<f32>) -> vec2<f32> {
+    let e = b - a;
+    let len2 = dot(e, e);
+    var s = 0.0;
+    if (len2 > 0.0) {
+        s = clamp(dot(p - a, e) / len2, 0.0, 1.0);
+    }
+    let q = a + e * s - p;
+    return vec2<f32>(dot(q, q), s);
+}
+
+// Squared distance from p to its nearest point of (a, b, c) in w, that point's barycentrics in
+// xyz (the edges tried in lookup.rs's order, a nearer one replacing a farther).
 fn igt_nearest(a: vec2<f32>, b: vec2<f32>, c: vec2<f32>, p: vec2<f32>) -> vec4<f32> {
     let inside = igt_barycentric(a, b, c, p);
     if (inside.w > 0.5) {
         return vec4<f32>(inside.xyz, 0.0);
     }
-    var t = array<vec2<f32>, 3>(a, b, c);
-    var best = vec4<f32>(1.0, 0.0, 0.0, 3.0e38);
-    for (var k = 0u; k < 3u; k++) {
-        let s0 = t[k];
-        let e = t[(k + 1u) % 3u] - s0;
-        let len2 = dot(e, e);
-        var s = 0.0;
-        if (len2 > 0.0) {
-            s = clamp(dot(p - s0, e) / len2, 0.0, 1.0);
-        }
-        let q = s0 + e * s - p;
-        let d = dot(q, q);
-        if (d < best.w) {
-            var bary = vec3<f32>(0.0);
-            bary[k] = 1.0 - s;
-            bary[(k + 1u) % 3u] = s;
-            best = vec4<f32>(bary, d);
-        }
+    let ab = igt_segment(a, b, p);
+    let bc = igt_segment(b, c, p);
+    let ca = igt_segment(c, a, p);
+    var best = vec4<f32>(1.0 - ab.y, ab.y, 0.0, ab.x);
+    if (bc.x < best.w) {
+        best = vec4<f32>(0.0, 1.0 - bc.y, bc.y, bc.x);
+    }
+    if (ca.x < best.w) {
+        best = vec4<f32>(ca.y, 0.0, 1.0 - ca.y, ca.x);
     }
     return best;
 }
@@ -114,26 +118,29 @@ fn igt_turned(e: IgtEntry, width: u32, uv: vec2<f32>) -> vec2<f32> {
 // result: its squared distance (3e38 when nothing is listed), entry index in `entry`.
 fn igt_nearest_in_ring(g: IgtGrid, uv: vec2<f32>, i: i32, j: i32, ring: i32, entry: ptr<function, i32>) -> vec4<f32> {
     var best = vec4<f32>(0.0, 0.0, 0.0, 3.0e38);
-    for (var dj = -ring; dj <= ring; dj++) {
-        for (var di = -ring; di <= ring; di++) {
-            if (max(abs(di), abs(dj)) != ring) {
-                continue;
+    // The ring's 8 * ring cells (one for ring 0), 2 * ring a side: bottom (t, -ring), right
+    // (ring, t), top (-t, ring), left (-ring, -t) for t in -ring .. ring - 1.
+    let per_side = max(2 * ring, 1);
+    let cells = select(8 * ring, 1, ring == 0);
+    for (var q = 0; q < cells; q++) {
+        let t = q % per_side - ring;
+        let side = q / per_side;
+        let di = select(select(-ring, -t, side == 2), select(t, ring, side == 1), side < 2);
+        let dj = select(select(-t, ring, side == 2), select(-ring, t, side == 1), side < 2);
+        let c = igt_cell(g, i + di, j + dj);
+        for (var k = cell_start[c]; k < cell_start[c + 1u]; k++) {
+            let e = entries[cell_entries[k]];
+            var near = igt_nearest(e.a, e.b, e.c, uv);
+            let turned = igt_turned(e, g.size.x, uv);
+            if (turned.x != uv.x) {
+                let other = igt_nearest(e.a, e.b, e.c, turned);
+                if (other.w < near.w) {
+                    near = other;
+                }
             }
-            let c = igt_cell(g, i + di, j + dj);
-            for (var k = cell_start[c]; k < cell_start[c + 1u]; k++) {
-                let e = entries[cell_entries[k]];
-                var near = igt_nearest(e.a, e.b, e.c, uv);
-                let turned = igt_turned(e, g.size.x, uv);
-                if (turned.x != uv.x) {
-                    let other = igt_nearest(e.a, e.b, e.c, turned);
-                    if (other.w < near.w) {
-                        near = other;
-                    }
-                }
-                if (near.w < best.w) {
-                    best = near;
-                    *entry = i32(cell_entries[k]);
-                }
+            if (near.w < best.w) {
+                best = near;
+                *entry = i32(cell_entries[k]);
             }
         }
     }

@@ -202,9 +202,9 @@ def test_the_shader_finds_what_the_cpu_lookup_finds(primary: str, renderer_256: 
     assert frame.face_id.shape == (_SIZE, _SIZE) and frame.barycentric.shape == (_SIZE, _SIZE, 3)
     drawn = np.isfinite(frame.depth)
     assert (frame.face_id[~drawn] == -1).all()
-    # Drawn pixels with no listed triangle within three rings of cells (the CPU lookup finds
-    # none either): measured 0.54% (charts: the simplified surface strays from its chart), 0%.
-    assert (frame.face_id[drawn] < 0).mean() <= (0.016 if primary == "charts" else 0.001)
+    # Drawn pixels with no listed triangle in their cell or the ring around it (the CPU lookup
+    # finds none either): measured 2.2% (charts: the simplified surface strays from its chart), 0%.
+    assert (frame.face_id[drawn] < 0).mean() <= (0.05 if primary == "charts" else 0.001)
     ref = RayCaster(trimesh.Trimesh(low.vertices, low.faces, process=False)).cast(cam, _SIZE, _SIZE)
     px = drawn & ref["hit"]
     grids = low.face_grid[ref["triangle"][px]].tolist() if primary == "charts" else None
@@ -279,9 +279,9 @@ def test_an_igt_mesh_composites_with_other_objects(renderer_256: gt.Renderer) ->
     ids = frame.patch_id
     assert (ids == -2).any() and (ids == -3).any()
     assert (frame.face_id[ids == -2] == -1).all()
-    # Every pixel showing the IgtMesh has a face but those nothing is listed near (<1%).
+    # Every pixel showing the IgtMesh has a face but those nothing is listed near (measured 2.6%).
     shown = ids == -3
-    assert (frame.face_id[~shown] == -1).all() and (frame.face_id[shown] >= 0).mean() >= 0.99
+    assert (frame.face_id[~shown] == -1).all() and (frame.face_id[shown] >= 0).mean() >= 0.93
     back = pickle.loads(pickle.dumps(frame))
     assert np.array_equal(back.face_id, frame.face_id) and np.array_equal(back.barycentric, frame.barycentric)
     assert renderer_256.render(quad, _camera(igt, (0.0, 0.0, 1.0))).face_id is None
@@ -294,3 +294,7 @@ def test_rendering_bad_input(renderer_256: gt.Renderer) -> None:
         gt.Scene().add(low, normals="flat")
     with pytest.raises(gt.ParameterError, match="not supported"):
         renderer_256.intersect(low, np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]))
+    with pytest.raises(gt.ParameterError, match="faces reference"):
+        gt.igt.attach(igt, low.vertices, low.faces + len(low.vertices))
+    with pytest.raises(gt.ParameterError, match=r"\(V, 3\)"):
+        gt.igt.attach(igt, low.vertices[:, :2], low.faces)
