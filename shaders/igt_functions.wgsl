@@ -1,8 +1,8 @@
 // The inverse-geometric-texture lookup, following the CPU reference (src/igt/lookup.rs) step by
 // step: project an object-space point into its grid's primary space, test its cell's list with
 // watertight edge functions (first listed triangle containing it), else take the listed
-// triangle nearest to it (in its cell, or in the nearest ring of cells that lists any); then
-// the hit triangle's attributes, interpolated.
+// triangle nearest to it (in its cell, or if that lists none in the ring of cells around it,
+// IGT_MAX_RING = lookup.rs's MAX_RING); then the hit triangle's attributes, interpolated.
 //
 // Spaces: object space in (see igt_types.wgsl); primary space in cell units; world normals out.
 
