@@ -14,7 +14,7 @@ import numpy.typing as npt
 from . import _core
 from ._mesh import AppearanceWarning, as_mesh
 
-_NATIVE = (_core.Scene, _core.GeometryTextureSet, _core.Mesh, _core.Surfels, _core.GdmShell)
+_NATIVE = (_core.Scene, _core.GeometryTextureSet, _core.Mesh, _core.Surfels, _core.GdmShell, _core.IgtMesh)
 
 
 def renderable(obj: Any) -> Any:

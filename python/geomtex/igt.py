@@ -25,7 +25,7 @@ from ._core import IgtMesh, InverseGeometricTexture
 from ._errors import ParameterError
 from ._mesh import as_mesh
 
-__all__ = ["IgtMesh", "InverseGeometricTexture", "build", "load", "simplify"]
+__all__ = ["IgtMesh", "InverseGeometricTexture", "attach", "build", "load", "simplify"]
 
 
 def build(
@@ -68,13 +68,8 @@ def load(path: str | os.PathLike[str]) -> InverseGeometricTexture:
 
 def simplify(igt: InverseGeometricTexture, target_faces: int) -> IgtMesh:
     """The detailed mesh simplified to about `target_faces` faces (pymeshlab's quadric edge
-    collapse, normals preserved), as an IgtMesh shaded through `igt`.
-
-    Every simplified face is assigned the grid (chart) of the detailed face nearest to its
-    centroid, and its points are projected along that chart's axis: the simplified surface
-    lies close to the detailed surface it replaces, so that chart is the one whose projection
-    is bijective there. (Keeping chart boundaries in the decimation would pin the boundaries'
-    detailed edges and cap how far a mesh can be simplified.)"""
+    collapse, normals preserved), as an IgtMesh shaded through `igt` (see `attach` for how its
+    faces are given their grids)."""
     if not isinstance(target_faces, (int, np.integer)) or isinstance(target_faces, bool):
         raise ParameterError(f"target_faces must be an integer, got {target_faces!r}")
     faces = igt.faces
@@ -86,21 +81,37 @@ def simplify(igt: InverseGeometricTexture, target_faces: int) -> IgtMesh:
         import pymeshlab
     except ImportError as e:  # pragma: no cover - depends on the environment
         raise ImportError("geomtex.igt.simplify needs pymeshlab: pip install pymeshlab") from e
-    from scipy.spatial import cKDTree
 
-    vertices = igt.vertices
     ms = pymeshlab.MeshSet()
-    ms.add_mesh(pymeshlab.Mesh(vertex_matrix=vertices, face_matrix=faces.astype(np.int32)))
+    ms.add_mesh(pymeshlab.Mesh(vertex_matrix=igt.vertices, face_matrix=faces.astype(np.int32)))
     ms.meshing_decimation_quadric_edge_collapse(
         targetfacenum=int(target_faces), preservenormal=True, qualitythr=0.5
     )
     low = ms.current_mesh()
-    v = np.asarray(low.vertex_matrix(), dtype=np.float64)
-    f = np.asarray(low.face_matrix(), dtype=np.int64)
+    return attach(igt, low.vertex_matrix(), low.face_matrix())
+
+
+def attach(igt: InverseGeometricTexture, vertices: Any, faces: Any) -> IgtMesh:
+    """A mesh simplified from the detailed one (by `simplify` or elsewhere; same space), as an
+    IgtMesh shaded through `igt`.
+
+    Every face is assigned the grid (chart) of the detailed face nearest to its centroid, and its
+    points are projected along that chart's axis: the simplified surface lies close to the
+    detailed surface it replaces, so that chart is the one whose projection is bijective there.
+    (Keeping chart boundaries in the decimation would pin the boundaries' detailed edges and cap
+    how far a mesh can be simplified.) A spherical or cylindrical map has one grid."""
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces, dtype=np.int64)
+    if v.ndim != 2 or v.shape[1:] != (3,) or f.ndim != 2 or f.shape[1:] != (3,):
+        raise ParameterError(f"vertices must be (V, 3) and faces (F, 3), got {v.shape} and {f.shape}")
+    if len(f) and (f.min() < 0 or f.max() >= len(v)):
+        raise ParameterError(f"faces reference vertices outside 0..{len(v) - 1}")
     face_grid = np.zeros(len(f), dtype=np.int64)
-    if igt.primary == "charts":
+    if igt.primary == "charts" and len(f):
+        from scipy.spatial import cKDTree
+
         listed = np.flatnonzero(igt.face_grid >= 0)
-        centroids = vertices[faces[listed]].mean(axis=1)
+        centroids = igt.vertices[igt.faces[listed]].mean(axis=1)
         _, nearest = cKDTree(centroids).query(v[f].mean(axis=1))
         face_grid = igt.face_grid[listed[nearest]]
     return igt.shade(v, f, face_grid.tolist())

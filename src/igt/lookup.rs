@@ -12,8 +12,11 @@ use rayon::prelude::*;
 use super::InverseGeometricTexture;
 use crate::error::{GeomtexError, Result};
 
-/// Rings of neighbouring cells searched when a point's own cell lists nothing.
-pub const MAX_RING: i64 = 3;
+/// Rings of neighbouring cells searched when a point's own cell lists nothing. One: on the
+/// bunny simplified to 2%, three rings found a triangle for 1.7% more pixels, at no better median
+/// normal error (0.53° against 0.52°, the far triangle's normal no nearer than the simplified
+/// face's own), and made the GPU pass 3x slower (every pixel of a SIMD group waits for 48 cells).
+pub const MAX_RING: i64 = 1;
 
 /// What a lookup found.
 #[derive(Clone, Copy, Debug, PartialEq)]

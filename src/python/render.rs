@@ -16,6 +16,7 @@ use super::arrays::{image, mat4_to_numpy, matrix, ArrayPair};
 use super::errors::{heavy, parameter_error};
 use super::gdm::PyGdmShell;
 use super::gtex::{set_stats, PyGeometryTextureSet};
+use super::igt::PyIgtMesh;
 use super::mesh::PyMesh;
 use super::surfels::PySurfels;
 use crate::mesh::{NormalRule, NormalSource};
@@ -238,9 +239,18 @@ fn scene_object(
             ));
         }
         Object::Gdm(s.get().inner.clone())
+    } else if let Ok(s) = obj.cast::<PyIgtMesh>() {
+        if normals.is_some() {
+            return Err(parameter_error(
+                "normals and crease_angle apply to meshes; an IgtMesh takes its detailed mesh's \
+                 normals (geomtex.igt.build(..., normals=...))"
+                    .into(),
+            ));
+        }
+        Object::Igt(s.get().inner.clone())
     } else {
         return Err(parameter_error(format!(
-            "expected a GeometryTextureSet, Surfels, a Mesh or a trimesh, got {}",
+            "expected a GeometryTextureSet, Surfels, an IgtMesh, a Mesh or a trimesh, got {}",
             obj.get_type().name()?
         )));
     };
@@ -323,6 +333,10 @@ impl PyScene {
                     Object::Gdm(g) => {
                         let make = || Ok(Py::new(py, PyGdmShell { inner: g.clone() })?.into_any());
                         (shared(Arc::as_ptr(g).cast(), &make)?, pose, None, None)
+                    }
+                    Object::Igt(m) => {
+                        let make = || Ok(Py::new(py, PyIgtMesh { inner: m.clone() })?.into_any());
+                        (shared(Arc::as_ptr(m).cast(), &make)?, pose, None, None)
                     }
                     Object::Mesh(mesh, rule) => {
                         let make = || {
@@ -612,6 +626,8 @@ fn owned<T: pyo3::type_object::PyTypeCheck>(a: &Bound<'_, PyAny>) -> PyResult<Py
 #[pyclass(name = "Frame", module = "geomtex._core", frozen)]
 pub struct PyFrame {
     shadow: Option<Py<PyArray2<bool>>>,
+    face_id: Option<Py<PyArray2<i32>>>,
+    barycentric: Option<Py<PyArray3<f32>>>,
     color: Py<PyArray3<u8>>,
     albedo: Py<PyArray3<u8>>,
     depth: Py<PyArray2<f32>>,
@@ -627,6 +643,8 @@ impl PyFrame {
         set_stats(&stats, &frame.stats())?;
         Ok(PyFrame {
             shadow: (frame.shadow).map(|s| matrix(py, s, h, w).unbind()),
+            face_id: (frame.face_id).map(|f| matrix(py, f, h, w).unbind()),
+            barycentric: (frame.barycentric).map(|b| image(py, b, (h, w, 3)).unbind()),
             color: image(py, frame.color, (h, w, 4)).unbind(),
             albedo: image(py, frame.albedo, (h, w, 4)).unbind(),
             depth: matrix(py, frame.depth, h, w).unbind(),
@@ -642,6 +660,8 @@ impl PyFrame {
     /// A frame from arrays of the shapes and dtypes a render gives (how a pickled frame is made
     /// again); ParameterError when they do not fit together.
     #[staticmethod]
+    #[pyo3(signature = (color, albedo, depth, normal, patch_id, shadow, stats, face_id = None,
+        barycentric = None))]
     #[allow(clippy::too_many_arguments)] // one per output of a frame
     fn _from_arrays(
         color: Bound<'_, PyArray3<u8>>,
@@ -651,13 +671,18 @@ impl PyFrame {
         patch_id: Bound<'_, PyArray2<i32>>,
         shadow: Option<Bound<'_, PyArray2<bool>>>,
         stats: Bound<'_, PyDict>,
+        face_id: Option<Bound<'_, PyArray2<i32>>>,
+        barycentric: Option<Bound<'_, PyArray3<f32>>>,
     ) -> PyResult<Self> {
         let (h, w) = (depth.shape()[0], depth.shape()[1]);
         let fits = [(color.shape(), 4), (albedo.shape(), 4), (normal.shape(), 3)]
             .iter()
             .all(|(shape, channels)| *shape == [h, w, *channels])
             && patch_id.shape() == [h, w]
-            && shadow.as_ref().is_none_or(|s| s.shape() == [h, w]);
+            && shadow.as_ref().is_none_or(|s| s.shape() == [h, w])
+            && face_id.as_ref().is_none_or(|f| f.shape() == [h, w])
+            && barycentric.as_ref().is_none_or(|b| b.shape() == [h, w, 3])
+            && face_id.is_some() == barycentric.is_some();
         if !fits {
             return Err(parameter_error(format!(
                 "frame arrays do not fit a {w}x{h} frame"
@@ -665,6 +690,8 @@ impl PyFrame {
         }
         Ok(PyFrame {
             shadow: shadow.map(|s| owned(s.as_any())).transpose()?,
+            face_id: face_id.map(|f| owned(f.as_any())).transpose()?,
+            barycentric: barycentric.map(|b| owned(b.as_any())).transpose()?,
             color: owned(color.as_any())?,
             albedo: owned(albedo.as_any())?,
             depth: owned(depth.as_any())?,
@@ -678,6 +705,20 @@ impl PyFrame {
     #[getter]
     fn shadow(&self, py: Python<'_>) -> Option<Py<PyArray2<bool>>> {
         self.shadow.as_ref().map(|s| s.clone_ref(py))
+    }
+
+    /// (H, W) int32: the detailed mesh's face each pixel shows through an IgtMesh, -1 elsewhere;
+    /// None when the scene holds no IgtMesh.
+    #[getter]
+    fn face_id(&self, py: Python<'_>) -> Option<Py<PyArray2<i32>>> {
+        self.face_id.as_ref().map(|f| f.clone_ref(py))
+    }
+
+    /// (H, W, 3) float32 barycentric coordinates of each pixel's point in its `face_id` face (0
+    /// where there is none); None when the scene holds no IgtMesh.
+    #[getter]
+    fn barycentric(&self, py: Python<'_>) -> Option<Py<PyArray3<f32>>> {
+        self.barycentric.as_ref().map(|b| b.clone_ref(py))
     }
 
     /// (H, W, 4) uint8 RGBA, headlight-shaded; the background on a miss.

@@ -46,6 +46,11 @@ pub struct Frame {
     pub shadow_ms: Option<f64>,
     /// With surfel objects in the scene: what their passes drew.
     pub surfels: Option<SurfelCounts>,
+    /// With an inverse geometric texture in the scene (kinds/igt.rs): per pixel the detailed
+    /// face it shows, -1 where none.
+    pub face_id: Option<Vec<i32>>,
+    /// With `face_id`: the barycentric coordinates in that face, three per pixel (0 where none).
+    pub barycentric: Option<Vec<f32>>,
 }
 
 /// Names of the per-level surfel counts in `Frame::stats`.
@@ -190,6 +195,8 @@ mod tests {
             shadow: None,
             shadow_ms: None,
             surfels: None,
+            face_id: None,
+            barycentric: None,
         }
     }
 

@@ -300,3 +300,49 @@ const _: () = assert!(offset_of!(SurfelObjectGpu, planes) == 128);
 const _: () = assert!(offset_of!(SurfelObjectGpu, params) == 192);
 const _: () = assert!(offset_of!(SurfelObjectGpu, sizes) == 208);
 const _: () = assert!(offset_of!(SurfelObjectGpu, rect) == 224);
+
+/// `IgtObject` in igt_types.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+pub(crate) struct IgtObjectGpu {
+    pub view_from_object: [[f32; 4]; 4],
+    pub world_normal_from_object: [[f32; 4]; 4],
+    pub ids: [i32; 4],
+    pub info: [u32; 4],
+}
+
+/// `IgtGrid` in igt_types.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+pub(crate) struct IgtGridGpu {
+    pub origin: [f32; 4],
+    pub x: [f32; 4],
+    pub z: [f32; 4],
+    pub size: [u32; 4],
+}
+
+/// `IgtEntry` in igt_types.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+pub(crate) struct IgtEntryGpu {
+    pub corners: [[f32; 2]; 3],
+    pub face: u32,
+    pub grid: u32,
+}
+
+/// `VsIn` in igt_raster.wgsl (vertex buffer 0: Float32x3, Uint32).
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+pub(crate) struct IgtVertex {
+    pub position: [f32; 3],
+    pub grid: u32,
+}
+
+wgsl_size!(IgtObjectGpu, 160);
+const _: () = assert!(offset_of!(IgtObjectGpu, ids) == 128);
+const _: () = assert!(offset_of!(IgtObjectGpu, info) == 144);
+// The sizes the texture's figures count (igt::GRID_BYTES, igt::ENTRY_BYTES).
+wgsl_size!(IgtGridGpu, crate::igt::GRID_BYTES);
+wgsl_size!(IgtEntryGpu, crate::igt::ENTRY_BYTES);
+const _: () = assert!(offset_of!(IgtEntryGpu, face) == 24);
+const _: () = assert!(size_of::<IgtVertex>() == 16);

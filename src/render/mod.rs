@@ -63,6 +63,8 @@ pub struct Renderer {
 struct Prepared {
     lens: Lens,
     draws: Vec<DrawCall>,
+    /// Draws of the surface pass (kinds/igt.rs), run after the scene pass when there are any.
+    surface_draws: Vec<DrawCall>,
     tally: Tally,
 }
 
@@ -133,7 +135,12 @@ impl Renderer {
             let (counters, tallies) = self.encode_passes(&prepared);
             let readback = self.targets.read_back(&self.gpu, counters)?;
             let surfels = SurfelCounts::read(&self.gpu, &tallies)?;
-            Ok(self.finish(prepared, readback, surfels, search, start))
+            let surface = (!prepared.surface_draws.is_empty())
+                .then(|| self.targets.read_surface(&self.gpu))
+                .transpose()?;
+            let mut frame = self.finish(prepared, readback, surfels, search, start);
+            (frame.face_id, frame.barycentric) = surface.unzip();
+            Ok(frame)
         })
     }
 
@@ -163,12 +170,25 @@ impl Renderer {
         let draws = scene
             .objects
             .iter()
-            .zip(owners)
-            .filter_map(|(placed, owner)| {
+            .zip(&owners)
+            .filter_map(|(placed, &owner)| {
                 self.kinds[owner].draw(&self.gpu, &frame, placed, &mut tally)
             })
             .collect();
-        Ok(Prepared { lens, draws, tally })
+        let surface_draws: Vec<DrawCall> = (scene.objects.iter().zip(&owners))
+            .filter_map(|(placed, &owner)| {
+                self.kinds[owner].draw_surface(&self.gpu, &frame, placed)
+            })
+            .collect();
+        if !surface_draws.is_empty() {
+            self.targets.ensure_surface(&self.gpu.device);
+        }
+        Ok(Prepared {
+            lens,
+            draws,
+            surface_draws,
+            tally,
+        })
     }
 
     /// Drops the uploads of objects gone, uploads what is new; each object's kind (its index) and
@@ -230,16 +250,30 @@ impl Renderer {
                 w.encode(&mut pass);
             }
         }
+        let surface = !prepared.surface_draws.is_empty();
         {
-            let mut pass =
-                self.targets
-                    .begin_scene_pass(&mut encoder, self.background, !work.is_empty());
+            let mut pass = self.targets.begin_scene_pass(
+                &mut encoder,
+                self.background,
+                !work.is_empty(),
+                surface,
+            );
             pass.set_bind_group(0, &self.frame_bindings.group, &[]);
             for draw in &prepared.draws {
                 draw.encode(&mut pass);
             }
         }
+        if surface {
+            let mut pass = self.targets.begin_surface_pass(&mut encoder, true);
+            pass.set_bind_group(0, &self.frame_bindings.group, &[]);
+            for draw in &prepared.surface_draws {
+                draw.encode(&mut pass);
+            }
+        }
         self.targets.encode_readback(&mut encoder, &self.depth_copy);
+        if surface {
+            self.targets.encode_surface_readback(&mut encoder);
+        }
         let counters = self.frame_bindings.encode_counters_readback(&mut encoder);
         let tallies = work
             .iter()
@@ -288,6 +322,8 @@ impl Renderer {
             shadow: None,
             shadow_ms: None,
             surfels,
+            face_id: None,
+            barycentric: None,
         }
     }
 }

@@ -9,6 +9,7 @@ use glam::DMat4;
 use crate::error::{GeomtexError, Result};
 use crate::gdm::GdmShell;
 use crate::gtex::GeometryTextureSet;
+use crate::igt::IgtMesh;
 use crate::mesh::{Mesh, NormalRule};
 use crate::surfels::SurfelHierarchy;
 
@@ -22,6 +23,8 @@ pub enum Object {
     Surfels(Arc<SurfelHierarchy>),
     /// A displacement shell: mesostructure tiled over a base mesh's prisms (gdm).
     Gdm(Arc<GdmShell>),
+    /// A simplified mesh shaded through an inverse geometric texture (kinds/igt.rs).
+    Igt(Arc<IgtMesh>),
 }
 
 #[derive(Clone)]

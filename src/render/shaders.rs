@@ -22,6 +22,11 @@ const GDM_TRACE_RAYS: &str = shader!("gdm_trace_rays.wgsl");
 const TRACE_TYPES: &str = shader!("trace_types.wgsl");
 const QUERY_TYPES: &str = shader!("query_types.wgsl");
 const SURFELS_TYPES: &str = shader!("surfels_types.wgsl");
+const IGT_TYPES: &str = shader!("igt_types.wgsl");
+const IGT_BINDINGS: &str = shader!("igt_bindings.wgsl");
+const IGT_FUNCTIONS: &str = shader!("igt_functions.wgsl");
+const IGT_RASTER: &str = shader!("igt_raster.wgsl");
+const IGT_SURFACE: &str = shader!("igt_surface.wgsl");
 
 const FRAME_BINDINGS: &str = shader!("frame_bindings.wgsl");
 const GTEX_BINDINGS: &str = shader!("gtex_bindings.wgsl");
@@ -211,6 +216,22 @@ pub fn gdm_trace_rays() -> String {
     ])
 }
 
+/// The inverse-geometric-texture pass (kinds/igt.rs); with `surface`, the module of the surface
+/// pass too (its fragment entry point `fs_surface` beside the scene pass's).
+pub fn igt_raster(surface: bool) -> String {
+    assemble(&[
+        CAMERA_TYPES,
+        SEARCH_TYPES,
+        IGT_TYPES,
+        FRAME_BINDINGS,
+        IGT_BINDINGS,
+        CAMERA_FUNCTIONS,
+        IGT_FUNCTIONS,
+        IGT_RASTER,
+        if surface { IGT_SURFACE } else { "" },
+    ])
+}
+
 /// The depth copy pass (targets.rs).
 pub fn depth_copy() -> String {
     assemble(&[DEPTH_COPY_BINDINGS, DEPTH_COPY])
@@ -267,8 +288,10 @@ pub fn surfels_resolve() -> String {
 }
 
 /// Every assembled pipeline module, by name.
-pub fn all() -> [(&'static str, String); 15] {
+pub fn all() -> [(&'static str, String); 17] {
     [
+        ("igt_raster", igt_raster(false)),
+        ("igt_surface", igt_raster(true)),
         ("gdm_raster", gdm_raster()),
         ("gdm_trace_rays", gdm_trace_rays()),
         ("gtex_raycast", gtex_raycast()),

@@ -86,16 +86,20 @@ fn start_offset(scene: &Scene) -> f64 {
                 .fold(0.0, f64::max);
             match &placed.object {
                 Object::Textures(set) => OFFSET_TEXELS * set.texel_size * scale,
-                Object::Mesh(mesh, _) => {
-                    let (lo, hi) = mesh.bounds();
-                    OFFSET_MESH_DIAGONAL * (hi - lo).length() * scale
-                }
+                Object::Mesh(mesh, _) => mesh_offset(mesh, scale),
+                // Shaded simplified meshes receive shadows as meshes do.
+                Object::Igt(shaded) => mesh_offset(&shaded.mesh, scale),
                 Object::Gdm(shell) => OFFSET_VOXELS * shell.voxel_size() * scale,
                 // Surfels receive shadows but are not traced (see `casters`).
                 Object::Surfels(..) => 0.0,
             }
         })
         .fold(0.0, f64::max)
+}
+
+fn mesh_offset(mesh: &crate::mesh::Mesh, scale: f64) -> f64 {
+    let (lo, hi) = mesh.bounds();
+    OFFSET_MESH_DIAGONAL * (hi - lo).length() * scale
 }
 
 impl Renderer {
@@ -112,10 +116,11 @@ impl Renderer {
     ) -> Result<()> {
         light.validate()?;
         let start = std::time::Instant::now();
-        // Surfels receive shadows but do not cast them: the tracer does not trace splats.
+        // Surfels and shaded simplified meshes receive shadows but do not cast them: the tracer
+        // does not trace them.
         let casters = Scene {
             objects: (scene.objects.iter())
-                .filter(|placed| !matches!(placed.object, Object::Surfels(..)))
+                .filter(|placed| !matches!(placed.object, Object::Surfels(..) | Object::Igt(..)))
                 .cloned()
                 .collect(),
         };

@@ -34,6 +34,9 @@ pub(crate) struct Targets {
     /// Color, normal, id, albedo (rows padded) and depth.
     readback: [wgpu::Buffer; 5],
     timestamps: Option<Timestamps>,
+    /// The surface target (kinds/igt.rs) and its readback buffer, made the first time a frame
+    /// needs them.
+    surface: Option<(wgpu::Texture, wgpu::Buffer)>,
 }
 
 /// What one frame's readback holds.
@@ -183,7 +186,103 @@ impl Targets {
             depth_copy_group,
             readback,
             timestamps: gpu.timestamps.then(|| make_timestamps(device)),
+            surface: None,
         }
+    }
+
+    /// Makes the surface target if there is none yet.
+    pub fn ensure_surface(&mut self, device: &wgpu::Device) {
+        if self.surface.is_some() {
+            return;
+        }
+        let size = wgpu::Extent3d {
+            width: self.width,
+            height: self.height,
+            depth_or_array_layers: 1,
+        };
+        let format = super::kinds::igt::SURFACE_FORMAT;
+        let texture = render_texture(
+            device,
+            "surface",
+            size,
+            format,
+            wgpu::TextureUsages::COPY_SRC,
+        );
+        let bytes = padded_row(16, self.width) as u64 * self.height as u64;
+        self.surface = Some((texture, map_buffer(device, "surface readback", bytes)));
+    }
+
+    /// The surface pass (after the scene pass): the surface target cleared to 0 (no face), the
+    /// scene's depth kept; it ends the frame's timing when `timed`.
+    pub fn begin_surface_pass<'e>(
+        &self,
+        encoder: &'e mut wgpu::CommandEncoder,
+        timed: bool,
+    ) -> wgpu::RenderPass<'e> {
+        let (texture, _) = self.surface.as_ref().expect("ensure_surface ran");
+        let view = texture.create_view(&Default::default());
+        let depth_view = self.depth.create_view(&Default::default());
+        encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("surface"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &depth_view,
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Load,
+                    store: wgpu::StoreOp::Store,
+                }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: self
+                .timestamps
+                .as_ref()
+                .filter(|_| timed)
+                .map(|(set, _, _)| wgpu::RenderPassTimestampWrites {
+                    query_set: set,
+                    beginning_of_pass_write_index: None,
+                    end_of_pass_write_index: Some(1),
+                }),
+            occlusion_query_set: None,
+            multiview_mask: None,
+        })
+    }
+
+    /// Copies the surface target into its readback buffer.
+    pub fn encode_surface_readback(&self, encoder: &mut wgpu::CommandEncoder) {
+        let (texture, buffer) = self.surface.as_ref().expect("ensure_surface ran");
+        encoder.copy_texture_to_buffer(
+            texture.as_image_copy(),
+            wgpu::TexelCopyBufferInfo {
+                buffer,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(padded_row(16, self.width)),
+                    rows_per_image: None,
+                },
+            },
+            texture.size(),
+        );
+    }
+
+    /// The surface target of the submitted frame: per pixel the detailed face (-1 for none) and
+    /// its barycentrics (0 for none).
+    pub fn read_surface(&self, gpu: &Gpu) -> Result<(Vec<i32>, Vec<f32>)> {
+        let (_, buffer) = self.surface.as_ref().expect("ensure_surface ran");
+        let bytes = read_buffers(&gpu.device, &[buffer])?.remove(0);
+        let texels: Vec<[u32; 4]> = bytemuck::cast_slice(&self.unpad(bytes, 16)).to_vec();
+        let face = texels.iter().map(|t| t[0] as i32 - 1).collect();
+        let bary = (texels.iter())
+            .flat_map(|t| [t[1], t[2], t[3]].map(f32::from_bits))
+            .collect();
+        Ok((face, bary))
     }
 
     /// Timestamps for a compute pass run before the scene pass: the frame's time then starts
@@ -200,12 +299,14 @@ impl Targets {
 
     /// The pass every object kind draws in: all targets cleared (color to `background`, ids to
     /// -1, albedo to transparent black, depth to 0 = nothing in reversed Z), timed when the
-    /// adapter can (from this pass's start, or from a compute pass's if `timed_before`).
+    /// adapter can (from this pass's start, or from a compute pass's if `timed_before`; to its
+    /// end, or to the surface pass's if `timed_after`).
     pub fn begin_scene_pass<'e>(
         &self,
         encoder: &'e mut wgpu::CommandEncoder,
         background: [f64; 4],
         timed_before: bool,
+        timed_after: bool,
     ) -> wgpu::RenderPass<'e> {
         let clear = |c: wgpu::Color| wgpu::Operations {
             load: wgpu::LoadOp::Clear(c),
@@ -250,13 +351,14 @@ impl Targets {
                 }),
                 stencil_ops: None,
             }),
-            timestamp_writes: self.timestamps.as_ref().map(|(set, _, _)| {
-                wgpu::RenderPassTimestampWrites {
+            // Timed before and after: this pass writes neither timestamp.
+            timestamp_writes: (self.timestamps.as_ref())
+                .filter(|_| !(timed_before && timed_after))
+                .map(|(set, _, _)| wgpu::RenderPassTimestampWrites {
                     query_set: set,
                     beginning_of_pass_write_index: (!timed_before).then_some(0),
-                    end_of_pass_write_index: Some(1),
-                }
-            }),
+                    end_of_pass_write_index: (!timed_after).then_some(1),
+                }),
             occlusion_query_set: None,
             multiview_mask: None,
         })

@@ -11,6 +11,7 @@
 
 pub(crate) mod gdm;
 pub(crate) mod gtex;
+pub(crate) mod igt;
 pub(crate) mod mesh;
 pub(crate) mod surfels;
 
@@ -44,6 +45,7 @@ pub(crate) fn registered(
             gpu.int64_atomics,
         )),
         Box::new(gdm::GdmKind::new(device, frame_layout, query_layout)),
+        Box::new(igt::IgtKind::new(device, frame_layout)),
     ]
 }
 
@@ -68,6 +70,14 @@ pub(crate) trait Kind: Send {
         placed: &SceneObject,
         tally: &mut Tally,
     ) -> Option<DrawCall>;
+
+    /// The draw call of an object in the surface pass (after the scene pass, depth-tested against
+    /// its finished depth, into the surface target: detailed face and barycentrics per pixel),
+    /// for kinds that shade through a detailed surface (kinds/igt.rs); `None` by default.
+    fn draw_surface(&self, gpu: &Gpu, frame: &FrameView, placed: &SceneObject) -> Option<DrawCall> {
+        let _ = (gpu, frame, placed);
+        None
+    }
 
     /// The ray-query dispatch of an object this kind uploaded, its records placed by
     /// `view_from_world` (the query's frame); `None` when it holds nothing to hit. Ids continue

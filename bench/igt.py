@@ -1,0 +1,312 @@
+"""Benchmark of inverse geometric textures (issue 17): a simplified mesh shaded per pixel with the
+detailed mesh's attributes, found through per-cell triangle lists of a primary parameterization.
+
+In one run, on one wgpu adapter, at 512x512:
+
+* tables (the paper's Tables 1 and 2): for the Stanford bunny (69,451 faces), spot (textured,
+  5,856 faces) and, without ``--quick``, the bunny after two Loop subdivisions (~1.1 M faces),
+  with our charts and a spherical map as the primary, at resolutions 128² to 1024²: list length
+  (mean over non-empty cells, max, histogram), empty cells, bytes per part and per detailed
+  face, build seconds, and the frame time of the mesh simplified to 2% shaded through it (GPU
+  timestamps, median of ``--repeats`` after a warm-up; front view);
+* accuracy: the bunny simplified to 10%, 2% and 0.5% of its faces from five views, against
+  trimesh + embree ray casting of the detailed mesh (normals interpolated by the same crease
+  rule): median normal angle of the IGT-shaded frame and of the plain simplified mesh (their
+  ratio), and the share of pixels whose detailed face agrees with embree's, on pixels both hit
+  and not within one pixel of either silhouette;
+* color: spot with its texture simplified to 5% (and 20%, 50%), against trimesh ray casting of
+  the textured detailed mesh (bilinear texture color at the hit's texture coordinates): mean
+  absolute RGB difference on interior pixels (``reference.albedo_difference``), and a
+  side-by-side PNG;
+* speed: the 1.1 M-face bunny rasterized against its simplification (2% and 0.5%) shaded
+  through its IGT (512² and 2048² cells), and the plain simplified meshes, in turn in one run on
+  the same adapter (median of three rounds).
+
+Results: ``bench/results/igt.json``, ``bench/results/igt.png`` and
+``bench/results/igt_spot.png``. The machine's load (``os.getloadavg``) is recorded at the start
+and the end.
+
+Run from the repository root::
+
+    nice python bench/igt.py            # all three meshes (~15 min)
+    nice python bench/igt.py --quick    # bunny and spot only
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+import os
+import platform
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import geomtex as gt
+from geomtex import reference
+from render import dense_bunny  # type: ignore[import-not-found]
+
+REPO = Path(__file__).resolve().parents[1]
+SHARED = REPO.parent / "shared" / "meshes"
+BUNNY = SHARED / "stanford-bunny.obj"
+OUT = REPO / "bench" / "results"
+SIZE = 512
+RESOLUTIONS = (128, 256, 512, 1024)
+PRIMARIES = ("charts", "spherical")
+FRACTIONS = (0.1, 0.02, 0.005)
+SPOT_FRACTIONS = (0.05, 0.2, 0.5)
+# The 1.1 M-face bunny: 512² cells give lists of 14 triangles; 2048² about as many cells as faces.
+DENSE_RESOLUTIONS = (512, 2048)
+VIEWS = ((0.0, 0.0, 1.0), (1.0, 0.0, 0.0), (-1.0, 0.0, 0.0), (0.0, 0.0, -1.0), (0.3, 0.8, 0.5))
+
+
+def load_spot() -> gt.Mesh:
+    import trimesh
+    from PIL import Image
+
+    tm = trimesh.load(SHARED / "spot.obj", force="mesh", process=False)
+    tm.visual = trimesh.visual.TextureVisuals(uv=tm.visual.uv, image=Image.open(SHARED / "spot_texture.png"))
+    return gt.Mesh.from_trimesh(tm)
+
+
+def camera(igt: gt.igt.InverseGeometricTexture, direction: tuple[float, float, float]) -> gt.Camera:
+    v = igt.vertices
+    centre, diag = (v.min(0) + v.max(0)) / 2, float(np.linalg.norm(v.max(0) - v.min(0)))
+    d = np.asarray(direction, float)
+    up = (0.0, 0.0, 1.0) if abs(d[1]) > 0.9 * np.linalg.norm(d) else (0.0, 1.0, 0.0)
+    return gt.Camera.look_at(centre + d / np.linalg.norm(d) * 1.3 * diag, centre, up=up)
+
+
+def timed(renderer: gt.Renderer, obj: Any, cam: gt.Camera, repeats: int) -> tuple[gt.Frame, float]:
+    """The last frame and the median GPU ms of `repeats` renders after a warm-up."""
+    frame = renderer.render(obj, cam)
+    ms = []
+    for _ in range(repeats):
+        frame = renderer.render(obj, cam)
+        ms.append(frame.stats["gpu_ms"] if frame.stats["gpu_ms"] is not None else frame.stats["cpu_ms"])
+    return frame, float(np.median(ms))
+
+
+def decimate(mesh_vertices: np.ndarray, faces: np.ndarray, target: int) -> tuple[np.ndarray, np.ndarray]:
+    """pymeshlab's quadric collapse, as geomtex.igt.simplify runs it (once per mesh and fraction
+    here, then attached to each texture)."""
+    import pymeshlab
+
+    ms = pymeshlab.MeshSet()
+    ms.add_mesh(pymeshlab.Mesh(vertex_matrix=mesh_vertices, face_matrix=faces.astype(np.int32)))
+    ms.meshing_decimation_quadric_edge_collapse(targetfacenum=int(target), preservenormal=True, qualitythr=0.5)
+    m = ms.current_mesh()
+    return np.asarray(m.vertex_matrix()), np.asarray(m.face_matrix())
+
+
+def interior(mask: np.ndarray) -> np.ndarray:
+    """`mask` less its pixels within one pixel of its boundary."""
+    return np.logical_and.reduce(reference._neighbours(mask, False))
+
+
+def tables(name: str, mesh: gt.Mesh, renderer: gt.Renderer, repeats: int,
+           resolutions: tuple[int, ...]) -> list[dict[str, Any]]:
+    """Table 1 / 2 rows of one mesh: every primary and resolution."""
+    low = decimate(np.asarray(mesh.vertices), np.asarray(mesh.faces), max(4, int(mesh.n_faces * 0.02)))
+    rows = []
+    for primary in PRIMARIES:
+        for res in resolutions:
+            t0 = time.perf_counter()
+            igt = gt.igt.build(mesh, primary=primary, resolution=res)
+            build_s = time.perf_counter() - t0
+            shaded = gt.igt.attach(igt, *low)
+            frame, ms = timed(renderer, shaded, camera(igt, VIEWS[0]), repeats)
+            s = igt.stats
+            row = {"mesh": name, "primary": primary, "resolution": res, "build_s": build_s,
+                   "simplified_faces": len(shaded), "gpu_ms": ms,
+                   "pixels": int(np.isfinite(frame.depth).sum()),
+                   **{k: v for k, v in s.items() if not k.startswith("seconds_")}}
+            rows.append(row)
+            print(f"{name:12s} {primary:9s} {res:5d}  list {s['list_mean']:5.2f} max {s['list_max']:4.0f}  "
+                  f"{s['bytes'] / 1e6:6.2f} MB ({s['bytes_per_face']:5.1f} B/face)  build {build_s:5.1f} s  "
+                  f"frame {ms:6.1f} ms", flush=True)
+    return rows
+
+
+def accuracy(renderer: gt.Renderer, repeats: int) -> list[dict[str, Any]]:
+    """The bunny at three simplifications from five views against embree."""
+    import trimesh
+
+    mesh = gt.load_mesh(BUNNY)
+    igt = gt.igt.build(mesh, resolution=512)
+    detailed = trimesh.Trimesh(igt.vertices, igt.faces, process=False)
+    caster = reference.RayCaster(detailed)
+    corners = reference.corner_normals(detailed)
+    lows = {f: gt.igt.simplify(igt, int(len(igt.faces) * f)) for f in FRACTIONS}
+    rows = []
+    for k, view in enumerate(VIEWS):
+        cam = camera(igt, view)
+        ref = caster.cast(cam, SIZE, SIZE)
+        ref_normal = reference.shading_normals(detailed, corners, ref)
+        for fraction, low in lows.items():
+            frame, ms = timed(renderer, low, cam, repeats)
+            plain, plain_ms = timed(renderer, gt.Mesh(low.vertices, low.faces), cam, repeats)
+            mask = interior(ref["hit"]) & interior(np.isfinite(frame.depth))
+            igt_deg = reference.normal_angles(frame.normal, ref_normal, mask)
+            plain_deg = reference.normal_angles(plain.normal, ref_normal, mask)
+            agree = float((frame.face_id[mask] == ref["triangle"][mask]).mean())
+            row = {"view": k, "fraction": fraction, "faces": len(low), "pixels": int(mask.sum()),
+                   "igt_normal_deg_median": float(np.median(igt_deg)),
+                   "igt_normal_deg_p90": float(np.percentile(igt_deg, 90)),
+                   "plain_normal_deg_median": float(np.median(plain_deg)),
+                   "ratio": float(np.median(plain_deg) / np.median(igt_deg)),
+                   "face_agreement": agree,
+                   "no_face_fraction": float((frame.face_id[mask] < 0).mean()),
+                   "igt_gpu_ms": ms, "plain_gpu_ms": plain_ms}
+            rows.append(row)
+            print(f"view {k} {fraction:6.3f} ({len(low):5d} faces)  normal {row['igt_normal_deg_median']:5.2f}° "
+                  f"vs plain {row['plain_normal_deg_median']:5.2f}° ({row['ratio']:5.1f}x)  faces {agree:.3f}",
+                  flush=True)
+    return rows
+
+
+def color(renderer: gt.Renderer) -> list[dict[str, Any]]:
+    """Spot with its texture, simplified, against the textured detailed mesh; a PNG of 5%."""
+    from PIL import Image
+
+    spot = load_spot()
+    igt = gt.igt.build(spot, resolution=512)
+    rows, images = [], []
+    for fraction in SPOT_FRACTIONS:
+        low = gt.igt.simplify(igt, int(spot.n_faces * fraction))
+        for k, view in enumerate(((1.0, 0.3, 0.2), (0.2, 0.3, 1.0))):
+            cam = camera(igt, view)
+            frame = renderer.render(low, cam)
+            ref = reference.raycast_albedo(spot, cam, SIZE, SIZE)
+            d = reference.albedo_difference(frame.albedo, ref, np.isfinite(frame.depth))
+            both = ref["hit"] & (frame.face_id >= 0)
+            rows.append({"fraction": fraction, "faces": len(low), "view": k, **d,
+                         "face_agreement": float((frame.face_id[both] == ref["triangle"][both]).mean())})
+            print(f"spot {fraction:4.2f} ({len(low)} faces) view {k}: mean |Δcolor| {d['mean']:.2f}/255 "
+                  f"on {d['interior_px']} px", flush=True)
+            if fraction == SPOT_FRACTIONS[0] and k == 0:
+                plain = renderer.render(gt.Mesh(low.vertices, low.faces), cam)
+                images = [frame.albedo, ref["albedo"], plain.albedo]
+    Image.fromarray(np.concatenate(images, axis=1)).save(OUT / "igt_spot.png")
+    return rows
+
+
+def speed(renderer: gt.Renderer, repeats: int) -> dict[str, Any]:
+    """The 1.1 M-face bunny rasterized, against its simplifications shaded through its IGT (at
+    two resolutions) and plain, in turn in one run."""
+    dense = dense_bunny(BUNNY, 2)
+    lows = {f: decimate(np.asarray(dense.vertices), np.asarray(dense.faces), int(dense.n_faces * f))
+            for f in (0.02, 0.005)}
+    objects: dict[str, Any] = {"detailed_mesh": dense}
+    builds: dict[str, Any] = {}
+    for res in DENSE_RESOLUTIONS:
+        t0 = time.perf_counter()
+        igt = gt.igt.build(dense, resolution=res)
+        builds[str(res)] = {"build_s": time.perf_counter() - t0,
+                            "stats": {k: v for k, v in igt.stats.items() if k != "histogram"}}
+        for f, low in lows.items():
+            objects[f"igt_{res}_{f}"] = gt.igt.attach(igt, *low)
+    for f, low in lows.items():
+        objects[f"plain_{f}"] = gt.Mesh(*low)
+    cam = camera(igt, VIEWS[0])
+    ms: dict[str, list[float]] = {k: [] for k in objects}
+    for _ in range(3):  # rounds: each object in turn, so a busy neighbour shifts all alike
+        for k, obj in objects.items():
+            ms[k].append(timed(renderer, obj, cam, max(1, repeats // 3))[1])
+    medians = {k: float(np.median(v)) for k, v in ms.items()}
+    out = {"faces": int(dense.n_faces), "builds": builds,
+           "simplified_faces": {str(f): len(low[1]) for f, low in lows.items()}, "gpu_ms": medians,
+           "speedup": {k: medians["detailed_mesh"] / v for k, v in medians.items() if k.startswith("igt_")}}
+    print(json.dumps(out["gpu_ms"], indent=1), flush=True)
+    return out
+
+
+def summary(data: dict[str, Any]) -> dict[str, Any]:
+    acc = data["accuracy"]
+    out: dict[str, Any] = {}
+    for f in FRACTIONS:
+        rows = [r for r in acc if r["fraction"] == f]
+        out[f"bunny_{f}"] = {
+            "faces": rows[0]["faces"],
+            "igt_normal_deg_median": [min(r["igt_normal_deg_median"] for r in rows),
+                                      max(r["igt_normal_deg_median"] for r in rows)],
+            "plain_normal_deg_median": [min(r["plain_normal_deg_median"] for r in rows),
+                                        max(r["plain_normal_deg_median"] for r in rows)],
+            "ratio": [min(r["ratio"] for r in rows), max(r["ratio"] for r in rows)],
+            "face_agreement": [min(r["face_agreement"] for r in rows), max(r["face_agreement"] for r in rows)],
+            "igt_gpu_ms": float(np.median([r["igt_gpu_ms"] for r in rows])),
+            "plain_gpu_ms": float(np.median([r["plain_gpu_ms"] for r in rows])),
+        }
+    for f in SPOT_FRACTIONS:
+        rows = [r for r in data["color"] if r["fraction"] == f]
+        out[f"spot_{f}_color_mean"] = [min(r["mean"] for r in rows), max(r["mean"] for r in rows)]
+    if data.get("speed"):
+        out["speed"] = data["speed"]["gpu_ms"] | {"speedup": data["speed"]["speedup"]}
+    return out
+
+
+def plot(data: dict[str, Any], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(1, 4, figsize=(19, 4.2))
+    for mesh in sorted({r["mesh"] for r in data["tables"]}):
+        for primary, style in zip(PRIMARIES, ("-o", "--s")):
+            rows = [r for r in data["tables"] if r["mesh"] == mesh and r["primary"] == primary]
+            res = [r["resolution"] for r in rows]
+            ax[0].plot(res, [r["list_mean"] for r in rows], style, label=f"{mesh} {primary}")
+            ax[1].plot(res, [r["bytes"] / 1e6 for r in rows], style, label=f"{mesh} {primary}")
+            ax[2].plot(res, [r["gpu_ms"] for r in rows], style, label=f"{mesh} {primary}")
+    for a, title in zip(ax[:3], ("triangles per non-empty cell (mean)", "MB (four tables)",
+                                 "frame ms, 2% mesh + IGT")):
+        a.set_xscale("log", base=2)
+        a.set_xlabel("resolution (cells a side)")
+        a.set_title(title)
+    ax[0].legend(fontsize=7)
+    acc = data["accuracy"]
+    for key, style, label in (("igt_normal_deg_median", "-o", "IGT"), ("plain_normal_deg_median", "--s", "plain")):
+        med = [np.median([r[key] for r in acc if r["fraction"] == f]) for f in FRACTIONS]
+        ax[3].plot([100 * f for f in FRACTIONS], med, style, label=label)
+    ax[3].set_xscale("log")
+    ax[3].set_yscale("log")
+    ax[3].set_xlabel("% of the bunny's faces kept")
+    ax[3].set_title("median normal error vs embree (°, 5 views)")
+    ax[3].legend()
+    fig.suptitle(f"inverse geometric textures at {SIZE}² (bench/igt.py)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--quick", action="store_true", help="bunny and spot only")
+    parser.add_argument("--repeats", type=int, default=5)
+    args = parser.parse_args()
+    load_start = os.getloadavg()
+    renderer = gt.Renderer(SIZE, SIZE)
+    OUT.mkdir(parents=True, exist_ok=True)
+    data: dict[str, Any] = {
+        "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+        "machine": platform.platform(), "adapter": renderer.adapter_info, "size": SIZE,
+        "repeats": args.repeats, "load_start": load_start,
+    }
+    data["tables"] = tables("bunny", gt.load_mesh(BUNNY), renderer, args.repeats, RESOLUTIONS)
+    data["tables"] += tables("spot", load_spot(), renderer, args.repeats, RESOLUTIONS)
+    data["accuracy"] = accuracy(renderer, args.repeats)
+    data["color"] = color(renderer)
+    if not args.quick:
+        data["speed"] = speed(renderer, args.repeats)
+    data["load_end"] = os.getloadavg()
+    data["summary"] = summary(data)
+    (OUT / "igt.json").write_text(json.dumps(data, indent=1))
+    plot(data, OUT / "igt.png")
+    print(json.dumps(data["summary"], indent=1))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,235 @@
+// The inverse-geometric-texture lookup, following the CPU reference (src/igt/lookup.rs) step by
+// step: project an object-space point into its grid's primary space, test its cell's list with
+// watertight edge functions (first listed triangle containing it), else take the listed
+// triangle nearest to it (in its cell, or if that lists none in the ring of cells around it,
+// IGT_MAX_RING = lookup.rs's MAX_RING); then the hit triangle's attributes, interpolated.
+//
+// Spaces: object space in (see igt_types.wgsl); primary space in cell units; world normals out.
+
+const IGT_TAU: f32 = 6.283185307179586;
+const IGT_PI: f32 = 3.141592653589793;
+// Rings of neighbouring cells searched when nothing listed contains the point (lookup.rs).
+const IGT_MAX_RING: i32 = 1;
+
+fn igt_wraps() -> bool {
+    return object.info.x != 0u;
+}
+
+// `p` (object space) in grid `g`'s primary space; u in [0, width) when the primary wraps.
+fn igt_project(g: IgtGrid, p: vec3<f32>) -> vec2<f32> {
+    let d = p - g.origin.xyz;
+    let y = cross(g.z.xyz, g.x.xyz);
+    let l = vec3<f32>(dot(d, g.x.xyz), dot(d, y), dot(d, g.z.xyz));
+    if (!igt_wraps()) {
+        return vec2<f32>(l.x * g.origin.w, l.y * g.x.w);
+    }
+    let w = f32(g.size.x);
+    let turn = fract(atan2(l.y, l.x) / IGT_TAU);
+    let u = min(turn * w, w * 0.9999999);
+    if (object.info.x == 1u) {
+        // atan2 rather than the CPU's acos(z / r): the same angle, but f32's acos loses 3e-4
+        // rad near the poles.
+        let colatitude = atan2(length(l.xy), l.z);
+        return vec2<f32>(u, colatitude / IGT_PI * f32(g.size.y));
+    }
+    return vec2<f32>(u, l.z * g.x.w);
+}
+
+// The cell offsets' index of cell (i, j) of grid `g`: i wrapped (or clamped), j clamped.
+fn igt_cell(g: IgtGrid, i: i32, j: i32) -> u32 {
+    let w = i32(g.size.x);
+    var ii = clamp(i, 0, w - 1);
+    if (igt_wraps()) {
+        ii = ((i % w) + w) % w;
+    }
+    let jj = clamp(j, 0, i32(g.size.y) - 1);
+    return g.size.z + u32(jj * w + ii);
+}
+
+// The edge function of (a, b) at p, its endpoints taken in one fixed order so that the two
+// triangles sharing an edge get exactly opposite values: no point falls between them.
+fn igt_edge(a: vec2<f32>, b: vec2<f32>, p: vec2<f32>) -> f32 {
+    if (a.x < b.x || (a.x == b.x && a.y < b.y)) {
+        let e = b - a;
+        let q = p - a;
+        return e.x * q.y - e.y * q.x;
+    }
+    let e = a - b;
+    let q = p - b;
+    return -(e.x * q.y - e.y * q.x);
+}
+
+// Barycentric coordinates of p in (a, b, c) and, in w, 1 if p lies inside (edges included),
+// 0 if outside, -1 for a triangle of zero area.
+fn igt_barycentric(a: vec2<f32>, b: vec2<f32>, c: vec2<f32>, p: vec2<f32>) -> vec4<f32> {
+    let w = vec3<f32>(igt_edge(b, c, p), igt_edge(c, a, p), igt_edge(a, b, p));
+    let sum = w.x + w.y + w.z;
+    if (sum == 0.0) {
+        return vec4<f32>(0.0, 0.0, 0.0, -1.0);
+    }
+    let s = sign(sum);
+    let inside = w.x * s >= 0.0 && w.y * s >= 0.0 && w.z * s >= 0.0;
+    return vec4<f32>(w / sum, select(0.0, 1.0, inside));
+}
+
+// Squared distance from p to segment (a, b), and where its nearest point lies (0 at a, 1 at b).
+fn igt_segment(a: vec2<f32>, b: vec2<f32>, p: vec2<f32>) -> vec2<f32> {
+    let e = b - a;
+    let len2 = dot(e, e);
+    var s = 0.0;
+    if (len2 > 0.0) {
+        s = clamp(dot(p - a, e) / len2, 0.0, 1.0);
+    }
+    let q = a + e * s - p;
+    return vec2<f32>(dot(q, q), s);
+}
+
+// Squared distance from p to its nearest point of (a, b, c) in w, that point's barycentrics in
+// xyz (the edges tried in lookup.rs's order, a nearer one replacing a farther).
+fn igt_nearest(a: vec2<f32>, b: vec2<f32>, c: vec2<f32>, p: vec2<f32>) -> vec4<f32> {
+    let inside = igt_barycentric(a, b, c, p);
+    if (inside.w > 0.5) {
+        return vec4<f32>(inside.xyz, 0.0);
+    }
+    let ab = igt_segment(a, b, p);
+    let bc = igt_segment(b, c, p);
+    let ca = igt_segment(c, a, p);
+    var best = vec4<f32>(1.0 - ab.y, ab.y, 0.0, ab.x);
+    if (bc.x < best.w) {
+        best = vec4<f32>(0.0, 1.0 - bc.y, bc.y, bc.x);
+    }
+    if (ca.x < best.w) {
+        best = vec4<f32>(ca.y, 0.0, 1.0 - ca.y, ca.x);
+    }
+    return best;
+}
+
+// The point as entry `e`'s triangle may see it one turn on: when the primary wraps and the
+// (unwrapped) triangle reaches past the grid's width; else the point itself.
+fn igt_turned(e: IgtEntry, width: u32, uv: vec2<f32>) -> vec2<f32> {
+    let w = f32(width);
+    if (igt_wraps() && max(e.a.x, max(e.b.x, e.c.x)) > w) {
+        return uv + vec2<f32>(w, 0.0);
+    }
+    return uv;
+}
+
+// The nearest listed triangle to `uv` in the ring `ring` of cells around (i, j); w of the
+// result: its squared distance (3e38 when nothing is listed), entry index in `entry`.
+fn igt_nearest_in_ring(g: IgtGrid, uv: vec2<f32>, i: i32, j: i32, ring: i32, entry: ptr<function, i32>) -> vec4<f32> {
+    var best = vec4<f32>(0.0, 0.0, 0.0, 3.0e38);
+    // The ring's 8 * ring cells (one for ring 0), 2 * ring a side: bottom (t, -ring), right
+    // (ring, t), top (-t, ring), left (-ring, -t) for t in -ring .. ring - 1.
+    let per_side = max(2 * ring, 1);
+    let cells = select(8 * ring, 1, ring == 0);
+    for (var q = 0; q < cells; q++) {
+        let t = q % per_side - ring;
+        let side = q / per_side;
+        let di = select(select(-ring, -t, side == 2), select(t, ring, side == 1), side < 2);
+        let dj = select(select(-t, ring, side == 2), select(-ring, t, side == 1), side < 2);
+        let c = igt_cell(g, i + di, j + dj);
+        for (var k = cell_start[c]; k < cell_start[c + 1u]; k++) {
+            let e = entries[cell_entries[k]];
+            var near = igt_nearest(e.a, e.b, e.c, uv);
+            let turned = igt_turned(e, g.size.x, uv);
+            if (turned.x != uv.x) {
+                let other = igt_nearest(e.a, e.b, e.c, turned);
+                if (other.w < near.w) {
+                    near = other;
+                }
+            }
+            if (near.w < best.w) {
+                best = near;
+                *entry = i32(cell_entries[k]);
+            }
+        }
+    }
+    return best;
+}
+
+// The detailed triangle under object-space point `p` in grid `grid`.
+fn igt_lookup(grid: u32, p: vec3<f32>) -> IgtHit {
+    let g = grids[grid];
+    let uv = igt_project(g, p);
+    let i = i32(floor(uv.x));
+    let j = i32(floor(uv.y));
+    let c = igt_cell(g, i, j);
+    for (var k = cell_start[c]; k < cell_start[c + 1u]; k++) {
+        let e = entries[cell_entries[k]];
+        var b = igt_barycentric(e.a, e.b, e.c, uv);
+        let turned = igt_turned(e, g.size.x, uv);
+        if (b.w <= 0.5 && turned.x != uv.x) {
+            b = igt_barycentric(e.a, e.b, e.c, turned);
+        }
+        if (b.w > 0.5) {
+            return IgtHit(i32(cell_entries[k]), b.xyz);
+        }
+    }
+    for (var ring = 0; ring <= IGT_MAX_RING; ring++) {
+        var entry = -1;
+        let near = igt_nearest_in_ring(g, uv, i, j, ring, &entry);
+        if (entry >= 0) {
+            return IgtHit(entry, near.xyz);
+        }
+    }
+    return IgtHit(-1, vec3<f32>(0.0));
+}
+
+// A unit normal from its octahedral encoding (two values in [-1, 1]).
+fn igt_octahedral(e: vec2<f32>) -> vec3<f32> {
+    var n = vec3<f32>(e.x, e.y, 1.0 - abs(e.x) - abs(e.y));
+    let t = max(-n.z, 0.0);
+    n.x += select(t, -t, n.x >= 0.0);
+    n.y += select(t, -t, n.y >= 0.0);
+    return normalize(n);
+}
+
+// The detailed face's normal at barycentric point `bary` (object space, unit).
+fn igt_normal(face: u32, bary: vec3<f32>) -> vec3<f32> {
+    var n = vec3<f32>(0.0);
+    for (var k = 0u; k < 3u; k++) {
+        n += bary[k] * igt_octahedral(unpack2x16snorm(corner_normals[3u * face + k]));
+    }
+    return normalize(n);
+}
+
+// Texel (i, j) of the image, repeating.
+fn igt_texel(i: i32, j: i32) -> vec4<f32> {
+    let w = i32(object.info.z);
+    let h = i32(object.info.w);
+    let ii = ((i % w) + w) % w;
+    let jj = ((j % h) + h) % h;
+    return unpack4x8unorm(image[jj * w + ii]);
+}
+
+// The image sampled bilinearly at full size at texture coordinates `uv` ((0, 0) at the bottom
+// left), repeating: as the CPU samples it (src/appearance.rs).
+fn igt_sample(uv: vec2<f32>) -> vec4<f32> {
+    let x = uv.x * f32(object.info.z) - 0.5;
+    let y = (1.0 - uv.y) * f32(object.info.w) - 0.5;
+    let i = floor(x);
+    let j = floor(y);
+    let f = vec2<f32>(x - i, y - j);
+    let a = igt_texel(i32(i), i32(j));
+    let b = igt_texel(i32(i) + 1, i32(j));
+    let c = igt_texel(i32(i), i32(j) + 1);
+    let d = igt_texel(i32(i) + 1, i32(j) + 1);
+    return mix(mix(a, b, f.x), mix(c, d, f.x), f.y);
+}
+
+// The detailed face's base color at `bary`: its texture, else its corner colors, else neutral.
+fn igt_color(face: u32, bary: vec3<f32>) -> vec4<f32> {
+    if ((object.info.y & 2u) != 0u) {
+        let k = 3u * face;
+        let uv = bary.x * corner_uvs[k] + bary.y * corner_uvs[k + 1u] + bary.z * corner_uvs[k + 2u];
+        return igt_sample(uv);
+    }
+    if ((object.info.y & 1u) != 0u) {
+        var c = vec4<f32>(0.0);
+        for (var k = 0u; k < 3u; k++) {
+            c += bary[k] * unpack4x8unorm(corner_colors[3u * face + k]);
+        }
+        return c;
+    }
+    return vec4<f32>(200.0, 200.0, 200.0, 255.0) / 255.0;
+}

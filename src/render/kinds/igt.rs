@@ -1,0 +1,443 @@
+//! Simplified meshes shaded through an inverse geometric texture (igt_raster.wgsl): rasterized
+//! into the shared targets like meshes (two-sided), each fragment projected into its face's grid
+//! of the primary space and shaded with the attributes of the detailed triangle found there
+//! (igt_functions.wgsl, following src/igt/lookup.rs). Where the scene holds one, the surface pass
+//! (igt_surface.wgsl) draws them again after the scene pass, depth-tested against the finished
+//! depth buffer, writing the detailed face and barycentrics of the visible pixels
+//! (`Frame::face_id`, `Frame::barycentric`). Not traced by ray queries: they receive shadows but
+//! cast none.
+//!
+//! The texture's tables are uploaded once per texture (several simplified meshes may share it),
+//! the simplified mesh once per mesh, both relative to the detailed mesh's bounding-box centre.
+//!
+//! Spaces: object space (the detailed and simplified meshes' own, placed by
+//! `world_from_object`), stored relative to that centre ("local", f32); view (camera-relative);
+//! primary space per grid in cell units (src/igt/primary.rs).
+
+use glam::{DMat3, DMat4, DVec3, Vec3};
+use wgpu::util::DeviceExt;
+
+use super::{storage_buffer, DrawCall, FrameView, Kind, Tally, TraceCall, UploadCache};
+use crate::error::{GeomtexError, Result};
+use crate::igt::{IgtMesh, InverseGeometricTexture};
+use crate::render::cull::DepthRange;
+use crate::render::device::Gpu;
+use crate::render::gpu_types::{
+    gpu_matrix, normal_matrix, IgtEntryGpu, IgtGridGpu, IgtObjectGpu, IgtVertex, DEPTH_FORMAT,
+};
+use crate::render::pipelines::{storage_entry, uniform_entry, RasterPipeline, VERTEX_AND_FRAGMENT};
+use crate::render::scene::{Object, SceneObject};
+use crate::render::shaders;
+
+/// Format of the surface target: detailed face + 1 (0 = none) and the barycentrics' f32 bits.
+pub(crate) const SURFACE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Uint;
+
+/// Storage buffers of group 1 (bindings 1 to 8 of igt_bindings.wgsl).
+const TABLES: usize = 8;
+
+/// A texture's tables and attributes on the GPU.
+struct UploadedTables {
+    /// Grids, cell offsets, cell entries, entries, normals, colors, uvs, image.
+    buffers: [wgpu::Buffer; TABLES],
+    /// Attribute bits and image size (`IgtObject.info` y, z, w).
+    info: [u32; 3],
+    /// The detailed mesh's bounding-box centre: everything is stored relative to it.
+    centre: DVec3,
+}
+
+/// A simplified mesh's de-indexed vertices, three per face, each with its face's grid.
+struct UploadedMesh {
+    vertices: wgpu::Buffer,
+    count: u32,
+    lo: DVec3,
+    hi: DVec3,
+}
+
+pub(crate) struct IgtKind {
+    layout: wgpu::BindGroupLayout,
+    pipeline: wgpu::RenderPipeline,
+    surface_pipeline: wgpu::RenderPipeline,
+    tables: UploadCache<InverseGeometricTexture, UploadedTables>,
+    meshes: UploadCache<IgtMesh, UploadedMesh>,
+}
+
+/// A unit normal's octahedral encoding as two snorm16 (x in the low half, as WGSL's
+/// unpack2x16snorm reads it).
+fn octahedral(n: Vec3) -> u32 {
+    let n = n / (n.x.abs() + n.y.abs() + n.z.abs()).max(f32::MIN_POSITIVE);
+    let (x, y) = if n.z >= 0.0 {
+        (n.x, n.y)
+    } else {
+        let sign = |v: f32| if v >= 0.0 { 1.0 } else { -1.0 };
+        ((1.0 - n.y.abs()) * sign(n.x), (1.0 - n.x.abs()) * sign(n.y))
+    };
+    let snorm = |v: f32| ((v.clamp(-1.0, 1.0) * 32767.0).round() as i16) as u16 as u32;
+    snorm(x) | (snorm(y) << 16)
+}
+
+fn pack_rgba(c: [u8; 4]) -> u32 {
+    u32::from_le_bytes(c)
+}
+
+/// The grids as the shader takes them, relative to `centre`.
+fn grid_records(igt: &InverseGeometricTexture, centre: DVec3) -> Vec<IgtGridGpu> {
+    let per = |cell: f64| if cell > 0.0 { (1.0 / cell) as f32 } else { 0.0 };
+    igt.grids
+        .iter()
+        .map(|g| {
+            let o = (g.origin - centre).as_vec3();
+            let [x, _, z] = g.axes.map(|a| a.as_vec3());
+            IgtGridGpu {
+                origin: [o.x, o.y, o.z, per(g.cell.x)],
+                x: [x.x, x.y, x.z, per(g.cell.y)],
+                z: [z.x, z.y, z.z, 0.0],
+                size: [g.width, g.height, g.first_cell, 0],
+            }
+        })
+        .collect()
+}
+
+fn upload_tables(gpu: &Gpu, igt: &InverseGeometricTexture) -> Result<UploadedTables> {
+    // The shader derives y as z × x.
+    if let Some(g) =
+        (igt.grids.iter()).find(|g| (g.axes[2].cross(g.axes[0]) - g.axes[1]).length() > 1e-6)
+    {
+        return Err(GeomtexError::Parameter(format!(
+            "grid at {:?}: its axes are not right-handed",
+            g.origin
+        )));
+    }
+    let (lo, hi) = bounds(&igt.positions);
+    let centre = 0.5 * (lo + hi);
+    let entries: Vec<IgtEntryGpu> = (igt.entries.iter())
+        .map(|e| IgtEntryGpu {
+            corners: e.corners,
+            face: e.face,
+            grid: e.grid,
+        })
+        .collect();
+    let a = &igt.attributes;
+    let normals: Vec<u32> = (a.normals.iter().flatten())
+        .map(|n| octahedral(Vec3::from_array(*n)))
+        .collect();
+    let colors: Vec<u32> = (a.colors.iter().flatten().flatten())
+        .map(|c| pack_rgba(*c))
+        .collect();
+    let uvs: Vec<[f32; 2]> = a.uv.iter().flatten().flatten().copied().collect();
+    let image = a.uv.as_ref().and(a.image.as_ref());
+    let pixels: Vec<u32> = image.map_or(Vec::new(), |i| {
+        i.pixels().iter().map(|p| pack_rgba(*p)).collect()
+    });
+    let bits = u32::from(!colors.is_empty()) | (u32::from(image.is_some()) << 1);
+    let (w, h) = image.map_or((0, 0), |i| (i.width() as u32, i.height() as u32));
+    let device = &gpu.device;
+    // Bindings need a buffer: absent parts take one zero.
+    let buffer = |label: &str, bytes: &[u8]| {
+        let zero = [0u8; 8];
+        storage_buffer(device, label, if bytes.is_empty() { &zero } else { bytes })
+    };
+    Ok(UploadedTables {
+        buffers: [
+            buffer(
+                "igt grids",
+                bytemuck::cast_slice(&grid_records(igt, centre)),
+            ),
+            buffer("igt cell offsets", bytemuck::cast_slice(&igt.cell_start)),
+            buffer("igt cell entries", bytemuck::cast_slice(&igt.cell_entries)),
+            buffer("igt entries", bytemuck::cast_slice(&entries)),
+            buffer("igt normals", bytemuck::cast_slice(&normals)),
+            buffer("igt colors", bytemuck::cast_slice(&colors)),
+            buffer("igt uvs", bytemuck::cast_slice(&uvs)),
+            buffer("igt image", bytemuck::cast_slice(&pixels)),
+        ],
+        info: [bits, w, h],
+        centre,
+    })
+}
+
+fn bounds(points: &[DVec3]) -> (DVec3, DVec3) {
+    points
+        .iter()
+        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &p| {
+            (lo.min(p), hi.max(p))
+        })
+}
+
+fn upload_mesh(gpu: &Gpu, shaded: &IgtMesh, centre: DVec3) -> UploadedMesh {
+    let mesh = &shaded.mesh;
+    let vertices: Vec<IgtVertex> = (mesh.faces.iter().zip(&shaded.face_grid))
+        .flat_map(|(t, &grid)| {
+            t.map(|v| IgtVertex {
+                position: (mesh.positions[v as usize] - centre).as_vec3().to_array(),
+                grid,
+            })
+        })
+        .collect();
+    let (lo, hi) = mesh.bounds();
+    let buffer = gpu
+        .device
+        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("igt mesh vertices"),
+            contents: bytemuck::cast_slice(&vertices),
+            usage: wgpu::BufferUsages::VERTEX,
+        });
+    UploadedMesh {
+        vertices: buffer,
+        count: vertices.len() as u32,
+        lo,
+        hi,
+    }
+}
+
+impl IgtKind {
+    pub fn new(device: &wgpu::Device, frame_layout: &wgpu::BindGroupLayout) -> IgtKind {
+        let fragment = wgpu::ShaderStages::FRAGMENT;
+        // Group 1 of igt_bindings.wgsl.
+        let mut entries = vec![uniform_entry(0, VERTEX_AND_FRAGMENT)];
+        entries.extend((1..=TABLES as u32).map(|b| storage_entry(b, fragment, true)));
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("igt object"),
+            entries: &entries,
+        });
+        let pipeline = RasterPipeline {
+            label: "igt_raster",
+            source: shaders::igt_raster(false),
+            layouts: &[Some(frame_layout), Some(&layout)],
+            vertex_buffers: &[Some(vertex_layout())],
+            // Two-sided, as a ray caster sees a mesh.
+            cull: None,
+            constants: &[],
+        }
+        .build(device);
+        let surface_pipeline = surface_pipeline(device, &[Some(frame_layout), Some(&layout)]);
+        IgtKind {
+            layout,
+            pipeline,
+            surface_pipeline,
+            tables: UploadCache::default(),
+            meshes: UploadCache::default(),
+        }
+    }
+
+    /// Group 1 for `placed` (an uploaded IgtMesh), its mesh upload, or None.
+    fn bind(
+        &self,
+        gpu: &Gpu,
+        frame: &FrameView,
+        placed: &SceneObject,
+        id: i32,
+    ) -> Option<(wgpu::BindGroup, &UploadedMesh)> {
+        let Object::Igt(shaded) = &placed.object else {
+            return None;
+        };
+        let tables = self.tables.get(&shaded.igt)?;
+        let mesh = self.meshes.get(shaded)?;
+        let view_from_local = frame.view_from_world
+            * placed.world_from_object
+            * DMat4::from_translation(tables.centre);
+        let [bits, w, h] = tables.info;
+        let record = IgtObjectGpu {
+            view_from_object: gpu_matrix(view_from_local),
+            world_normal_from_object: normal_matrix(DMat3::from_mat4(placed.world_from_object)),
+            ids: [id, 0, 0, 0],
+            info: [shaded.igt.primary.code(), bits, w, h],
+        };
+        let device = &gpu.device;
+        let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("igt object"),
+            contents: bytemuck::bytes_of(&record),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let mut entries = vec![wgpu::BindGroupEntry {
+            binding: 0,
+            resource: uniform.as_entire_binding(),
+        }];
+        entries.extend(
+            (tables.buffers.iter().enumerate()).map(|(k, b)| wgpu::BindGroupEntry {
+                binding: k as u32 + 1,
+                resource: b.as_entire_binding(),
+            }),
+        );
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("igt object"),
+            layout: &self.layout,
+            entries: &entries,
+        });
+        Some((group, mesh))
+    }
+}
+
+fn vertex_layout() -> wgpu::VertexBufferLayout<'static> {
+    const ATTRIBUTES: [wgpu::VertexAttribute; 2] =
+        wgpu::vertex_attr_array![0 => Float32x3, 1 => Uint32];
+    wgpu::VertexBufferLayout {
+        array_stride: size_of::<IgtVertex>() as u64,
+        step_mode: wgpu::VertexStepMode::Vertex,
+        attributes: &ATTRIBUTES,
+    }
+}
+
+/// The surface pass's pipeline: the scene pass's vertex stage, depth tested (not written)
+/// against the finished depth buffer, one target (`SURFACE_FORMAT`).
+fn surface_pipeline(
+    device: &wgpu::Device,
+    layouts: &[Option<&wgpu::BindGroupLayout>],
+) -> wgpu::RenderPipeline {
+    let source = shaders::igt_raster(true);
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("igt_surface"),
+        source: wgpu::ShaderSource::Wgsl(source.as_str().into()),
+    });
+    let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("igt_surface"),
+        bind_group_layouts: layouts,
+        immediate_size: 0,
+    });
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some("igt_surface"),
+        layout: Some(&layout),
+        vertex: wgpu::VertexState {
+            module: &module,
+            entry_point: Some("vs_main"),
+            compilation_options: Default::default(),
+            buffers: &[Some(vertex_layout())],
+        },
+        primitive: wgpu::PrimitiveState {
+            topology: wgpu::PrimitiveTopology::TriangleList,
+            front_face: wgpu::FrontFace::Ccw,
+            cull_mode: None,
+            ..Default::default()
+        },
+        depth_stencil: Some(wgpu::DepthStencilState {
+            format: DEPTH_FORMAT,
+            depth_write_enabled: Some(false),
+            // The finished buffer holds the nearest depth: the visible fragment meets it
+            // (reversed Z; >= keeps it should the two draws round differently upward).
+            depth_compare: Some(wgpu::CompareFunction::GreaterEqual),
+            stencil: Default::default(),
+            bias: Default::default(),
+        }),
+        multisample: Default::default(),
+        fragment: Some(wgpu::FragmentState {
+            module: &module,
+            entry_point: Some("fs_surface"),
+            compilation_options: Default::default(),
+            targets: &[Some(wgpu::ColorTargetState {
+                format: SURFACE_FORMAT,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            })],
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
+}
+
+impl Kind for IgtKind {
+    fn upload(
+        &mut self,
+        gpu: &Gpu,
+        object: &Object,
+        view_from_object: &DMat4,
+        depth: &mut DepthRange,
+    ) -> Result<bool> {
+        let Object::Igt(shaded) = object else {
+            return Ok(false);
+        };
+        if shaded.mesh.faces.is_empty() {
+            return Ok(true);
+        }
+        let centre = (self.tables)
+            .get_or_upload(&shaded.igt, |igt| upload_tables(gpu, igt))?
+            .centre;
+        let m = self
+            .meshes
+            .get_or_upload(shaded, |s| Ok(upload_mesh(gpu, s, centre)))?;
+        depth.include_box(view_from_object, m.lo, m.hi);
+        Ok(true)
+    }
+
+    fn draw(
+        &self,
+        gpu: &Gpu,
+        frame: &FrameView,
+        placed: &SceneObject,
+        tally: &mut Tally,
+    ) -> Option<DrawCall> {
+        let Object::Igt(_) = &placed.object else {
+            return None;
+        };
+        // Numbered as meshes are, whether drawn or not (the surface pass does not count).
+        let id = -2 - tally.meshes_drawn as i32;
+        tally.meshes_drawn += 1;
+        let (group, mesh) = self.bind(gpu, frame, placed, id)?;
+        Some(DrawCall {
+            pipeline: self.pipeline.clone(),
+            group,
+            vertex_buffer: Some(mesh.vertices.clone()),
+            vertices: mesh.count,
+            instances: 1,
+            compute: None,
+        })
+    }
+
+    fn draw_surface(&self, gpu: &Gpu, frame: &FrameView, placed: &SceneObject) -> Option<DrawCall> {
+        let (group, mesh) = self.bind(gpu, frame, placed, 0)?;
+        Some(DrawCall {
+            pipeline: self.surface_pipeline.clone(),
+            group,
+            vertex_buffer: Some(mesh.vertices.clone()),
+            vertices: mesh.count,
+            instances: 1,
+            compute: None,
+        })
+    }
+
+    fn trace(
+        &self,
+        _gpu: &Gpu,
+        _view_from_world: DMat4,
+        placed: &SceneObject,
+        _ids: &mut Tally,
+    ) -> Result<Option<TraceCall>> {
+        match &placed.object {
+            Object::Igt(..) => Err(GeomtexError::Parameter(
+                "ray queries through an IgtMesh are not supported; query its detailed mesh".into(),
+            )),
+            _ => Ok(None),
+        }
+    }
+
+    fn purge(&mut self) {
+        self.meshes.purge();
+        self.tables.purge();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The encoding decoded as igt_octahedral does (WGSL) comes back within snorm16 rounding.
+    #[test]
+    fn octahedral_normals_round_trip() {
+        let decode = |bits: u32| {
+            let v = |h: u32| ((h & 0xffff) as u16 as i16) as f32 / 32767.0;
+            let (x, y) = (v(bits).max(-1.0), v(bits >> 16).max(-1.0));
+            let mut n = Vec3::new(x, y, 1.0 - x.abs() - y.abs());
+            let t = (-n.z).max(0.0);
+            n.x += if n.x >= 0.0 { -t } else { t };
+            n.y += if n.y >= 0.0 { -t } else { t };
+            n.normalize()
+        };
+        let mut worst: f32 = 0.0;
+        for k in 0..2000 {
+            let (a, b) = (k as f32 * 0.61803, k as f32 * 0.0137);
+            let n = Vec3::new(a.cos() * b.sin(), a.sin() * b.sin(), b.cos()).normalize();
+            // |n x m| is the sine of the angle: f32 acos near 1 cannot resolve 1e-4 rad.
+            worst = worst.max(n.cross(decode(octahedral(n))).length());
+        }
+        // Measured 5.8e-5 rad (snorm16 steps are 3e-5 of the octahedron's unit square).
+        assert!(worst < 2e-4, "{worst}");
+    }
+}
