@@ -1,7 +1,7 @@
 //! Shadows: after a frame is drawn, one shadow ray per pixel it hit, from the hit (moved off the
 //! surface) toward a light, traced through the scene's texture sets and meshes with the ray-query
 //! tracer (query.rs, any hit). Texture sets, meshes and displacement shells cast and receive
-//! shadows; surfels receive them only.
+//! shadows; surfels and meshes shaded through an IGT receive them only.
 //!
 //! Spaces: world (f64): hit points are rebuilt from each pixel's world ray and its z-depth, the
 //! light is given in world space, and normals are the frame's world normals.
