@@ -284,6 +284,10 @@ def test_an_igt_mesh_composites_with_other_objects(renderer_256: gt.Renderer) ->
     assert (frame.face_id[~shown] == -1).all() and (frame.face_id[shown] >= 0).mean() >= 0.93
     back = pickle.loads(pickle.dumps(frame))
     assert np.array_equal(back.face_id, frame.face_id) and np.array_equal(back.barycentric, frame.barycentric)
+    # The scene pickles too (the texture as its .gtigt bytes, the mesh with its grids) and draws
+    # the same frame.
+    again = renderer_256.render(pickle.loads(pickle.dumps(scene)), _camera(igt, (0.0, 0.0, 1.0)))
+    assert np.array_equal(again.face_id, frame.face_id) and np.array_equal(again.color, frame.color)
     assert renderer_256.render(quad, _camera(igt, (0.0, 0.0, 1.0))).face_id is None
 
 

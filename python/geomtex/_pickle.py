@@ -1,7 +1,9 @@
 """Pickling for every public object, so a scheduler (Dask, multiprocessing) can ship them.
 
 Each object is stored as what it is made of, never as a pointer: a set as the bytes of its .gtex
-file (checksummed, exact), surfels as their .gtsurf bytes (the set and tile size), a mesh as its
+file (checksummed, exact), surfels as their .gtsurf bytes (the set and tile size), an inverse
+geometric texture as its .gtigt bytes, a mesh shaded through one as that texture, its arrays and
+its faces' grids, a mesh as its
 arrays, a camera as its pose and projection numbers, a
 scene as its objects and placements, a frame as its arrays. A renderer holds a GPU device, which
 cannot travel: pickling one stores its image size and the other side makes a renderer of its own.
@@ -24,6 +26,14 @@ def restore_set(data: bytes) -> _core.GeometryTextureSet:
 
 def restore_surfels(data: bytes) -> _core.Surfels:
     return _core.Surfels.from_bytes(data)
+
+
+def restore_igt(data: bytes) -> _core.InverseGeometricTexture:
+    return _core.InverseGeometricTexture.from_bytes(data)
+
+
+def restore_igt_mesh(igt: _core.InverseGeometricTexture, vertices: Any, faces: Any, face_grid: Any) -> _core.IgtMesh:
+    return igt.shade(vertices, faces, [int(g) for g in face_grid])
 
 
 def restore_mesh(*arrays: Any) -> Any:
@@ -66,6 +76,14 @@ def _reduce_surfels(self: _core.Surfels) -> tuple[Any, ...]:
     return restore_surfels, (self.to_bytes(),)
 
 
+def _reduce_igt(self: _core.InverseGeometricTexture) -> tuple[Any, ...]:
+    return restore_igt, (self.to_bytes(),)
+
+
+def _reduce_igt_mesh(self: _core.IgtMesh) -> tuple[Any, ...]:
+    return restore_igt_mesh, (self.igt, self.vertices, self.faces, self.face_grid)
+
+
 def _reduce_mesh(self: _core.Mesh) -> tuple[Any, ...]:
     return restore_mesh, (self.vertices, self.faces, self.vertex_colors, self.face_colors, self.uv, self.texture)
 
@@ -92,5 +110,6 @@ def install() -> None:
     for cls, reduce in [(_core.GeometryTextureSet, _reduce_set), (_core.Mesh, _reduce_mesh),
                         (_core.Camera, _reduce_camera), (_core.Scene, _reduce_scene),
                         (_core.Renderer, _reduce_renderer), (_core.Frame, _reduce_frame),
-                        (_core.Surfels, _reduce_surfels)]:
+                        (_core.Surfels, _reduce_surfels), (_core.InverseGeometricTexture, _reduce_igt),
+                        (_core.IgtMesh, _reduce_igt_mesh)]:
         setattr(cls, "__reduce__", reduce)
