@@ -1,8 +1,8 @@
 """The SVD trade of the paper's GDM lookup in images (issue 18): chain links (64x64x16) over the
 torus, rendered through the lookup in the SVD-compressed 5D distance function for k = 1..16 terms
-and for every term (the uncompressed table), with 8 x 16 or 16 x 32 sampled directions, against trimesh + embree ray casting of
-``shell.to_mesh()``; beside them the table's own reconstruction error and bytes, and the exact
-march as the floor.
+and for every term (the uncompressed table), with 8 x 16 or 16 x 32 sampled directions, against
+trimesh + embree ray casting of ``shell.to_mesh()``; beside them the table's own reconstruction
+error and bytes, and the exact march as the floor.
 
 Per (directions, k), worst over ``--views`` views at ``--size``: coverage IoU, depth p99 in voxels
 (raw and with a one-pixel tolerance), median normal angle; the table's rms error (voxels) and the
@@ -24,8 +24,6 @@ import os
 import platform
 from pathlib import Path
 from typing import Any
-
-import numpy as np
 
 import geomtex as gt
 from geomtex import gdm, reference
