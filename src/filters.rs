@@ -61,8 +61,8 @@ impl MapFilter {
 }
 
 /// Most neighbour candidates (points in the 27 cells around a point's) a filter may weigh per
-/// point on average: about 8 minutes for the bunny's 3 M texel points on 2 cores. A sigma beyond
-/// it reaches across most of a model, which is no longer a filter of its detail.
+/// point on average: about 8 minutes per Newton step for the bunny's 3 M texel points on 2
+/// cores. A sigma beyond it reaches across most of a model, no longer a filter of its detail.
 pub const MAX_MEAN_CANDIDATES: f64 = 50_000.0;
 
 /// Refuses a sigma whose 3-sigma cells would make each point weigh more than
