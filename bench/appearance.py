@@ -17,6 +17,9 @@ Run from the repository root (about 15 minutes on 2 cores)::
 
     python bench/appearance.py
     python bench/appearance.py --size 256 --parts normals,colors
+
+With ``--parts``, the parts not run keep their figures from ``results/appearance.json`` when it
+was written at the same size.
 """
 
 from __future__ import annotations
@@ -106,6 +109,12 @@ def main() -> None:
     if unknown:
         ap.error(f"unknown parts {sorted(unknown)}; choose from {PARTS}")
     results = run(parts, args.size)
+    # Parts not run this time keep their figures from the last run at the same size.
+    previous = OUT / "appearance.json"
+    if previous.exists():
+        old = json.loads(previous.read_text())
+        if old.get("size") == args.size:
+            results = {**{k: v for k, v in old.items() if k in PARTS}, **results}
     OUT.mkdir(parents=True, exist_ok=True)
     (OUT / "appearance.json").write_text(json.dumps(results, indent=1) + "\n")
     plot(results, OUT / "appearance.png")

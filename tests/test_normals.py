@@ -88,7 +88,9 @@ def test_box_with_defaults_is_flat_shaded_like_its_raster(r128: gt.Renderer) -> 
 CAD_BOUNDS = {
     "chamfered_box": RenderBounds(normal_deg_median=0.04, normal_deg_p99=0.6),  # 0.00°, 0.21°
     "cylinder": RenderBounds(normal_deg_median=0.3, normal_deg_p99=3.7),  # 0.096°, 1.2°
-    "fandisk": RenderBounds(normal_deg_median=0.35),  # 0.114°
+    # Worst view 0.213°, 0.51°. While overlap rings crossed its 90° steps, rays grazing them at
+    # silhouettes hit the far side: p99 22.4° at 512² (bench/appearance_normals.py).
+    "fandisk": RenderBounds(normal_deg_median=0.35, normal_deg_p99=1.5),
     "rocker-arm": RenderBounds(normal_deg_median=0.39, normal_deg_p99=15),  # 0.128°, 4.9°
 }
 
