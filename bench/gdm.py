@@ -20,8 +20,8 @@ Results: ``bench/results/gdm.json`` and ``bench/results/gdm.png``.
 
 Run from the repository root::
 
-    nice python bench/gdm.py                         # 512^2, five views (long on lavapipe)
-    nice python bench/gdm.py --size 256 --views 3    # what the committed figures used
+    python bench/gdm.py                              # 512^2, five views: the committed figures
+    nice python bench/gdm.py --size 256 --views 3    # quicker
 """
 
 from __future__ import annotations
