@@ -12,7 +12,9 @@ use std::sync::OnceLock;
 use glam::{DMat3, DMat4, DVec3};
 use wgpu::util::DeviceExt;
 
-use super::{storage_buffer, DrawCall, FrameView, Kind, Tally, TraceCall, UploadCache};
+use super::{
+    bind_buffers, storage_buffer, DrawCall, FrameView, Kind, Tally, TraceCall, UploadCache,
+};
 use crate::error::Result;
 use crate::gdm::GdmShell;
 use crate::render::bvh::{Aabb, Bvh};
@@ -235,26 +237,6 @@ fn shell_record(
     }
 }
 
-/// A bind group of whole buffers at bindings 0, 1, ... in order.
-fn bind_group(
-    device: &wgpu::Device,
-    label: &str,
-    layout: &wgpu::BindGroupLayout,
-    buffers: &[&wgpu::Buffer],
-) -> wgpu::BindGroup {
-    let entries: Vec<_> = (buffers.iter().enumerate())
-        .map(|(binding, buffer)| wgpu::BindGroupEntry {
-            binding: binding as u32,
-            resource: buffer.as_entire_binding(),
-        })
-        .collect();
-    device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some(label),
-        layout,
-        entries: &entries,
-    })
-}
-
 impl Kind for GdmKind {
     fn upload(
         &mut self,
@@ -303,7 +285,7 @@ impl Kind for GdmKind {
         let buffers = [&buffer, &u.prisms, &u.radii, &u.weights, &u.eigen];
         Some(DrawCall {
             pipeline: self.pipeline.clone(),
-            group: bind_group(device, "gdm shell", &self.layout, &buffers),
+            group: bind_buffers(device, "gdm shell", &self.layout, &buffers),
             vertex_buffer: Some(u.vertices.clone()),
             vertices: u.count,
             instances: 1,
@@ -343,7 +325,7 @@ impl Kind for GdmKind {
         let buffers = [&record, &u.prisms, &u.radii, &u.weights, &u.eigen, &nodes];
         Ok(Some(TraceCall {
             pipeline: self.trace_pipeline.clone(),
-            group: bind_group(device, "gdm shell (tracer)", &self.trace_layout, &buffers),
+            group: bind_buffers(device, "gdm shell (tracer)", &self.trace_layout, &buffers),
         }))
     }
 

@@ -17,7 +17,9 @@
 use glam::{DMat3, DMat4, DVec3, Vec3};
 use wgpu::util::DeviceExt;
 
-use super::{storage_buffer, DrawCall, FrameView, Kind, Tally, TraceCall, UploadCache};
+use super::{
+    bind_buffers, storage_buffer, DrawCall, FrameView, Kind, Tally, TraceCall, UploadCache,
+};
 use crate::error::{GeomtexError, Result};
 use crate::igt::{IgtMesh, InverseGeometricTexture};
 use crate::render::cull::DepthRange;
@@ -248,21 +250,8 @@ impl IgtKind {
             contents: bytemuck::bytes_of(&record),
             usage: wgpu::BufferUsages::UNIFORM,
         });
-        let mut entries = vec![wgpu::BindGroupEntry {
-            binding: 0,
-            resource: uniform.as_entire_binding(),
-        }];
-        entries.extend(
-            (tables.buffers.iter().enumerate()).map(|(k, b)| wgpu::BindGroupEntry {
-                binding: k as u32 + 1,
-                resource: b.as_entire_binding(),
-            }),
-        );
-        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("igt object"),
-            layout: &self.layout,
-            entries: &entries,
-        });
+        let buffers: Vec<_> = std::iter::once(&uniform).chain(&tables.buffers).collect();
+        let group = bind_buffers(device, "igt object", &self.layout, &buffers);
         Some((group, mesh))
     }
 }

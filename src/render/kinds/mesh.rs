@@ -16,7 +16,9 @@ use std::sync::OnceLock;
 use glam::{DMat3, DMat4, DVec3};
 use wgpu::util::DeviceExt;
 
-use super::{storage_buffer, DrawCall, FrameView, Kind, Tally, TraceCall, UploadCache};
+use super::{
+    bind_buffers, storage_buffer, DrawCall, FrameView, Kind, Tally, TraceCall, UploadCache,
+};
 use crate::error::Result;
 use crate::mesh::{Mesh, MeshGeometry, NormalRule};
 use crate::render::bvh::{Aabb, Bvh};
@@ -262,18 +264,8 @@ impl Kind for MeshKind {
         let settings = storage_buffer(device, "mesh trace", bytemuck::bytes_of(&settings));
         let nodes = storage_buffer(device, "triangle hierarchy", bytemuck::cast_slice(&nodes));
         let triangles = storage_buffer(device, "triangles", bytemuck::cast_slice(&triangles));
-        let group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("mesh (tracer)"),
-            layout: &self.trace_layout,
-            entries: &[settings, nodes, triangles]
-                .iter()
-                .enumerate()
-                .map(|(binding, buffer)| wgpu::BindGroupEntry {
-                    binding: binding as u32,
-                    resource: buffer.as_entire_binding(),
-                })
-                .collect::<Vec<_>>(),
-        });
+        let buffers = [&settings, &nodes, &triangles];
+        let group = bind_buffers(device, "mesh (tracer)", &self.trace_layout, &buffers);
         Ok(Some(TraceCall {
             pipeline: self.trace_pipeline.clone(),
             group,

@@ -119,6 +119,26 @@ pub(crate) fn storage_buffer(device: &wgpu::Device, label: &str, contents: &[u8]
     })
 }
 
+/// A bind group of whole buffers at bindings 0, 1, ... in order.
+pub(crate) fn bind_buffers(
+    device: &wgpu::Device,
+    label: &str,
+    layout: &wgpu::BindGroupLayout,
+    buffers: &[&wgpu::Buffer],
+) -> wgpu::BindGroup {
+    let entries: Vec<_> = (buffers.iter().enumerate())
+        .map(|(binding, buffer)| wgpu::BindGroupEntry {
+            binding: binding as u32,
+            resource: buffer.as_entire_binding(),
+        })
+        .collect();
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout,
+        entries: &entries,
+    })
+}
+
 /// One object's ray-query dispatch, after groups 0 and 2 are bound.
 pub(crate) struct TraceCall {
     pub pipeline: wgpu::ComputePipeline,

@@ -18,7 +18,9 @@
 use glam::{DMat3, DMat4, DVec3};
 use wgpu::util::DeviceExt;
 
-use super::{ComputeStep, ComputeWork, Dispatch, DrawCall, FrameView, Kind, Tally, UploadCache};
+use super::{
+    bind_buffers, ComputeStep, ComputeWork, Dispatch, DrawCall, FrameView, Kind, Tally, UploadCache,
+};
 use crate::error::{GeomtexError, Result};
 use crate::render::camera::Lens;
 use crate::render::cull::{box_corners, DepthRange};
@@ -385,26 +387,6 @@ fn frame_buffers(device: &wgpu::Device, u: &UploadedSurfels, pixels: u64) -> Fra
     }
 }
 
-fn bind(
-    device: &wgpu::Device,
-    layout: &wgpu::BindGroupLayout,
-    buffers: &[&wgpu::Buffer],
-) -> wgpu::BindGroup {
-    let entries: Vec<wgpu::BindGroupEntry> = buffers
-        .iter()
-        .enumerate()
-        .map(|(k, b)| wgpu::BindGroupEntry {
-            binding: k as u32,
-            resource: b.as_entire_binding(),
-        })
-        .collect();
-    device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("surfels"),
-        layout,
-        entries: &entries,
-    })
-}
-
 impl SurfelsKind {
     /// The object's record for this frame.
     fn record(
@@ -446,8 +428,9 @@ impl SurfelsKind {
         uniform: &wgpu::Buffer,
         buffers: &FrameBuffers,
     ) -> ComputeWork {
-        let group = bind(
+        let group = bind_buffers(
             device,
+            "surfels",
             &self.compute_layout,
             &[
                 uniform,
@@ -462,8 +445,18 @@ impl SurfelsKind {
             ],
         );
         // Group 2 is one writable buffer in every pass: the arguments, then the visibility.
-        let arguments = bind(device, &self.visibility_layout, &[&buffers.dispatch]);
-        let visibility = bind(device, &self.visibility_layout, &[&buffers.visibility]);
+        let arguments = bind_buffers(
+            device,
+            "surfels",
+            &self.visibility_layout,
+            &[&buffers.dispatch],
+        );
+        let visibility = bind_buffers(
+            device,
+            "surfels",
+            &self.visibility_layout,
+            &[&buffers.visibility],
+        );
         let mut steps = vec![
             ComputeStep {
                 pipeline: self.cull.clone(),
@@ -536,8 +529,9 @@ impl Kind for SurfelsKind {
         let [width, height] = frame.size;
         let buffers = frame_buffers(device, u, width as u64 * height as u64);
         let compute = self.compute_work(device, u, &uniform, &buffers);
-        let group = bind(
+        let group = bind_buffers(
             device,
+            "surfels",
             &self.resolve_layout,
             &[&uniform, &u.surfels, &u.patches, &buffers.visibility],
         );
