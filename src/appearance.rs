@@ -130,6 +130,11 @@ impl Image {
         &self.levels[0].pixels
     }
 
+    /// The mip chain, full size first: each level's width, height and row-major pixels.
+    pub fn levels(&self) -> impl Iterator<Item = (usize, usize, &[[u8; 4]])> {
+        (self.levels.iter()).map(|l| (l.width, l.height, l.pixels.as_slice()))
+    }
+
     /// The color at (u, v) averaged over a footprint `footprint` full-size pixels wide:
     /// bilinear up to one pixel, blended between the two mip levels around it beyond.
     pub fn sample(&self, uv: DVec2, footprint: f64) -> [f64; 4] {

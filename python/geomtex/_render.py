@@ -4,7 +4,6 @@ objects, mesh files) besides geomtex objects, turning it into a Mesh before the 
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -12,22 +11,17 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._mesh import AppearanceWarning, as_mesh
+from ._mesh import as_mesh
 
 _NATIVE = (_core.Scene, _core.GeometryTextureSet, _core.Mesh, _core.Surfels, _core.GdmShell, _core.IgtMesh)
 
 
 def renderable(obj: Any) -> Any:
-    """`obj` itself if the extension draws it, else a Mesh made from it; a textured mesh is
-    drawn with its texture's color at each corner only, with an AppearanceWarning."""
+    """`obj` itself if the extension draws it, else a Mesh made from it."""
     core_shell = getattr(obj, "_core_shell", None)  # a geomtex.gdm.Shell
     if core_shell is not None:
         return core_shell()
-    drawn = obj if isinstance(obj, _NATIVE) else as_mesh(obj)
-    if isinstance(drawn, _core.Mesh) and drawn.textured:
-        warnings.warn("a rasterized mesh shows its texture's color at each corner only; convert it "
-                      "to a texture set to see the texture", AppearanceWarning, stacklevel=3)
-    return drawn
+    return obj if isinstance(obj, _NATIVE) else as_mesh(obj)
 
 
 @dataclass(frozen=True)

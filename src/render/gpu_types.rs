@@ -60,13 +60,15 @@ pub(crate) struct MeshObjectGpu {
     pub ids: [i32; 4],
 }
 
-/// `VsIn` in mesh_raster.wgsl (vertex buffer 0: Float32x3, Float32x3, Unorm8x4).
+/// `VsIn` in mesh_raster.wgsl (vertex buffer 0: Float32x3, Float32x3, Unorm8x4, Float32x2).
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
 pub(crate) struct MeshVertex {
     pub position: [f32; 3],
     pub normal: [f32; 3],
     pub color: [u8; 4],
+    /// Texture coordinates (appearance.rs's convention); 0 without a texture.
+    pub uv: [f32; 2],
 }
 
 /// `GdmObject` in gdm_types.wgsl.
@@ -181,7 +183,7 @@ wgsl_size!(PrismGpu, 128);
 const _: () = assert!(size_of::<GdmVertex>() == 16);
 
 // A vertex buffer, not a WGSL struct: tightly packed as the attribute formats say.
-const _: () = assert!(size_of::<MeshVertex>() == 28);
+const _: () = assert!(size_of::<MeshVertex>() == 36);
 const _: () = assert!(offset_of!(MeshVertex, normal) == 12);
 const _: () = assert!(offset_of!(MeshVertex, color) == 24);
 

@@ -1,7 +1,8 @@
 //! Ordinary triangle meshes, rasterized (mesh_raster.wgsl) into the same targets as the ray-cast
 //! kinds, so the nearer surface wins at every pixel. Two-sided, as a ray caster sees them, and
 //! shaded by the same normal rule as `convert` (crease-split by default, `mesh::NormalRule`).
-//! Vertices go up unwelded, three per face, each with its corner's normal and color.
+//! Vertices go up unwelded, three per face, each with its corner's normal, color and texture
+//! coordinates; a textured mesh's image goes up once with its mip chain and is sampled per pixel.
 //!
 //! Meshes are traced too (ray queries and shadow rays): a hierarchy over their triangles (bvh.rs,
 //! its shape built once per mesh in object space) is refitted to the triangles as each query
@@ -19,6 +20,7 @@ use wgpu::util::DeviceExt;
 use super::{
     bind_buffers, storage_buffer, DrawCall, FrameView, Kind, Tally, TraceCall, UploadCache,
 };
+use crate::appearance::{Image, Texture, TextureCoords};
 use crate::error::Result;
 use crate::mesh::{Mesh, MeshGeometry, NormalRule};
 use crate::render::bvh::{Aabb, Bvh};
@@ -28,7 +30,8 @@ use crate::render::gpu_types::{
     gpu_matrix, normal_matrix, MeshObjectGpu, MeshTraceGpu, MeshVertex, TraceTriangleGpu,
 };
 use crate::render::pipelines::{
-    compute_pipeline, storage_entry, uniform_entry, RasterPipeline, VERTEX_AND_FRAGMENT,
+    compute_pipeline, storage_entry, texture_entry, uniform_entry, RasterPipeline,
+    VERTEX_AND_FRAGMENT,
 };
 use crate::render::scene::{Object, SceneObject};
 use crate::render::shaders;
@@ -44,17 +47,23 @@ struct UploadedMesh {
     hi: DVec3,
 }
 
-/// Everything kept of one mesh: its uploads under each normal rule it was drawn with, and the
-/// shape of the hierarchy over its triangles, built the first time it is traced.
+/// Everything kept of one mesh: its uploads under each normal rule it was drawn with, its
+/// texture image (uploaded with the first of them), and the shape of the hierarchy over its
+/// triangles, built the first time it is traced.
 #[derive(Default)]
 struct MeshUploads {
     drawn: Vec<(NormalRule, UploadedMesh)>,
+    image: Option<wgpu::TextureView>,
     tree: OnceLock<Bvh>,
 }
 
 pub(crate) struct MeshKind {
     layout: wgpu::BindGroupLayout,
     pipeline: wgpu::RenderPipeline,
+    /// Repeating, trilinear: how a rasterizer samples a mesh's texture.
+    sampler: wgpu::Sampler,
+    /// The image of meshes without a texture: one white pixel, so vertex colors pass unchanged.
+    white: wgpu::TextureView,
     trace_layout: wgpu::BindGroupLayout,
     trace_pipeline: wgpu::ComputePipeline,
     uploads: UploadCache<Mesh, MeshUploads>,
@@ -62,10 +71,11 @@ pub(crate) struct MeshKind {
 
 impl MeshKind {
     pub fn new(
-        device: &wgpu::Device,
+        gpu: &Gpu,
         frame_layout: &wgpu::BindGroupLayout,
         query_layout: &wgpu::BindGroupLayout,
     ) -> MeshKind {
+        let (device, queue) = (&gpu.device, &gpu.queue);
         let compute = wgpu::ShaderStages::COMPUTE;
         // Group 1 of mesh_trace_bindings.wgsl.
         let trace_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -84,14 +94,31 @@ impl MeshKind {
             &[],
         );
         // Group 1 of mesh_bindings.wgsl.
+        let fragment = wgpu::ShaderStages::FRAGMENT;
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("mesh object"),
-            entries: &[uniform_entry(0, VERTEX_AND_FRAGMENT)],
+            entries: &[
+                uniform_entry(0, VERTEX_AND_FRAGMENT),
+                texture_entry(
+                    1,
+                    fragment,
+                    wgpu::TextureSampleType::Float { filterable: true },
+                    wgpu::TextureViewDimension::D2,
+                ),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 2,
+                    visibility: fragment,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                    count: None,
+                },
+            ],
         });
         let vertex_layout = wgpu::VertexBufferLayout {
             array_stride: size_of::<MeshVertex>() as u64,
             step_mode: wgpu::VertexStepMode::Vertex,
-            attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Unorm8x4],
+            attributes: &wgpu::vertex_attr_array![
+                0 => Float32x3, 1 => Float32x3, 2 => Unorm8x4, 3 => Float32x2
+            ],
         };
         let pipeline = RasterPipeline {
             label: "mesh_raster",
@@ -103,9 +130,21 @@ impl MeshKind {
             constants: &[],
         }
         .build(device);
+        let repeat = wgpu::AddressMode::Repeat;
+        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("mesh texture"),
+            address_mode_u: repeat,
+            address_mode_v: repeat,
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            mipmap_filter: wgpu::MipmapFilterMode::Linear,
+            ..Default::default()
+        });
         MeshKind {
             layout,
             pipeline,
+            sampler,
+            white: image_texture(device, queue, 1, 1, &[[255u8; 4]]),
             trace_layout,
             trace_pipeline,
             uploads: UploadCache::default(),
@@ -136,23 +175,93 @@ fn placed_triangles(mesh: &Mesh, view_from_object: &DMat4) -> (Vec<TraceTriangle
         .unzip()
 }
 
-/// De-indexed vertices, three per face, with their corners' normals under `rule` and base
-/// colors (vertex or face colors; a texture's color at each corner).
+/// A sampled RGBA8 texture of `levels` (full size first, each row-major with row 0 at the top).
+fn image_texture(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    width: usize,
+    height: usize,
+    levels: &[[u8; 4]],
+) -> wgpu::TextureView {
+    let mip_level_count = (width.max(height).ilog2() + 1).min(levels_in(levels, width, height));
+    device
+        .create_texture_with_data(
+            queue,
+            &wgpu::TextureDescriptor {
+                label: Some("mesh texture"),
+                size: wgpu::Extent3d {
+                    width: width as u32,
+                    height: height as u32,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                // Unorm, not sRGB: texel values are averaged as stored, as conversion does.
+                format: wgpu::TextureFormat::Rgba8Unorm,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING,
+                view_formats: &[],
+            },
+            wgpu::util::TextureDataOrder::LayerMajor,
+            bytemuck::cast_slice(&levels[..texels_in(width, height, mip_level_count)]),
+        )
+        .create_view(&Default::default())
+}
+
+/// Texels in the first `count` levels of a mip chain starting at `width` x `height` (each level
+/// half the last, rounded up, as `Image` and wgpu both size them).
+fn texels_in(width: usize, height: usize, count: u32) -> usize {
+    (0..count)
+        .map(|k| (width >> k).max(1) * (height >> k).max(1))
+        .sum()
+}
+
+/// How many whole levels `texels` holds.
+fn levels_in(texels: &[[u8; 4]], width: usize, height: usize) -> u32 {
+    (1..=32)
+        .take_while(|&k| texels_in(width, height, k) <= texels.len())
+        .last()
+        .unwrap_or(1)
+}
+
+/// The mesh's image as a sampled texture, starting at the first mip level the adapter can hold.
+fn upload_image(gpu: &Gpu, image: &Image) -> wgpu::TextureView {
+    let limit = gpu.device.limits().max_texture_dimension_2d as usize;
+    let levels: Vec<(usize, usize, &[[u8; 4]])> = (image.levels())
+        .skip_while(|(w, h, _)| *w > limit || *h > limit)
+        .collect();
+    let (w, h) = (levels[0].0, levels[0].1);
+    let texels: Vec<[u8; 4]> = levels.iter().flat_map(|l| l.2.iter().copied()).collect();
+    image_texture(&gpu.device, &gpu.queue, w, h, &texels)
+}
+
+/// De-indexed vertices, three per face, with their corners' normals under `rule`, base colors
+/// (vertex or face colors; white where a texture gives the color) and texture coordinates.
 fn upload(gpu: &Gpu, mesh: &Mesh, rule: NormalRule) -> UploadedMesh {
     let (lo, hi) = mesh.bounds();
     let centre = 0.5 * (lo + hi);
     let normals = MeshGeometry::new(mesh).corner_normals(mesh, rule);
+    let texture = mesh.appearance.texture.as_ref();
     let mut vertices = Vec::with_capacity(mesh.faces.len() * 3);
     for (f, (t, n)) in mesh.faces.iter().zip(&normals).enumerate() {
         let colors = mesh.face_color(f as u32, None);
+        let uv = texture.map(|Texture { coords, .. }| match coords {
+            TextureCoords::PerVertex(uv) => t.map(|v| uv[v as usize]),
+            TextureCoords::PerCorner(uv) => uv[f],
+        });
         for k in 0..3 {
+            let corner = std::array::from_fn(|c| f64::from(u8::from(c == k)));
             vertices.push(MeshVertex {
                 position: (mesh.positions[t[k] as usize] - centre)
                     .as_vec3()
                     .to_array(),
                 normal: n[k].as_vec3().to_array(),
-                // A texture is only sampled at the corners (the Python layer warns).
-                color: colors.at(std::array::from_fn(|c| f64::from(u8::from(c == k)))),
+                color: if uv.is_some() {
+                    [255; 4]
+                } else {
+                    colors.at(corner)
+                },
+                uv: uv.map_or([0.0; 2], |uv| uv[k].as_vec2().to_array()),
             });
         }
     }
@@ -183,7 +292,11 @@ impl Kind for MeshKind {
         let Object::Mesh(mesh, rule) = object else {
             return Ok(false);
         };
-        let uploads = &mut self.uploads.entry(mesh).drawn;
+        let uploads = self.uploads.entry(mesh);
+        if let (None, Some(texture)) = (&uploads.image, &mesh.appearance.texture) {
+            uploads.image = Some(upload_image(gpu, &texture.image));
+        }
+        let uploads = &mut uploads.drawn;
         if !uploads.iter().any(|(r, _)| r == rule) {
             uploads.push((*rule, upload(gpu, mesh, *rule)));
         }
@@ -202,8 +315,9 @@ impl Kind for MeshKind {
         let Object::Mesh(mesh, rule) = &placed.object else {
             return None;
         };
-        let uploads = &self.uploads.get(mesh)?.drawn;
-        let (_, u) = uploads.iter().find(|(r, _)| r == rule)?;
+        let uploads = self.uploads.get(mesh)?;
+        let (_, u) = uploads.drawn.iter().find(|(r, _)| r == rule)?;
+        let image = uploads.image.as_ref().unwrap_or(&self.white);
         let view_from_object = frame.view_from_world * placed.world_from_object;
         let view_from_local = view_from_object * DMat4::from_translation(u.centre);
         let record = MeshObjectGpu {
@@ -221,10 +335,20 @@ impl Kind for MeshKind {
         let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("mesh object"),
             layout: &self.layout,
-            entries: &[wgpu::BindGroupEntry {
-                binding: 0,
-                resource: buffer.as_entire_binding(),
-            }],
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(image),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: wgpu::BindingResource::Sampler(&self.sampler),
+                },
+            ],
         });
         Some(DrawCall {
             pipeline: self.pipeline.clone(),

@@ -38,7 +38,7 @@ pub(crate) fn registered(
     let device = &gpu.device;
     vec![
         Box::new(gtex::GtexKind::new(device, frame_layout, query_layout)),
-        Box::new(mesh::MeshKind::new(device, frame_layout, query_layout)),
+        Box::new(mesh::MeshKind::new(gpu, frame_layout, query_layout)),
         Box::new(surfels::SurfelsKind::new(
             device,
             frame_layout,
