@@ -144,7 +144,7 @@ impl MeshKind {
             layout,
             pipeline,
             sampler,
-            white: image_texture(device, queue, 1, 1, &[[255u8; 4]]),
+            white: image_texture(device, queue, &[(1, 1, &[[255u8; 4]])]),
             trace_layout,
             trace_pipeline,
             uploads: UploadCache::default(),
@@ -175,26 +175,26 @@ fn placed_triangles(mesh: &Mesh, view_from_object: &DMat4) -> (Vec<TraceTriangle
         .unzip()
 }
 
-/// A sampled RGBA8 texture of `levels` (full size first, each row-major with row 0 at the top).
+/// A sampled RGBA8 texture from `levels` (full size first, each row-major with row 0 at the top,
+/// each `width >> k` by `height >> k` pixels, at least 1, as wgpu sizes mip levels).
 fn image_texture(
     device: &wgpu::Device,
     queue: &wgpu::Queue,
-    width: usize,
-    height: usize,
-    levels: &[[u8; 4]],
+    levels: &[(usize, usize, &[[u8; 4]])],
 ) -> wgpu::TextureView {
-    let mip_level_count = (width.max(height).ilog2() + 1).min(levels_in(levels, width, height));
+    let (width, height) = (levels[0].0 as u32, levels[0].1 as u32);
+    let texels: Vec<[u8; 4]> = levels.iter().flat_map(|l| l.2.iter().copied()).collect();
     device
         .create_texture_with_data(
             queue,
             &wgpu::TextureDescriptor {
                 label: Some("mesh texture"),
                 size: wgpu::Extent3d {
-                    width: width as u32,
-                    height: height as u32,
+                    width,
+                    height,
                     depth_or_array_layers: 1,
                 },
-                mip_level_count,
+                mip_level_count: levels.len() as u32,
                 sample_count: 1,
                 dimension: wgpu::TextureDimension::D2,
                 // Unorm, not sRGB: texel values are averaged as stored, as conversion does.
@@ -203,36 +203,27 @@ fn image_texture(
                 view_formats: &[],
             },
             wgpu::util::TextureDataOrder::LayerMajor,
-            bytemuck::cast_slice(&levels[..texels_in(width, height, mip_level_count)]),
+            bytemuck::cast_slice(&texels),
         )
         .create_view(&Default::default())
 }
 
-/// Texels in the first `count` levels of a mip chain starting at `width` x `height` (each level
-/// half the last, rounded up, as `Image` and wgpu both size them).
-fn texels_in(width: usize, height: usize, count: u32) -> usize {
-    (0..count)
-        .map(|k| (width >> k).max(1) * (height >> k).max(1))
-        .sum()
-}
-
-/// How many whole levels `texels` holds.
-fn levels_in(texels: &[[u8; 4]], width: usize, height: usize) -> u32 {
-    (1..=32)
-        .take_while(|&k| texels_in(width, height, k) <= texels.len())
-        .last()
-        .unwrap_or(1)
-}
-
-/// The mesh's image as a sampled texture, starting at the first mip level the adapter can hold.
+/// The mesh's image as a sampled texture: from the first level of its mip chain the adapter can
+/// hold, through the levels sized as wgpu sizes them. `Image` rounds odd sizes up where wgpu
+/// rounds down, so an image whose sides are not powers of two keeps only its leading levels
+/// (minified further, it is sampled from the smallest of them).
 fn upload_image(gpu: &Gpu, image: &Image) -> wgpu::TextureView {
     let limit = gpu.device.limits().max_texture_dimension_2d as usize;
-    let levels: Vec<(usize, usize, &[[u8; 4]])> = (image.levels())
-        .skip_while(|(w, h, _)| *w > limit || *h > limit)
+    let mut levels = image
+        .levels()
+        .skip_while(|(w, h, _)| *w > limit || *h > limit);
+    let first = levels.next().expect("an image has a 1 x 1 level");
+    let wgpu_size = |k: usize| ((first.0 >> k).max(1), (first.1 >> k).max(1));
+    let following = (levels.enumerate()).take_while(|(k, (w, h, _))| wgpu_size(k + 1) == (*w, *h));
+    let levels: Vec<_> = std::iter::once(first)
+        .chain(following.map(|(_, l)| l))
         .collect();
-    let (w, h) = (levels[0].0, levels[0].1);
-    let texels: Vec<[u8; 4]> = levels.iter().flat_map(|l| l.2.iter().copied()).collect();
-    image_texture(&gpu.device, &gpu.queue, w, h, &texels)
+    image_texture(&gpu.device, &gpu.queue, &levels)
 }
 
 /// De-indexed vertices, three per face, with their corners' normals under `rule`, base colors
