@@ -8,10 +8,11 @@
 
 @compute @workgroup_size(64)
 fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
-    let i = id.y * query.counts.z + id.x;
-    if (i >= query.counts.x) {
+    let index = query_ray_index(id);
+    if (index < 0) {
         return;
     }
+    let i = u32(index);
     let ray = rays[i];
     let p = (tiles.grid_from_view * vec4<f32>(ray.origin, 1.0)).xyz;
     let pixel = (p.xy - tiles.grid.zw) / tiles.grid.xy;

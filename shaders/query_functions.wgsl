@@ -12,11 +12,12 @@ struct QueryTrace {
 }
 
 fn trace_query_ray(id: vec3<u32>) -> QueryTrace {
-    let i = id.y * query.counts.z + id.x;
     var out = QueryTrace(-1, QueryRay(vec3<f32>(0.0), 0.0, vec3<f32>(0.0), 0u), TraceHit(0.0, -1));
-    if (i >= query.counts.x) {
+    let index = query_ray_index(id);
+    if (index < 0) {
         return out;
     }
+    let i = u32(index);
     out.ray = rays[i];
     let any_hit = query.counts.y == 1u;
     out.found = trace_nearest(out.ray.origin, out.ray.dir, out.ray.t_min, hits[i].t, any_hit);

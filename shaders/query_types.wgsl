@@ -24,7 +24,7 @@ struct QueryHit {
 }
 
 struct Query {
-    // x: rays in this batch, y: 1 to stop at any hit (shadow rays), z: invocations per row of
-    // the dispatch.
+    // x: rays this dispatch traces (the length of `traced_rays`), y: 1 to stop at any hit (shadow
+    // rays), z: invocations per row of the dispatch.
     counts: vec4<u32>,
 }

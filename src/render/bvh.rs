@@ -37,6 +37,20 @@ impl Aabb {
         hi: DVec3::NEG_INFINITY,
     };
 
+    /// Whether the ray o + t d meets the box for some t in [t0, t1] (slab test; a zero
+    /// direction component is an infinite inverse, which the comparisons handle).
+    pub fn meets(&self, o: DVec3, d: DVec3, (t0, t1): (f64, f64)) -> bool {
+        if self.lo.cmpgt(self.hi).any() {
+            return false;
+        }
+        let inverse = d.recip();
+        let (a, b) = ((self.lo - o) * inverse, (self.hi - o) * inverse);
+        let near = a.min(b).max_element().max(t0);
+        let far = a.max(b).min_element().min(t1);
+        // NaN (0 * inf where the ray lies in a slab's plane) keeps the ray: conservative.
+        near.partial_cmp(&far) != Some(std::cmp::Ordering::Greater)
+    }
+
     pub fn of_points(points: impl IntoIterator<Item = DVec3>) -> Aabb {
         points.into_iter().fold(Aabb::EMPTY, |b, p| Aabb {
             lo: b.lo.min(p),
@@ -44,7 +58,7 @@ impl Aabb {
         })
     }
 
-    fn union(self, other: Aabb) -> Aabb {
+    pub fn union(self, other: Aabb) -> Aabb {
         Aabb {
             lo: self.lo.min(other.lo),
             hi: self.hi.max(other.hi),
@@ -228,6 +242,22 @@ mod tests {
     fn unit_at(x: f64, y: f64, z: f64) -> Aabb {
         let lo = DVec3::new(x, y, z);
         Aabb { lo, hi: lo + 1.0 }
+    }
+
+    #[test]
+    fn rays_meet_a_box_only_within_their_stretch() {
+        let b = unit_at(0.0, 0.0, 0.0);
+        let x = DVec3::X;
+        let o = DVec3::new(-2.0, 0.5, 0.5);
+        assert!(b.meets(o, x, (0.0, f64::MAX)));
+        // Entered at t = 2, left at t = 3.
+        assert!(!b.meets(o, x, (0.0, 1.9)));
+        assert!(!b.meets(o, x, (3.1, 9.0)));
+        assert!(b.meets(o, x, (2.5, 2.6)));
+        // Beside the box, and along a face's plane (0 × inf): kept, conservatively.
+        assert!(!b.meets(DVec3::new(-2.0, 1.5, 0.5), x, (0.0, f64::MAX)));
+        assert!(b.meets(DVec3::new(-2.0, 1.0, 0.5), x, (0.0, f64::MAX)));
+        assert!(!Aabb::EMPTY.meets(o, x, (0.0, f64::MAX)));
     }
 
     /// Every box is in exactly one leaf, and every node's bounds hold its children's.

@@ -13,7 +13,7 @@ use wgpu::util::DeviceExt;
 
 use super::device::guarded;
 use super::gpu_types::{QueryGpu, QueryHitGpu, QueryRayGpu};
-use super::kinds::{Tally, TraceCall};
+use super::kinds::{storage_buffer, Tally, TraceCall};
 use super::pipelines::{storage_entry, uniform_entry};
 use super::{Renderer, Scene, SearchOptions};
 use crate::cancel::Cancel;
@@ -47,6 +47,7 @@ pub(crate) fn query_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
             uniform_entry(0, compute),
             storage_entry(1, compute, true),
             storage_entry(2, compute, false),
+            storage_entry(3, compute, true),
         ],
     })
 }
@@ -156,7 +157,8 @@ impl Renderer {
     }
 
     /// Traces one batch through every object's dispatch in turn (each no further than the
-    /// nearest hit so far) and reads the hits back.
+    /// nearest hit so far, and each only for the rays its test says may reach it) and reads the
+    /// hits back.
     fn run_batch(
         &self,
         traces: &[TraceCall],
@@ -166,13 +168,13 @@ impl Renderer {
         any_hit: bool,
     ) -> Result<Vec<QueryHitGpu>> {
         let device = &self.gpu.device;
-        let range = |i: usize| ranges.map_or((0.0, f32::MAX), |r| (r[i].0 as f32, r[i].1 as f32));
+        let range = |i: usize| ranges.map_or((0.0, f64::from(f32::MAX)), |r| r[i]);
         let gpu_rays: Vec<QueryRayGpu> = rays
             .iter()
             .enumerate()
             .map(|(i, &(o, d))| QueryRayGpu {
                 origin: (o - centre).as_vec3().to_array(),
-                t_min: range(i).0,
+                t_min: range(i).0 as f32,
                 dir: d.as_vec3().to_array(),
                 _pad: 0,
             })
@@ -181,60 +183,58 @@ impl Renderer {
         let hits_init: Vec<QueryHitGpu> = (0..rays.len())
             .map(|i| QueryHitGpu {
                 normal: [0.0; 3],
-                t: range(i).1,
+                t: range(i).1 as f32,
                 id: -1,
                 _pad: [0; 3],
             })
             .collect();
-        let workgroups = (rays.len() as u32).div_ceil(WORKGROUP);
-        let per_row = workgroups.min(device.limits().max_compute_workgroups_per_dimension);
-        let rows = workgroups.div_ceil(per_row.max(1));
-        let settings = QueryGpu {
-            counts: [rays.len() as u32, any_hit as u32, per_row * WORKGROUP, 0],
-        };
-        let buffer = |label, contents: &[u8], usage| {
-            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents,
-                usage,
-            })
-        };
         let storage = wgpu::BufferUsages::STORAGE;
-        let settings = buffer(
-            "query",
-            bytemuck::bytes_of(&settings),
-            wgpu::BufferUsages::UNIFORM,
-        );
-        let rays_buffer = buffer("query rays", bytemuck::cast_slice(&gpu_rays), storage);
-        let hits = buffer(
-            "query hits",
-            bytemuck::cast_slice(&hits_init),
-            storage | wgpu::BufferUsages::COPY_SRC,
-        );
-        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("ray query"),
-            layout: &self.query_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: settings.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: rays_buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: hits.as_entire_binding(),
-                },
-            ],
+        let rays_buffer = storage_buffer(device, "query rays", bytemuck::cast_slice(&gpu_rays));
+        let hits = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("query hits"),
+            contents: bytemuck::cast_slice(&hits_init),
+            usage: storage | wgpu::BufferUsages::COPY_SRC,
         });
         let mut encoder = device.create_command_encoder(&Default::default());
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());
             pass.set_bind_group(0, &self.frame_bindings.group, &[]);
-            pass.set_bind_group(2, &group, &[]);
             for trace in traces {
+                let active: Vec<u32> = (0..rays.len() as u32)
+                    .filter(|&i| {
+                        let (o, d) = rays[i as usize];
+                        (trace.reaches)(o - centre, d, range(i as usize))
+                    })
+                    .collect();
+                if active.is_empty() {
+                    continue;
+                }
+                let (settings, per_row, rows) = self.dispatch_settings(active.len(), any_hit);
+                let settings = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("query"),
+                    contents: bytemuck::bytes_of(&settings),
+                    usage: wgpu::BufferUsages::UNIFORM,
+                });
+                let active =
+                    storage_buffer(device, "query rays traced", bytemuck::cast_slice(&active));
+                let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("ray query"),
+                    layout: &self.query_layout,
+                    entries: &[
+                        settings.as_entire_binding(),
+                        rays_buffer.as_entire_binding(),
+                        hits.as_entire_binding(),
+                        active.as_entire_binding(),
+                    ]
+                    .into_iter()
+                    .enumerate()
+                    .map(|(binding, resource)| wgpu::BindGroupEntry {
+                        binding: binding as u32,
+                        resource,
+                    })
+                    .collect::<Vec<_>>(),
+                });
+                pass.set_bind_group(2, &group, &[]);
                 pass.set_pipeline(&trace.pipeline);
                 pass.set_bind_group(1, &trace.group, &[]);
                 pass.dispatch_workgroups(per_row, rows, 1);
@@ -242,5 +242,21 @@ impl Renderer {
         }
         let bytes = super::targets::read_buffer(&self.gpu, encoder, &hits)?;
         Ok(bytemuck::cast_slice(&bytes).to_vec())
+    }
+
+    /// A dispatch of `rays` invocations in rows under the adapter's per-dimension limit.
+    fn dispatch_settings(&self, rays: usize, any_hit: bool) -> (QueryGpu, u32, u32) {
+        let workgroups = (rays as u32).div_ceil(WORKGROUP);
+        let limit = self
+            .gpu
+            .device
+            .limits()
+            .max_compute_workgroups_per_dimension;
+        let per_row = workgroups.min(limit);
+        let rows = workgroups.div_ceil(per_row.max(1));
+        let settings = QueryGpu {
+            counts: [rays as u32, any_hit as u32, per_row * WORKGROUP, 0],
+        };
+        (settings, per_row, rows)
     }
 }

@@ -48,6 +48,7 @@ const HEIGHTFIELD_FUNCTIONS: &str = shader!("heightfield_functions.wgsl");
 const GTEX_PIECE_FUNCTIONS: &str = shader!("gtex_piece_functions.wgsl");
 const RAY_BOX_FUNCTIONS: &str = shader!("ray_box_functions.wgsl");
 const TRACE_FUNCTIONS: &str = shader!("trace_functions.wgsl");
+const QUERY_INDEX_FUNCTIONS: &str = shader!("query_index_functions.wgsl");
 const QUERY_FUNCTIONS: &str = shader!("query_functions.wgsl");
 const GTEX_FRAGMENT_FUNCTIONS: &str = shader!("gtex_fragment_functions.wgsl");
 const GTEX_TILES_FUNCTIONS: &str = shader!("gtex_tiles_functions.wgsl");
@@ -121,6 +122,7 @@ pub fn gtex_tiles_rays() -> String {
         RAY_BOX_FUNCTIONS,
         GTEX_PIECE_FUNCTIONS,
         GTEX_TILES_FUNCTIONS,
+        QUERY_INDEX_FUNCTIONS,
         GTEX_TILES_RAYS,
     ])
 }
@@ -142,6 +144,7 @@ pub fn gtex_trace_rays() -> String {
         RAY_BOX_FUNCTIONS,
         GTEX_PIECE_FUNCTIONS,
         TRACE_FUNCTIONS,
+        QUERY_INDEX_FUNCTIONS,
         QUERY_FUNCTIONS,
         GTEX_TRACE_FUNCTIONS,
         GTEX_TRACE_RAYS,
@@ -161,6 +164,7 @@ pub fn mesh_trace_rays() -> String {
         QUERY_BINDINGS,
         RAY_BOX_FUNCTIONS,
         TRACE_FUNCTIONS,
+        QUERY_INDEX_FUNCTIONS,
         QUERY_FUNCTIONS,
         MESH_TRACE_FUNCTIONS,
         MESH_TRACE_RAYS,
@@ -209,6 +213,7 @@ pub fn gdm_trace_rays() -> String {
         QUERY_BINDINGS,
         RAY_BOX_FUNCTIONS,
         TRACE_FUNCTIONS,
+        QUERY_INDEX_FUNCTIONS,
         QUERY_FUNCTIONS,
         GDM_FUNCTIONS,
         GDM_TRACE_FUNCTIONS,

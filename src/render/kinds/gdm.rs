@@ -317,16 +317,19 @@ impl Kind for GdmKind {
         let tree = u.tree.get_or_init(|| Bvh::build(&boxes(DMat4::IDENTITY)));
         let query_from_local =
             view_from_world * placed.world_from_object * DMat4::from_translation(u.centre);
-        let nodes = tree.refit(&boxes(query_from_local));
+        let bounds = boxes(query_from_local);
+        let nodes = tree.refit(&bounds);
         let record = shell_record(shell, u, view_from_world, placed.world_from_object, id);
         let device = &gpu.device;
         let record = storage_buffer(device, "gdm shell", bytemuck::bytes_of(&record));
         let nodes = storage_buffer(device, "prism hierarchy", bytemuck::cast_slice(&nodes));
         let buffers = [&record, &u.prisms, &u.radii, &u.weights, &u.eigen, &nodes];
-        Ok(Some(TraceCall {
-            pipeline: self.trace_pipeline.clone(),
-            group: bind_buffers(device, "gdm shell (tracer)", &self.trace_layout, &buffers),
-        }))
+        let group = bind_buffers(device, "gdm shell (tracer)", &self.trace_layout, &buffers);
+        Ok(Some(TraceCall::within(
+            self.trace_pipeline.clone(),
+            group,
+            &bounds,
+        )))
     }
 
     fn purge(&mut self) {

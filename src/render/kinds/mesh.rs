@@ -381,10 +381,11 @@ impl Kind for MeshKind {
         let triangles = storage_buffer(device, "triangles", bytemuck::cast_slice(&triangles));
         let buffers = [&settings, &nodes, &triangles];
         let group = bind_buffers(device, "mesh (tracer)", &self.trace_layout, &buffers);
-        Ok(Some(TraceCall {
-            pipeline: self.trace_pipeline.clone(),
+        Ok(Some(TraceCall::within(
+            self.trace_pipeline.clone(),
             group,
-        }))
+            &boxes,
+        )))
     }
 
     fn purge(&mut self) {

@@ -581,10 +581,9 @@ impl Kind for GtexKind {
             (6, nodes.as_entire_binding()),
             (7, tracing.pieces.buffer.as_entire_binding()),
         ];
-        Ok(Some(TraceCall {
-            pipeline: self.trace_pipeline.clone(),
-            group: self.bind_group(device, &self.trace_layout, upload, &records, extra),
-        }))
+        let group = self.bind_group(device, &self.trace_layout, upload, &records, extra);
+        let pipeline = self.trace_pipeline.clone();
+        Ok(Some(TraceCall::within(pipeline, group, &bounds)))
     }
 
     /// Parallel rays walk tiles seen along their direction (tiles.rs, `parallel`) instead of
@@ -619,6 +618,7 @@ impl Kind for GtexKind {
         Ok(Some(TraceCall {
             pipeline: self.tiles_trace_pipeline.clone(),
             group,
+            reaches: tiles.reaches(),
         }))
     }
 

@@ -150,6 +150,29 @@ impl TileLists {
     }
 }
 
+impl TileLists {
+    /// Parallel rays' test (kinds::RayTest): whether a ray starts in a tile whose list is not
+    /// empty, found as gtex_tiles_rays.wgsl finds it (from the header's f32 values; a box's
+    /// footprint has a pixel of slack, so rounding cannot drop a ray that enters it).
+    pub fn reaches(&self) -> crate::render::kinds::RayTest {
+        let m = self.header.grid_from_view;
+        let grid_from_view = DMat4::from_cols_array_2d(&m.map(|c| c.map(f64::from)));
+        let [sx, sy, ox, oy] = self.header.grid.map(f64::from);
+        let [across, down, tile, _] = self.header.size;
+        let listed: Vec<bool> = self.ranges.iter().map(|r| r[1] > 0).collect();
+        Box::new(move |o, _, _| {
+            let p = grid_from_view.transform_point3(o);
+            let (x, y) = ((p.x - ox) / sx, (p.y - oy) / sy);
+            let (w, h) = (f64::from(across * tile), f64::from(down * tile));
+            if !(x >= 0.0 && y >= 0.0 && x < w && y < h) {
+                return false;
+            }
+            let (tx, ty) = (x as u32 / tile, y as u32 / tile);
+            listed[(ty * across + tx) as usize]
+        })
+    }
+}
+
 /// The lists for `boxes` (index and corners in the query's frame) tiled as seen along
 /// `direction` (unit): an orthographic grid whose -Z is the direction, over the boxes' extent,
 /// so that each ray along `direction` stays in one tile (gtex_tiles_rays.wgsl).
