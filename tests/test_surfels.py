@@ -268,15 +268,16 @@ def test_far_models_draw_fewer_surfels_than_tiles_and_keep_their_outline(
 
 
 @pytest.mark.parametrize(("fraction", "per_pixel_max"), [
-    (1 / 4, 4.0),   # measured 2.55 surfels per covered pixel (26,337 on 10,347 px)
+    (1 / 4, 3.5),   # measured 2.55 surfels per covered pixel (26,337 on 10,347 px)
     (1 / 8, 8.0),   # measured 6.29 (15,827 on 2,518 px)
 ])
 def test_a_noisy_scan_draws_surfels_in_proportion_to_its_coverage(
         bunny: Converted, bunny_surfels: gt.Surfels, caster: reference.RayCaster, fraction: float,
         per_pixel_max: float) -> None:
     """The Stanford scan's noisy finest normals do not count as grazing: levels are chosen by the
-    normal spread of the discs drawn, so a far scan draws a few surfels per covered pixel (with
-    the finest normals' cones: 8.1 at 1/4, 11.8 at 1/8) and keeps its outline against trimesh."""
+    normal spread of the discs drawn, so a far scan draws a few surfels per covered pixel and
+    keeps its outline against trimesh. A build choosing by the finest normals' cones (all else
+    as here) drew 3.83 at 1/4 and 8.59 at 1/8 and failed both bounds."""
     size = 512
     cam = backed_away(bunny.mesh, fraction)
     frame = gt.Renderer(size, size).render(bunny_surfels, cam)
