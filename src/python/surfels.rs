@@ -171,13 +171,28 @@ impl PySurfels {
         let d = PyDict::new(py);
         let pos: Vec<[f64; 3]> = n.iter().map(|n| n.surfel.position.to_array()).collect();
         let normal: Vec<[f64; 3]> = n.iter().map(|n| n.surfel.normal.to_array()).collect();
-        let cone: Vec<[f64; 4]> = n.iter().map(|n| n.cone.0.extend(n.cone.1).to_array()).collect();
-        let sphere: Vec<[f64; 4]> = n.iter().map(|n| n.centre.extend(n.bound).to_array()).collect();
+        let cone: Vec<[f64; 4]> = n
+            .iter()
+            .map(|n| n.cone.0.extend(n.cone.1).to_array())
+            .collect();
+        let sphere: Vec<[f64; 4]> = n
+            .iter()
+            .map(|n| n.centre.extend(n.bound).to_array())
+            .collect();
         d.set_item("position", rows(py, &pos))?;
         d.set_item("normal", rows(py, &normal))?;
-        d.set_item("radius", PyArray1::from_iter(py, n.iter().map(|n| n.surfel.radius)))?;
-        d.set_item("level", PyArray1::from_iter(py, n.iter().map(|n| n.surfel.level as i32)))?;
-        d.set_item("parent", PyArray1::from_iter(py, n.iter().map(|n| index(n.parent))))?;
+        d.set_item(
+            "radius",
+            PyArray1::from_iter(py, n.iter().map(|n| n.surfel.radius)),
+        )?;
+        d.set_item(
+            "level",
+            PyArray1::from_iter(py, n.iter().map(|n| n.surfel.level as i32)),
+        )?;
+        d.set_item(
+            "parent",
+            PyArray1::from_iter(py, n.iter().map(|n| index(n.parent))),
+        )?;
         d.set_item("error", PyArray1::from_iter(py, n.iter().map(|n| n.error)))?;
         d.set_item("cone", rows(py, &cone))?;
         d.set_item("sphere", rows(py, &sphere))?;

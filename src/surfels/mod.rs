@@ -174,7 +174,12 @@ impl Reach {
             .map(|t| if p.is_surface(t) { 0.0 } else { f64::INFINITY })
             .collect();
         // Two chamfer sweeps: from the top left, then from the bottom right.
-        let steps = [(-1, 0, sx), (0, -1, sy), (-1, -1, diagonal), (1, -1, diagonal)];
+        let steps = [
+            (-1, 0, sx),
+            (0, -1, sy),
+            (-1, -1, diagonal),
+            (1, -1, diagonal),
+        ];
         for forward in [true, false] {
             for k in 0..w * h {
                 let t = if forward { k } else { w * h - 1 - k };
@@ -189,7 +194,10 @@ impl Reach {
                 }
             }
         }
-        Reach { values: d, width: w }
+        Reach {
+            values: d,
+            width: w,
+        }
     }
 
     /// The farthest any texel of a box (first column, first row, end column, end row) lies

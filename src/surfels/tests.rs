@@ -221,7 +221,8 @@ fn nodes_above_the_tiles_nest_and_their_errors_never_fall() {
         let finest = below(&h, k, false);
         assert!(!finest.is_empty());
         let d = &n.surfel;
-        let inside = |normal: DVec3| normal.dot(n.cone.0).clamp(-1.0, 1.0).acos() <= n.cone.1 + 1e-9;
+        let inside =
+            |normal: DVec3| normal.dot(n.cone.0).clamp(-1.0, 1.0).acos() <= n.cone.1 + 1e-9;
         assert!(inside(d.normal));
         assert!(below(&h, k, true).iter().all(|s| inside(s.normal)));
         for f in finest {

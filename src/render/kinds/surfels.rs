@@ -280,7 +280,9 @@ fn clip_boxes(h: &SurfelHierarchy) -> Vec<[f32; 4]> {
         [t[0] - 0.5, t[1] - 0.5, t[2] + 0.5, t[3] + 0.5]
     };
     let tiles = h.surfels.iter().map(boxed);
-    tiles.chain(h.nodes.iter().map(|n| boxed(&n.surfel))).collect()
+    tiles
+        .chain(h.nodes.iter().map(|n| boxed(&n.surfel)))
+        .collect()
 }
 
 /// A cone (unit axis, half angle) as the shaders take it, in f32.
