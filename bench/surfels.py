@@ -182,7 +182,8 @@ def summary(results: dict[str, Any]) -> dict[str, Any]:
         }
     names = list(results)
     if len(names) == 2:
-        for key in ("surfels_gpu_ms", "surfels_gpu_ms_min", f"tile{TILES[1]}_surfels_gpu_ms"):
+        # Frame time and (load-independent) surfels drawn, the 1.1 M-face bunny over the scan.
+        for key in ("surfels_gpu_ms", "surfels_gpu_ms_min", f"tile{TILES[1]}_surfels_gpu_ms", "surfels_drawn"):
             a, b = (out[n][key] for n in names)
             out[f"dense_over_bunny_{key}"] = {f: b[f] / a[f] for f in a}
     return out

@@ -1,5 +1,5 @@
 // Clipping a surfel's disc to the box of texels it stands for (Surfel::texels, plus a margin of
-// half a texel and its level's error): the disc is sized to cover its children's discs, so
+// half a texel): the disc is sized to cover its children's discs, so
 // unclipped its rim reaches past the surface they cover and grows the silhouette. The box is
 // tested in the patch's texel grid (u along its first axis, v along its second, in texels).
 //

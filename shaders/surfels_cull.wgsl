@@ -49,7 +49,10 @@ fn facing(s: vec4<f32>, cone: vec4<f32>) -> f32 {
 // Whether an error (object units), perpendicular to the surfels of a sphere, is within the
 // budget. Seen at angle θ to its normal, a perpendicular error e moves depth by e / cos θ, so
 // the budget shrinks with the cone's most oblique cos θ; near grazing, where the error moves
-// the outline sideways instead, to SILHOUETTE_SHARE of it.
+// the outline sideways instead, to SILHOUETTE_SHARE of it. The cone is that of the discs
+// drawn (a tile level's own normals; for a node, its tiles' top-level normals): a scan's noisy
+// finest normals, averaged away at the level drawn, widened cones until most of a far scan
+// counted as grazing and stayed fine.
 fn within(s: vec4<f32>, cone: vec4<f32>, error: f32) -> bool {
     let budget = object.params.x * pixel_size(max(-s.z - s.w, camera.params.y));
     return error * object.params.z <= budget * max(facing(s, cone), SILHOUETTE_SHARE);
@@ -81,7 +84,8 @@ fn cull_tile(t: u32) {
     }
     var level = 0u;
     for (var l = info.x - 1u; l > 0u; l--) {
-        if (within(s, tiles[t].cone, tiles[t].error[l / 4u][l % 4u])) {
+        let cone = vec4<f32>(tiles[t].cone_axis.xyz, tiles[t].cone_angle[l / 4u][l % 4u]);
+        if (within(s, cone, tiles[t].error[l / 4u][l % 4u])) {
             level = l;
             break;
         }

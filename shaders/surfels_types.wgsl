@@ -13,8 +13,10 @@ struct SurfelTile {
     start: array<vec4<u32>, 2>,
     // x: levels, y: patch index within the set, z: the node above the tile (NO_NODE: none).
     info: vec4<u32>,
-    // Normal cone of the tile's finest surfels (object space): unit axis, half angle (radians).
-    cone: vec4<f32>,
+    // Normal cones of the tile's levels (object space): xyz the unit axis, shared by every
+    // level; the half angle (radians) of level l at cone_angle[l / 4][l % 4].
+    cone_axis: vec4<f32>,
+    cone_angle: array<vec4<f32>, 2>,
 }
 
 // A node of a patch's quadtree above its tiles (src/surfels/nodes.rs): one surfel standing for
@@ -22,7 +24,7 @@ struct SurfelTile {
 struct SurfelNode {
     // xyz: centre of a sphere holding every disc below (object space), w: its radius.
     sphere: vec4<f32>,
-    // Normal cone of the finest surfels below: unit axis, half angle (radians).
+    // Normal cone of the tiles' top-level surfels below: unit axis, half angle (radians).
     cone: vec4<f32>,
     // Its error (object units), never smaller than a child's.
     error: f32,

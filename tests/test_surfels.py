@@ -97,8 +97,10 @@ def test_errors_bound_every_finest_surfel_and_never_decrease(small: gt.Surfels) 
     normals = small.normals.astype(np.float64)
     for lv in range(1, small.levels):
         ancestor = small.parent[ancestor]
-        d = np.abs(np.einsum("ij,ij->i", small.positions[finest] - small.positions[ancestor], normals[ancestor]))
-        assert (d <= err[tile, lv] * (1 + 1e-6) + 1e-12).all()
+        off = small.positions[finest] - small.positions[ancestor]
+        d = np.abs(np.einsum("ij,ij->i", off, normals[ancestor]))
+        # float32 normals: their rounding moves d by up to ~1e-7 of the offset's length.
+        assert (d <= err[tile, lv] + 1e-6 * np.linalg.norm(off, axis=1) + 1e-12).all()
     # A curved scan strays from its coarse discs: the top level's error is far from 0.
     assert np.median(err[:, -1]) > 0
     cone = small.tile_cone
@@ -255,11 +257,33 @@ def test_far_models_draw_fewer_surfels_than_tiles_and_keep_their_outline(
         drawn.append(frame.stats["surfels_drawn"])
         assert frame.stats["surfels_above_tiles"] > 0, frame.stats
     tiles = bunny_surfels.stats["tiles"]
-    # Measured 83,987 / 29,601 / 10,922 drawn (54,558 tiles): each halving of the height at least
-    # halves the count, and at 1/16 far fewer surfels than tiles are drawn.
-    assert drawn[0] > 2 * drawn[1] > 4 * drawn[2], drawn
+    # Measured 26,337 / 15,827 / 10,790 drawn (54,558 tiles): each halving of the height cuts
+    # the count (by 1.66x, 1.47x), and at 1/16 far fewer surfels than tiles are drawn.
+    assert drawn[0] > 1.2 * drawn[1] > 1.2**2 * drawn[2], drawn
     assert drawn[2] <= tiles / 2, (drawn, tiles)     # measured 0.20 of the tiles
     ref = caster.cast(cam, size, size)
     m = reference.compare(frame, ref, reference.diagonal(bunny.mesh))
     assert m["iou"] >= 0.985, m                      # measured 0.9905 (623 reference pixels)
+    assert m["crack_px"] == 0, m
+
+
+@pytest.mark.parametrize(("fraction", "per_pixel_max"), [
+    (1 / 4, 3.5),   # measured 2.55 surfels per covered pixel (26,337 on 10,347 px)
+    (1 / 8, 8.0),   # measured 6.29 (15,827 on 2,518 px)
+])
+def test_a_noisy_scan_draws_surfels_in_proportion_to_its_coverage(
+        bunny: Converted, bunny_surfels: gt.Surfels, caster: reference.RayCaster, fraction: float,
+        per_pixel_max: float) -> None:
+    """The Stanford scan's noisy finest normals do not count as grazing: levels are chosen by the
+    normal spread of the discs drawn, so a far scan draws a few surfels per covered pixel and
+    keeps its outline against trimesh. A build choosing by the finest normals' cones (all else
+    as here) drew 3.83 at 1/4 and 8.59 at 1/8 and failed both bounds."""
+    size = 512
+    cam = backed_away(bunny.mesh, fraction)
+    frame = gt.Renderer(size, size).render(bunny_surfels, cam)
+    ref = caster.cast(cam, size, size)
+    m = reference.compare(frame, ref, reference.diagonal(bunny.mesh))
+    per_pixel = frame.stats["surfels_drawn"] / m["covered_px"]
+    assert per_pixel <= per_pixel_max, (per_pixel, frame.stats)
+    assert m["iou"] >= 0.99, m      # measured 0.9975 at 1/4, 0.9952 at 1/8
     assert m["crack_px"] == 0, m

@@ -158,6 +158,49 @@ impl PySurfels {
             .into_pyarray(py)
     }
 
+    /// The quadtree above the tiles as arrays (M nodes, T tiles): position (M, 3), normal
+    /// (M, 3) and radius (M,) of each node's surfel, level (M,) (counting on from the tiles'
+    /// top level), parent (M,) (-1 at a root), error (M,) (world units), cone (M, 4) (unit
+    /// axis, half angle of the tiles' top-level normals below), sphere (M, 4) (centre, radius), and
+    /// tile_parent (T,) (each tile's node, -1 where none).
+    #[getter]
+    fn nodes<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let h = &self.inner;
+        let index = |i: u32| if i == u32::MAX { -1 } else { i as i64 };
+        let n = &h.nodes;
+        let d = PyDict::new(py);
+        let pos: Vec<[f64; 3]> = n.iter().map(|n| n.surfel.position.to_array()).collect();
+        let normal: Vec<[f64; 3]> = n.iter().map(|n| n.surfel.normal.to_array()).collect();
+        let cone: Vec<[f64; 4]> = n
+            .iter()
+            .map(|n| n.cone.0.extend(n.cone.1).to_array())
+            .collect();
+        let sphere: Vec<[f64; 4]> = n
+            .iter()
+            .map(|n| n.centre.extend(n.bound).to_array())
+            .collect();
+        d.set_item("position", rows(py, &pos))?;
+        d.set_item("normal", rows(py, &normal))?;
+        d.set_item(
+            "radius",
+            PyArray1::from_iter(py, n.iter().map(|n| n.surfel.radius)),
+        )?;
+        d.set_item(
+            "level",
+            PyArray1::from_iter(py, n.iter().map(|n| n.surfel.level as i32)),
+        )?;
+        d.set_item(
+            "parent",
+            PyArray1::from_iter(py, n.iter().map(|n| index(n.parent))),
+        )?;
+        d.set_item("error", PyArray1::from_iter(py, n.iter().map(|n| n.error)))?;
+        d.set_item("cone", rows(py, &cone))?;
+        d.set_item("sphere", rows(py, &sphere))?;
+        let tile_parent = h.tiles.iter().map(|t| index(t.parent));
+        d.set_item("tile_parent", PyArray1::from_iter(py, tile_parent))?;
+        Ok(d)
+    }
+
     /// tile, levels, tiles, surfels, surfels_per_level (finest first), nodes and nodes_per_level
     /// (the quadtree above the tiles, lowest level first), bytes (GPU records).
     #[getter]

@@ -250,7 +250,8 @@ pub(crate) struct SurfelTileGpu {
     pub error: [f32; 8],
     pub start: [u32; 8],
     pub info: [u32; 4],
-    pub cone: [f32; 4],
+    pub cone_axis: [f32; 4],
+    pub cone_angle: [f32; 8],
 }
 
 /// `SurfelNode` in surfels_types.wgsl.
@@ -288,10 +289,11 @@ pub(crate) struct SurfelObjectGpu {
     pub counts: [u32; 4],
 }
 
-wgsl_size!(SurfelTileGpu, 112);
+wgsl_size!(SurfelTileGpu, 144);
 const _: () = assert!(offset_of!(SurfelTileGpu, start) == 48);
 const _: () = assert!(offset_of!(SurfelTileGpu, info) == 80);
-const _: () = assert!(offset_of!(SurfelTileGpu, cone) == 96);
+const _: () = assert!(offset_of!(SurfelTileGpu, cone_axis) == 96);
+const _: () = assert!(offset_of!(SurfelTileGpu, cone_angle) == 112);
 wgsl_size!(SurfelNodeGpu, 48);
 const _: () = assert!(offset_of!(SurfelNodeGpu, error) == 32);
 wgsl_size!(SurfelGpu, 32);

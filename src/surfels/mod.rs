@@ -60,11 +60,14 @@ pub struct Tile {
     pub texel: [u32; 2],
     /// `start[l]..start[l + 1]` are the tile's surfels of level l (indices into `surfels`).
     pub start: Vec<u32>,
-    /// Per level: the largest distance of the tile's finest surfels (their centres, plus their
-    /// discs' tilt against the ancestor) from the plane of their ancestor at that level; never
-    /// smaller than the level below's (0 at level 0).
+    /// Per level: the largest distance of the tile's finest surfels (their surface points) from
+    /// the plane of their ancestor at that level; never smaller than the level below's (0 at
+    /// level 0).
     pub error: Vec<f64>,
-    /// Per level: the normal cone of that level's surfels (unit axis, half angle in radians).
+    /// Per level: the normal cone of that level's surfels (unit axis, the same at every level;
+    /// half angle in radians). Each level's own spread, not the finest's: a drawn level's
+    /// depth error follows its discs' normals, and noise in the finest normals that a coarse
+    /// level averages away cannot show in the image.
     pub cone: Vec<(DVec3, f64)>,
     /// A sphere holding every disc of every level.
     pub centre: DVec3,
@@ -145,6 +148,65 @@ impl Disc {
             color: color.map(|v| v / total),
             texels,
         }
+    }
+}
+
+/// Per texel of a patch, how far (world units, along a chamfer path of texel steps) it lies
+/// from the nearest surface texel: 0 on the surface. A disc clipped to a box of texels covers
+/// the box's empty texels too, so a node whose box holds empty texels (a chart's ragged rim
+/// under one coarse disc, whole empty tiles beside full ones) reaches past the surface by up
+/// to the largest of these: a coverage error its perpendicular error cannot see, which grew
+/// the outline (the bunny at 1/16 of a 512² image: IoU 0.983 without it, 0.990 with it).
+/// Tile levels leave it out: their boxes hold a tile's few empty texels at most, and counting
+/// those under the silhouette share kept every tile on a chart's rim at its finest level (the
+/// bunny at 1/2: 141k surfels drawn instead of 57k) for no IoU gained.
+pub(crate) struct Reach {
+    values: Vec<f64>,
+    width: usize,
+}
+
+impl Reach {
+    pub(crate) fn of(p: &Patch) -> Reach {
+        let (w, h) = (p.width as usize, p.height as usize);
+        let (sx, sy) = (p.extent.x / w as f64, p.extent.y / h as f64);
+        let diagonal = sx.hypot(sy);
+        let mut d: Vec<f64> = (0..w * h)
+            .map(|t| if p.is_surface(t) { 0.0 } else { f64::INFINITY })
+            .collect();
+        // Two chamfer sweeps: from the top left, then from the bottom right.
+        let steps = [
+            (-1, 0, sx),
+            (0, -1, sy),
+            (-1, -1, diagonal),
+            (1, -1, diagonal),
+        ];
+        for forward in [true, false] {
+            for k in 0..w * h {
+                let t = if forward { k } else { w * h - 1 - k };
+                let (i, j) = ((t % w) as i64, (t / w) as i64);
+                for &(di, dj, cost) in &steps {
+                    let (di, dj) = if forward { (di, dj) } else { (-di, -dj) };
+                    let (ni, nj) = (i + di, j + dj);
+                    if ni >= 0 && nj >= 0 && (ni as usize) < w && (nj as usize) < h {
+                        let n = d[nj as usize * w + ni as usize] + cost;
+                        d[t] = d[t].min(n);
+                    }
+                }
+            }
+        }
+        Reach {
+            values: d,
+            width: w,
+        }
+    }
+
+    /// The farthest any texel of a box (first column, first row, end column, end row) lies
+    /// from the surface.
+    pub(crate) fn over(&self, b: [u32; 4]) -> f64 {
+        (b[1] as usize..b[3] as usize)
+            .flat_map(|j| (b[0] as usize..b[2] as usize).map(move |i| j * self.width + i))
+            .map(|t| self.values[t])
+            .fold(0.0, f64::max)
     }
 }
 
@@ -273,12 +335,13 @@ fn link_parents(grids: &[LevelGrid], surfels: &mut [Surfel]) {
     }
 }
 
-/// How far a coarse disc (centre, unit normal) strays from one finest surfel `f` below it: f's
-/// distance from the disc's plane plus f's disc's tilt against it. (The disc's rim, reaching
+/// How far a coarse disc (centre, unit normal) strays from one finest surfel `f` below it: the
+/// distance of f's surface point from the disc's plane. (Not f's disc's rim: tilted by a
+/// scanner's noisy normals, it reaches up to a texel off the surface the points sample, an
+/// error of the finest discs no image of a coarse level can show. The disc's own rim, reaching
 /// past the texels it stands for, is clipped away when drawn: Surfel::texels.)
 fn disc_error(f: &Surfel, centre: DVec3, normal: DVec3) -> f64 {
-    let tilt = f.normal.cross(normal).length();
-    (f.position - centre).dot(normal).abs() + f.radius * tilt
+    (f.position - centre).dot(normal).abs()
 }
 
 /// Errors, cones and the bounding sphere of a built tile (surfel indices local to the tile).
@@ -302,11 +365,12 @@ fn tile_figures(
     for l in 1..levels {
         error[l] = error[l].max(error[l - 1]);
     }
+    // One axis for every level (the GPU record keeps one axis and a half angle per level).
+    let sum: DVec3 = finest.iter().map(|s| s.normal * s.radius * s.radius).sum();
+    let axis = sum.try_normalize().unwrap_or(finest[0].normal);
     let cone = (0..levels)
         .map(|l| {
             let level = &surfels[start[l] as usize..start[l + 1] as usize];
-            let sum: DVec3 = level.iter().map(|s| s.normal * s.radius * s.radius).sum();
-            let axis = sum.try_normalize().unwrap_or(level[0].normal);
             let angle = level
                 .iter()
                 .map(|s| s.normal.dot(axis).clamp(-1.0, 1.0).acos())
@@ -359,8 +423,9 @@ impl SurfelHierarchy {
             .par_iter()
             .enumerate()
             .map(|(k, p)| {
+                let reach = Reach::of(p);
                 let mut tiles = patch_tiles(p, k as u32, tile, levels);
-                let nodes = nodes::patch_nodes(&mut tiles, tile, levels);
+                let nodes = nodes::patch_nodes(&mut tiles, tile, levels, &reach);
                 (tiles, nodes)
             })
             .collect();
@@ -422,7 +487,7 @@ impl SurfelHierarchy {
     /// (render/gpu_types.rs).
     pub fn gpu_bytes(&self) -> usize {
         (self.surfels.len() + self.nodes.len()) * (32 + 4)
-            + self.tiles.len() * 112
+            + self.tiles.len() * 144
             + self.nodes.len() * 48
     }
 

@@ -11,7 +11,7 @@ use std::collections::BTreeMap;
 
 use glam::DVec3;
 
-use super::{disc_error, Disc, Surfel, Tile};
+use super::{disc_error, Disc, Reach, Surfel, Tile};
 
 /// A node above the tiles: one surfel standing for the 2x2 tiles (or nodes) below it.
 #[derive(Clone, Debug, PartialEq)]
@@ -21,10 +21,15 @@ pub struct Node {
     pub surfel: Surfel,
     /// The node one level up (index into `SurfelHierarchy::nodes`), or u32::MAX at a root.
     pub parent: u32,
-    /// The largest `disc_error` of the finest surfels below against this disc; never smaller
-    /// than a child's error.
+    /// The largest `disc_error` of the finest surfels below against this disc, or how far its
+    /// clipped disc reaches past the surface (Reach) where that is more; never smaller than a
+    /// child's error.
     pub error: f64,
-    /// Normal cone of every finest surfel below (unit axis, half angle in radians).
+    /// Normal cone of the tiles' top-level surfels below (unit axis, half angle in radians):
+    /// the normals at the scale a node is drawn at. It holds the node's own normal (their
+    /// weighted mean, level by level), so a renderer's depth bound along its disc holds; the
+    /// finest normals' spread, wide on a noisy scan, would flag nodes as grazing that no
+    /// pixel shows as such.
     pub cone: (DVec3, f64),
     /// A sphere holding its disc and every child's sphere.
     pub centre: DVec3,
@@ -71,11 +76,16 @@ fn merged_cone(cones: &[(DVec3, f64)]) -> (DVec3, f64) {
 
 /// The node over `children`, its surfel at `level`; `tiles` are the patch's tiles (surfel
 /// indices local to each tile).
-fn merge(children: &[&Item], tiles: &[(Tile, Vec<Surfel>)], level: u8) -> (Node, Vec<usize>) {
+fn merge(
+    children: &[&Item],
+    tiles: &[(Tile, Vec<Surfel>)],
+    level: u8,
+    reach: &Reach,
+) -> (Node, Vec<usize>) {
     let discs: Vec<Disc> = children.iter().map(|c| c.disc).collect();
     let disc = Disc::merge(&discs);
     let below: Vec<usize> = children.iter().flat_map(|c| c.tiles.clone()).collect();
-    let mut error = children.iter().map(|c| c.error).fold(0.0, f64::max);
+    let mut error = (children.iter().map(|c| c.error)).fold(reach.over(disc.texels), f64::max);
     for &k in &below {
         let (t, local) = &tiles[k];
         for f in &local[t.start[0] as usize..t.start[1] as usize] {
@@ -115,7 +125,12 @@ fn merge(children: &[&Item], tiles: &[(Tile, Vec<Surfel>)], level: u8) -> (Node,
 
 /// The nodes above one patch's tiles (indices local to the patch, lowest level first); sets
 /// each tile's `parent` to its node (local index).
-pub(super) fn patch_nodes(tiles: &mut [(Tile, Vec<Surfel>)], tile: u32, levels: u32) -> Vec<Node> {
+pub(super) fn patch_nodes(
+    tiles: &mut [(Tile, Vec<Surfel>)],
+    tile: u32,
+    levels: u32,
+    reach: &Reach,
+) -> Vec<Node> {
     let top = levels as usize - 1;
     let mut items: Vec<Item> = tiles
         .iter()
@@ -123,7 +138,7 @@ pub(super) fn patch_nodes(tiles: &mut [(Tile, Vec<Surfel>)], tile: u32, levels: 
         .map(|(k, (t, local))| Item {
             disc: disc_of(&local[t.start[top] as usize]),
             error: t.error[top],
-            cone: t.cone[0],
+            cone: (local[t.start[top] as usize].normal, 0.0),
             centre: t.centre,
             bound: t.bound,
             tiles: vec![k],
@@ -142,7 +157,7 @@ pub(super) fn patch_nodes(tiles: &mut [(Tile, Vec<Surfel>)], tile: u32, levels: 
         let mut above = Vec::with_capacity(groups.len());
         let mut links: Vec<(Option<usize>, usize, usize)> = Vec::new();
         for ((row, column), children) in groups {
-            let (node, below) = merge(&children, tiles, level);
+            let (node, below) = merge(&children, tiles, level, reach);
             let index = nodes.len();
             for c in &children {
                 links.push((c.node, c.tiles[0], index));

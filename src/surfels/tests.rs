@@ -172,8 +172,9 @@ fn files_round_trip_and_corruption_is_refused() {
     assert!(file::decode(&tile).unwrap_err().contains("checksum"));
 }
 
-/// The finest surfels below a node: those of every tile whose chain of parents reaches it.
-fn finest_below(h: &SurfelHierarchy, node: usize) -> Vec<&Surfel> {
+/// The surfels of one tile level (`top`: the tiles' top level, else the finest) below a node:
+/// those of every tile whose chain of parents reaches it.
+fn below(h: &SurfelHierarchy, node: usize, top: bool) -> Vec<&Surfel> {
     let reaches = |mut n: u32| loop {
         if n == node as u32 {
             return true;
@@ -183,8 +184,9 @@ fn finest_below(h: &SurfelHierarchy, node: usize) -> Vec<&Surfel> {
         }
         n = h.nodes[n as usize].parent;
     };
+    let l = if top { h.levels as usize - 1 } else { 0 };
     (h.tiles.iter().filter(|t| reaches(t.parent)))
-        .flat_map(|t| &h.surfels[t.start[0] as usize..t.start[1] as usize])
+        .flat_map(|t| &h.surfels[t.start[l] as usize..t.start[l + 1] as usize])
         .collect()
 }
 
@@ -214,15 +216,18 @@ fn nodes_above_the_tiles_nest_and_their_errors_never_fall() {
             assert!(p.error >= n.error && p.surfel.level == n.surfel.level + 1);
             assert!(p.centre.distance(n.centre) + n.bound <= p.bound * (1.0 + 1e-12));
         }
-        // The node's error bounds every finest surfel below against its disc; its cone holds
-        // their normals; its texel box holds theirs.
-        let below = finest_below(&h, k);
-        assert!(!below.is_empty());
+        // The node's error bounds every finest surfel below against its disc; its texel box
+        // holds theirs; its cone holds the tiles' top normals below and its own.
+        let finest = below(&h, k, false);
+        assert!(!finest.is_empty());
         let d = &n.surfel;
-        for f in below {
+        let inside =
+            |normal: DVec3| normal.dot(n.cone.0).clamp(-1.0, 1.0).acos() <= n.cone.1 + 1e-9;
+        assert!(inside(d.normal));
+        assert!(below(&h, k, true).iter().all(|s| inside(s.normal)));
+        for f in finest {
             let off = (f.position - d.position).dot(d.normal).abs();
             assert!(off <= n.error + 1e-12, "{off} > {}", n.error);
-            assert!(f.normal.dot(n.cone.0).clamp(-1.0, 1.0).acos() <= n.cone.1 + 1e-9);
             let (b, t) = (d.texels, f.texels);
             assert!(b[0] <= t[0] && b[1] <= t[1] && b[2] >= t[2] && b[3] >= t[3]);
         }

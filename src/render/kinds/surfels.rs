@@ -177,8 +177,12 @@ fn upload(gpu: &Gpu, h: &SurfelHierarchy) -> Result<UploadedSurfels> {
         .map(|t| {
             let mut error = [0.0f32; 8];
             let mut start = [0u32; 8];
+            let mut cone_angle = [0.0f32; 8];
             for (e, v) in error.iter_mut().zip(&t.error) {
                 *e = *v as f32;
+            }
+            for (a, (_, v)) in cone_angle.iter_mut().zip(&t.cone) {
+                *a = *v as f32;
             }
             for (s, v) in start.iter_mut().zip(&t.start) {
                 *s = *v;
@@ -189,7 +193,8 @@ fn upload(gpu: &Gpu, h: &SurfelHierarchy) -> Result<UploadedSurfels> {
                 error,
                 start,
                 info: [h.levels, t.patch, t.parent, 0],
-                cone: cone_record(t.cone[0]),
+                cone_axis: cone_record(t.cone[0]),
+                cone_angle,
             }
         })
         .collect();
@@ -265,26 +270,19 @@ fn upload(gpu: &Gpu, h: &SurfelHierarchy) -> Result<UploadedSurfels> {
 }
 
 /// Per surfel (tiles' then nodes'), the box of texels it is clipped to (u0, v0, u1, v1 in its
-/// patch's texel grid): its texels, wider by half a texel (so neighbouring discs tilted against
-/// each other leave no crack on their shared edge) and by its level's error (which their
-/// planes may differ by there).
+/// patch's texel grid): its texels, wider by half a texel, so neighbouring discs tilted against
+/// each other leave no crack on their shared edge. (Not by the level's error as well: on a
+/// chart's rim that margin grew the outline, bunny IoU 0.9826 against 0.9858 at 1/16 of the
+/// image height, and the hole fill closes what cracks remain: none measured.)
 fn clip_boxes(h: &SurfelHierarchy) -> Vec<[f32; 4]> {
-    let boxed = |s: &crate::surfels::Surfel, patch: u32, error: f64| {
-        let p = &h.source.patches[patch as usize];
-        let mu = 0.5 + error * p.width as f64 / p.extent.x;
-        let mv = 0.5 + error * p.height as f64 / p.extent.y;
-        let t = s.texels.map(|v| v as f64);
-        [t[0] - mu, t[1] - mv, t[2] + mu, t[3] + mv].map(|v| v as f32)
+    let boxed = |s: &crate::surfels::Surfel| {
+        let t = s.texels.map(|v| v as f32);
+        [t[0] - 0.5, t[1] - 0.5, t[2] + 0.5, t[3] + 0.5]
     };
-    let mut out = Vec::with_capacity(h.surfels.len() + h.nodes.len());
-    for t in &h.tiles {
-        for (l, range) in t.start.windows(2).enumerate() {
-            let level = &h.surfels[range[0] as usize..range[1] as usize];
-            out.extend(level.iter().map(|s| boxed(s, t.patch, t.error[l])));
-        }
-    }
-    out.extend(h.nodes.iter().map(|n| boxed(&n.surfel, n.patch, n.error)));
-    out
+    let tiles = h.surfels.iter().map(boxed);
+    tiles
+        .chain(h.nodes.iter().map(|n| boxed(&n.surfel)))
+        .collect()
 }
 
 /// A cone (unit axis, half angle) as the shaders take it, in f32.
