@@ -11,7 +11,7 @@ every edge sharper than 20 degrees, which would hide the filter's own), ``gts.fi
 - sigma = 1, 2, 4, 8 texels: the shading step where patches meet, measured as the angle between
   the normals two neighbouring patches show at the same points of their shared chart edges
   (``gts.seam_normal_steps``: a quarter, half and three quarters along each edge, both ways),
-  median and p95; the seam gaps there (``gts.seam_gaps``) in texels, median and p99; and the
+  median, p95 and p99; the seam gaps there (``gts.seam_gaps``) in texels, median and p99; and the
   largest move of any texel point (hair-like spikes show as moves far above the p99).
 
 ``measure()`` returns the figures; ``pictures()`` renders the bunny's head filtered at 6 texels.
@@ -116,13 +116,13 @@ def table(m: dict[str, Any]) -> str:
     for r in m["tiny"]:
         rows.append(f"  sigma {r['sigma_texels']:>5} texel: normal change median "
                     f"{r['normal_change_median_deg']:.3f} deg, p99 {r['normal_change_p99_deg']:.2f} deg")
-    rows.append("  sigma  step median  step p95  gap median  gap p99  move p99  move max  (deg, texels)")
+    rows.append("  sigma  step median  step p95  step p99  gap median  gap p99  move p99  move max  (deg, texels)")
     u = m["unfiltered"]
     rows.append(f"  {'none':>5} {u['normal_step_median_deg']:11.2f} {u['normal_step_p95_deg']:9.2f} "
-                f"{u['seam_gap_median_texels']:11.4f} {u['seam_gap_p99_texels']:8.3f}")
+                f"{u['normal_step_p99_deg']:9.2f} {u['seam_gap_median_texels']:11.4f} {u['seam_gap_p99_texels']:8.3f}")
     for r in m["sigmas"]:
         rows.append(f"  {r['sigma_texels']:5.0f} {r['normal_step_median_deg']:11.2f} "
-                    f"{r['normal_step_p95_deg']:9.2f} {r['seam_gap_median_texels']:11.4f} "
+                    f"{r['normal_step_p95_deg']:9.2f} {r['normal_step_p99_deg']:9.2f} {r['seam_gap_median_texels']:11.4f} "
                     f"{r['seam_gap_p99_texels']:8.3f} {r['move_p99_texels']:9.2f} {r['move_max_texels']:9.2f}")
     return "\n".join(rows)
 

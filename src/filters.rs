@@ -11,10 +11,20 @@
 //! more than a cell's interpolation. Moving each point along its mean normal and resampling the
 //! moved grid per patch (the previous filter) left seam gaps of 0.8 texel (p99) at sigma = 4
 //! texels and shading steps of 4 degrees (p95) where the moved grid left its patch's cells.
-//! Normals are the weighted mean normal at the crossing (for high-pass the normal pushed away
-//! from it), so a tiny sigma leaves normals as they were. Rebuilding them per patch from the new
-//! heights by finite differences had given patch-shaped shading steps and, at sigma -> 0, a
+//! Normals are the weighted mean normal at the texel's new point (for high-pass the normal pushed
+//! away from it), so a tiny sigma leaves normals as they were. Rebuilding them per patch from the
+//! new heights by finite differences had given patch-shaped shading steps and, at sigma -> 0, a
 //! median change of 3 degrees (differences of quantized heights are not the mesh's normals).
+//!
+//! Where patches meet, their texels often stand steeply on their own patch's z (a chart's border
+//! faces lean away from its mean normal). The 1% of seam points that stepped by 4-20 degrees
+//! (bunny, sigma = 1-8 texels) were almost all next to such texels whose search failed: Newton
+//! steps overshot on the steep line, or the line passed the surface without crossing it, and the
+//! texel took its neighbours' vertical move but kept the mean normal of wherever its search had
+//! stopped, up to 3 sigma away. Now the weights fall off continuously (in distance and in the
+//! side faced), the search brackets the crossing and closes in by regula falsi, a line passing
+//! within a tenth of a texel meets the surface at its nearest approach, and a texel that moves
+//! by its neighbours takes the mean normal at the point where it ends up.
 //!
 //! Space: world for the filter (points, normals, sigma), patch-local for the maps.
 
@@ -180,17 +190,23 @@ impl<'a> PointGrid<'a> {
     }
 
     /// The Gaussian-weighted means of position and of normal (not normalized) over the points
-    /// of `near` within 3 sigma of world point `y` whose normal faces the same way as `facing`
-    /// (cosine above 1/2: the other side of a thin part is left out); None if there are none.
+    /// of `near` within 3 sigma of world point `y`, each weighed also by how much its normal
+    /// faces the same way as `facing` (the other side of a thin part is left out); None if no
+    /// point weighs anything. Both weights fall to zero continuously (the Gaussian less its
+    /// value at 3 sigma; the facing weight a smooth step over cosines `FACING`), so the means
+    /// move continuously with `y` and with `facing`: two patches whose texels at one place face
+    /// a little differently find the same surface there.
     fn means_at(&self, y: DVec3, facing: DVec3, near: &[u32]) -> Option<(DVec3, DVec3)> {
         let r2 = 9.0 * self.sigma * self.sigma;
         let inv = -0.5 / (self.sigma * self.sigma);
+        let floor = (-4.5f64).exp();
         let (mut position, mut normal, mut den) = (DVec3::ZERO, DVec3::ZERO, 0.0);
         for &q in near {
             let (pq, nq) = (self.points[q as usize], self.normals[q as usize]);
             let d2 = (pq - y).length_squared();
-            if d2 <= r2 && nq.dot(facing) > 0.5 {
-                let w = (d2 * inv).exp();
+            let s = ((nq.dot(facing) - FACING.0) / (FACING.1 - FACING.0)).clamp(0.0, 1.0);
+            if d2 < r2 && s > 0.0 {
+                let w = ((d2 * inv).exp() - floor) * s * s * (3.0 - 2.0 * s);
                 position += w * pq;
                 normal += w * nq;
                 den += w;
@@ -199,66 +215,209 @@ impl<'a> PointGrid<'a> {
         (den > 0.0).then(|| (position / den, normal / den))
     }
 
+    /// The means at world point `at` (see `means_at`), gathering its cell's candidates into
+    /// `scratch` unless it lies in cell `home`, whose candidates are `near`.
+    fn means_near(
+        &self,
+        at: DVec3,
+        facing: DVec3,
+        (home, near): ([i64; 3], &[u32]),
+        scratch: &mut Vec<u32>,
+    ) -> Option<(DVec3, DVec3)> {
+        let cell = self.cell(at);
+        if cell == home {
+            return self.means_at(at, facing, near);
+        }
+        self.gather(cell, scratch);
+        self.means_at(at, facing, scratch)
+    }
+
+    /// f at `t` on `line` from the means there (see `crossing`), or None off every point.
+    fn probe(&self, line: &Line<'_>, t: f64, scratch: &mut Vec<u32>) -> Option<Probe> {
+        let y = line.p + line.up * t;
+        let means = self.means_near(y, line.n, (line.home, line.near), scratch)?;
+        let f = means.1.normalize_or(line.n).dot(y - means.0);
+        Some(Probe { t, f, means })
+    }
+
+    /// Steps along `line` from `at` toward f = 0: Newton steps (each within 3 sigma of the
+    /// texel) until f changes sign, then regula falsi (Illinois) inside that bracket, `other`
+    /// being its far end when one is known. Every probe that comes closer updates `best`.
+    /// Returns whether a step shorter than the tolerance ended it, `at` then being the last probe.
+    fn search(
+        &self,
+        line: &Line<'_>,
+        at: &mut Probe,
+        mut other: Option<(f64, f64)>,
+        best: &mut Probe,
+        scratch: &mut Vec<u32>,
+    ) -> bool {
+        let r = 3.0 * self.sigma;
+        for _ in 0..CROSSING_STEPS {
+            let next = match other {
+                Some((tb, fb)) => at.t - at.f * (tb - at.t) / (fb - at.f),
+                None => {
+                    let slope = at.means.1.normalize_or(line.n).dot(line.up);
+                    if slope.abs() <= 1e-6 {
+                        return false; // the line runs along the surface here
+                    }
+                    (at.t - at.f / slope).clamp(-r, r)
+                }
+            };
+            if (next - at.t).abs() <= self.tolerance {
+                at.t = next; // the means this close stand for those there
+                return true;
+            }
+            let Some(probe) = self.probe(line, next, scratch) else {
+                return false; // stepped off every point
+            };
+            match other {
+                _ if probe.f.signum() != at.f.signum() => other = Some((at.t, at.f)),
+                Some((tb, fb)) => other = Some((tb, 0.5 * fb)), // Illinois: no stalled end
+                None => {}
+            }
+            *at = probe;
+            if at.f.abs() < best.f.abs() {
+                *best = *at;
+            }
+        }
+        false
+    }
+
     /// Where the Gaussian-smoothed surface crosses the line through point `k` along `up` (its
-    /// patch's z axis). That surface is the zero set of f(y) = nbar(y) . (y - pbar(y)), the
-    /// weighted means taken at y: a function of world position alone, so every patch that
-    /// holds a place finds the same surface there. Newton steps along the line from the point
-    /// (each at most 3 sigma, 3 sigma in all). `near` holds the candidates of the point's cell.
+    /// patch's z axis). That surface is the zero set of f(y) = n(y) . (y - pbar(y)), n the unit
+    /// mean normal, the weighted means taken at y: a function of world position (and, across
+    /// thin parts, of the side faced), so every patch that holds a place finds the same surface
+    /// there. Newton steps from the point (`search`); where they wander (a line meeting the
+    /// surface steeply, or crossing where the smoothed normal turns away), the line is scanned
+    /// at `SCAN` steps per 3 sigma for the sign change nearest the point, then searched from
+    /// there. A line that passes the surface within `NEAR_MISS` texel meets it at its nearest
+    /// approach. A crossing beyond the points' support (farther than `SUPPORT` sigma from their
+    /// weighted mean, as past a rim that smoothing pulled in) is none; its rise is the line's
+    /// nearest approach. `near` holds the candidates of the point's cell.
     fn crossing(&self, k: usize, up: DVec3, near: &[u32], scratch: &mut Vec<u32>) -> Crossing {
         let (p, n) = (self.points[k], self.normals[k]);
         let r = 3.0 * self.sigma;
-        let home = self.cell(p);
+        let line = Line {
+            p,
+            n,
+            up,
+            home: self.cell(p),
+            near,
+        };
         // The point itself is within reach, so the first means exist.
-        let mut means = self.means_at(p, n, near).unwrap_or((p, n));
-        // The smoothed surface's distance from the point along the normal, by the plane of the
-        // means at the point itself, and how steeply the line meets that plane.
-        let unit = means.1.normalize_or(n);
-        let (offset, cos_here) = (unit.dot(p - means.0).abs(), unit.dot(up));
-        let mut rise = 0.0;
-        for _ in 0..CROSSING_STEPS {
-            let (mean_p, mean_n) = means;
-            let slope = mean_n.dot(up);
-            if slope.abs() <= 1e-6 * mean_n.length() {
-                break; // the line runs along the surface: no crossing to step to
+        let mut at = self.probe(&line, 0.0, scratch).unwrap_or(Probe {
+            t: 0.0,
+            f: 0.0,
+            means: (p, n),
+        });
+        let (mut best, offset) = (at, at.f.abs());
+        let mut converged = self.search(&line, &mut at, None, &mut best, scratch);
+        if !converged || at.t.abs() >= 0.999 * r {
+            if let Some((from, other)) = self.scan(&line, &mut best, scratch) {
+                at = from;
+                converged = self.search(&line, &mut at, Some(other), &mut best, scratch);
             }
-            let next = (rise - mean_n.dot(p + up * rise - mean_p) / slope).clamp(-r, r);
-            if (next - rise).abs() <= self.tolerance {
-                rise = next; // the means a step this short away stand for those here
-                break;
-            }
-            let at = p + up * next;
-            let candidates = if self.cell(at) == home {
-                near
-            } else {
-                self.gather(self.cell(at), scratch);
-                scratch.as_slice()
-            };
-            let Some(m) = self.means_at(at, n, candidates) else {
-                break; // stepped off every point: keep the last crossing
-            };
-            (rise, means) = (next, m);
         }
-        // A crossing held at the limit of the search, or half again farther than the line
-        // meets the plane of the means at the point, is none: the line missed the smoothed
-        // surface (as past a rim that smoothing pulled in) and wandered along it.
-        let reach = 1.5 * offset / cos_here.abs().max(STEEP_COS) + self.tolerance;
-        let cos = means.1.normalize_or(n).dot(up);
+        if !converged {
+            at = best;
+            converged = best.f.abs() <= NEAR_MISS * self.tolerance / CROSSING_TOLERANCE;
+        }
+        let y = p + up * at.t;
+        let unit = at.means.1.normalize_or(n);
+        let off = (y - at.means.0) - unit * unit.dot(y - at.means.0);
+        // A plane at the point's offset, met at the crossing's slope, is crossed within
+        // offset / cos; a crossing half again as far, or farther than `GRAZE` times the
+        // offset, lies on a part of the surface the line only grazes (at a rim: a hair-like
+        // spike).
+        let reach = 1.5 * offset / unit.dot(up).abs().max(1.5 / GRAZE) + self.tolerance;
         Crossing {
-            rise,
-            found: rise.abs() < 0.999 * r && rise.abs() <= reach,
-            mean_normal: means.1,
-            // Steep where the line meets the surface steeply here or at the point.
-            cos: cos.min(cos_here),
+            rise: at.t,
+            found: converged
+                && at.t.abs() < reach.min(0.999 * r)
+                && off.length() <= SUPPORT * self.sigma,
+            mean_normal: at.means.1,
+            cos: unit.dot(up),
         }
+    }
+
+    /// The sign change of f on `line` nearest its point, probing at `SCAN` steps per 3 sigma
+    /// outward both ways: the probe beyond it and the far end (t, f) of the bracket. Every
+    /// probe that comes closer updates `best`.
+    fn scan(
+        &self,
+        line: &Line<'_>,
+        best: &mut Probe,
+        scratch: &mut Vec<u32>,
+    ) -> Option<(Probe, (f64, f64))> {
+        let step = 3.0 * self.sigma / SCAN as f64;
+        let mut last = [self.probe(line, 0.0, scratch)?; 2];
+        for i in 1..=SCAN {
+            for (side, sign) in [(0, 1.0), (1, -1.0)] {
+                let Some(probe) = self.probe(line, sign * step * i as f64, scratch) else {
+                    continue;
+                };
+                if probe.f.abs() < best.f.abs() {
+                    *best = probe;
+                }
+                let before = last[side];
+                if probe.f.signum() != before.f.signum() {
+                    return Some((probe, (before.t, before.f)));
+                }
+                last[side] = probe;
+            }
+        }
+        None
     }
 }
 
-/// Most Newton steps toward the smoothed surface per texel (usually one or two suffice).
-const CROSSING_STEPS: usize = 4;
+/// A texel's vertical line: its point, normal (the side faced), direction (its patch's z) and
+/// the candidates of the point's cell.
+struct Line<'a> {
+    p: DVec3,
+    n: DVec3,
+    up: DVec3,
+    home: [i64; 3],
+    near: &'a [u32],
+}
 
-/// A Newton step shorter than this many texels ends the search (heights are stored to about
-/// 1/300 texel).
+/// f on a texel's line at distance `t` (world units), and the means there.
+#[derive(Clone, Copy, Debug)]
+struct Probe {
+    t: f64,
+    f: f64,
+    means: (DVec3, DVec3),
+}
+
+/// Farthest a crossing may lie along a texel's line, in multiples of the texel's distance from
+/// the smoothed surface. At 6 texels on the 64-texel bunny 3 keeps the largest move of any
+/// texel 3.2x the p99 move; 4.5 let spikes grow at the ears' rims (4.2x), and so did crossings
+/// allowed twice as far as a plane met at the crossing's slope, however steep (7.0x).
+const GRAZE: f64 = 3.0;
+
+/// Probes per 3 sigma each way when Newton steps wander.
+const SCAN: usize = 12;
+
+/// Most evaluations of the means per texel line (usually one or two Newton steps suffice; a
+/// steep line needs a bracket and a few regula falsi steps more).
+const CROSSING_STEPS: usize = 8;
+
+/// A step shorter than this many texels ends the search (heights are stored to about 1/300
+/// texel).
 const CROSSING_TOLERANCE: f64 = 1e-2;
+
+/// Texels: a line passing this close to the smoothed surface without crossing it meets it
+/// there (heights are stored to about 1/300 texel; seams measure within a tenth).
+const NEAR_MISS: f64 = 0.1;
+
+/// The facing weight rises smoothly from 0 to 1 between these cosines of a point's normal to
+/// the side faced.
+const FACING: (f64, f64) = (0.25, 0.75);
+
+/// A crossing lies on the smoothed surface only within this many sigma (tangentially) of the
+/// weighted mean of the points around it: at the edge of a half-plane of points the mean lies
+/// 0.8 sigma in, and it falls farther behind past the edge.
+const SUPPORT: f64 = 1.0;
 
 /// The Gaussian-smoothed surface on one texel's vertical line.
 #[derive(Clone, Copy, Debug)]
@@ -313,11 +472,10 @@ fn crossings(grid: &PointGrid<'_>, up: &[DVec3], cancel: &Cancel) -> Result<Vec<
 
 /// Below this cosine between the smoothed surface's normal and a texel's patch z axis the texel
 /// is steep: its vertical line runs nearly along the surface, where a small change of the
-/// surface moves the crossing far (at a curved rim, into hair-like spikes). A steep texel takes
-/// its neighbours' vertical moves instead. On the bunny's seams 0.2 left p99 gaps of 0.24 and
-/// 0.53 texels at sigma = 2 and 4 texels against 0.29 and 0.64 for 0.5, but grew spikes at the
-/// ears' rims (largest move 6.6x the p99 at 6 texels).
-const STEEP_COS: f64 = 0.5;
+/// surface moves the crossing far, so even a crossing found within `GRAZE` is taken from its
+/// neighbours' vertical moves instead. (The reach of the search already keeps lines meeting the
+/// surface at a cosine below 1/2 to 3 times their offset, so few texels are this steep.)
+const STEEP_COS: f64 = 0.1;
 
 /// Farthest (Chebyshev, texels) a steep texel looks for neighbours that are not steep.
 const STEEP_REACH: usize = 3;
@@ -377,11 +535,37 @@ pub fn filtered(
             normal: (n - gain * (c.mean_normal - n)).normalize_or(n),
         });
     }
+    let rises: Vec<Vec<f64>> = set
+        .patches
+        .par_iter()
+        .zip(&moves)
+        .map(|(p, m)| vertical_moves(p, m))
+        .collect();
+    cancel.check("filtering")?;
+    // A texel that did not keep its own crossing takes the mean normal where it ends up, so
+    // its normal too is the world-space field's at its point.
+    let ended: Vec<Option<DVec3>> = (0..points.len())
+        .into_par_iter()
+        .map_init(Vec::new, |scratch, i| {
+            let (k, t) = slots[i];
+            let m = moves[k][t].filter(|m| !m.steady)?;
+            let y = points[i] + up[i] * (rises[k][t] / -gain);
+            grid.gather(grid.cell(y), scratch);
+            let (_, mean_normal) = grid.means_at(y, normals[i], scratch)?;
+            Some((normals[i] - gain * (mean_normal - normals[i])).normalize_or(m.normal))
+        })
+        .collect();
+    for (&(k, t), normal) in slots.iter().zip(ended) {
+        if let (Some(m), Some(n)) = (moves[k][t].as_mut(), normal) {
+            m.normal = n;
+        }
+    }
     let patches = set
         .patches
         .par_iter()
         .zip(&moves)
-        .map(|(p, m)| refit(p, m))
+        .zip(&rises)
+        .map(|((p, m), r)| refit(p, m, r))
         .collect();
     let mut out = GeometryTextureSet {
         patches,
@@ -449,12 +633,11 @@ fn vertical_moves(p: &Patch, moves: &[Option<TexelMove>]) -> Vec<f64> {
 
 /// A patch with its filled texels moved (`moves`, indexed by texel; None where empty): the box
 /// refitted to the new height range, heights re-encoded, normals replaced by the filtered ones.
-fn refit(p: &Patch, moves: &[Option<TexelMove>]) -> Patch {
-    let rises = vertical_moves(p, moves);
+fn refit(p: &Patch, moves: &[Option<TexelMove>], rises: &[f64]) -> Patch {
     let new: Vec<f64> = p
         .heights
         .iter()
-        .zip(&rises)
+        .zip(rises)
         .map(|(&q, r)| {
             if q > 0 {
                 p.decode_height(q as f64) * p.extent.z + r

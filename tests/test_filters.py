@@ -95,28 +95,33 @@ def test_a_tiny_sigma_keeps_the_shading(bunny: Converted) -> None:
 
 def test_no_patch_border_shading_step(bunny: Converted) -> None:
     """Where two patches meet they show the same normal: the angle between their normals at
-    points of the shared chart edges (``seam_normal_steps``), median and p95. Measured on a
-    set with smooth normals, since the default crease rule puts an intended step on every edge
-    sharper than 20 degrees (on the scans: p95 8-12 deg unfiltered). Measured (deg) on the
-    Stanford bunny: unfiltered median 0.26, p95 0.68; at 1 texel 0.24 and 0.54; at 2 texels
-    0.25 and 0.57 (moving points along their mean normal and resampling per patch: p95 0.78
-    and 1.92)."""
+    points of the shared chart edges (``seam_normal_steps``), median, p95 and p99. Measured on
+    a set with smooth normals, since the default crease rule puts an intended step on every
+    edge sharper than 20 degrees (on the scans: p95 8-12 deg unfiltered). Measured (deg) on the
+    Stanford bunny: unfiltered median 0.26, p95 0.68, p99 2.4; at 1 texel 0.24, 0.52 and 1.41;
+    at 2 texels 0.24, 0.54 and 1.86. Before the search bracketed steep crossings and texels
+    moved by their neighbours took the normal where they end up, the p99 was 3.6 and 7.2; this
+    build with those texels keeping the normal of where their search stopped measured 4.6 at 2
+    texels and failed. Moving points along their mean normal and resampling per patch gave p95
+    0.78 and 1.92."""
     smooth = gt.convert(bunny.mesh, normals="smooth")
     t = smooth.texel_size
-    for sigma, p95_bound in ((None, 1.25), (1.0, 1.6), (2.0, 1.6)):
+    for sigma, p95_bound, p99_bound in ((None, 1.25, 4.0), (1.0, 1.6, 3.0), (2.0, 1.6, 4.0)):
         gts = smooth if sigma is None else smooth.filtered("gaussian", sigma * t)
         steps = gts.seam_normal_steps(bunny.mesh)
         assert len(steps) == len(gts.seam_gaps(bunny.mesh)) > 10_000
         assert np.median(steps) < 0.5, sigma
         assert np.percentile(steps, 95) < p95_bound, sigma
+        assert np.percentile(steps, 99) < p99_bound, sigma
 
 
 def test_no_spikes_at_rims() -> None:
-    """A texel whose vertical line runs nearly along the surface (at a rim), or misses the
-    smoothed surface, takes its neighbours' vertical moves. At 6 texels on the bunny (64-texel
-    maps) the largest move of any texel point is 2.3x the p99 move; dividing a move along
+    """A texel whose vertical line meets the smoothed surface only far away (grazing it at a
+    rim), or misses it, takes its neighbours' vertical moves. At 6 texels on the bunny (64-texel
+    maps) the largest move of any texel point is 3.2x the p99 move; dividing a move along
     the normal by a cosine near 0.2 had grown hair-like spikes along the ears' rims, 5.7x, and
-    so did crossings searched out to 3 sigma, 6.4x."""
+    so did crossings searched out to 3 sigma, 6.4x, or out to twice a plane's crossing at the
+    crossing's slope, 7.0x."""
     mesh = gt.load_mesh(pymeshlab_bunny_path())
     gts = gt.convert(mesh, max_resolution=64)
     before, _ = gts.to_points()
