@@ -21,7 +21,7 @@ use super::{
     bind_buffers, storage_buffer, DrawCall, FrameView, Kind, Tally, TraceCall, UploadCache,
 };
 use crate::error::{GeomtexError, Result};
-use crate::igt::{IgtMesh, InverseGeometricTexture};
+use crate::igt::{IgtMesh, InverseGeometricTexture, Lookup};
 use crate::render::cull::DepthRange;
 use crate::render::device::Gpu;
 use crate::render::gpu_types::{
@@ -34,12 +34,13 @@ use crate::render::shaders;
 /// Format of the surface target: detailed face + 1 (0 = none) and the barycentrics' f32 bits.
 pub(crate) const SURFACE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Uint;
 
-/// Storage buffers of group 1 (bindings 1 to 8 of igt_bindings.wgsl).
-const TABLES: usize = 8;
+/// Storage buffers of group 1 (bindings 1 to 9 of igt_bindings.wgsl).
+const TABLES: usize = 9;
 
 /// A texture's tables and attributes on the GPU.
 struct UploadedTables {
-    /// Grids, cell offsets, cell entries, entries, normals, colors, uvs, image.
+    /// Grids, cell offsets, cell entries, entries, normals, colors, uvs, image, and the
+    /// detailed faces' corners (for the ray lookup).
     buffers: [wgpu::Buffer; TABLES],
     /// Attribute bits and image size (`IgtObject.info` y, z, w).
     info: [u32; 3],
@@ -127,6 +128,9 @@ fn upload_tables(gpu: &Gpu, igt: &InverseGeometricTexture) -> Result<UploadedTab
         .collect();
     let uvs: Vec<[f32; 2]> = a.uv.iter().flatten().flatten().copied().collect();
     let image = a.uv.as_ref().and(a.image.as_ref());
+    let corners: Vec<[f32; 3]> = (igt.faces.iter().flatten())
+        .map(|&v| (igt.positions[v as usize] - centre).as_vec3().to_array())
+        .collect();
     let pixels: Vec<u32> = image.map_or(Vec::new(), |i| {
         i.pixels().iter().map(|p| pack_rgba(*p)).collect()
     });
@@ -151,6 +155,7 @@ fn upload_tables(gpu: &Gpu, igt: &InverseGeometricTexture) -> Result<UploadedTab
             buffer("igt colors", bytemuck::cast_slice(&colors)),
             buffer("igt uvs", bytemuck::cast_slice(&uvs)),
             buffer("igt image", bytemuck::cast_slice(&pixels)),
+            buffer("igt face corners", bytemuck::cast_slice(&corners)),
         ],
         info: [bits, w, h],
         centre,
@@ -167,11 +172,15 @@ fn bounds(points: &[DVec3]) -> (DVec3, DVec3) {
 
 fn upload_mesh(gpu: &Gpu, shaded: &IgtMesh, centre: DVec3) -> UploadedMesh {
     let mesh = &shaded.mesh;
-    let vertices: Vec<IgtVertex> = (mesh.faces.iter().zip(&shaded.face_grid))
-        .flat_map(|(t, &grid)| {
+    let faces = mesh.faces.iter().zip(&shaded.face_grid);
+    let search = shaded.face_window.iter().zip(&shaded.face_more_grids);
+    let vertices: Vec<IgtVertex> = (faces.zip(search))
+        .flat_map(|((t, &grid), (&window, &more))| {
             t.map(|v| IgtVertex {
                 position: (mesh.positions[v as usize] - centre).as_vec3().to_array(),
                 grid,
+                window,
+                more,
             })
         })
         .collect();
@@ -237,12 +246,15 @@ impl IgtKind {
         let view_from_local = frame.view_from_world
             * placed.world_from_object
             * DMat4::from_translation(tables.centre);
+        // The ray lookup's code (ids.y): 1 along the view ray, 0 projecting.
+        let ray = u32::from(shaded.lookup == Lookup::Ray) as i32;
         let [bits, w, h] = tables.info;
         let record = IgtObjectGpu {
             view_from_object: gpu_matrix(view_from_local),
             world_normal_from_object: normal_matrix(DMat3::from_mat4(placed.world_from_object)),
-            ids: [id, 0, 0, 0],
+            ids: [id, ray, 0, 0],
             info: [shaded.igt.primary.code(), bits, w, h],
+            object_from_view: gpu_matrix(view_from_local.inverse()),
         };
         let device = &gpu.device;
         let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -257,8 +269,9 @@ impl IgtKind {
 }
 
 fn vertex_layout() -> wgpu::VertexBufferLayout<'static> {
-    const ATTRIBUTES: [wgpu::VertexAttribute; 2] =
-        wgpu::vertex_attr_array![0 => Float32x3, 1 => Uint32];
+    const ATTRIBUTES: [wgpu::VertexAttribute; 5] = wgpu::vertex_attr_array![
+        0 => Float32x3, 1 => Uint32, 2 => Float32, 3 => Uint32x4, 4 => Uint32x4
+    ];
     wgpu::VertexBufferLayout {
         array_stride: size_of::<IgtVertex>() as u64,
         step_mode: wgpu::VertexStepMode::Vertex,
