@@ -211,8 +211,19 @@ fn igt_ray_walk(grid: u32, p: vec3<f32>, d: vec3<f32>, back: f32, best: ptr<func
     let inside = (at >= vec2<f32>(0.0)) & (at <= vec2<f32>(size));
     let lo = select(select(vec2<f32>(3.0e38), vec2<f32>(-3.0e38), inside), min(t0, t1), moves);
     let hi = select(select(vec2<f32>(-3.0e38), vec2<f32>(3.0e38), inside), max(t0, t1), moves);
-    let first = max(-back, max(lo.x, lo.y));
-    if (first >= min(*best, min(hi.x, hi.y))) {
+    // And to the slab of heights its listed faces span.
+    let height = dot(p - g.origin.xyz, g.z.xyz);
+    let rise = dot(d, g.z.xyz);
+    let top = bitcast<f32>(g.size.w);
+    let rises = abs(rise) > 1e-30;
+    let within = height >= g.z.w && height <= top;
+    let safe_rise = select(1.0, rise, rises);
+    let h0 = (g.z.w - height) / safe_rise;
+    let h1 = (top - height) / safe_rise;
+    let h_lo = select(select(3.0e38, -3.0e38, within), min(h0, h1), rises);
+    let h_hi = select(select(-3.0e38, 3.0e38, within), max(h0, h1), rises);
+    let first = max(max(-back, h_lo), max(lo.x, lo.y));
+    if (first >= min(min(*best, h_hi), min(hi.x, hi.y))) {
         return;
     }
     let start = at + first * duv;
@@ -237,7 +248,7 @@ fn igt_ray_walk(grid: u32, p: vec3<f32>, d: vec3<f32>, back: f32, best: ptr<func
                 *hit = IgtHit(i32(e), r.yzw);
             }
         }
-        if (min(exits.x, exits.y) >= *best) {
+        if (min(exits.x, exits.y) >= min(*best, h_hi)) {
             break;
         }
         if (exits.x < exits.y) {
@@ -251,19 +262,12 @@ fn igt_ray_walk(grid: u32, p: vec3<f32>, d: vec3<f32>, back: f32, best: ptr<func
 }
 
 // The first detailed triangle that the ray p + t d meets for t in [-back, ahead), in the lists
-// of grid `grid` and of `more_a`, `more_b` in turn (u32::MAX: none, the rest none too); entry
-// -1 when none.
-fn igt_ray_lookup(grid: u32, more_a: vec4<u32>, more_b: vec4<u32>, p: vec3<f32>, d: vec3<f32>, back: f32, ahead: f32) -> IgtHit {
+// of the grids search_grids[search.x ..][.. search.y]; entry -1 when none.
+fn igt_ray_lookup(search: vec2<u32>, p: vec3<f32>, d: vec3<f32>, back: f32, ahead: f32) -> IgtHit {
     var hit = IgtHit(-1, vec3<f32>(0.0));
     var best = ahead;
-    igt_ray_walk(grid, p, d, back, &best, &hit);
-    let more = array<u32, 8>(more_a.x, more_a.y, more_a.z, more_a.w, more_b.x, more_b.y, more_b.z, more_b.w);
-    for (var k = 0; k < 8; k++) {
-        let g = more[k];
-        if (g == 0xffffffffu) {
-            break;
-        }
-        igt_ray_walk(g, p, d, back, &best, &hit);
+    for (var k = 0u; k < search.y; k++) {
+        igt_ray_walk(search_grids[search.x + k], p, d, back, &best, &hit);
     }
     return hit;
 }

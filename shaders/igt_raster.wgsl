@@ -11,9 +11,8 @@ struct VsIn {
     @location(1) grid: u32,
     // The face's ray-lookup window (object units from its plane).
     @location(2) window: f32,
-    // Further grids the ray lookup walks (u32::MAX: none; src/igt/window.rs's MORE_GRIDS).
-    @location(3) more_a: vec4<u32>,
-    @location(4) more_b: vec4<u32>,
+    // The grids the ray lookup walks: first and count in search_grids.
+    @location(3) search: vec2<u32>,
 }
 
 struct VsOut {
@@ -23,14 +22,13 @@ struct VsOut {
     @location(1) view_pos: vec3<f32>,
     @location(2) @interpolate(flat) grid: u32,
     @location(3) @interpolate(flat) window: f32,
-    @location(4) @interpolate(flat) more_a: vec4<u32>,
-    @location(5) @interpolate(flat) more_b: vec4<u32>,
+    @location(4) @interpolate(flat) search: vec2<u32>,
 }
 
 @vertex
 fn vs_main(v: VsIn) -> VsOut {
     let view = object.view_from_object * vec4<f32>(v.position, 1.0);
-    return VsOut(camera.clip_from_view * view, v.position, view.xyz, v.grid, v.window, v.more_a, v.more_b);
+    return VsOut(camera.clip_from_view * view, v.position, view.xyz, v.grid, v.window, v.search);
 }
 
 // Below this cosine between the view ray and the simplified face, the ray lookup's reach stops
@@ -54,7 +52,7 @@ fn igt_fragment_hit(in: VsOut, flat_normal: vec3<f32>) -> IgtHit {
         let reach = in.window / max(cosine, IGT_MIN_COSINE);
         // Never behind the camera.
         let eye = select(length(in.view_pos), -in.view_pos.z, ortho) * units;
-        let hit = igt_ray_lookup(in.grid, in.more_a, in.more_b, in.object_pos, d, min(reach, eye), reach);
+        let hit = igt_ray_lookup(in.search, in.object_pos, d, min(reach, eye), reach);
         if (hit.entry >= 0) {
             return hit;
         }

@@ -24,9 +24,11 @@ struct IgtGrid {
     origin: vec4<f32>,
     // xyz: axis x; w: cells per world unit along v (charts, cylindrical).
     x: vec4<f32>,
-    // xyz: axis z (the chart's projection direction, or the pole / cylinder axis).
+    // xyz: axis z (the chart's projection direction, or the pole / cylinder axis); w: the
+    // lowest height (along z from the origin) of its listed faces.
     z: vec4<f32>,
-    // width, height (cells), first cell (index into the cell offsets), unused.
+    // width, height (cells), first cell (index into the cell offsets), the highest height's
+    // f32 bits.
     size: vec4<u32>,
 }
 

@@ -530,8 +530,8 @@ pub struct IgtMesh {
     /// Per face: how far (object units, along the face's normal) the ray lookup searches on
     /// either side of the face's plane (window.rs).
     pub face_window: Vec<f32>,
-    /// Per face: further grids the ray lookup walks (window.rs; u32::MAX for none).
-    pub face_more_grids: Vec<[u32; window::MORE_GRIDS]>,
+    /// Per face: the grids the ray lookup walks, its own first (window.rs).
+    pub face_search_grids: Vec<Vec<u32>>,
 }
 
 impl IgtMesh {
@@ -556,14 +556,14 @@ impl IgtMesh {
             )));
         }
         let face_grid: Vec<u32> = face_grid.into_iter().map(|g| g as u32).collect();
-        let (face_window, face_more_grids) = window::windows(&igt, &mesh, &face_grid);
+        let (face_window, face_search_grids) = window::windows(&igt, &mesh, &face_grid);
         Ok(IgtMesh {
             igt,
             mesh,
             face_grid,
             lookup,
             face_window,
-            face_more_grids,
+            face_search_grids,
         })
     }
 }

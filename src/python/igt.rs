@@ -371,6 +371,20 @@ impl PyIgtMesh {
         self.inner.lookup.name()
     }
 
+    /// (M, K) int64: per face, the grids the ray lookup walks (its own first; -1 pads).
+    #[getter]
+    fn search_grids<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<i64>>> {
+        let lists = &self.inner.face_search_grids;
+        let k = lists.iter().map(Vec::len).max().unwrap_or(0);
+        let mut flat = vec![-1i64; lists.len() * k];
+        for (row, list) in flat.chunks_mut(k.max(1)).zip(lists) {
+            for (slot, &g) in row.iter_mut().zip(list) {
+                *slot = i64::from(g);
+            }
+        }
+        numpy::PyArrayMethods::reshape(&PyArray1::from_vec(py, flat), [lists.len(), k])
+    }
+
     /// (M,) float64: per face, how far (object units) the ray lookup searches on either side
     /// of the face's plane (the measured distance to the detailed surface, with slack).
     #[getter]

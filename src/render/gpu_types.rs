@@ -331,7 +331,7 @@ pub(crate) struct IgtEntryGpu {
     pub grid: u32,
 }
 
-/// `VsIn` in igt_raster.wgsl (vertex buffer 0: Float32x3, Uint32, Float32, 2 Uint32x4).
+/// `VsIn` in igt_raster.wgsl (vertex buffer 0: Float32x3, Uint32, Float32, Uint32x2).
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
 pub(crate) struct IgtVertex {
@@ -339,8 +339,8 @@ pub(crate) struct IgtVertex {
     pub grid: u32,
     /// The face's ray-lookup window (IgtMesh::face_window).
     pub window: f32,
-    /// Further grids it walks (IgtMesh::face_more_grids).
-    pub more: [u32; crate::igt::window::MORE_GRIDS],
+    /// The grids it walks (IgtMesh::face_search_grids): first and count in the mesh's list.
+    pub search: [u32; 2],
 }
 
 wgsl_size!(IgtObjectGpu, 224);
@@ -350,4 +350,4 @@ const _: () = assert!(offset_of!(IgtObjectGpu, info) == 144);
 wgsl_size!(IgtGridGpu, crate::igt::GRID_BYTES);
 wgsl_size!(IgtEntryGpu, crate::igt::ENTRY_BYTES);
 const _: () = assert!(offset_of!(IgtEntryGpu, face) == 24);
-const _: () = assert!(size_of::<IgtVertex>() == 52);
+const _: () = assert!(size_of::<IgtVertex>() == 28);

@@ -48,9 +48,11 @@ struct UploadedTables {
     centre: DVec3,
 }
 
-/// A simplified mesh's de-indexed vertices, three per face, each with its face's grid.
+/// A simplified mesh's de-indexed vertices, three per face, each with its face's grid, and the
+/// grids its faces' ray lookups walk (binding 10).
 struct UploadedMesh {
     vertices: wgpu::Buffer,
+    search_grids: wgpu::Buffer,
     count: u32,
     lo: DVec3,
     hi: DVec3,
@@ -82,19 +84,34 @@ fn pack_rgba(c: [u8; 4]) -> u32 {
     u32::from_le_bytes(c)
 }
 
-/// The grids as the shader takes them, relative to `centre`.
+/// The grids as the shader takes them, relative to `centre`, with the heights (along z from
+/// the origin) their listed faces span, rounded outward (the ray lookup's slab).
 fn grid_records(igt: &InverseGeometricTexture, centre: DVec3) -> Vec<IgtGridGpu> {
     let per = |cell: f64| if cell > 0.0 { (1.0 / cell) as f32 } else { 0.0 };
-    igt.grids
-        .iter()
-        .map(|g| {
+    let mut heights = vec![(f64::INFINITY, f64::NEG_INFINITY); igt.grids.len()];
+    for e in &igt.entries {
+        let g = &igt.grids[e.grid as usize];
+        let h = &mut heights[e.grid as usize];
+        for &v in &igt.faces[e.face as usize] {
+            let z = (igt.positions[v as usize] - g.origin).dot(g.axes[2]);
+            *h = (h.0.min(z), h.1.max(z));
+        }
+    }
+    (igt.grids.iter().zip(heights))
+        .map(|(g, (lo, hi))| {
             let o = (g.origin - centre).as_vec3();
             let [x, _, z] = g.axes.map(|a| a.as_vec3());
+            let slack = 1e-4 * (hi - lo).abs().max(g.cell.max_element());
             IgtGridGpu {
                 origin: [o.x, o.y, o.z, per(g.cell.x)],
                 x: [x.x, x.y, x.z, per(g.cell.y)],
-                z: [z.x, z.y, z.z, 0.0],
-                size: [g.width, g.height, g.first_cell, 0],
+                z: [z.x, z.y, z.z, (lo - slack) as f32],
+                size: [
+                    g.width,
+                    g.height,
+                    g.first_cell,
+                    ((hi + slack) as f32).to_bits(),
+                ],
             }
         })
         .collect()
@@ -172,18 +189,30 @@ fn bounds(points: &[DVec3]) -> (DVec3, DVec3) {
 
 fn upload_mesh(gpu: &Gpu, shaded: &IgtMesh, centre: DVec3) -> UploadedMesh {
     let mesh = &shaded.mesh;
+    let mut first = 0u32;
+    let search: Vec<[u32; 2]> = (shaded.face_search_grids.iter())
+        .map(|list| {
+            first += list.len() as u32;
+            [first - list.len() as u32, list.len() as u32]
+        })
+        .collect();
     let faces = mesh.faces.iter().zip(&shaded.face_grid);
-    let search = shaded.face_window.iter().zip(&shaded.face_more_grids);
-    let vertices: Vec<IgtVertex> = (faces.zip(search))
-        .flat_map(|((t, &grid), (&window, &more))| {
+    let vertices: Vec<IgtVertex> = (faces.zip(shaded.face_window.iter().zip(search)))
+        .flat_map(|((t, &grid), (&window, search))| {
             t.map(|v| IgtVertex {
                 position: (mesh.positions[v as usize] - centre).as_vec3().to_array(),
                 grid,
                 window,
-                more,
+                search,
             })
         })
         .collect();
+    let grids: Vec<u32> = shaded.face_search_grids.concat();
+    let search_grids = storage_buffer(
+        &gpu.device,
+        "igt search grids",
+        bytemuck::cast_slice(if grids.is_empty() { &[0u32] } else { &grids }),
+    );
     let (lo, hi) = mesh.bounds();
     let buffer = gpu
         .device
@@ -194,6 +223,7 @@ fn upload_mesh(gpu: &Gpu, shaded: &IgtMesh, centre: DVec3) -> UploadedMesh {
         });
     UploadedMesh {
         vertices: buffer,
+        search_grids,
         count: vertices.len() as u32,
         lo,
         hi,
@@ -205,7 +235,8 @@ impl IgtKind {
         let fragment = wgpu::ShaderStages::FRAGMENT;
         // Group 1 of igt_bindings.wgsl.
         let mut entries = vec![uniform_entry(0, VERTEX_AND_FRAGMENT)];
-        entries.extend((1..=TABLES as u32).map(|b| storage_entry(b, fragment, true)));
+        // Bindings 1 to TABLES: the texture's; the last: the mesh's search grids.
+        entries.extend((1..=TABLES as u32 + 1).map(|b| storage_entry(b, fragment, true)));
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("igt object"),
             entries: &entries,
@@ -262,16 +293,17 @@ impl IgtKind {
             contents: bytemuck::bytes_of(&record),
             usage: wgpu::BufferUsages::UNIFORM,
         });
-        let buffers: Vec<_> = std::iter::once(&uniform).chain(&tables.buffers).collect();
+        let buffers: Vec<_> = (std::iter::once(&uniform).chain(&tables.buffers))
+            .chain(std::iter::once(&mesh.search_grids))
+            .collect();
         let group = bind_buffers(device, "igt object", &self.layout, &buffers);
         Some((group, mesh))
     }
 }
 
 fn vertex_layout() -> wgpu::VertexBufferLayout<'static> {
-    const ATTRIBUTES: [wgpu::VertexAttribute; 5] = wgpu::vertex_attr_array![
-        0 => Float32x3, 1 => Uint32, 2 => Float32, 3 => Uint32x4, 4 => Uint32x4
-    ];
+    const ATTRIBUTES: [wgpu::VertexAttribute; 4] =
+        wgpu::vertex_attr_array![0 => Float32x3, 1 => Uint32, 2 => Float32, 3 => Uint32x2];
     wgpu::VertexBufferLayout {
         array_stride: size_of::<IgtVertex>() as u64,
         step_mode: wgpu::VertexStepMode::Vertex,
