@@ -30,7 +30,7 @@ and the end.
 
 Run from the repository root::
 
-    nice python bench/igt.py            # all three meshes (~15 min)
+    nice python bench/igt.py            # all three meshes (~11 min on 2 busy cores)
     nice python bench/igt.py --quick    # bunny and spot only
 """
 
