@@ -13,7 +13,9 @@ In one run, on one wgpu adapter, at 512x512:
   trimesh + embree ray casting of the detailed mesh (normals interpolated by the same crease
   rule): median normal angle of the IGT-shaded frame and of the plain simplified mesh (their
   ratio), and the share of pixels whose detailed face agrees with embree's, on pixels both hit
-  and not within one pixel of either silhouette;
+  and not within one pixel of either silhouette; for the ray lookup (the default) and the
+  projection lookup (``lookup="projection"``) of the same simplified mesh, with their frame
+  times side by side;
 * color: spot with its texture simplified to 5% (and 20%, 50%), against trimesh ray casting of
   the textured detailed mesh (bilinear texture color at the hit's texture coordinates): mean
   absolute RGB difference on interior pixels (``reference.albedo_difference``), and a
@@ -28,7 +30,7 @@ and the end.
 
 Run from the repository root::
 
-    nice python bench/igt.py            # all three meshes (~15 min)
+    nice python bench/igt.py            # all three meshes (~11 min on 2 busy cores)
     nice python bench/igt.py --quick    # bunny and spot only
 """
 
@@ -141,6 +143,7 @@ def accuracy(renderer: gt.Renderer, repeats: int) -> list[dict[str, Any]]:
     caster = reference.RayCaster(detailed)
     corners = reference.corner_normals(detailed)
     lows = {f: gt.igt.simplify(igt, int(len(igt.faces) * f)) for f in FRACTIONS}
+    projected = {f: gt.igt.attach(igt, low.vertices, low.faces, lookup="projection") for f, low in lows.items()}
     rows = []
     for k, view in enumerate(VIEWS):
         cam = camera(igt, view)
@@ -148,9 +151,11 @@ def accuracy(renderer: gt.Renderer, repeats: int) -> list[dict[str, Any]]:
         ref_normal = reference.shading_normals(detailed, corners, ref)
         for fraction, low in lows.items():
             frame, ms = timed(renderer, low, cam, repeats)
+            proj, proj_ms = timed(renderer, projected[fraction], cam, repeats)
             plain, plain_ms = timed(renderer, gt.Mesh(low.vertices, low.faces), cam, repeats)
             mask = interior(ref["hit"]) & interior(np.isfinite(frame.depth))
             igt_deg = reference.normal_angles(frame.normal, ref_normal, mask)
+            proj_deg = reference.normal_angles(proj.normal, ref_normal, mask)
             plain_deg = reference.normal_angles(plain.normal, ref_normal, mask)
             agree = float((frame.face_id[mask] == ref["triangle"][mask]).mean())
             row = {"view": k, "fraction": fraction, "faces": len(low), "pixels": int(mask.sum()),
@@ -160,11 +165,18 @@ def accuracy(renderer: gt.Renderer, repeats: int) -> list[dict[str, Any]]:
                    "ratio": float(np.median(plain_deg) / np.median(igt_deg)),
                    "face_agreement": agree,
                    "no_face_fraction": float((frame.face_id[mask] < 0).mean()),
-                   "igt_gpu_ms": ms, "plain_gpu_ms": plain_ms}
+                   "projection_normal_deg_median": float(np.median(proj_deg)),
+                   "projection_face_agreement": float((proj.face_id[mask] == ref["triangle"][mask]).mean()),
+                   "window_median": float(np.median(low.face_window)),
+                   "search_grids_mean": float((low.search_grids >= 0).sum(axis=1).mean()),
+                   "igt_gpu_ms": ms, "projection_gpu_ms": proj_ms, "plain_gpu_ms": plain_ms,
+                   "ray_over_projection_ms": ms / proj_ms}
             rows.append(row)
             print(f"view {k} {fraction:6.3f} ({len(low):5d} faces)  normal {row['igt_normal_deg_median']:5.2f}° "
-                  f"vs plain {row['plain_normal_deg_median']:5.2f}° ({row['ratio']:5.1f}x)  faces {agree:.3f}",
-                  flush=True)
+                  f"(projection {row['projection_normal_deg_median']:5.2f}°) vs plain "
+                  f"{row['plain_normal_deg_median']:5.2f}° ({row['ratio']:5.1f}x)  faces {agree:.4f} "
+                  f"(projection {row['projection_face_agreement']:.4f})  {ms:6.1f} ms vs projection "
+                  f"{proj_ms:6.1f} ms", flush=True)
     return rows
 
 
@@ -177,16 +189,20 @@ def color(renderer: gt.Renderer) -> list[dict[str, Any]]:
     rows, images = [], []
     for fraction in SPOT_FRACTIONS:
         low = gt.igt.simplify(igt, int(spot.n_faces * fraction))
+        projected = gt.igt.attach(igt, low.vertices, low.faces, lookup="projection")
         for k, view in enumerate(((1.0, 0.3, 0.2), (0.2, 0.3, 1.0))):
             cam = camera(igt, view)
             frame = renderer.render(low, cam)
+            proj = renderer.render(projected, cam)
             ref = reference.raycast_albedo(spot, cam, SIZE, SIZE)
             d = reference.albedo_difference(frame.albedo, ref, np.isfinite(frame.depth))
+            dp = reference.albedo_difference(proj.albedo, ref, np.isfinite(proj.depth))
             both = ref["hit"] & (frame.face_id >= 0)
             rows.append({"fraction": fraction, "faces": len(low), "view": k, **d,
-                         "face_agreement": float((frame.face_id[both] == ref["triangle"][both]).mean())})
+                         "face_agreement": float((frame.face_id[both] == ref["triangle"][both]).mean()),
+                         "projection_mean": dp["mean"]})
             print(f"spot {fraction:4.2f} ({len(low)} faces) view {k}: mean |Δcolor| {d['mean']:.2f}/255 "
-                  f"on {d['interior_px']} px", flush=True)
+                  f"(projection {dp['mean']:.2f}) on {d['interior_px']} px", flush=True)
             if fraction == SPOT_FRACTIONS[0] and k == 0:
                 plain = renderer.render(gt.Mesh(low.vertices, low.faces), cam)
                 images = [frame.albedo, ref["albedo"], plain.albedo]
@@ -237,12 +253,21 @@ def summary(data: dict[str, Any]) -> dict[str, Any]:
                                         max(r["plain_normal_deg_median"] for r in rows)],
             "ratio": [min(r["ratio"] for r in rows), max(r["ratio"] for r in rows)],
             "face_agreement": [min(r["face_agreement"] for r in rows), max(r["face_agreement"] for r in rows)],
+            "projection_normal_deg_median": [min(r["projection_normal_deg_median"] for r in rows),
+                                             max(r["projection_normal_deg_median"] for r in rows)],
+            "projection_face_agreement": [min(r["projection_face_agreement"] for r in rows),
+                                          max(r["projection_face_agreement"] for r in rows)],
             "igt_gpu_ms": float(np.median([r["igt_gpu_ms"] for r in rows])),
+            "projection_gpu_ms": float(np.median([r["projection_gpu_ms"] for r in rows])),
+            "ray_over_projection_ms": [min(r["ray_over_projection_ms"] for r in rows),
+                                       max(r["ray_over_projection_ms"] for r in rows)],
             "plain_gpu_ms": float(np.median([r["plain_gpu_ms"] for r in rows])),
         }
     for f in SPOT_FRACTIONS:
         rows = [r for r in data["color"] if r["fraction"] == f]
         out[f"spot_{f}_color_mean"] = [min(r["mean"] for r in rows), max(r["mean"] for r in rows)]
+        out[f"spot_{f}_projection_color_mean"] = [min(r["projection_mean"] for r in rows),
+                                                  max(r["projection_mean"] for r in rows)]
     if data.get("speed"):
         out["speed"] = data["speed"]["gpu_ms"] | {"speedup": data["speed"]["speedup"]}
     return out
@@ -269,7 +294,9 @@ def plot(data: dict[str, Any], path: Path) -> None:
         a.set_title(title)
     ax[0].legend(fontsize=7)
     acc = data["accuracy"]
-    for key, style, label in (("igt_normal_deg_median", "-o", "IGT"), ("plain_normal_deg_median", "--s", "plain")):
+    for key, style, label in (("igt_normal_deg_median", "-o", "IGT, ray lookup"),
+                              ("projection_normal_deg_median", "-.^", "IGT, projection lookup"),
+                              ("plain_normal_deg_median", "--s", "plain")):
         med = [np.median([r[key] for r in acc if r["fraction"] == f]) for f in FRACTIONS]
         ax[3].plot([100 * f for f in FRACTIONS], med, style, label=label)
     ax[3].set_xscale("log")

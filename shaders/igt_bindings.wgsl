@@ -2,7 +2,10 @@
 // (grids; cell offsets, cell c listing cell_entries[cell_start[c] .. cell_start[c + 1]];
 // entries) and its attributes per detailed face and corner (3 u32 each: a normal as two snorm16
 // of its octahedral encoding, a color as RGBA8; 3 vec2 texture coordinates) and the texture
-// image (RGBA8 per u32, row 0 at the top). Absent attributes are bound as one dummy element.
+// image (RGBA8 per u32, row 0 at the top); the detailed faces' corners (object space, 9 f32 per
+// face) for the ray lookup; then the simplified mesh's own: the grids its faces' ray lookups
+// walk (a face's first and count arrive with its vertices). Absent parts are bound as one
+// dummy element.
 //
 // Spaces: see igt_types.wgsl.
 
@@ -15,3 +18,5 @@
 @group(1) @binding(6) var<storage, read> corner_colors: array<u32>;
 @group(1) @binding(7) var<storage, read> corner_uvs: array<vec2<f32>>;
 @group(1) @binding(8) var<storage, read> image: array<u32>;
+@group(1) @binding(9) var<storage, read> face_corners: array<f32>;
+@group(1) @binding(10) var<storage, read> search_grids: array<u32>;

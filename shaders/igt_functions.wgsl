@@ -3,6 +3,9 @@
 // watertight edge functions (first listed triangle containing it), else take the listed
 // triangle nearest to it (in its cell, or if that lists none in the ring of cells around it,
 // IGT_MAX_RING = lookup.rs's MAX_RING); then the hit triangle's attributes, interpolated.
+// The ray lookup (igt_ray_lookup) instead walks the cells the view ray crosses near the point
+// and takes the first listed triangle the ray meets (no CPU twin: the reference for it is
+// embree's ray casting of the detailed mesh, bench/igt.py).
 //
 // Spaces: object space in (see igt_types.wgsl); primary space in cell units; world normals out.
 
@@ -173,6 +176,100 @@ fn igt_lookup(grid: u32, p: vec3<f32>) -> IgtHit {
         }
     }
     return IgtHit(-1, vec3<f32>(0.0));
+}
+
+// Cells the ray lookup walks at most: bounds its cost where a grazing ray's window is long.
+const IGT_MAX_WALK: i32 = 64;
+
+// Corner k of detailed face `face` (object space).
+fn igt_corner(face: u32, k: u32) -> vec3<f32> {
+    let i = 9u * face + 3u * k;
+    return vec3<f32>(face_corners[i], face_corners[i + 1u], face_corners[i + 2u]);
+}
+
+// The first triangle listed in grid `grid` that the ray p + t d (object space, d unit) meets
+// for t in [-back, *best), if any: then *best becomes its t and *hit the hit. The grid's cells
+// that the ray's projection crosses are walked in order along it (a 2D DDA, from where it
+// enters the grid), each listed triangle ray-tested (watertight, ray_triangle_functions.wgsl),
+// until the best hit lies before the next cell (a triangle is listed in every cell it
+// overlaps). A wrapping primary's cells are not straight along a ray: nothing is walked there
+// (the projection serves it).
+fn igt_ray_walk(grid: u32, p: vec3<f32>, d: vec3<f32>, back: f32, best: ptr<function, f32>, hit: ptr<function, IgtHit>) {
+    if (igt_wraps()) {
+        return;
+    }
+    let g = grids[grid];
+    let size = vec2<i32>(g.size.xy);
+    // The ray in cell units: where it is at t = 0, and cells per unit t.
+    let at = igt_project(g, p);
+    let duv = vec2<f32>(dot(d, g.x.xyz) * g.origin.w, dot(d, cross(g.z.xyz, g.x.xyz)) * g.x.w);
+    let moves = abs(duv) > vec2<f32>(1e-30);
+    let safe = select(vec2<f32>(1.0), duv, moves);
+    // Clipped to the grid's rectangle (slabs; a still axis keeps the whole range if inside).
+    let t0 = (vec2<f32>(0.0) - at) / safe;
+    let t1 = (vec2<f32>(size) - at) / safe;
+    let inside = (at >= vec2<f32>(0.0)) & (at <= vec2<f32>(size));
+    let lo = select(select(vec2<f32>(3.0e38), vec2<f32>(-3.0e38), inside), min(t0, t1), moves);
+    let hi = select(select(vec2<f32>(-3.0e38), vec2<f32>(3.0e38), inside), max(t0, t1), moves);
+    // And to the slab of heights its listed faces span.
+    let height = dot(p - g.origin.xyz, g.z.xyz);
+    let rise = dot(d, g.z.xyz);
+    let top = bitcast<f32>(g.size.w);
+    let rises = abs(rise) > 1e-30;
+    let within = height >= g.z.w && height <= top;
+    let safe_rise = select(1.0, rise, rises);
+    let h0 = (g.z.w - height) / safe_rise;
+    let h1 = (top - height) / safe_rise;
+    let h_lo = select(select(3.0e38, -3.0e38, within), min(h0, h1), rises);
+    let h_hi = select(select(-3.0e38, 3.0e38, within), max(h0, h1), rises);
+    let first = max(max(-back, h_lo), max(lo.x, lo.y));
+    if (first >= min(min(*best, h_hi), min(hi.x, hi.y))) {
+        return;
+    }
+    let start = at + first * duv;
+    var cell = clamp(vec2<i32>(floor(start)), vec2<i32>(0), size - 1);
+    let up = duv > vec2<f32>(0.0);
+    let step = select(vec2<i32>(-1), vec2<i32>(1), up);
+    // t at which the ray leaves the current cell along u and v, and t per cell.
+    let edge = vec2<f32>(cell) + select(vec2<f32>(0.0), vec2<f32>(1.0), up);
+    var exits = select(vec2<f32>(3.0e38), (edge - at) / safe, moves);
+    let per = select(vec2<f32>(3.0e38), abs(1.0 / safe), moves);
+    for (var k = 0; k < IGT_MAX_WALK; k++) {
+        if (any(cell < vec2<i32>(0)) || any(cell >= size)) {
+            break;
+        }
+        let c = g.size.z + u32(cell.y * size.x + cell.x);
+        for (var q = cell_start[c]; q < cell_start[c + 1u]; q++) {
+            let e = cell_entries[q];
+            let f = entries[e].face;
+            let r = ray_triangle(igt_corner(f, 0u), igt_corner(f, 1u), igt_corner(f, 2u), p, d, -back, *best);
+            if (r.y >= 0.0) {
+                *best = r.x;
+                *hit = IgtHit(i32(e), r.yzw);
+            }
+        }
+        if (min(exits.x, exits.y) >= min(*best, h_hi)) {
+            break;
+        }
+        if (exits.x < exits.y) {
+            cell.x += step.x;
+            exits.x += per.x;
+        } else {
+            cell.y += step.y;
+            exits.y += per.y;
+        }
+    }
+}
+
+// The first detailed triangle that the ray p + t d meets for t in [-back, ahead), in the lists
+// of the grids search_grids[search.x ..][.. search.y]; entry -1 when none.
+fn igt_ray_lookup(search: vec2<u32>, p: vec3<f32>, d: vec3<f32>, back: f32, ahead: f32) -> IgtHit {
+    var hit = IgtHit(-1, vec3<f32>(0.0));
+    var best = ahead;
+    for (var k = 0u; k < search.y; k++) {
+        igt_ray_walk(search_grids[search.x + k], p, d, back, &best, &hit);
+    }
+    return hit;
 }
 
 // A unit normal from its octahedral encoding (two values in [-1, 1]).

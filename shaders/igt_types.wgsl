@@ -9,11 +9,13 @@
 struct IgtObject {
     view_from_object: mat4x4<f32>,
     world_normal_from_object: mat4x4<f32>,
-    // x: id written to the id target.
+    // x: id written to the id target; y: 1 for the ray lookup, 0 for the projection.
     ids: vec4<i32>,
     // x: primary (0 charts, 1 spherical, 2 cylindrical), y: attribute bits (1 corner colors,
     // 2 texture coordinates and image), z, w: the image's width and height in pixels.
     info: vec4<u32>,
+    // Inverse of view_from_object (for the view ray's direction in object space).
+    object_from_view: mat4x4<f32>,
 }
 
 // One grid of the primary space. Its y axis is cross(z, x) (the axes are right-handed).
@@ -22,9 +24,11 @@ struct IgtGrid {
     origin: vec4<f32>,
     // xyz: axis x; w: cells per world unit along v (charts, cylindrical).
     x: vec4<f32>,
-    // xyz: axis z (the chart's projection direction, or the pole / cylinder axis).
+    // xyz: axis z (the chart's projection direction, or the pole / cylinder axis); w: the
+    // lowest height (along z from the origin) of its listed faces.
     z: vec4<f32>,
-    // width, height (cells), first cell (index into the cell offsets), unused.
+    // width, height (cells), first cell (index into the cell offsets), the highest height's
+    // f32 bits.
     size: vec4<u32>,
 }
 

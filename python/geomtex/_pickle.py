@@ -32,8 +32,10 @@ def restore_igt(data: bytes) -> _core.InverseGeometricTexture:
     return _core.InverseGeometricTexture.from_bytes(data)
 
 
-def restore_igt_mesh(igt: _core.InverseGeometricTexture, vertices: Any, faces: Any, face_grid: Any) -> _core.IgtMesh:
-    return igt.shade(vertices, faces, [int(g) for g in face_grid])
+def restore_igt_mesh(igt: _core.InverseGeometricTexture, vertices: Any, faces: Any, face_grid: Any,
+                     lookup: str | None = None) -> _core.IgtMesh:
+    # Pickles made before the ray lookup carry no lookup: they get the default.
+    return igt.shade(vertices, faces, [int(g) for g in face_grid], lookup=lookup)
 
 
 def restore_mesh(*arrays: Any) -> Any:
@@ -81,7 +83,7 @@ def _reduce_igt(self: _core.InverseGeometricTexture) -> tuple[Any, ...]:
 
 
 def _reduce_igt_mesh(self: _core.IgtMesh) -> tuple[Any, ...]:
-    return restore_igt_mesh, (self.igt, self.vertices, self.faces, self.face_grid)
+    return restore_igt_mesh, (self.igt, self.vertices, self.faces, self.face_grid, self.lookup)
 
 
 def _reduce_mesh(self: _core.Mesh) -> tuple[Any, ...]:

@@ -66,10 +66,10 @@ def load(path: str | os.PathLike[str]) -> InverseGeometricTexture:
     return _core.load_igt(path)
 
 
-def simplify(igt: InverseGeometricTexture, target_faces: int) -> IgtMesh:
+def simplify(igt: InverseGeometricTexture, target_faces: int, lookup: str = "ray") -> IgtMesh:
     """The detailed mesh simplified to about `target_faces` faces (pymeshlab's quadric edge
     collapse, normals preserved), as an IgtMesh shaded through `igt` (see `attach` for how its
-    faces are given their grids)."""
+    faces are given their grids and for `lookup`)."""
     if not isinstance(target_faces, (int, np.integer)) or isinstance(target_faces, bool):
         raise ParameterError(f"target_faces must be an integer, got {target_faces!r}")
     faces = igt.faces
@@ -88,12 +88,18 @@ def simplify(igt: InverseGeometricTexture, target_faces: int) -> IgtMesh:
         targetfacenum=int(target_faces), preservenormal=True, qualitythr=0.5
     )
     low = ms.current_mesh()
-    return attach(igt, low.vertex_matrix(), low.face_matrix())
+    return attach(igt, low.vertex_matrix(), low.face_matrix(), lookup=lookup)
 
 
-def attach(igt: InverseGeometricTexture, vertices: Any, faces: Any) -> IgtMesh:
+def attach(igt: InverseGeometricTexture, vertices: Any, faces: Any, lookup: str = "ray") -> IgtMesh:
     """A mesh simplified from the detailed one (by `simplify` or elsewhere; same space), as an
     IgtMesh shaded through `igt`.
+
+    `lookup`: "ray" (default) shows, per pixel, the first detailed triangle the view ray meets
+    near the simplified surface (within each face's measured window, `IgtMesh.face_window`), as
+    a ray caster of the detailed mesh would; "projection" the one under the point projected
+    along its chart's axis (the paper's lookup: cheaper, but off wherever the two surfaces part
+    by more than a triangle). A spherical or cylindrical map always projects.
 
     Every face is assigned the grid (chart) of the detailed face nearest to its centroid, and its
     points are projected along that chart's axis: the simplified surface lies close to the
@@ -114,4 +120,4 @@ def attach(igt: InverseGeometricTexture, vertices: Any, faces: Any) -> IgtMesh:
         centroids = igt.vertices[igt.faces[listed]].mean(axis=1)
         _, nearest = cKDTree(centroids).query(v[f].mean(axis=1))
         face_grid = igt.face_grid[listed[nearest]]
-    return igt.shade(v, f, face_grid.tolist())
+    return igt.shade(v, f, face_grid.tolist(), lookup=lookup)

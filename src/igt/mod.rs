@@ -12,6 +12,7 @@
 pub mod file;
 pub mod lookup;
 pub mod primary;
+pub mod window;
 
 use std::sync::Arc;
 
@@ -487,6 +488,36 @@ impl InverseGeometricTexture {
 #[cfg(test)]
 mod tests;
 
+/// How a simplified mesh's fragments find the detailed triangle they show.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Lookup {
+    /// The first detailed triangle the view ray meets within the face's window around the
+    /// simplified surface (walking the grid's cells the ray crosses); the projection where it
+    /// meets none. Charts only: a wrapping primary projects.
+    #[default]
+    Ray,
+    /// The paper's lookup: the triangle under the point projected along the chart's axis.
+    /// Cheaper, but off wherever the simplified and detailed surfaces part.
+    Projection,
+}
+
+impl std::str::FromStr for Lookup {
+    type Err = GeomtexError;
+    fn from_str(s: &str) -> Result<Self> {
+        let choices = [("ray", Lookup::Ray), ("projection", Lookup::Projection)];
+        crate::error::parse_choice("lookup", s, &choices)
+    }
+}
+
+impl Lookup {
+    pub fn name(self) -> &'static str {
+        match self {
+            Lookup::Ray => "ray",
+            Lookup::Projection => "projection",
+        }
+    }
+}
+
 /// A simplified mesh shaded through an inverse geometric texture: each of its faces names the
 /// grid its points are projected into (for the charts primary, the chart of the detailed
 /// surface around it; grid 0 for a spherical or cylindrical map).
@@ -495,10 +526,21 @@ pub struct IgtMesh {
     pub igt: Arc<InverseGeometricTexture>,
     pub mesh: Mesh,
     pub face_grid: Vec<u32>,
+    pub lookup: Lookup,
+    /// Per face: how far (object units, along the face's normal) the ray lookup searches on
+    /// either side of the face's plane (window.rs).
+    pub face_window: Vec<f32>,
+    /// Per face: the grids the ray lookup walks, its own first (window.rs).
+    pub face_search_grids: Vec<Vec<u32>>,
 }
 
 impl IgtMesh {
-    pub fn new(igt: Arc<InverseGeometricTexture>, mesh: Mesh, face_grid: Vec<i64>) -> Result<Self> {
+    pub fn new(
+        igt: Arc<InverseGeometricTexture>,
+        mesh: Mesh,
+        face_grid: Vec<i64>,
+        lookup: Lookup,
+    ) -> Result<Self> {
         if face_grid.len() != mesh.faces.len() {
             return Err(GeomtexError::Parameter(format!(
                 "{} face grids for {} faces",
@@ -513,10 +555,15 @@ impl IgtMesh {
                 face_grid[f]
             )));
         }
+        let face_grid: Vec<u32> = face_grid.into_iter().map(|g| g as u32).collect();
+        let (face_window, face_search_grids) = window::windows(&igt, &mesh, &face_grid);
         Ok(IgtMesh {
             igt,
             mesh,
-            face_grid: face_grid.into_iter().map(|g| g as u32).collect(),
+            face_grid,
+            lookup,
+            face_window,
+            face_search_grids,
         })
     }
 }

@@ -12,7 +12,7 @@ use super::errors::heavy;
 use super::gtex::with_progress;
 use super::mesh::PyMesh;
 use crate::error::GeomtexError;
-use crate::igt::{self, file, IgtMesh, IgtOptions, InverseGeometricTexture};
+use crate::igt::{self, file, IgtMesh, IgtOptions, InverseGeometricTexture, Lookup};
 use crate::mesh::{Mesh, NormalRule};
 
 /// An inverse geometric texture: per cell of a primary parameterization (the conversion's
@@ -265,17 +265,23 @@ impl PyIgt {
     }
 
     /// A simplified mesh (V, 3) / (M, 3) to render through this texture, each face projected
-    /// into grid `face_grid[m]` (see geomtex.igt.simplify).
+    /// into grid `face_grid[m]` (see geomtex.igt.simplify); `lookup` "ray" (default) or
+    /// "projection".
+    #[pyo3(signature = (vertices, faces, face_grid, lookup = None))]
     fn shade(
         &self,
+        py: Python<'_>,
         vertices: PyReadonlyArray2<'_, f64>,
         faces: PyReadonlyArray2<'_, i64>,
         face_grid: Vec<i64>,
+        lookup: Option<&str>,
     ) -> PyResult<PyIgtMesh> {
         expect_columns(&vertices, 3, "vertices", GeomtexError::Mesh)?;
         expect_columns(&faces, 3, "faces", GeomtexError::Mesh)?;
+        let lookup = lookup.map_or(Ok(Lookup::default()), str::parse::<Lookup>)?;
         let mesh = Mesh::from_flat(&flat(&vertices), &flat(&faces), None)?;
-        let shaded = IgtMesh::new(self.inner.clone(), mesh, face_grid)?;
+        let igt = self.inner.clone();
+        let shaded = py.detach(move || IgtMesh::new(igt, mesh, face_grid, lookup))?;
         Ok(PyIgtMesh {
             inner: Arc::new(shaded),
         })
@@ -357,6 +363,33 @@ impl PyIgtMesh {
     #[getter]
     fn face_grid<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<i64>> {
         PyArray1::from_iter(py, self.inner.face_grid.iter().map(|&g| g as i64))
+    }
+
+    /// "ray" or "projection": how fragments find their detailed triangle.
+    #[getter]
+    fn lookup(&self) -> &'static str {
+        self.inner.lookup.name()
+    }
+
+    /// (M, K) int64: per face, the grids the ray lookup walks (its own first; -1 pads).
+    #[getter]
+    fn search_grids<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<i64>>> {
+        let lists = &self.inner.face_search_grids;
+        let k = lists.iter().map(Vec::len).max().unwrap_or(0);
+        let mut flat = vec![-1i64; lists.len() * k];
+        for (row, list) in flat.chunks_mut(k.max(1)).zip(lists) {
+            for (slot, &g) in row.iter_mut().zip(list) {
+                *slot = i64::from(g);
+            }
+        }
+        numpy::PyArrayMethods::reshape(&PyArray1::from_vec(py, flat), [lists.len(), k])
+    }
+
+    /// (M,) float64: per face, how far (object units) the ray lookup searches on either side
+    /// of the face's plane (the measured distance to the detailed surface, with slack).
+    #[getter]
+    fn face_window<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_iter(py, self.inner.face_window.iter().map(|&w| f64::from(w)))
     }
 
     fn __len__(&self) -> usize {

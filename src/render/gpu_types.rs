@@ -313,6 +313,7 @@ pub(crate) struct IgtObjectGpu {
     pub world_normal_from_object: [[f32; 4]; 4],
     pub ids: [i32; 4],
     pub info: [u32; 4],
+    pub object_from_view: [[f32; 4]; 4],
 }
 
 /// `IgtGrid` in igt_types.wgsl.
@@ -334,19 +335,23 @@ pub(crate) struct IgtEntryGpu {
     pub grid: u32,
 }
 
-/// `VsIn` in igt_raster.wgsl (vertex buffer 0: Float32x3, Uint32).
+/// `VsIn` in igt_raster.wgsl (vertex buffer 0: Float32x3, Uint32, Float32, Uint32x2).
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
 pub(crate) struct IgtVertex {
     pub position: [f32; 3],
     pub grid: u32,
+    /// The face's ray-lookup window (IgtMesh::face_window).
+    pub window: f32,
+    /// The grids it walks (IgtMesh::face_search_grids): first and count in the mesh's list.
+    pub search: [u32; 2],
 }
 
-wgsl_size!(IgtObjectGpu, 160);
+wgsl_size!(IgtObjectGpu, 224);
 const _: () = assert!(offset_of!(IgtObjectGpu, ids) == 128);
 const _: () = assert!(offset_of!(IgtObjectGpu, info) == 144);
 // The sizes the texture's figures count (igt::GRID_BYTES, igt::ENTRY_BYTES).
 wgsl_size!(IgtGridGpu, crate::igt::GRID_BYTES);
 wgsl_size!(IgtEntryGpu, crate::igt::ENTRY_BYTES);
 const _: () = assert!(offset_of!(IgtEntryGpu, face) == 24);
-const _: () = assert!(size_of::<IgtVertex>() == 16);
+const _: () = assert!(size_of::<IgtVertex>() == 28);

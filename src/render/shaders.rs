@@ -54,6 +54,7 @@ const GTEX_FRAGMENT_FUNCTIONS: &str = shader!("gtex_fragment_functions.wgsl");
 const GTEX_TILES_FUNCTIONS: &str = shader!("gtex_tiles_functions.wgsl");
 const GTEX_TRACE_FUNCTIONS: &str = shader!("gtex_trace_functions.wgsl");
 const MESH_TRACE_FUNCTIONS: &str = shader!("mesh_trace_functions.wgsl");
+const RAY_TRIANGLE_FUNCTIONS: &str = shader!("ray_triangle_functions.wgsl");
 const SURFELS_FUNCTIONS: &str = shader!("surfels_functions.wgsl");
 const SURFELS_CLIP_FUNCTIONS: &str = shader!("surfels_clip_functions.wgsl");
 
@@ -166,6 +167,7 @@ pub fn mesh_trace_rays() -> String {
         TRACE_FUNCTIONS,
         QUERY_INDEX_FUNCTIONS,
         QUERY_FUNCTIONS,
+        RAY_TRIANGLE_FUNCTIONS,
         MESH_TRACE_FUNCTIONS,
         MESH_TRACE_RAYS,
     ])
@@ -231,6 +233,7 @@ pub fn igt_raster(surface: bool) -> String {
         FRAME_BINDINGS,
         IGT_BINDINGS,
         CAMERA_FUNCTIONS,
+        RAY_TRIANGLE_FUNCTIONS,
         IGT_FUNCTIONS,
         IGT_RASTER,
         if surface { IGT_SURFACE } else { "" },

@@ -21,7 +21,7 @@ use super::{
     bind_buffers, storage_buffer, DrawCall, FrameView, Kind, Tally, TraceCall, UploadCache,
 };
 use crate::error::{GeomtexError, Result};
-use crate::igt::{IgtMesh, InverseGeometricTexture};
+use crate::igt::{IgtMesh, InverseGeometricTexture, Lookup};
 use crate::render::cull::DepthRange;
 use crate::render::device::Gpu;
 use crate::render::gpu_types::{
@@ -34,12 +34,13 @@ use crate::render::shaders;
 /// Format of the surface target: detailed face + 1 (0 = none) and the barycentrics' f32 bits.
 pub(crate) const SURFACE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Uint;
 
-/// Storage buffers of group 1 (bindings 1 to 8 of igt_bindings.wgsl).
-const TABLES: usize = 8;
+/// Storage buffers of group 1 (bindings 1 to 9 of igt_bindings.wgsl).
+const TABLES: usize = 9;
 
 /// A texture's tables and attributes on the GPU.
 struct UploadedTables {
-    /// Grids, cell offsets, cell entries, entries, normals, colors, uvs, image.
+    /// Grids, cell offsets, cell entries, entries, normals, colors, uvs, image, and the
+    /// detailed faces' corners (for the ray lookup).
     buffers: [wgpu::Buffer; TABLES],
     /// Attribute bits and image size (`IgtObject.info` y, z, w).
     info: [u32; 3],
@@ -47,9 +48,11 @@ struct UploadedTables {
     centre: DVec3,
 }
 
-/// A simplified mesh's de-indexed vertices, three per face, each with its face's grid.
+/// A simplified mesh's de-indexed vertices, three per face, each with its face's grid, and the
+/// grids its faces' ray lookups walk (binding 10).
 struct UploadedMesh {
     vertices: wgpu::Buffer,
+    search_grids: wgpu::Buffer,
     count: u32,
     lo: DVec3,
     hi: DVec3,
@@ -81,19 +84,34 @@ fn pack_rgba(c: [u8; 4]) -> u32 {
     u32::from_le_bytes(c)
 }
 
-/// The grids as the shader takes them, relative to `centre`.
+/// The grids as the shader takes them, relative to `centre`, with the heights (along z from
+/// the origin) their listed faces span, rounded outward (the ray lookup's slab).
 fn grid_records(igt: &InverseGeometricTexture, centre: DVec3) -> Vec<IgtGridGpu> {
     let per = |cell: f64| if cell > 0.0 { (1.0 / cell) as f32 } else { 0.0 };
-    igt.grids
-        .iter()
-        .map(|g| {
+    let mut heights = vec![(f64::INFINITY, f64::NEG_INFINITY); igt.grids.len()];
+    for e in &igt.entries {
+        let g = &igt.grids[e.grid as usize];
+        let h = &mut heights[e.grid as usize];
+        for &v in &igt.faces[e.face as usize] {
+            let z = (igt.positions[v as usize] - g.origin).dot(g.axes[2]);
+            *h = (h.0.min(z), h.1.max(z));
+        }
+    }
+    (igt.grids.iter().zip(heights))
+        .map(|(g, (lo, hi))| {
             let o = (g.origin - centre).as_vec3();
             let [x, _, z] = g.axes.map(|a| a.as_vec3());
+            let slack = 1e-4 * (hi - lo).abs().max(g.cell.max_element());
             IgtGridGpu {
                 origin: [o.x, o.y, o.z, per(g.cell.x)],
                 x: [x.x, x.y, x.z, per(g.cell.y)],
-                z: [z.x, z.y, z.z, 0.0],
-                size: [g.width, g.height, g.first_cell, 0],
+                z: [z.x, z.y, z.z, (lo - slack) as f32],
+                size: [
+                    g.width,
+                    g.height,
+                    g.first_cell,
+                    ((hi + slack) as f32).to_bits(),
+                ],
             }
         })
         .collect()
@@ -127,6 +145,9 @@ fn upload_tables(gpu: &Gpu, igt: &InverseGeometricTexture) -> Result<UploadedTab
         .collect();
     let uvs: Vec<[f32; 2]> = a.uv.iter().flatten().flatten().copied().collect();
     let image = a.uv.as_ref().and(a.image.as_ref());
+    let corners: Vec<[f32; 3]> = (igt.faces.iter().flatten())
+        .map(|&v| (igt.positions[v as usize] - centre).as_vec3().to_array())
+        .collect();
     let pixels: Vec<u32> = image.map_or(Vec::new(), |i| {
         i.pixels().iter().map(|p| pack_rgba(*p)).collect()
     });
@@ -151,6 +172,7 @@ fn upload_tables(gpu: &Gpu, igt: &InverseGeometricTexture) -> Result<UploadedTab
             buffer("igt colors", bytemuck::cast_slice(&colors)),
             buffer("igt uvs", bytemuck::cast_slice(&uvs)),
             buffer("igt image", bytemuck::cast_slice(&pixels)),
+            buffer("igt face corners", bytemuck::cast_slice(&corners)),
         ],
         info: [bits, w, h],
         centre,
@@ -167,14 +189,30 @@ fn bounds(points: &[DVec3]) -> (DVec3, DVec3) {
 
 fn upload_mesh(gpu: &Gpu, shaded: &IgtMesh, centre: DVec3) -> UploadedMesh {
     let mesh = &shaded.mesh;
-    let vertices: Vec<IgtVertex> = (mesh.faces.iter().zip(&shaded.face_grid))
-        .flat_map(|(t, &grid)| {
+    let mut first = 0u32;
+    let search: Vec<[u32; 2]> = (shaded.face_search_grids.iter())
+        .map(|list| {
+            first += list.len() as u32;
+            [first - list.len() as u32, list.len() as u32]
+        })
+        .collect();
+    let faces = mesh.faces.iter().zip(&shaded.face_grid);
+    let vertices: Vec<IgtVertex> = (faces.zip(shaded.face_window.iter().zip(search)))
+        .flat_map(|((t, &grid), (&window, search))| {
             t.map(|v| IgtVertex {
                 position: (mesh.positions[v as usize] - centre).as_vec3().to_array(),
                 grid,
+                window,
+                search,
             })
         })
         .collect();
+    let grids: Vec<u32> = shaded.face_search_grids.concat();
+    let search_grids = storage_buffer(
+        &gpu.device,
+        "igt search grids",
+        bytemuck::cast_slice(if grids.is_empty() { &[0u32] } else { &grids }),
+    );
     let (lo, hi) = mesh.bounds();
     let buffer = gpu
         .device
@@ -185,6 +223,7 @@ fn upload_mesh(gpu: &Gpu, shaded: &IgtMesh, centre: DVec3) -> UploadedMesh {
         });
     UploadedMesh {
         vertices: buffer,
+        search_grids,
         count: vertices.len() as u32,
         lo,
         hi,
@@ -196,7 +235,8 @@ impl IgtKind {
         let fragment = wgpu::ShaderStages::FRAGMENT;
         // Group 1 of igt_bindings.wgsl.
         let mut entries = vec![uniform_entry(0, VERTEX_AND_FRAGMENT)];
-        entries.extend((1..=TABLES as u32).map(|b| storage_entry(b, fragment, true)));
+        // Bindings 1 to TABLES: the texture's; the last: the mesh's search grids.
+        entries.extend((1..=TABLES as u32 + 1).map(|b| storage_entry(b, fragment, true)));
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("igt object"),
             entries: &entries,
@@ -237,12 +277,15 @@ impl IgtKind {
         let view_from_local = frame.view_from_world
             * placed.world_from_object
             * DMat4::from_translation(tables.centre);
+        // The ray lookup's code (ids.y): 1 along the view ray, 0 projecting.
+        let ray = u32::from(shaded.lookup == Lookup::Ray) as i32;
         let [bits, w, h] = tables.info;
         let record = IgtObjectGpu {
             view_from_object: gpu_matrix(view_from_local),
             world_normal_from_object: normal_matrix(DMat3::from_mat4(placed.world_from_object)),
-            ids: [id, 0, 0, 0],
+            ids: [id, ray, 0, 0],
             info: [shaded.igt.primary.code(), bits, w, h],
+            object_from_view: gpu_matrix(view_from_local.inverse()),
         };
         let device = &gpu.device;
         let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -250,15 +293,17 @@ impl IgtKind {
             contents: bytemuck::bytes_of(&record),
             usage: wgpu::BufferUsages::UNIFORM,
         });
-        let buffers: Vec<_> = std::iter::once(&uniform).chain(&tables.buffers).collect();
+        let buffers: Vec<_> = (std::iter::once(&uniform).chain(&tables.buffers))
+            .chain(std::iter::once(&mesh.search_grids))
+            .collect();
         let group = bind_buffers(device, "igt object", &self.layout, &buffers);
         Some((group, mesh))
     }
 }
 
 fn vertex_layout() -> wgpu::VertexBufferLayout<'static> {
-    const ATTRIBUTES: [wgpu::VertexAttribute; 2] =
-        wgpu::vertex_attr_array![0 => Float32x3, 1 => Uint32];
+    const ATTRIBUTES: [wgpu::VertexAttribute; 4] =
+        wgpu::vertex_attr_array![0 => Float32x3, 1 => Uint32, 2 => Float32, 3 => Uint32x2];
     wgpu::VertexBufferLayout {
         array_stride: size_of::<IgtVertex>() as u64,
         step_mode: wgpu::VertexStepMode::Vertex,
