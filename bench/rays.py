@@ -121,9 +121,9 @@ def shadows(gts: Any, mesh: gt.Mesh, as_mesh: bool) -> list[dict[str, Any]]:
     records = []
     for direction in LIGHTS:
         light = gt.DirectionalLight(direction)
-        plain, plain_ms = timed(lambda: r.render(scene, camera), 3)
-        lit, lit_ms = timed(lambda: r.render(scene, camera, light=light), 3)
-        hit, ref = ts.embree_shadow(whole, camera, np.asarray(direction, float), diag)
+        plain, plain_ms = timed(lambda: r.render(scene, camera), 7)
+        lit, lit_ms = timed(lambda: r.render(scene, camera, light=light), 7)
+        hit, ref = ts.embree_shadow(whole, camera, np.asarray(direction, float), diag, size=SHADOW_SIZE)
         both = hit & np.isfinite(lit.depth)
         wrong = (lit.shadow != ref) & both
         records.append({
