@@ -23,14 +23,6 @@ fn vs_main(v: VsIn) -> VsOut {
     return VsOut(camera.clip_from_view * view, v.prism);
 }
 
-struct FsOut {
-    @location(0) color: vec4<f32>,
-    @location(1) normal: vec4<f32>,
-    @location(2) id: i32,
-    @location(3) albedo: vec4<f32>,
-    @builtin(frag_depth) depth: f32,
-}
-
 @fragment
 fn fs_main(in: VsOut) -> FsOut {
     let ray = camera_ray(camera, in.position.xy);

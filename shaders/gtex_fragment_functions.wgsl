@@ -3,15 +3,6 @@
 //
 // Spaces: view (camera-relative; a camera ray's t is its view depth) and world normals out.
 
-struct FsOut {
-    @location(0) color: vec4<f32>,
-    @location(1) normal: vec4<f32>,
-    @location(2) id: i32,
-    // The unshaded base color.
-    @location(3) albedo: vec4<f32>,
-    @builtin(frag_depth) depth: f32,
-}
-
 // The fragment of camera ray `ray` hitting patch `index` at t.
 fn gtex_fragment(index: u32, ray: Ray, t: f32) -> FsOut {
     let surface = gtex_surface(index, ray.origin, ray.dir, t);

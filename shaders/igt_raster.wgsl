@@ -60,15 +60,8 @@ fn igt_fragment_hit(in: VsOut, flat_normal: vec3<f32>) -> IgtHit {
     return igt_lookup(in.grid, in.object_pos);
 }
 
-struct FsOut {
-    @location(0) color: vec4<f32>,
-    @location(1) normal: vec4<f32>,
-    @location(2) id: i32,
-    @location(3) albedo: vec4<f32>,
-}
-
 @fragment
-fn fs_main(in: VsOut) -> FsOut {
+fn fs_main(in: VsOut) -> RasterFsOut {
     // The simplified face's normal (derivatives taken before any branch).
     let flat_normal = cross(dpdx(in.object_pos), dpdy(in.object_pos));
     let hit = igt_fragment_hit(in, flat_normal);
@@ -80,7 +73,7 @@ fn fs_main(in: VsOut) -> FsOut {
         base = igt_color(face, hit.bary);
     }
     let world_n = normalize((object.world_normal_from_object * vec4<f32>(n, 0.0)).xyz);
-    var out: FsOut;
+    var out: RasterFsOut;
     out.color = vec4<f32>(headlight(camera, base.rgb, world_n, in.view_pos), base.a);
     out.normal = vec4<f32>(world_n, 0.0);
     out.id = object.ids.x;

@@ -30,19 +30,12 @@ fn vs_main(v: VsIn) -> VsOut {
     return VsOut(camera.clip_from_view * view, view.xyz, n, v.color, v.uv);
 }
 
-struct FsOut {
-    @location(0) color: vec4<f32>,
-    @location(1) normal: vec4<f32>,
-    @location(2) id: i32,
-    @location(3) albedo: vec4<f32>,
-}
-
 @fragment
-fn fs_main(in: VsOut) -> FsOut {
+fn fs_main(in: VsOut) -> RasterFsOut {
     let n = normalize(in.normal);
     // Texture coordinates have v up; the image's rows run down.
     let base = in.color * textureSample(image, image_sampler, vec2<f32>(in.uv.x, 1.0 - in.uv.y));
-    var out: FsOut;
+    var out: RasterFsOut;
     out.color = vec4<f32>(headlight(camera, base.rgb, n, in.view_pos), base.a);
     out.normal = vec4<f32>(n, 0.0);
     out.id = object.ids.x;

@@ -16,14 +16,6 @@ fn vs_main(@builtin(vertex_index) vertex: u32) -> VsOut {
     return VsOut(rect_vertex(object.rect, vertex));
 }
 
-struct FsOut {
-    @location(0) color: vec4<f32>,
-    @location(1) normal: vec4<f32>,
-    @location(2) id: i32,
-    @location(3) albedo: vec4<f32>,
-    @builtin(frag_depth) depth: f32,
-}
-
 // The 8 neighbours in turn around the pixel: entry k + 4 is opposite entry k.
 const RING = array<vec2<i32>, 8>(
     vec2(-1, -1), vec2(0, -1), vec2(1, -1), vec2(1, 0),

@@ -13,7 +13,7 @@ use wgpu::util::DeviceExt;
 
 use super::device::guarded;
 use super::gpu_types::{QueryGpu, QueryHitGpu, QueryRayGpu};
-use super::kinds::{storage_buffer, Tally, TraceCall};
+use super::kinds::{bind_buffers, storage_buffer, Tally, TraceCall};
 use super::pipelines::{storage_entry, uniform_entry};
 use super::{Renderer, Scene, SearchOptions};
 use crate::cancel::Cancel;
@@ -217,23 +217,8 @@ impl Renderer {
                 });
                 let active =
                     storage_buffer(device, "query rays traced", bytemuck::cast_slice(&active));
-                let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("ray query"),
-                    layout: &self.query_layout,
-                    entries: &[
-                        settings.as_entire_binding(),
-                        rays_buffer.as_entire_binding(),
-                        hits.as_entire_binding(),
-                        active.as_entire_binding(),
-                    ]
-                    .into_iter()
-                    .enumerate()
-                    .map(|(binding, resource)| wgpu::BindGroupEntry {
-                        binding: binding as u32,
-                        resource,
-                    })
-                    .collect::<Vec<_>>(),
-                });
+                let buffers = [&settings, &rays_buffer, &hits, &active];
+                let group = bind_buffers(device, "ray query", &self.query_layout, &buffers);
                 pass.set_bind_group(2, &group, &[]);
                 pass.set_pipeline(&trace.pipeline);
                 pass.set_bind_group(1, &trace.group, &[]);

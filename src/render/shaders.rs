@@ -9,6 +9,7 @@ macro_rules! shader {
 }
 
 const CAMERA_TYPES: &str = shader!("camera_types.wgsl");
+const TARGETS_TYPES: &str = shader!("targets_types.wgsl");
 const SEARCH_TYPES: &str = shader!("search_types.wgsl");
 const GTEX_TYPES: &str = shader!("gtex_types.wgsl");
 const MESH_TYPES: &str = shader!("mesh_types.wgsl");
@@ -82,6 +83,7 @@ fn gtex_primary(bindings: &[&str], functions: &[&str], entry: &str) -> String {
         CAMERA_TYPES,
         SEARCH_TYPES,
         GTEX_TYPES,
+        TARGETS_TYPES,
         FRAME_BINDINGS,
         GTEX_BINDINGS,
         &bindings.concat(),
@@ -181,6 +183,7 @@ pub fn mesh_raster() -> String {
         CAMERA_TYPES,
         SEARCH_TYPES,
         MESH_TYPES,
+        TARGETS_TYPES,
         FRAME_BINDINGS,
         MESH_BINDINGS,
         CAMERA_FUNCTIONS,
@@ -194,6 +197,7 @@ pub fn gdm_raster() -> String {
         CAMERA_TYPES,
         SEARCH_TYPES,
         GDM_TYPES,
+        TARGETS_TYPES,
         FRAME_BINDINGS,
         GDM_BINDINGS,
         CAMERA_FUNCTIONS,
@@ -230,6 +234,7 @@ pub fn igt_raster(surface: bool) -> String {
         CAMERA_TYPES,
         SEARCH_TYPES,
         IGT_TYPES,
+        TARGETS_TYPES,
         FRAME_BINDINGS,
         IGT_BINDINGS,
         CAMERA_FUNCTIONS,
@@ -287,6 +292,7 @@ pub fn surfels_resolve() -> String {
         CAMERA_TYPES,
         SEARCH_TYPES,
         SURFELS_TYPES,
+        TARGETS_TYPES,
         FRAME_BINDINGS,
         SURFELS_RESOLVE_BINDINGS,
         CAMERA_FUNCTIONS,
