@@ -16,6 +16,9 @@ In one run, on one wgpu adapter, at 512x512:
   and not within one pixel of either silhouette; for the ray lookup (the default) and the
   projection lookup (``lookup="projection"``) of the same simplified mesh, with their frame
   times side by side;
+* filtering: samples=1 against samples=5 on the bunny at 10% and 2% from two views, against
+  embree at 4 x 4 rays per pixel (normals averaged per pixel): median and p90 normal angle,
+  frame time;
 * color: spot with its texture simplified to 5% (and 20%, 50%), against trimesh ray casting of
   the textured detailed mesh (bilinear texture color at the hit's texture coordinates): mean
   absolute RGB difference on interior pixels (``reference.albedo_difference``), and a
@@ -60,6 +63,9 @@ RESOLUTIONS = (128, 256, 512, 1024)
 PRIMARIES = ("charts", "spherical")
 FRACTIONS = (0.1, 0.02, 0.005)
 SPOT_FRACTIONS = (0.05, 0.2, 0.5)
+# samples=1 against 5: these fractions, two views, against SUPERSAMPLE² embree rays per pixel.
+FILTER_FRACTIONS = (0.1, 0.02)
+SUPERSAMPLE = 4
 # The 1.1 M-face bunny: 512² cells give lists of 14 triangles; 2048² about as many cells as faces.
 DENSE_RESOLUTIONS = (512, 2048)
 VIEWS = ((0.0, 0.0, 1.0), (1.0, 0.0, 0.0), (-1.0, 0.0, 0.0), (0.0, 0.0, -1.0), (0.3, 0.8, 0.5))
@@ -167,7 +173,8 @@ def accuracy(renderer: gt.Renderer, repeats: int) -> list[dict[str, Any]]:
                    "no_face_fraction": float((frame.face_id[mask] < 0).mean()),
                    "projection_normal_deg_median": float(np.median(proj_deg)),
                    "projection_face_agreement": float((proj.face_id[mask] == ref["triangle"][mask]).mean()),
-                   "window_median": float(np.median(low.face_window)),
+                   "window_outside_median": float(np.median(low.face_window[:, 0])),
+                   "window_inside_median": float(np.median(low.face_window[:, 1])),
                    "search_grids_mean": float((low.search_grids >= 0).sum(axis=1).mean()),
                    "igt_gpu_ms": ms, "projection_gpu_ms": proj_ms, "plain_gpu_ms": plain_ms,
                    "ray_over_projection_ms": ms / proj_ms}
@@ -207,6 +214,43 @@ def color(renderer: gt.Renderer) -> list[dict[str, Any]]:
                 plain = renderer.render(gt.Mesh(low.vertices, low.faces), cam)
                 images = [frame.albedo, ref["albedo"], plain.albedo]
     Image.fromarray(np.concatenate(images, axis=1)).save(OUT / "igt_spot.png")
+    return rows
+
+
+def filtering(renderer: gt.Renderer, repeats: int) -> list[dict[str, Any]]:
+    """One sample per pixel against five (samples=5: the centre and four points of the pixel's
+    footprint, averaged), against embree's ray cast of the detailed bunny at SUPERSAMPLE² rays
+    per pixel with its normals averaged per pixel (pixels whose rays all hit, not within a pixel
+    of a silhouette): median and p90 normal angle, and frame time."""
+    import trimesh
+
+    mesh = gt.load_mesh(BUNNY)
+    igt = gt.igt.build(mesh, resolution=512)
+    detailed = trimesh.Trimesh(igt.vertices, igt.faces, process=False)
+    caster = reference.RayCaster(detailed)
+    corners = reference.corner_normals(detailed)
+    k = SUPERSAMPLE
+    rows = []
+    for fraction in FILTER_FRACTIONS:
+        one = gt.igt.simplify(igt, int(len(igt.faces) * fraction))
+        five = gt.igt.attach(igt, one.vertices, one.faces, samples=5)
+        for view in VIEWS[:2]:
+            cam = camera(igt, view)
+            ref = caster.cast(cam, SIZE * k, SIZE * k)
+            normals = reference.shading_normals(detailed, corners, ref).reshape(SIZE, k, SIZE, k, 3).sum(axis=(1, 3))
+            hit = ref["hit"].reshape(SIZE, k, SIZE, k).all(axis=(1, 3))
+            row: dict[str, Any] = {"fraction": fraction, "faces": len(one), "view": VIEWS.index(view)}
+            for name, low in (("one", one), ("five", five)):
+                frame, ms = timed(renderer, low, cam, max(1, repeats // 2))
+                mask = interior(hit) & interior(np.isfinite(frame.depth))
+                deg = reference.normal_angles(frame.normal, normals, mask)
+                row |= {f"{name}_deg_median": float(np.median(deg)), f"{name}_deg_p90": float(np.percentile(deg, 90)),
+                        f"{name}_gpu_ms": ms, "pixels": int(mask.sum())}
+            rows.append(row)
+            print(f"filtering {fraction:5.3f} view {row['view']}: normal vs {k}x{k} supersampled median "
+                  f"{row['one_deg_median']:.3f}° (1 sample) / {row['five_deg_median']:.3f}° (5), p90 "
+                  f"{row['one_deg_p90']:.3f}° / {row['five_deg_p90']:.3f}°; {row['one_gpu_ms']:.0f} / "
+                  f"{row['five_gpu_ms']:.0f} ms", flush=True)
     return rows
 
 
@@ -268,6 +312,11 @@ def summary(data: dict[str, Any]) -> dict[str, Any]:
         out[f"spot_{f}_color_mean"] = [min(r["mean"] for r in rows), max(r["mean"] for r in rows)]
         out[f"spot_{f}_projection_color_mean"] = [min(r["projection_mean"] for r in rows),
                                                   max(r["projection_mean"] for r in rows)]
+    for f in FILTER_FRACTIONS:
+        rows = [r for r in data["filtering"] if r["fraction"] == f]
+        out[f"filtering_{f}"] = {key: [min(r[key] for r in rows), max(r[key] for r in rows)]
+                                 for key in ("one_deg_median", "five_deg_median", "one_deg_p90", "five_deg_p90",
+                                             "one_gpu_ms", "five_gpu_ms")}
     if data.get("speed"):
         out["speed"] = data["speed"]["gpu_ms"] | {"speedup": data["speed"]["speedup"]}
     return out
@@ -326,6 +375,7 @@ def main() -> None:
     data["tables"] += tables("spot", load_spot(), renderer, args.repeats, RESOLUTIONS)
     data["accuracy"] = accuracy(renderer, args.repeats)
     data["color"] = color(renderer)
+    data["filtering"] = filtering(renderer, args.repeats)
     if not args.quick:
         data["speed"] = speed(renderer, args.repeats)
     data["load_end"] = os.getloadavg()

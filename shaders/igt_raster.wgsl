@@ -1,18 +1,22 @@
 // Entry points of the inverse-geometric-texture pass: the simplified mesh is rasterized into
 // the shared targets and reversed-Z depth (two-sided, as meshes are), and each fragment is
 // shaded with the attributes of the detailed triangle under it (igt_functions.wgsl): its
-// normal, and its texture or corner colors. Where nothing is listed near a point, the
-// simplified face's own normal and the neutral color.
+// normal, and its texture or corner colors (with 5 samples, averaged over the pixel's
+// footprint). Where nothing is listed near a point, the simplified face's own normal and the
+// neutral color.
 //
 // Spaces: see igt_types.wgsl.
 
 struct VsIn {
     @location(0) position: vec3<f32>,
     @location(1) grid: u32,
-    // The face's ray-lookup window (object units from its plane).
-    @location(2) window: f32,
+    // The face's ray-lookup windows (object units from its plane): outside (the side its
+    // normal points to) and inside.
+    @location(2) window: vec2<f32>,
     // The grids the ray lookup walks: first and count in search_grids.
     @location(3) search: vec2<u32>,
+    // The face's unit normal by its winding (object space).
+    @location(4) normal: vec3<f32>,
 }
 
 struct VsOut {
@@ -21,14 +25,15 @@ struct VsOut {
     @location(0) object_pos: vec3<f32>,
     @location(1) view_pos: vec3<f32>,
     @location(2) @interpolate(flat) grid: u32,
-    @location(3) @interpolate(flat) window: f32,
+    @location(3) @interpolate(flat) window: vec2<f32>,
     @location(4) @interpolate(flat) search: vec2<u32>,
+    @location(5) @interpolate(flat) normal: vec3<f32>,
 }
 
 @vertex
 fn vs_main(v: VsIn) -> VsOut {
     let view = object.view_from_object * vec4<f32>(v.position, 1.0);
-    return VsOut(camera.clip_from_view * view, v.position, view.xyz, v.grid, v.window, v.search);
+    return VsOut(camera.clip_from_view * view, v.position, view.xyz, v.grid, v.window, v.search, v.normal);
 }
 
 // Below this cosine between the view ray and the simplified face, the ray lookup's reach stops
@@ -36,10 +41,10 @@ fn vs_main(v: VsIn) -> VsOut {
 const IGT_MIN_COSINE: f32 = 0.05;
 
 // The detailed triangle this fragment shows: the first the view ray meets within the face's
-// window when the object asks for the ray lookup, else (or when it meets none) the one under
-// the point projected into its grid. `flat_normal`: the simplified face's (object space, any
-// length).
-fn igt_fragment_hit(in: VsOut, flat_normal: vec3<f32>) -> IgtHit {
+// windows when the object asks for the ray lookup (its window on the camera's side behind the
+// point, the other ahead), else (or when it meets none) the one under the point projected into
+// its grid.
+fn igt_fragment_hit(in: VsOut) -> IgtHit {
     if (object.ids.y == 1) {
         let ortho = camera.params.x > 0.5;
         let view_dir = select(normalize(in.view_pos), vec3<f32>(0.0, 0.0, -1.0), ortho);
@@ -47,12 +52,15 @@ fn igt_fragment_hit(in: VsOut, flat_normal: vec3<f32>) -> IgtHit {
         // Object units per view unit (placements may scale).
         let units = length(along);
         let d = along / units;
-        let len = length(flat_normal);
-        let cosine = select(abs(dot(d, flat_normal)) / len, 1.0, len == 0.0);
-        let reach = in.window / max(cosine, IGT_MIN_COSINE);
+        let facing = dot(d, in.normal);
+        let cosine = select(abs(facing), 1.0, dot(in.normal, in.normal) == 0.0);
+        let slant = 1.0 / max(cosine, IGT_MIN_COSINE);
+        // The camera is on the outside when the ray runs against the normal.
+        let toward = select(in.window.y, in.window.x, facing <= 0.0) * slant;
+        let ahead = select(in.window.x, in.window.y, facing <= 0.0) * slant;
         // Never behind the camera.
         let eye = select(length(in.view_pos), -in.view_pos.z, ortho) * units;
-        let hit = igt_ray_lookup(in.search, in.object_pos, d, min(reach, eye), reach);
+        let hit = igt_ray_lookup(in.search, in.object_pos, d, min(toward, eye), ahead);
         if (hit.entry >= 0) {
             return hit;
         }
@@ -60,18 +68,56 @@ fn igt_fragment_hit(in: VsOut, flat_normal: vec3<f32>) -> IgtHit {
     return igt_lookup(in.grid, in.object_pos);
 }
 
+// Where the four extra lookups of a 5-sample pixel lie, in pixels from its centre: a rotated
+// grid, so that no two share a row or column of the footprint.
+const IGT_OFFSETS = array<vec2<f32>, 4>(
+    vec2<f32>(-0.125, -0.375),
+    vec2<f32>(0.375, -0.125),
+    vec2<f32>(0.125, 0.375),
+    vec2<f32>(-0.375, 0.125),
+);
+
+// The normal (object space, unit; zero when nothing was found) and base color of the detailed
+// surface seen through `in`.
+fn igt_shade(in: VsOut) -> IgtShade {
+    let hit = igt_fragment_hit(in);
+    if (hit.entry < 0) {
+        return IgtShade(vec3<f32>(0.0), vec4<f32>(200.0, 200.0, 200.0, 255.0) / 255.0);
+    }
+    let face = entries[hit.entry].face;
+    return IgtShade(igt_normal(face, hit.bary), igt_color(face, hit.bary));
+}
+
 @fragment
 fn fs_main(in: VsOut) -> RasterFsOut {
-    // The simplified face's normal (derivatives taken before any branch).
-    let flat_normal = cross(dpdx(in.object_pos), dpdy(in.object_pos));
-    let hit = igt_fragment_hit(in, flat_normal);
-    var n = flat_normal;
-    var base = vec4<f32>(200.0, 200.0, 200.0, 255.0) / 255.0;
-    if (hit.entry >= 0) {
-        let face = entries[hit.entry].face;
-        n = igt_normal(face, hit.bary);
-        base = igt_color(face, hit.bary);
+    // The simplified face's normal and the footprint's derivatives, taken before any branch.
+    let dx = dpdx(in.object_pos);
+    let dy = dpdy(in.object_pos);
+    let view_dx = dpdx(in.view_pos);
+    let view_dy = dpdy(in.view_pos);
+    let flat_normal = cross(dx, dy);
+    var shade = igt_shade(in);
+    if (object.ids.z == 5) {
+        // The footprint's samples moved along the simplified surface (and their view rays
+        // with them); the normals that were found and all colors averaged.
+        var normal_sum = shade.normal;
+        var base_sum = shade.base;
+        for (var k = 0; k < 4; k++) {
+            var s = in;
+            let o = IGT_OFFSETS[k];
+            s.object_pos += o.x * dx + o.y * dy;
+            s.view_pos += o.x * view_dx + o.y * view_dy;
+            let more = igt_shade(s);
+            normal_sum += more.normal;
+            base_sum += more.base;
+        }
+        shade = IgtShade(normal_sum, base_sum / 5.0);
     }
+    var n = flat_normal;
+    if (dot(shade.normal, shade.normal) > 0.0) {
+        n = shade.normal;
+    }
+    let base = shade.base;
     let world_n = normalize((object.world_normal_from_object * vec4<f32>(n, 0.0)).xyz);
     var out: RasterFsOut;
     out.color = vec4<f32>(headlight(camera, base.rgb, world_n, in.view_pos), base.a);

@@ -8,7 +8,7 @@
 
 @fragment
 fn fs_surface(in: VsOut) -> @location(0) vec4<u32> {
-    let hit = igt_fragment_hit(in, cross(dpdx(in.object_pos), dpdy(in.object_pos)));
+    let hit = igt_fragment_hit(in);
     if (hit.entry < 0) {
         return vec4<u32>(0u);
     }

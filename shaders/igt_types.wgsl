@@ -9,7 +9,8 @@
 struct IgtObject {
     view_from_object: mat4x4<f32>,
     world_normal_from_object: mat4x4<f32>,
-    // x: id written to the id target; y: 1 for the ray lookup, 0 for the projection.
+    // x: id written to the id target; y: 1 for the ray lookup, 0 for the projection; z: lookups
+    // per pixel (1, or 5 averaged).
     ids: vec4<i32>,
     // x: primary (0 charts, 1 spherical, 2 cylindrical), y: attribute bits (1 corner colors,
     // 2 texture coordinates and image), z, w: the image's width and height in pixels.
@@ -46,4 +47,11 @@ struct IgtEntry {
 struct IgtHit {
     entry: i32,
     bary: vec3<f32>,
+}
+
+// What a fragment shows: the detailed normal (object space; zero when no triangle was found)
+// and base color.
+struct IgtShade {
+    normal: vec3<f32>,
+    base: vec4<f32>,
 }

@@ -66,7 +66,7 @@ def load(path: str | os.PathLike[str]) -> InverseGeometricTexture:
     return _core.load_igt(path)
 
 
-def simplify(igt: InverseGeometricTexture, target_faces: int, lookup: str = "ray") -> IgtMesh:
+def simplify(igt: InverseGeometricTexture, target_faces: int, lookup: str = "ray", samples: int = 1) -> IgtMesh:
     """The detailed mesh simplified to about `target_faces` faces (pymeshlab's quadric edge
     collapse, normals preserved), as an IgtMesh shaded through `igt` (see `attach` for how its
     faces are given their grids and for `lookup`)."""
@@ -88,10 +88,10 @@ def simplify(igt: InverseGeometricTexture, target_faces: int, lookup: str = "ray
         targetfacenum=int(target_faces), preservenormal=True, qualitythr=0.5
     )
     low = ms.current_mesh()
-    return attach(igt, low.vertex_matrix(), low.face_matrix(), lookup=lookup)
+    return attach(igt, low.vertex_matrix(), low.face_matrix(), lookup=lookup, samples=samples)
 
 
-def attach(igt: InverseGeometricTexture, vertices: Any, faces: Any, lookup: str = "ray") -> IgtMesh:
+def attach(igt: InverseGeometricTexture, vertices: Any, faces: Any, lookup: str = "ray", samples: int = 1) -> IgtMesh:
     """A mesh simplified from the detailed one (by `simplify` or elsewhere; same space), as an
     IgtMesh shaded through `igt`.
 
@@ -100,6 +100,11 @@ def attach(igt: InverseGeometricTexture, vertices: Any, faces: Any, lookup: str 
     a ray caster of the detailed mesh would; "projection" the one under the point projected
     along its chart's axis (the paper's lookup: cheaper, but off wherever the two surfaces part
     by more than a triangle). A spherical or cylindrical map always projects.
+
+    `samples`: lookups per pixel, 1 (default: the pixel's centre) or 5 (the centre and four
+    points of its footprint on the simplified surface, from the screen-space derivatives of the
+    lookup position; normals and colors averaged): the paper's filtering option, against
+    aliasing where a pixel covers several detailed triangles, at 5x the lookup cost.
 
     Every face is assigned the grid (chart) of the detailed face nearest to its centroid, and its
     points are projected along that chart's axis: the simplified surface lies close to the
@@ -120,4 +125,4 @@ def attach(igt: InverseGeometricTexture, vertices: Any, faces: Any, lookup: str 
         centroids = igt.vertices[igt.faces[listed]].mean(axis=1)
         _, nearest = cKDTree(centroids).query(v[f].mean(axis=1))
         face_grid = igt.face_grid[listed[nearest]]
-    return igt.shade(v, f, face_grid.tolist(), lookup=lookup)
+    return igt.shade(v, f, face_grid.tolist(), lookup=lookup, samples=samples)

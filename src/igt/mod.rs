@@ -527,11 +527,15 @@ pub struct IgtMesh {
     pub mesh: Mesh,
     pub face_grid: Vec<u32>,
     pub lookup: Lookup,
-    /// Per face: how far (object units, along the face's normal) the ray lookup searches on
-    /// either side of the face's plane (window.rs).
-    pub face_window: Vec<f32>,
+    /// Per face: how far (object units, along the face's normal) the ray lookup searches
+    /// outside (the side its winding's normal points to) and inside the face's plane
+    /// (window.rs).
+    pub face_window: Vec<[f32; 2]>,
     /// Per face: the grids the ray lookup walks, its own first (window.rs).
     pub face_search_grids: Vec<Vec<u32>>,
+    /// Lookups per pixel: 1 (its centre) or 5 (and four points of its footprint, the
+    /// attributes averaged: the paper's filtering option).
+    pub samples: u32,
 }
 
 impl IgtMesh {
@@ -564,6 +568,18 @@ impl IgtMesh {
             lookup,
             face_window,
             face_search_grids,
+            samples: 1,
         })
+    }
+
+    /// The same mesh shaded with `samples` lookups per pixel (1 or 5).
+    pub fn with_samples(mut self, samples: i64) -> Result<Self> {
+        if samples != 1 && samples != 5 {
+            return Err(GeomtexError::Parameter(format!(
+                "samples must be 1 or 5 (lookups per pixel), got {samples}"
+            )));
+        }
+        self.samples = samples as u32;
+        Ok(self)
     }
 }

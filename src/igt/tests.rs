@@ -156,9 +156,12 @@ fn windows_cover_the_gap_to_the_detailed_surface() {
     let igt = Arc::new(igt);
     let shaded = IgtMesh::new(igt.clone(), shrunk, grids, Lookup::Ray).unwrap();
     let gap = 0.02 * radius;
-    // The measured distance back out of each window (1.25x it plus a cell).
+    // The measured distance back out of each inside window (1.25x it plus a cell; nothing of
+    // the sphere lies inside its shrunk copy near it, so that is the base); the outside window
+    // reaches at least as far.
+    assert!(shaded.face_window.iter().all(|w| w[0] >= w[1]));
     let parted = (shaded.face_window.iter().zip(&shaded.face_grid))
-        .map(|(&w, &g)| (w as f64 - igt.grids[g as usize].cell.max_element()) / 1.25);
+        .map(|(&w, &g)| (w[1] as f64 - igt.grids[g as usize].cell.max_element()) / 1.25);
     let worst = parted.fold(0.0f64, |m, d| m.max((d - gap).abs() / gap));
     // Measured 0.42% (the chords' sagitta and the samples' spacing).
     assert!(worst <= 0.0125, "{worst}");

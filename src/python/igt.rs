@@ -266,8 +266,8 @@ impl PyIgt {
 
     /// A simplified mesh (V, 3) / (M, 3) to render through this texture, each face projected
     /// into grid `face_grid[m]` (see geomtex.igt.simplify); `lookup` "ray" (default) or
-    /// "projection".
-    #[pyo3(signature = (vertices, faces, face_grid, lookup = None))]
+    /// "projection"; `samples` 1 (default) or 5 lookups per pixel, averaged.
+    #[pyo3(signature = (vertices, faces, face_grid, lookup = None, samples = None))]
     fn shade(
         &self,
         py: Python<'_>,
@@ -275,13 +275,16 @@ impl PyIgt {
         faces: PyReadonlyArray2<'_, i64>,
         face_grid: Vec<i64>,
         lookup: Option<&str>,
+        samples: Option<i64>,
     ) -> PyResult<PyIgtMesh> {
         expect_columns(&vertices, 3, "vertices", GeomtexError::Mesh)?;
         expect_columns(&faces, 3, "faces", GeomtexError::Mesh)?;
         let lookup = lookup.map_or(Ok(Lookup::default()), str::parse::<Lookup>)?;
         let mesh = Mesh::from_flat(&flat(&vertices), &flat(&faces), None)?;
         let igt = self.inner.clone();
-        let shaded = py.detach(move || IgtMesh::new(igt, mesh, face_grid, lookup))?;
+        let shaded = py.detach(move || {
+            IgtMesh::new(igt, mesh, face_grid, lookup)?.with_samples(samples.unwrap_or(1))
+        })?;
         Ok(PyIgtMesh {
             inner: Arc::new(shaded),
         })
@@ -371,6 +374,12 @@ impl PyIgtMesh {
         self.inner.lookup.name()
     }
 
+    /// Lookups per pixel: 1 or 5 (averaged).
+    #[getter]
+    fn samples(&self) -> u32 {
+        self.inner.samples
+    }
+
     /// (M, K) int64: per face, the grids the ray lookup walks (its own first; -1 pads).
     #[getter]
     fn search_grids<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<i64>>> {
@@ -385,11 +394,15 @@ impl PyIgtMesh {
         numpy::PyArrayMethods::reshape(&PyArray1::from_vec(py, flat), [lists.len(), k])
     }
 
-    /// (M,) float64: per face, how far (object units) the ray lookup searches on either side
-    /// of the face's plane (the measured distance to the detailed surface, with slack).
+    /// (M, 2) float64: per face, how far (object units) the ray lookup searches outside (the
+    /// side its normal points to) and inside the face's plane (the measured distance to the
+    /// detailed surface, with slack).
     #[getter]
-    fn face_window<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        PyArray1::from_iter(py, self.inner.face_window.iter().map(|&w| f64::from(w)))
+    fn face_window<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        let w: Vec<[f64; 2]> = (self.inner.face_window.iter())
+            .map(|w| w.map(f64::from))
+            .collect();
+        rows(py, &w)
     }
 
     fn __len__(&self) -> usize {

@@ -335,16 +335,19 @@ pub(crate) struct IgtEntryGpu {
     pub grid: u32,
 }
 
-/// `VsIn` in igt_raster.wgsl (vertex buffer 0: Float32x3, Uint32, Float32, Uint32x2).
+/// `VsIn` in igt_raster.wgsl (vertex buffer 0: Float32x3, Uint32, Float32x2, Uint32x2,
+/// Float32x3).
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
 pub(crate) struct IgtVertex {
     pub position: [f32; 3],
     pub grid: u32,
-    /// The face's ray-lookup window (IgtMesh::face_window).
-    pub window: f32,
+    /// The face's ray-lookup windows, outside and inside (IgtMesh::face_window).
+    pub window: [f32; 2],
     /// The grids it walks (IgtMesh::face_search_grids): first and count in the mesh's list.
     pub search: [u32; 2],
+    /// The face's unit normal by its winding (object space): which side the camera is on.
+    pub normal: [f32; 3],
 }
 
 wgsl_size!(IgtObjectGpu, 224);
@@ -354,4 +357,4 @@ const _: () = assert!(offset_of!(IgtObjectGpu, info) == 144);
 wgsl_size!(IgtGridGpu, crate::igt::GRID_BYTES);
 wgsl_size!(IgtEntryGpu, crate::igt::ENTRY_BYTES);
 const _: () = assert!(offset_of!(IgtEntryGpu, face) == 24);
-const _: () = assert!(size_of::<IgtVertex>() == 28);
+const _: () = assert!(size_of::<IgtVertex>() == 44);

@@ -199,11 +199,18 @@ fn upload_mesh(gpu: &Gpu, shaded: &IgtMesh, centre: DVec3) -> UploadedMesh {
     let faces = mesh.faces.iter().zip(&shaded.face_grid);
     let vertices: Vec<IgtVertex> = (faces.zip(shaded.face_window.iter().zip(search)))
         .flat_map(|((t, &grid), (&window, search))| {
+            let [a, b, c] = t.map(|v| mesh.positions[v as usize]);
+            let normal = (b - a)
+                .cross(c - a)
+                .normalize_or_zero()
+                .as_vec3()
+                .to_array();
             t.map(|v| IgtVertex {
                 position: (mesh.positions[v as usize] - centre).as_vec3().to_array(),
                 grid,
                 window,
                 search,
+                normal,
             })
         })
         .collect();
@@ -277,13 +284,13 @@ impl IgtKind {
         let view_from_local = frame.view_from_world
             * placed.world_from_object
             * DMat4::from_translation(tables.centre);
-        // The ray lookup's code (ids.y): 1 along the view ray, 0 projecting.
+        // The ray lookup's code (ids.y): 1 along the view ray, 0 projecting; ids.z: samples.
         let ray = u32::from(shaded.lookup == Lookup::Ray) as i32;
         let [bits, w, h] = tables.info;
         let record = IgtObjectGpu {
             view_from_object: gpu_matrix(view_from_local),
             world_normal_from_object: normal_matrix(DMat3::from_mat4(placed.world_from_object)),
-            ids: [id, ray, 0, 0],
+            ids: [id, ray, shaded.samples as i32, 0],
             info: [shaded.igt.primary.code(), bits, w, h],
             object_from_view: gpu_matrix(view_from_local.inverse()),
         };
@@ -302,8 +309,9 @@ impl IgtKind {
 }
 
 fn vertex_layout() -> wgpu::VertexBufferLayout<'static> {
-    const ATTRIBUTES: [wgpu::VertexAttribute; 4] =
-        wgpu::vertex_attr_array![0 => Float32x3, 1 => Uint32, 2 => Float32, 3 => Uint32x2];
+    const ATTRIBUTES: [wgpu::VertexAttribute; 5] = wgpu::vertex_attr_array![
+        0 => Float32x3, 1 => Uint32, 2 => Float32x2, 3 => Uint32x2, 4 => Float32x3
+    ];
     wgpu::VertexBufferLayout {
         array_stride: size_of::<IgtVertex>() as u64,
         step_mode: wgpu::VertexStepMode::Vertex,
