@@ -241,6 +241,28 @@ impl Csr {
         }
     }
 
+    /// The same rows with each item once, sorted.
+    pub fn deduplicated(self) -> Csr {
+        let mut offsets = Vec::with_capacity(self.offsets.len());
+        offsets.push(0u32);
+        let mut items = Vec::with_capacity(self.items.len());
+        for r in 0..self.offsets.len() - 1 {
+            let start = items.len();
+            items.extend_from_slice(self.row(r));
+            items[start..].sort_unstable();
+            let mut kept = start;
+            for i in start..items.len() {
+                if kept == start || items[i] != items[kept - 1] {
+                    items[kept] = items[i];
+                    kept += 1;
+                }
+            }
+            items.truncate(kept);
+            offsets.push(items.len() as u32);
+        }
+        Csr { offsets, items }
+    }
+
     #[inline]
     pub fn row(&self, i: usize) -> &[u32] {
         &self.items[self.offsets[i] as usize..self.offsets[i + 1] as usize]
