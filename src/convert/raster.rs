@@ -484,23 +484,24 @@ impl<'a> Canvas<'a> {
 ///
 /// The outline map then cuts the surface back to the faces: the signed distance from each
 /// texel centre to the outline of all drawn faces (their edges used by one drawn face only).
+/// `outline` is `boundary_edges(mesh, faces)`, found once for every texel size a chart is drawn at.
 pub fn rasterize(
     mesh: &Mesh,
     corner_normals: &[[DVec3; 3]],
-    faces: &[u32],
-    chart_faces: usize,
+    (faces, chart_faces): (&[u32], usize),
+    outline: &[[u32; 2]],
     bx: &PatchBox,
 ) -> Maps {
     let mut canvas = Canvas::new(bx, mesh.has_colors());
     for (n, &f) in faces.iter().enumerate() {
         canvas.draw_face(mesh, corner_normals, f, n < chart_faces);
     }
-    let distance = canvas.outline_distance(mesh, faces);
+    let distance = canvas.outline_distance(mesh, outline);
     canvas.into_maps(&distance)
 }
 
 /// The edges of `faces` that only one of them uses (as vertex pairs): their outline.
-fn boundary_edges(mesh: &Mesh, faces: &[u32]) -> Vec<[u32; 2]> {
+pub fn boundary_edges(mesh: &Mesh, faces: &[u32]) -> Vec<[u32; 2]> {
     let mut edges: Vec<[u32; 2]> = faces
         .iter()
         .flat_map(|&f| {
@@ -522,12 +523,12 @@ fn boundary_edges(mesh: &Mesh, faces: &[u32]) -> Vec<[u32; 2]> {
 }
 
 impl Canvas<'_> {
-    /// In-plane distance (texel units) from each texel centre to the nearest outline edge of
-    /// `faces`, measured out to OUTLINE_REACH (farther texels get that).
-    fn outline_distance(&self, mesh: &Mesh, faces: &[u32]) -> Vec<f64> {
+    /// In-plane distance (texel units) from each texel centre to the nearest edge of
+    /// `outline`, measured out to OUTLINE_REACH (farther texels get that).
+    fn outline_distance(&self, mesh: &Mesh, outline: &[[u32; 2]]) -> Vec<f64> {
         let (w, h) = (self.w as i64, self.h as i64);
         let mut distance = vec![OUTLINE_REACH; self.w * self.h];
-        for [a, b] in boundary_edges(mesh, faces) {
+        for &[a, b] in outline {
             let [a, b] = [a, b].map(|v| self.to_local(mesh.positions[v as usize]).truncate());
             let (lo, hi) = (a.min(b), a.max(b));
             // Texel centres (i + 1/2, j + 1/2) within reach of the edge's bounds.
@@ -646,7 +647,16 @@ mod tests {
             height: 4,
             height_bits: 16,
         };
-        let mut maps = rasterize(&m, &flat, &[0, 1], 2, &bx);
+        let draw = |faces: &[u32], bx: &PatchBox| {
+            rasterize(
+                &m,
+                &flat,
+                (faces, faces.len()),
+                &boundary_edges(&m, faces),
+                bx,
+            )
+        };
+        let mut maps = draw(&[0, 1], &bx);
         for j in 0..4 {
             for i in 0..8 {
                 let q = maps.heights[j * 8 + i];
@@ -659,7 +669,7 @@ mod tests {
             }
         }
         // Only one face: the other half stays empty, then dilation fills its normals.
-        let mut half = rasterize(&m, &flat, &[0], 1, &bx);
+        let mut half = draw(&[0], &bx);
         let empty = half.heights.iter().filter(|&&q| q == 0).count();
         assert!(empty > 0 && empty < 32);
         dilate(&mut half, 8, 4, 8);
@@ -688,7 +698,16 @@ mod tests {
             height: 2,
             height_bits: 16,
         };
-        let one = rasterize(&m, &flat, &[0], 1, &bx);
+        let draw = |faces: &[u32], bx: &PatchBox| {
+            rasterize(
+                &m,
+                &flat,
+                (faces, faces.len()),
+                &boundary_edges(&m, faces),
+                bx,
+            )
+        };
+        let one = draw(&[0], &bx);
         assert!(one.heights.iter().all(|&q| q != 0));
         // Signed distances (texels) of the centres to the outline: 1/2 from the two legs, on
         // the hypotenuse, and the lip's 1/√2 outside it (codes round up, by < 1/63 texel).
@@ -704,7 +723,7 @@ mod tests {
             one.overhangs
         );
         // Both triangles: the square is all mesh, every centre 1/2 texel or more inside.
-        let both = rasterize(&m, &flat, &[0, 1], 2, &bx);
+        let both = draw(&[0, 1], &bx);
         assert!(both.overhangs.is_empty() && both.lips.is_empty());
         assert!(both
             .outline

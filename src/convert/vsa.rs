@@ -752,7 +752,10 @@ fn fine_lloyd(solver: &mut Solver, iterations: usize, progress: Progress) -> Res
     for i in 0..iterations {
         solver.flood();
         solver.fit_and_reseed();
-        progress.report("partition", 0.9 + 0.1 * (i + 1) as f64 / (iterations + 1) as f64)?;
+        progress.report(
+            "partition",
+            0.9 + 0.1 * (i + 1) as f64 / (iterations + 1) as f64,
+        )?;
     }
     solver.flood();
     Ok(())
@@ -861,8 +864,8 @@ mod tests {
         };
         let progress = Progress::new(&cb, &NEVER);
         let multi = partition_coarsened(&set, target, (6, 1.0, COARSEN_ABOVE), progress).unwrap();
-        let flat = partition_coarsened(&set, target, (6, 1.0, usize::MAX), Progress::silent())
-            .unwrap();
+        let flat =
+            partition_coarsened(&set, target, (6, 1.0, usize::MAX), Progress::silent()).unwrap();
         let reports = reports_cell.into_inner().unwrap();
         assert!(reports.windows(2).all(|w| w[1] >= w[0]), "{reports:?}");
         assert!(reports.iter().any(|&f| f > 0.9 && f < 1.0), "{reports:?}");
@@ -870,7 +873,10 @@ mod tests {
         // Measured: 51 charts at mean error 0.0448 through the levels, 51 at 0.0446 on the faces.
         assert!(km <= 1.3 * kf && km >= kf / 1.3, "{km} charts against {kf}");
         assert!(multi.mean_error <= 1.3 * flat.mean_error.max(0.05));
-        assert!(multi.labels.iter().all(|&l| (l as usize) < multi.proxies.len()));
+        assert!(multi
+            .labels
+            .iter()
+            .all(|&l| (l as usize) < multi.proxies.len()));
     }
 
     #[test]
