@@ -241,6 +241,28 @@ impl Csr {
         }
     }
 
+    /// The same rows with each item once, sorted.
+    pub fn deduplicated(self) -> Csr {
+        let mut offsets = Vec::with_capacity(self.offsets.len());
+        offsets.push(0u32);
+        let mut items = Vec::with_capacity(self.items.len());
+        for r in 0..self.offsets.len() - 1 {
+            let start = items.len();
+            items.extend_from_slice(self.row(r));
+            items[start..].sort_unstable();
+            let mut kept = start;
+            for i in start..items.len() {
+                if kept == start || items[i] != items[kept - 1] {
+                    items[kept] = items[i];
+                    kept += 1;
+                }
+            }
+            items.truncate(kept);
+            offsets.push(items.len() as u32);
+        }
+        Csr { offsets, items }
+    }
+
     #[inline]
     pub fn row(&self, i: usize) -> &[u32] {
         &self.items[self.offsets[i] as usize..self.offsets[i + 1] as usize]
@@ -300,7 +322,7 @@ fn weld(mesh: &Mesh) -> (Vec<u32>, usize) {
             .to_array()
             .map(|x| (x + 0.0).to_bits())
     };
-    order.sort_unstable_by_key(|&v| (key(v), v));
+    order.par_sort_unstable_by_key(|&v| (key(v), v));
     let mut weld: Vec<u32> = (0..nv as u32).collect();
     let mut duplicate_vertices = 0;
     for k in 1..order.len() {
@@ -392,8 +414,10 @@ impl EdgeAdjacency {
                 edges.push((a.min(b), a.max(b), f as u32, a < b));
             }
         }
-        edges.sort_unstable();
-        let mut pairs = Vec::with_capacity(edges.len() * 2);
+        // Parallel sorts: equal keys are identical, so the order is the serial sort's.
+        edges.par_sort_unstable();
+        // Two faces per manifold edge, each seeing the other: one pair per entry.
+        let mut pairs = Vec::with_capacity(edges.len());
         let mut edge_counts = EdgeCounts::default();
         // Across each manifold edge: (face, other face | AGREE_BIT if the two agree on
         // orientation).
@@ -426,7 +450,7 @@ impl EdgeAdjacency {
             }
             i = j;
         }
-        pairs.sort_unstable();
+        pairs.par_sort_unstable();
         pairs.dedup();
         EdgeAdjacency {
             face_neighbors: Csr::from_pairs(nf, &pairs),
@@ -447,7 +471,7 @@ fn vertex_faces(mesh: &Mesh, weld: &[u32], degenerate: &[bool], duplicates: usiz
             }
         }
     }
-    vf.sort_unstable();
+    vf.par_sort_unstable();
     vf.dedup();
     let welded_faces = Csr::from_pairs(nv, &vf);
     // Every vertex lists its weld group's faces.

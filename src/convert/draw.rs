@@ -8,6 +8,7 @@ use super::frame::ChartFrame;
 use super::options::ConvertOptions;
 use super::raster::{self, Maps, PatchBox};
 use glam::DVec3;
+use rayon::prelude::*;
 
 use crate::mesh::Mesh;
 
@@ -16,6 +17,8 @@ use crate::mesh::Mesh;
 pub struct ChartJob<'a> {
     pub faces: Vec<u32>,
     pub chart_faces: usize,
+    /// The outline of all the faces (`raster::boundary_edges`), the same at every texel size.
+    pub outline: Vec<[u32; 2]>,
     pub frame: &'a ChartFrame,
     pub long_side: f64,
 }
@@ -55,15 +58,19 @@ impl ChartDrawer<'_> {
         charts: impl Iterator<Item = (&'f [u32], &'f [u32])>,
         frames: &'f [ChartFrame],
     ) -> Vec<ChartJob<'f>> {
-        charts
+        let mut jobs: Vec<ChartJob> = charts
             .zip(frames)
             .map(|((faces, ring), frame)| ChartJob {
                 faces: faces.iter().chain(ring).copied().collect(),
                 chart_faces: faces.len(),
+                outline: Vec::new(),
                 frame,
                 long_side: frame.long_side().max(self.texel * 1e-3),
             })
-            .collect()
+            .collect();
+        jobs.par_iter_mut()
+            .for_each(|j| j.outline = raster::boundary_edges(self.mesh, &j.faces));
+        jobs
     }
 
     /// Points on the chart's own faces to measure its error against: about a texel apart at
@@ -92,8 +99,8 @@ impl ChartDrawer<'_> {
         let mut maps = raster::rasterize(
             self.mesh,
             self.corner_normals,
-            &job.faces,
-            job.chart_faces,
+            (&job.faces, job.chart_faces),
+            &job.outline,
             &bx,
         );
         // The height field as a patch for the error lookups; its heights go back to the maps.

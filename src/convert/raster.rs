@@ -228,7 +228,9 @@ struct Canvas<'a> {
     /// In-plane world distance from each texel corner to the nearest face; corner (i, j) sits at
     /// (i, j) in texel units, (w + 1) x (h + 1) of them.
     corner_distance: Vec<f64>,
-    normals: Vec<[i8; 2]>,
+    /// World unit normal of what each texel holds, encoded once at the end: a texel is often
+    /// covered several times (lips, ring faces, overlaps) and encoding is most of a cover's cost.
+    normals: Vec<DVec3>,
     /// Empty when the mesh has no colors: no color map is kept.
     colors: Vec<[u8; 4]>,
 }
@@ -245,7 +247,7 @@ impl<'a> Canvas<'a> {
             coverage: vec![Coverage::Empty; w * h],
             lip_distance: vec![f64::INFINITY; w * h],
             corner_distance: vec![f64::INFINITY; (w + 1) * (h + 1)],
-            normals: vec![NO_NORMAL; w * h],
+            normals: vec![DVec3::ZERO; w * h],
             colors: if colored {
                 vec![[0; 4]; w * h]
             } else {
@@ -345,8 +347,7 @@ impl<'a> Canvas<'a> {
         if here == Coverage::Lip {
             self.lip_distance[t] = lip_distance;
         }
-        let n = shading.normal(l);
-        self.normals[t] = encode_normal(self.to_patch_dir(n).normalize_or(DVec3::Z));
+        self.normals[t] = shading.normal(l);
         if let Some(c) = self.colors.get_mut(t) {
             *c = shading.color(l);
         }
@@ -355,11 +356,19 @@ impl<'a> Canvas<'a> {
     /// Lowers the distance of the corners within two texels of the face to the face's.
     fn measure_corners(&mut self, face: &LocalFace, span: TexelSpan) {
         let tri = face.flat();
+        let (lo, hi, texel) = (face.lo, face.hi, self.texel);
+        // World distance from a corner to the face's bounds: no nearer than that to the face.
+        let outside = |v: f64, lo: f64, hi: f64| (lo - v).max(v - hi).max(0.0);
         for cj in span.j0.saturating_sub(1)..=(span.j1 + 3).min(self.h) {
+            let dy = outside(cj as f64, lo.y, hi.y) * texel.y;
             for ci in span.i0.saturating_sub(1)..=(span.i1 + 3).min(self.w) {
                 let q = DVec2::new(ci as f64, cj as f64);
                 let k = cj * (self.w + 1) + ci;
-                if self.corner_distance[k] == 0.0 {
+                let known = self.corner_distance[k];
+                let dx = outside(ci as f64, lo.x, hi.x) * texel.x;
+                // Skipped where the face cannot come nearer (a margin over rounding): the
+                // minimum is the same, at a fraction of the cost.
+                if known == 0.0 || dx * dx + dy * dy > known * known * (1.0 + 1e-9) {
                     continue;
                 }
                 let d = if face.contains(q) {
@@ -440,9 +449,15 @@ impl<'a> Canvas<'a> {
                 distance: self.lip_distance[t],
             })
             .collect();
+        let normals = (0..self.w * self.h)
+            .map(|t| match self.coverage[t] {
+                Coverage::Empty => NO_NORMAL,
+                _ => encode_normal(self.to_patch_dir(self.normals[t]).normalize_or(DVec3::Z)),
+            })
+            .collect();
         Maps {
             heights,
-            normals: self.normals,
+            normals,
             colors: self.colors,
             outline,
             lips,
@@ -469,23 +484,24 @@ impl<'a> Canvas<'a> {
 ///
 /// The outline map then cuts the surface back to the faces: the signed distance from each
 /// texel centre to the outline of all drawn faces (their edges used by one drawn face only).
+/// `outline` is `boundary_edges(mesh, faces)`, found once for every texel size a chart is drawn at.
 pub fn rasterize(
     mesh: &Mesh,
     corner_normals: &[[DVec3; 3]],
-    faces: &[u32],
-    chart_faces: usize,
+    (faces, chart_faces): (&[u32], usize),
+    outline: &[[u32; 2]],
     bx: &PatchBox,
 ) -> Maps {
     let mut canvas = Canvas::new(bx, mesh.has_colors());
     for (n, &f) in faces.iter().enumerate() {
         canvas.draw_face(mesh, corner_normals, f, n < chart_faces);
     }
-    let distance = canvas.outline_distance(mesh, faces);
+    let distance = canvas.outline_distance(mesh, outline);
     canvas.into_maps(&distance)
 }
 
 /// The edges of `faces` that only one of them uses (as vertex pairs): their outline.
-fn boundary_edges(mesh: &Mesh, faces: &[u32]) -> Vec<[u32; 2]> {
+pub fn boundary_edges(mesh: &Mesh, faces: &[u32]) -> Vec<[u32; 2]> {
     let mut edges: Vec<[u32; 2]> = faces
         .iter()
         .flat_map(|&f| {
@@ -507,12 +523,12 @@ fn boundary_edges(mesh: &Mesh, faces: &[u32]) -> Vec<[u32; 2]> {
 }
 
 impl Canvas<'_> {
-    /// In-plane distance (texel units) from each texel centre to the nearest outline edge of
-    /// `faces`, measured out to OUTLINE_REACH (farther texels get that).
-    fn outline_distance(&self, mesh: &Mesh, faces: &[u32]) -> Vec<f64> {
+    /// In-plane distance (texel units) from each texel centre to the nearest edge of
+    /// `outline`, measured out to OUTLINE_REACH (farther texels get that).
+    fn outline_distance(&self, mesh: &Mesh, outline: &[[u32; 2]]) -> Vec<f64> {
         let (w, h) = (self.w as i64, self.h as i64);
         let mut distance = vec![OUTLINE_REACH; self.w * self.h];
-        for [a, b] in boundary_edges(mesh, faces) {
+        for &[a, b] in outline {
             let [a, b] = [a, b].map(|v| self.to_local(mesh.positions[v as usize]).truncate());
             let (lo, hi) = (a.min(b), a.max(b));
             // Texel centres (i + 1/2, j + 1/2) within reach of the edge's bounds.
@@ -631,7 +647,16 @@ mod tests {
             height: 4,
             height_bits: 16,
         };
-        let mut maps = rasterize(&m, &flat, &[0, 1], 2, &bx);
+        let draw = |faces: &[u32], bx: &PatchBox| {
+            rasterize(
+                &m,
+                &flat,
+                (faces, faces.len()),
+                &boundary_edges(&m, faces),
+                bx,
+            )
+        };
+        let mut maps = draw(&[0, 1], &bx);
         for j in 0..4 {
             for i in 0..8 {
                 let q = maps.heights[j * 8 + i];
@@ -644,7 +669,7 @@ mod tests {
             }
         }
         // Only one face: the other half stays empty, then dilation fills its normals.
-        let mut half = rasterize(&m, &flat, &[0], 1, &bx);
+        let mut half = draw(&[0], &bx);
         let empty = half.heights.iter().filter(|&&q| q == 0).count();
         assert!(empty > 0 && empty < 32);
         dilate(&mut half, 8, 4, 8);
@@ -673,7 +698,16 @@ mod tests {
             height: 2,
             height_bits: 16,
         };
-        let one = rasterize(&m, &flat, &[0], 1, &bx);
+        let draw = |faces: &[u32], bx: &PatchBox| {
+            rasterize(
+                &m,
+                &flat,
+                (faces, faces.len()),
+                &boundary_edges(&m, faces),
+                bx,
+            )
+        };
+        let one = draw(&[0], &bx);
         assert!(one.heights.iter().all(|&q| q != 0));
         // Signed distances (texels) of the centres to the outline: 1/2 from the two legs, on
         // the hypotenuse, and the lip's 1/√2 outside it (codes round up, by < 1/63 texel).
@@ -689,7 +723,7 @@ mod tests {
             one.overhangs
         );
         // Both triangles: the square is all mesh, every centre 1/2 texel or more inside.
-        let both = rasterize(&m, &flat, &[0, 1], 2, &bx);
+        let both = draw(&[0, 1], &bx);
         assert!(both.overhangs.is_empty() && both.lips.is_empty());
         assert!(both
             .outline

@@ -22,12 +22,18 @@ use crate::mesh::{Csr, MeshGeometry};
 pub const NONE: u32 = u32::MAX;
 
 /// Faces of the mesh (by global index) with adjacency restricted to them, indexed locally.
+///
+/// A coarse level (`coarsen`) has clusters of faces as its "faces": their area, area-weighted
+/// mean normal (not unit) and centroid, and in `spread` what makes the L2,1 error and the
+/// compactness term of a cluster exact sums over its faces (empty for a set of mesh faces).
 pub struct FaceSet {
     pub global: Vec<u32>,
     pub normals: Vec<DVec3>,
     pub areas: Vec<f64>,
     pub centroids: Vec<DVec3>,
     pub neighbors: Csr,
+    /// Per cluster: (sum a|n|², sum a|c|²) over its faces, less area × |mean|² of each.
+    spread: Vec<[f64; 2]>,
 }
 
 impl FaceSet {
@@ -58,21 +64,38 @@ impl FaceSet {
             areas: faces.iter().map(|&g| geo.face_areas[g as usize]).collect(),
             centroids: faces.iter().map(|&g| geo.centroids[g as usize]).collect(),
             neighbors,
+            spread: Vec::new(),
         }
     }
 
     pub fn len(&self) -> usize {
-        self.global.len()
+        self.areas.len()
     }
 
     pub fn is_empty(&self) -> bool {
-        self.global.is_empty()
+        self.areas.is_empty()
     }
 
     /// The L2,1 error alone: what the chart-count target and reports measure.
     #[inline]
     fn error(&self, f: usize, proxy: DVec3) -> f64 {
-        self.areas[f] * (self.normals[f] - proxy).length_squared()
+        self.areas[f] * (self.normals[f] - proxy).length_squared() + self.spread(f)[0]
+    }
+
+    /// The constant parts of a cluster's error and compactness sums (zero for a mesh face, so
+    /// adding them changes nothing there).
+    #[inline]
+    fn spread(&self, f: usize) -> [f64; 2] {
+        self.spread.get(f).copied().unwrap_or([0.0; 2])
+    }
+
+    /// The proxy normal a chart seeded at `f` starts with.
+    fn seed_normal(&self, f: usize) -> DVec3 {
+        if self.spread.is_empty() {
+            self.normals[f]
+        } else {
+            self.normals[f].normalize_or(DVec3::Z)
+        }
     }
 
     /// Connected components (by edge adjacency inside the set): a label per face and the count.
@@ -149,6 +172,7 @@ pub fn partition_mesh(
 ) -> Result<MeshPartition> {
     let mut scratch = vec![NONE; geo.degenerate.len()];
     let set = FaceSet::new(geo, active, &mut scratch);
+    drop(scratch);
     let target = match opts.charts {
         Some(n) => ChartTarget::Count(n),
         None => ChartTarget::MeanError {
@@ -170,11 +194,34 @@ pub fn partition_mesh(
         } => part.proxies.len() >= max_charts && part.mean_error > tolerance,
         ChartTarget::Count(_) => false,
     };
+    let (groups, mean_error) = (part.groups(&set), part.mean_error);
+    if set.len() > COARSEN_ABOVE {
+        drop((set, part));
+        release_freed_memory();
+    }
     Ok(MeshPartition {
-        groups: part.groups(&set),
-        mean_error: part.mean_error,
+        groups,
+        mean_error,
         capped,
     })
+}
+
+/// Hands the pages of freed heap memory back to the system. glibc keeps them, and the raster
+/// stage allocates from its worker threads' own arenas, so on the 1.1M-face bunny the
+/// partition's freed set, levels and queue (~110 bytes per face) stayed resident under the
+/// maps (peak 401 bytes per face above the mesh, against 279 with the cone partition).
+fn release_freed_memory() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    {
+        extern "C" {
+            fn malloc_trim(pad: usize) -> std::os::raw::c_int;
+        }
+        // SAFETY: glibc's malloc_trim only returns free pages to the system; no live
+        // allocation is touched.
+        unsafe {
+            malloc_trim(0);
+        }
+    }
 }
 
 /// A face offered to a growing chart: popped cheapest first from a `BinaryHeap` (a max-heap),
@@ -218,7 +265,7 @@ struct Solver<'a> {
 
 impl<'a> Solver<'a> {
     fn new(set: &'a FaceSet, seeds: Vec<u32>, compactness: f64) -> Self {
-        let proxies = seeds.iter().map(|&s| set.normals[s as usize]).collect();
+        let proxies = seeds.iter().map(|&s| set.seed_normal(s as usize)).collect();
         let centres = seeds.iter().map(|&s| set.centroids[s as usize]).collect();
         Solver {
             set,
@@ -234,7 +281,7 @@ impl<'a> Solver<'a> {
 
     fn add_proxy(&mut self, seed: u32) {
         self.seeds.push(seed);
-        self.proxies.push(self.set.normals[seed as usize]);
+        self.proxies.push(self.set.seed_normal(seed as usize));
         self.centres.push(self.set.centroids[seed as usize]);
     }
 
@@ -246,6 +293,7 @@ impl<'a> Solver<'a> {
             + self.compactness
                 * self.set.areas[f]
                 * (self.set.centroids[f] - self.centres[proxy]).length_squared()
+            + self.compactness * self.set.spread(f)[1]
     }
 
     fn push_neighbors(&mut self, f: u32, proxy: u32) {
@@ -343,6 +391,24 @@ impl<'a> Solver<'a> {
         self.flood();
     }
 
+    /// The partition carried to the finer level `fine`, whose face `f` lies in this level's
+    /// cluster `parent[f]`, with proxies, centres and seeds fitted there.
+    fn refined<'b>(self, fine: &'b FaceSet, parent: &[u32], cancel: &'b Cancel) -> Solver<'b> {
+        let labels = parent.iter().map(|&p| self.labels[p as usize]).collect();
+        let mut s = Solver {
+            set: fine,
+            compactness: self.compactness,
+            proxies: self.proxies,
+            centres: self.centres,
+            seeds: Vec::new(),
+            labels,
+            heap: BinaryHeap::new(),
+            cancel,
+        };
+        s.fit_and_reseed();
+        s
+    }
+
     /// Per chart: total error and the worst face.
     fn region_errors(&self) -> Vec<(f64, u32, u32)> {
         let mut out = vec![(0.0, NONE, 0u32); self.proxies.len()];
@@ -374,6 +440,160 @@ impl<'a> Solver<'a> {
             mean_error,
         }
     }
+}
+
+/// Meshes with more faces than this are partitioned on coarser levels first (multilevel VSA):
+/// charts are added where a flood costs a fraction of the mesh's, and the mesh's own faces
+/// see only the last Lloyd iterations.
+pub const COARSEN_ABOVE: usize = 20_000;
+/// Coarsening stops at about this many clusters.
+const COARSEST: usize = 4_096;
+/// A level serves while it has at least this many clusters per chart: finer levels take over
+/// as charts are added, so a chart is never made of a handful of clusters.
+const CLUSTERS_PER_CHART: usize = 24;
+/// Lloyd iterations on the mesh's own faces after a partition found on coarser levels (at
+/// most `lloyd_iterations`): the partition is already converged on the level above.
+const FINE_LLOYD: usize = 2;
+
+/// One coarsening step: each face in turn, if still alone, is paired with its lone neighbour
+/// of the most similar normal (heavy-edge matching on the dual graph); the pairs and the faces
+/// left alone are the clusters of the returned level, with each face's cluster. Cluster errors
+/// stay exact sums over their faces (`FaceSet::spread`, by the parallel-axis rule).
+fn coarsen(set: &FaceSet) -> (FaceSet, Vec<u32>) {
+    let n = set.len();
+    let dir = |f: usize| set.normals[f].normalize_or_zero();
+    let mut parent = vec![NONE; n];
+    let mut k = 0u32;
+    for f in 0..n {
+        if parent[f] != NONE {
+            continue;
+        }
+        let here = dir(f);
+        let similarity = |g: u32| dir(g as usize).dot(here);
+        let mate = set
+            .neighbors
+            .row(f)
+            .iter()
+            .copied()
+            .filter(|&g| parent[g as usize] == NONE && g as usize != f)
+            .max_by(|&a, &b| similarity(a).total_cmp(&similarity(b)).then(b.cmp(&a)));
+        parent[f] = k;
+        if let Some(g) = mate {
+            parent[g as usize] = k;
+        }
+        k += 1;
+    }
+    let k = k as usize;
+    let (mut areas, mut normals, mut centroids) =
+        (vec![0.0; k], vec![DVec3::ZERO; k], vec![DVec3::ZERO; k]);
+    for (f, &p) in parent.iter().enumerate() {
+        let (p, a) = (p as usize, set.areas[f]);
+        areas[p] += a;
+        normals[p] += set.normals[f] * a;
+        centroids[p] += set.centroids[f] * a;
+    }
+    for ((n, c), a) in normals.iter_mut().zip(centroids.iter_mut()).zip(&areas) {
+        let inv = 1.0 / a.max(f64::MIN_POSITIVE);
+        *n *= inv;
+        *c *= inv;
+    }
+    let mut spread = vec![[0.0; 2]; k];
+    let mut pairs = Vec::with_capacity(set.neighbors.items.len());
+    for (f, &p) in parent.iter().enumerate() {
+        let (p, a, [sn, sc]) = (p as usize, set.areas[f], set.spread(f));
+        spread[p][0] += sn + a * (set.normals[f] - normals[p]).length_squared();
+        spread[p][1] += sc + a * (set.centroids[f] - centroids[p]).length_squared();
+        for &g in set.neighbors.row(f) {
+            if parent[g as usize] as usize != p {
+                pairs.push((p as u32, parent[g as usize]));
+            }
+        }
+    }
+    let coarse = FaceSet {
+        global: Vec::new(),
+        normals,
+        areas,
+        centroids,
+        neighbors: Csr::from_pairs(k, &pairs).deduplicated(),
+        spread,
+    };
+    (coarse, parent)
+}
+
+/// The coarser levels of a set (none for a small one): each with the cluster of every face of
+/// the level below. A level is kept only where charts may be added on it: one whose next
+/// coarser level has `CLUSTERS_PER_CHART` clusters for each of `most_charts` is never chosen,
+/// and is left empty (its clusters counted in `sizes`), so the levels take linear memory of a
+/// fraction of the mesh's faces.
+fn coarse_levels(set: &FaceSet, most_charts: usize, coarsen_above: usize) -> Levels {
+    let mut levels = Levels {
+        sets: Vec::new(),
+        sizes: Vec::new(),
+    };
+    if set.len() <= coarsen_above {
+        return levels;
+    }
+    let mut finer: Option<FaceSet> = None;
+    loop {
+        let n = finer.as_ref().map_or(set.len(), FaceSet::len);
+        if n <= COARSEST {
+            break;
+        }
+        let (coarse, parent) = coarsen(finer.as_ref().unwrap_or(set));
+        if coarse.len() * 10 > n * 9 {
+            break; // matching stalls (many lone faces): not worth a level
+        }
+        if let Some(f) = finer.take() {
+            // Never chosen if this coarser level serves every chart count.
+            let keep = coarse.len() < most_charts.saturating_mul(CLUSTERS_PER_CHART);
+            levels.sets.last_mut().unwrap().0 = keep.then_some(f);
+        }
+        levels.sizes.push(coarse.len());
+        levels.sets.push((None, parent));
+        finer = Some(coarse);
+    }
+    if let Some(f) = finer {
+        levels.sets.last_mut().unwrap().0 = Some(f);
+    }
+    levels
+}
+
+/// The coarser levels of a set: per level (1, 2, ...) its clusters (None where never chosen),
+/// the cluster of each face of the level below, and its size.
+struct Levels {
+    sets: Vec<(Option<FaceSet>, Vec<u32>)>,
+    sizes: Vec<usize>,
+}
+
+impl Levels {
+    /// Clusters at level `k` of `set` (level 0).
+    fn size(&self, k: usize, set: &FaceSet) -> usize {
+        if k == 0 {
+            set.len()
+        } else {
+            self.sizes[k - 1]
+        }
+    }
+
+    /// The coarsest level below `level` with `CLUSTERS_PER_CHART` clusters for each of `charts`
+    /// (those are kept), or the faces themselves.
+    fn serving(&self, level: usize, charts: usize) -> usize {
+        (1..level)
+            .rev()
+            .find(|&k| self.sizes[k - 1] >= charts * CLUSTERS_PER_CHART)
+            .unwrap_or(0)
+    }
+}
+
+/// Each face of level `fine`'s cluster at level `coarse` (> fine).
+fn parents_across(levels: &Levels, fine: usize, coarse: usize) -> Vec<u32> {
+    let mut parent = levels.sets[fine].1.clone();
+    for (_, up) in &levels.sets[fine + 1..coarse] {
+        for p in parent.iter_mut() {
+            *p = up[*p as usize];
+        }
+    }
+    parent
 }
 
 /// Initial seeds: one per connected component (every face must be reachable by some flood),
@@ -429,6 +649,10 @@ fn initial_seeds(set: &FaceSet, k: usize) -> Vec<u32> {
 /// `compactness` weighs the squared distance to a chart's centre against the L2,1 error, in units
 /// of the typical chart radius (sqrt(area / charts)); 0 gives plain VSA.
 ///
+/// A large set is partitioned on its coarser levels (`coarse_levels`) first: charts are added
+/// on the coarsest level that has `CLUSTERS_PER_CHART` clusters for each, and the partition is
+/// carried down to the mesh's faces for the last `FINE_LLOYD` Lloyd iterations.
+///
 /// Progress of stage "partition": the charts against the target count, or the error's way down
 /// to its target on a log scale, never moving back.
 pub fn partition(
@@ -436,6 +660,17 @@ pub fn partition(
     target: ChartTarget,
     lloyd_iterations: usize,
     compactness: f64,
+    progress: Progress,
+) -> Result<Partition> {
+    let method = (lloyd_iterations, compactness, COARSEN_ABOVE);
+    partition_coarsened(set, target, method, progress)
+}
+
+/// `partition`, coarsening a set of more than `coarsen_above` faces.
+fn partition_coarsened(
+    set: &FaceSet,
+    target: ChartTarget,
+    (lloyd_iterations, compactness, coarsen_above): (usize, f64, usize),
     progress: Progress,
 ) -> Result<Partition> {
     let cancel = progress.cancel;
@@ -462,7 +697,15 @@ pub fn partition(
         ChartTarget::Count(_) => want.min(8),
         ChartTarget::MeanError { .. } => 1,
     };
-    let mut solver = Solver::new(set, initial_seeds(set, first), 0.0);
+    let levels = coarse_levels(set, want.min(cap), coarsen_above);
+    let level_set = |k: usize| match k {
+        0 => Some(set),
+        _ => levels.sets[k - 1].0.as_ref(),
+    };
+    let level_size = |k: usize| levels.size(k, set);
+    let mut level = levels.sets.len();
+    let coarsest = level_set(level).expect("the coarsest level is kept");
+    let mut solver = Solver::new(coarsest, initial_seeds(coarsest, first), 0.0);
     solver.cancel = cancel;
     solver.compactness = scaled(solver.proxies.len());
     solver.lloyd(3);
@@ -470,6 +713,16 @@ pub fn partition(
     let mut first_mean = None;
     loop {
         cancel.check("partitioning the mesh")?;
+        // The charts of the next round need a finer level: the coarsest with enough clusters.
+        let c = solver.proxies.len();
+        let next = if c < 8 { 2 * c } else { c + c / 4 }.min(want);
+        if level > 0 && next * CLUSTERS_PER_CHART > level_size(level) {
+            let to = levels.serving(level, next);
+            let finer = level_set(to).expect("a level charts can outgrow is kept");
+            solver = solver.refined(finer, &parents_across(&levels, to, level), cancel);
+            solver.lloyd(1);
+            level = to;
+        }
         let regions = solver.region_errors();
         let mean = regions.iter().map(|r| r.0).sum::<f64>() / total_area;
         let count = solver.proxies.len();
@@ -505,8 +758,31 @@ pub fn partition(
         }
     }
     solver.lloyd(lloyd_iterations);
+    if level > 0 {
+        let parent = parents_across(&levels, 0, level);
+        let mut fine = solver.refined(set, &parent, cancel);
+        drop((parent, levels));
+        fine_lloyd(&mut fine, lloyd_iterations.min(FINE_LLOYD), progress)?;
+        cancel.check("partitioning the mesh")?;
+        return Ok(fine.into_partition());
+    }
     cancel.check("partitioning the mesh")?;
     Ok(solver.into_partition())
+}
+
+/// Lloyd iterations on the mesh's faces after a coarse partition (`Solver::refined` has fitted
+/// proxies and seeds), each reported: on a million faces a flood takes most of a second.
+fn fine_lloyd(solver: &mut Solver, iterations: usize, progress: Progress) -> Result<()> {
+    for i in 0..iterations {
+        solver.flood();
+        solver.fit_and_reseed();
+        progress.report(
+            "partition",
+            0.9 + 0.1 * (i + 1) as f64 / (iterations + 1) as f64,
+        )?;
+    }
+    solver.flood();
+    Ok(())
 }
 
 /// Splits a (connected) chart in two: seeds at the face that fits `z` worst and the one that fits
@@ -577,6 +853,54 @@ mod tests {
                 "face {f}"
             );
         }
+    }
+
+    #[test]
+    fn coarse_levels_find_the_partition_of_the_faces() {
+        // A bumpy sphere of ~61k faces: partitioned through coarse levels and on its faces
+        // alone, to the same error target.
+        let mut m = crate::convert::tests::uv_sphere(128, 240);
+        for p in m.positions.iter_mut() {
+            *p *= 1.0 + 0.05 * (5.0 * p.x).sin() * (4.0 * p.y).cos();
+        }
+        let geo = MeshGeometry::new(&m);
+        let all: Vec<u32> = (0..m.faces.len() as u32).collect();
+        let set = FaceSet::new(&geo, &all, &mut vec![NONE; m.faces.len()]);
+        let target = ChartTarget::MeanError {
+            tolerance: 0.05,
+            max_charts: 4096,
+        };
+        let levels = coarse_levels(&set, 4096, COARSEN_ABOVE);
+        assert!(levels.sizes.len() >= 3, "{:?}", levels.sizes);
+        assert!(*levels.sizes.last().unwrap() <= COARSEST);
+        // Cluster errors are exact sums over their faces: any labelling scores the same on a
+        // level as on the faces it covers.
+        let (coarse, parent) = coarsen(&set);
+        let proxy = DVec3::new(0.3, -0.2, 0.9).normalize();
+        let sum = |s: &FaceSet| (0..s.len()).map(|f| s.error(f, proxy)).sum::<f64>();
+        assert!((sum(&coarse) - sum(&set)).abs() <= 1e-9 * sum(&set));
+        assert!(parent.iter().all(|&p| (p as usize) < coarse.len()));
+
+        let reports_cell = std::sync::Mutex::new(Vec::new());
+        let cb = |_: &str, f: f64| {
+            reports_cell.lock().unwrap().push(f);
+            true
+        };
+        let progress = Progress::new(&cb, &NEVER);
+        let multi = partition_coarsened(&set, target, (6, 1.0, COARSEN_ABOVE), progress).unwrap();
+        let flat =
+            partition_coarsened(&set, target, (6, 1.0, usize::MAX), Progress::silent()).unwrap();
+        let reports = reports_cell.into_inner().unwrap();
+        assert!(reports.windows(2).all(|w| w[1] >= w[0]), "{reports:?}");
+        assert!(reports.iter().any(|&f| f > 0.9 && f < 1.0), "{reports:?}");
+        let (km, kf) = (multi.proxies.len() as f64, flat.proxies.len() as f64);
+        // Measured: 51 charts at mean error 0.0448 through the levels, 51 at 0.0446 on the faces.
+        assert!(km <= 1.3 * kf && km >= kf / 1.3, "{km} charts against {kf}");
+        assert!(multi.mean_error <= 1.3 * flat.mean_error.max(0.05));
+        assert!(multi
+            .labels
+            .iter()
+            .all(|&l| (l as usize) < multi.proxies.len()));
     }
 
     #[test]
