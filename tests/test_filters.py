@@ -47,7 +47,7 @@ def test_gaussian_removes_noise_and_high_pass_adds_to_it(noisy_sphere) -> None: 
 
 
 def test_a_plane_stays_a_plane() -> None:
-    gts = gt.convert(flat_grid())
+    gts = gt.convert(flat_grid(), max_resolution=256)
     out = gts.filtered("gaussian", 0.05)
     points, normals = out.to_points()
     assert np.abs(points[:, 2]).max() < 1e-6
@@ -138,12 +138,12 @@ def test_no_spikes_at_rims() -> None:
     ("gaussian", 1.0, {"gain": 2.0}, "gain applies only to kind='high_pass'"),
 ])
 def test_bad_filter_arguments(kind: str, sigma: float, kw: dict, match: str) -> None:
-    gts = gt.convert(GENERATED["single_triangle"]())
+    gts = gt.convert(GENERATED["single_triangle"](), max_resolution=256)
     with pytest.raises(gt.ParameterError, match=match):
         gts.filtered(kind, sigma, **kw)
 
 
 def test_seam_gaps_need_the_source_mesh() -> None:
-    gts = gt.convert(GENERATED["torus"]())
+    gts = gt.convert(GENERATED["torus"](), max_resolution=256)
     with pytest.raises(gt.ParameterError, match="not the mesh it was converted from"):
         gts.seam_gaps(GENERATED["single_triangle"]())

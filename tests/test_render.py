@@ -263,7 +263,7 @@ def flat_plate(z: float = 0.0, half: float = 1.0, n: int = 8) -> gt.Mesh:
 def test_depth_is_z_depth_and_axis_parallel_rays_work(r256: gt.Renderer) -> None:
     """A flat plate seen straight down its normal: every ray parallel to the patch's z axis in the
     centre, depth = the camera height at every pixel (z-depth, not distance along the ray)."""
-    plate = gt.convert(flat_plate(z=0.25))
+    plate = gt.convert(flat_plate(z=0.25), max_resolution=256)
     assert len(plate) == 1 and np.allclose(plate.patch(0)["axes"][2], [0, 0, 1])
     cam = gt.Camera.look_at([0.0, 0.0, 2.25], [0.0, 0.0, 0.25], up=(0, 1, 0), yfov_deg=30)
     f = r256.render(plate, cam)

@@ -470,7 +470,12 @@ pub(crate) mod tests {
     #[test]
     fn sphere_converts_without_folding_and_on_the_surface() {
         let mesh = uv_sphere(24, 48);
-        let set = convert(&mesh, &ConvertOptions::default(), Progress::silent()).unwrap();
+        // One texel for the set, so every point is within its reach of the sphere.
+        let opts = ConvertOptions {
+            max_resolution: Some(256),
+            ..Default::default()
+        };
+        let set = convert(&mesh, &opts, Progress::silent()).unwrap();
         let geo = MeshGeometry::new(&mesh);
         assert!(set.patches.len() >= 2);
         let mut seen = vec![0u32; mesh.faces.len()];

@@ -497,6 +497,46 @@ mod tests {
     }
 
     #[test]
+    fn no_resolution_keyword_resolves_to_the_default_bound_and_budget() {
+        let resolved = ConvertOptions::default().resolved(5_000_000);
+        assert_eq!(resolved.max_error_rel, Some(DEFAULT_MAX_ERROR_REL));
+        assert_eq!(resolved.max_bytes, Some(5_000_000));
+        assert_eq!(resolved.partition, Some(PartitionMethod::Cone));
+        assert_eq!(resolved.resolution_cap(), ERROR_DRIVEN_MAX_RESOLUTION);
+        // A small mesh's budget is the floor.
+        let small = ConvertOptions::default().resolved(1000);
+        assert_eq!(small.max_bytes, Some(DEFAULT_MIN_BUDGET));
+        // Any resolution keyword: as before, VSA at one texel.
+        for opts in [
+            ConvertOptions {
+                max_resolution: Some(64),
+                ..Default::default()
+            },
+            ConvertOptions {
+                max_bytes: Some(10),
+                ..Default::default()
+            },
+        ] {
+            let r = opts.resolved(5_000_000);
+            assert!(!r.error_driven(), "{r:?}");
+            assert_eq!(r.partition, Some(PartitionMethod::Vsa));
+        }
+        // A VSA keyword keeps VSA under the default bound; an explicit partition is kept.
+        let charts = ConvertOptions {
+            charts: Some(12),
+            ..Default::default()
+        };
+        let r = charts.resolved(5_000_000);
+        assert!(r.error_driven() && r.partition == Some(PartitionMethod::Vsa));
+        let bound = ConvertOptions {
+            max_error_rel: Some(1e-3),
+            ..Default::default()
+        };
+        let r = bound.resolved(5_000_000);
+        assert_eq!((r.max_bytes, r.partition), (None, Some(PartitionMethod::Cone)));
+    }
+
+    #[test]
     fn out_of_range_arguments_are_parameter_errors() {
         let bad = |args: ConvertArgs| message(args.into_options().unwrap_err());
         assert_eq!(
