@@ -72,7 +72,8 @@ def test_box_with_defaults_is_flat_shaded_like_its_raster(r128: gt.Renderer) -> 
     box = rotated_box()
     scene = gt.Scene()
     scene.add(box)
-    results = frames_against_reference(box, r128, [gt.convert(box, max_resolution=256), scene, gt.convert(box, max_resolution=256, normals="smooth")])
+    sets = [gt.convert(box, max_resolution=256), scene, gt.convert(box, max_resolution=256, normals="smooth")]
+    results = frames_against_reference(box, r128, sets)
     check_each(BOX_SET, results, 0, "converted box, defaults")
     check_each(BOX_RASTER, results, 1, "rasterized box, defaults")
     for k, view in enumerate(results):

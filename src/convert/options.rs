@@ -533,7 +533,10 @@ mod tests {
             ..Default::default()
         };
         let r = bound.resolved(5_000_000);
-        assert_eq!((r.max_bytes, r.partition), (None, Some(PartitionMethod::Cone)));
+        assert_eq!(
+            (r.max_bytes, r.partition),
+            (None, Some(PartitionMethod::Cone))
+        );
     }
 
     #[test]
