@@ -104,7 +104,7 @@ def test_no_patch_border_shading_step(bunny: Converted) -> None:
     build with those texels keeping the normal of where their search stopped measured 4.6 at 2
     texels and failed. Moving points along their mean normal and resampling per patch gave p95
     0.78 and 1.92."""
-    smooth = gt.convert(bunny.mesh, normals="smooth")
+    smooth = gt.convert(bunny.mesh, normals="smooth", max_resolution=256)
     t = smooth.texel_size
     for sigma, p95_bound, p99_bound in ((None, 1.25, 4.0), (1.0, 1.6, 3.0), (2.0, 1.6, 4.0)):
         gts = smooth if sigma is None else smooth.filtered("gaussian", sigma * t)
