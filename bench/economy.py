@@ -11,6 +11,17 @@ hits, ``reference.RayCaster``), five views at 512², median and p99 pooled over 
 the noisy isosurface (pymeshlab ``create_noisy_isosurface``): converted with the defaults, does it
 render (and what did the refusal say)?
 
+``--default``: the default, error-driven ``convert`` (bound ``max_error_rel=2e-4`` within the
+mesh's bytes, cone partition) on every shared mesh, the noisy isosurface, the displaced icosphere
+(bench/partition.py) and the 1.1 M-face loop-subdivided bunny: bytes against the mesh, seconds
+against a fixed 256-texel cone conversion, the reported p99, and against trimesh over five views at
+512² the worst IoU, depth median and depth p99 (one-pixel tolerance) and the pooled median normal
+angle to the crease-split normals; the bunny's error-driven set at the p99 a fixed 256-texel set
+reports, both rendered; and accuracy-against-bytes curves (new default, fixed, three-partition
+VSA error-driven) on the bunny and the noisy isosurface, with the reported p99 against the
+rendered one. Into ``economy.json["default"]`` (with ``os.getloadavg()`` before and after) and
+``economy_default.png``; ~20 min.
+
 Before/after: ``--label main`` (run on a build of main) writes
 ``bench/results/economy_main.json``; a plain run writes ``bench/results/economy.json`` with main's
 figures beside this build's (ratios) and ``bench/results/economy.png``.
@@ -19,6 +30,7 @@ Run from the repository root::
 
     nice python bench/economy.py                 # ~3 min on 2 cores
     nice python bench/economy.py --label main    # on a build of main
+    nice python bench/economy.py --default       # the default, error-driven convert
 """
 
 from __future__ import annotations
@@ -261,12 +273,201 @@ def plot(now: dict[str, Any], main: dict[str, Any] | None, path: Path) -> None:
     fig.savefig(path, dpi=100)
 
 
+# -- The default, error-driven convert (``--default``) ------------------------------------------
+
+def curve_modes(name: str, mesh_bytes: int) -> dict[str, list[dict[str, Any]]]:
+    """The settings each mode's curve is drawn through: the new default's bound swept on the
+    bunny (the budget does not bind there), its budget swept on the noisy isosurface (where it
+    does), today's fixed resolutions and today's three-partition VSA error-driven bounds."""
+    noisy = name == "noisy-isosurface"
+    default = ([dict(max_error_rel=2e-4, max_bytes=int(f * mesh_bytes)) for f in (0.5, 2.0, 4.0)] if noisy
+               else [dict(max_error_rel=e) for e in (1e-4, 5e-4, 1e-3)])
+    return {"default (cone, per-chart levels)": default,
+            "fixed (vsa, max_resolution)": [dict(max_resolution=r) for r in ((32, 64) if noisy else (64, 128, 256))],
+            # Three VSA partitions of 4,096 capped charts on the noisy isosurface: minutes a point.
+            "error-driven before (vsa, three partitions)":
+                [] if noisy else [dict(max_error_rel=e, partition="vsa") for e in (1e-4, 2e-4, 5e-4)]}
+
+
+def big_bunny() -> gt.Mesh:
+    from geomtex import testing
+
+    return testing.subdivided(gt.load_mesh(MESH_DIR / "stanford-bunny.obj"), 1_000_000)
+
+
+def load_any(name: str) -> gt.Mesh:
+    sys.path.insert(0, str(REPO / "bench"))
+    from partition import displaced_icosphere
+
+    if name == "displaced-icosphere":
+        return displaced_icosphere()
+    if name == "bunny-loop-subdivided":
+        return big_bunny()
+    return load(name)
+
+
+def rendered(mesh: gt.Mesh, gts: gt.GeometryTextureSet, views: int = 5, size: int = 512) -> dict[str, Any]:
+    """Against trimesh over ``views`` views at ``size``²: the worst view's IoU, depth median and
+    depth p99 (one-pixel tolerance, of the diagonal), and the median angle of the rendered normals
+    to the crease-split reference normals, pooled over the views."""
+    r = gt.Renderer(size, size)
+    caster = reference.RayCaster(mesh)
+    corners = reference.corner_normals(mesh)
+    worst = {"iou": 1.0, "depth_median": 0.0, "depth_p99_1px": 0.0}
+    angles = []
+    for direction, up in VIEWS[:views]:
+        cam = look_from(mesh, direction, up=up)
+        ref = caster.cast(cam, size, size)
+        frame = r.render(gts, cam)
+        m = reference.compare(frame, ref, mesh.diagonal)
+        worst["iou"] = min(worst["iou"], float(m["iou"]))
+        worst["depth_median"] = max(worst["depth_median"], float(m["depth_median"]))
+        worst["depth_p99_1px"] = max(worst["depth_p99_1px"], float(m["depth_p99_1px"]))
+        hit = np.isfinite(frame.depth) & ref["hit"]
+        angles.append(reference.normal_angles(frame.normal, reference.shading_normals(mesh, corners, ref), hit))
+    worst["normal_median_deg"] = float(np.median(np.concatenate(angles)))
+    return worst
+
+
+def converted(mesh: gt.Mesh, **kw: Any) -> tuple[gt.GeometryTextureSet, float]:
+    import warnings
+
+    t0 = time.perf_counter()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", gt.CapWarning)  # the fixed VSA sets of rough meshes hit the chart cap
+        gts = gt.convert(mesh, **kw)
+    return gts, time.perf_counter() - t0
+
+
+def default_row(name: str, fixed_seconds: bool) -> dict[str, Any]:
+    mesh = load_any(name)
+    gts, seconds = converted(mesh)
+    s = gts.stats
+    row = {"faces": int(s["faces"]), "mesh_bytes": mesh_bytes(mesh), "map_bytes": int(s["bytes"]),
+           "ratio": s["bytes"] / mesh_bytes(mesh), "charts": int(s["charts"]), "seconds": seconds,
+           "reported_p99": s["reconstruction_error_p99"] / s["diagonal"], "max_error_rel": s["max_error"] / s["diagonal"],
+           "budget_bytes": s["max_bytes"], "budget_binding": bool(s["max_bytes_binding"])}
+    if fixed_seconds:
+        # Against a fixed 256-texel conversion with the same partition (VSA's 4,096-chart cap
+        # takes 35-93 s on the rough meshes, README "How it converts").
+        fixed, row["fixed_256_seconds"] = converted(mesh, max_resolution=256, partition="cone")
+        row["seconds_over_fixed"] = seconds / row["fixed_256_seconds"]
+        del fixed
+    row.update(rendered(mesh, gts))
+    return row
+
+
+def curve(name: str) -> list[dict[str, Any]]:
+    """Bytes against reported and rendered error for each mode (3 views at 384² each)."""
+    mesh = load_any(name)
+    rows = []
+    for mode, settings in curve_modes(name, mesh_bytes(mesh)).items():
+        for kw in [{}] * ("default" in mode) + settings:
+            gts, seconds = converted(mesh, **kw)
+            s = gts.stats
+            row = {"mode": mode if kw else "default convert", "keywords": kw, "bytes": int(s["bytes"]),
+                   "ratio": s["bytes"] / mesh_bytes(mesh), "seconds": seconds,
+                   "reported_p99": s["reconstruction_error_p99"] / s["diagonal"], **rendered(mesh, gts, 3, 384)}
+            print(name, row, flush=True)
+            rows.append(row)
+    return rows
+
+
+def same_bound(name: str) -> dict[str, Any]:
+    """A fixed 256-texel set and the default (cone) error-driven set at the p99 it reports: their
+    rendered depth p99 (one-pixel tolerance), worst of five views at 512²."""
+    mesh = load_any(name)
+    fixed, _ = converted(mesh, max_resolution=256)
+    bound = fixed.stats["reconstruction_error_p99"]
+    driven, _ = converted(mesh, max_error=bound)
+    f, d = rendered(mesh, fixed), rendered(mesh, driven)
+    return {"bound_rel": bound / mesh.diagonal, "fixed": f, "driven": d, "fixed_bytes": int(fixed.stats["bytes"]),
+            "driven_bytes": int(driven.stats["bytes"]), "driven_reported_p99": driven.stats["reconstruction_error_p99"] / mesh.diagonal,
+            "p99_ratio": d["depth_p99_1px"] / f["depth_p99_1px"]}
+
+
+def measure_default() -> dict[str, Any]:
+    import os
+
+    out: dict[str, Any] = {"loadavg_before": os.getloadavg(), "table": {}}
+    names = [n for n in MESHES if (MESH_DIR / f"{n}.obj").exists()]
+    for name in names + ["noisy-isosurface", "displaced-icosphere", "bunny-loop-subdivided"]:
+        out["table"][name] = default_row(name, fixed_seconds=name != "bunny-loop-subdivided")
+        print(name, out["table"][name], flush=True)
+    out["same_bound"] = {"stanford-bunny": same_bound("stanford-bunny")}
+    print(out["same_bound"], flush=True)
+    out["curves"] = {name: curve(name) for name in ["stanford-bunny", "noisy-isosurface"]}
+    out["loadavg_after"] = os.getloadavg()
+    return out
+
+
+def default_table(d: dict[str, Any]) -> str:
+    lines = [f"{'mesh':22} {'faces':>9} {'maps/mesh':>9} {'s':>6} {'s/fixed':>7} {'reported':>9} {'IoU':>7} "
+             f"{'median':>8} {'p99 1px':>8} {'normal':>6}"]
+    for name, r in d["table"].items():
+        lines.append(f"{name:22} {r['faces']:9d} {r['ratio']:9.3f} {r['seconds']:6.2f} "
+                     f"{r.get('seconds_over_fixed', float('nan')):7.2f} {r['reported_p99']:9.2e} {r['iou']:7.4f} "
+                     f"{r['depth_median']:8.1e} {r['depth_p99_1px']:8.1e} {r['normal_median_deg']:6.2f}")
+    for name, b in d["same_bound"].items():
+        lines.append(f"{name} at the fixed 256 set's reported p99 {b['bound_rel']:.2e}: rendered p99 "
+                     f"{b['driven']['depth_p99_1px']:.2e} against {b['fixed']['depth_p99_1px']:.2e} "
+                     f"({b['p99_ratio']:.2f}x), bytes {b['driven_bytes'] / b['fixed_bytes']:.2f}x")
+    lines.append(f"load average before {d['loadavg_before']}, after {d['loadavg_after']}")
+    return "\n".join(lines)
+
+
+def plot_default(d: dict[str, Any], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 3, figsize=(17, 4.8))
+    for ax, (name, rows) in zip(axes[:2], d["curves"].items()):
+        for mode in dict.fromkeys(r["mode"] for r in rows):
+            pts = sorted((r["ratio"], r["depth_p99_1px"]) for r in rows if r["mode"] == mode)
+            style = "k*" if mode == "default convert" else "o-"
+            ax.plot(*zip(*pts), style, ms=12 if mode == "default convert" else 5, label=mode)
+        ax.axvline(1.0, color="gray", ls="--", lw=0.8)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("maps / mesh bytes (float32/uint32)")
+        ax.set_ylabel("rendered depth p99 (1 px) / diagonal, worst of 3 views at 384²")
+        ax.set_title(f"{name}: accuracy against bytes")
+        ax.legend(fontsize=7)
+    ax = axes[2]
+    for name, rows in d["curves"].items():
+        for mode in dict.fromkeys(r["mode"] for r in rows):
+            sel = [r for r in rows if r["mode"] == mode]
+            ax.scatter([r["reported_p99"] for r in sel], [r["depth_p99_1px"] for r in sel], s=14, label=f"{name}: {mode}")
+    lim = [1e-6, 1e-1]
+    ax.plot(lim, lim, "k--", lw=0.8)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("reported reconstruction p99 / diagonal")
+    ax.set_ylabel("rendered depth p99 (1 px) / diagonal")
+    ax.set_title("the error measure against rendering")
+    ax.legend(fontsize=5)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--label", default="now", help="'main' writes economy_main.json")
     parser.add_argument("--rss-child", help=argparse.SUPPRESS)
     parser.add_argument("--plot-only", action="store_true", help="redraw the PNG from economy.json")
+    parser.add_argument("--default", action="store_true",
+                        help="the default (error-driven) convert: table, curves; into economy.json['default']")
     args = parser.parse_args()
+    if args.default:
+        path = RESULTS / "economy.json"
+        saved = json.loads(path.read_text()) if path.exists() else {}
+        saved["default"] = measure_default()
+        path.write_text(json.dumps(saved, indent=1))
+        plot_default(saved["default"], RESULTS / "economy_default.png")
+        print(default_table(saved["default"]))
+        return
     if args.plot_only:
         saved = json.loads((RESULTS / "economy.json").read_text())
         plot(saved["now"], saved["main"], RESULTS / "economy.png")

@@ -51,7 +51,9 @@ _cache: dict[str, Converted] = {}
 
 
 def converted(name: str) -> Converted:
-    """Converts a named mesh once per session with the default keywords."""
+    """Converts a named mesh once per session at a fixed 256 texels (`max_resolution=256`, the
+    default before error-driven conversion was; the bounds of the tests that share these sets
+    were measured on them). tests/test_economy.py checks the default, error-driven sets."""
     if name not in _cache:
         if name in GENERATED:
             mesh = GENERATED[name]()
@@ -59,7 +61,7 @@ def converted(name: str) -> Converted:
             mesh = gt.load_mesh(pymeshlab_bunny_path())
         else:
             mesh = gt.load_mesh(shared_mesh_path(name))
-        _cache[name] = Converted(name, mesh, gt.convert(mesh))
+        _cache[name] = Converted(name, mesh, gt.convert(mesh, max_resolution=256))
     return _cache[name]
 
 

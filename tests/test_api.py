@@ -71,7 +71,7 @@ def test_progress_reports_every_stage_in_order() -> None:
     calls: list[tuple[str, float]] = []
     gt.convert(converted("sphere").mesh, progress=lambda s, f: calls.append((s, f)))
     stages = list(dict.fromkeys(s for s, _ in calls))
-    assert stages == ["geometry", "partition", "repair", "overlap", "frame", "raster", "dilate", "done"]
+    assert stages == ["geometry", "partition", "repair", "overlap", "frame", "resolution", "raster", "dilate", "done"]
     assert all(0.0 <= f <= 1.0 for _, f in calls) and calls[-1] == ("done", 1.0)
 
 

@@ -142,7 +142,7 @@ def test_far_from_origin_keeps_detail(bunny: Converted) -> None:
     VSA's greedy flooding turns a 1e-10 rounding difference into another seed now and then."""
     offset = np.array([1e6, -2e6, 5e5])
     moved = gt.Mesh(bunny.mesh.vertices + offset, bunny.mesh.faces)
-    gts = gt.convert(moved)
+    gts = gt.convert(moved, max_resolution=256)
     diag = bunny.mesh.diagonal
     points, _ = gts.to_points()
 
@@ -166,7 +166,7 @@ def test_far_from_origin_keeps_detail(bunny: Converted) -> None:
 
 
 def test_conversion_is_deterministic(bunny: Converted) -> None:
-    again = gt.convert(bunny.mesh)
+    again = gt.convert(bunny.mesh, max_resolution=256)
     assert len(again) == len(bunny.gts)
     for i in (0, len(again) // 2, len(again) - 1):
         a, b = again.patch(i), bunny.gts.patch(i)
@@ -191,7 +191,7 @@ def test_keywords_change_what_they_say(bunny: Converted) -> None:
 
 def test_vertex_colors_reach_the_color_maps() -> None:
     sheet = wavy_sheet_colored()
-    gts = gt.convert(sheet)
+    gts = gt.convert(sheet, max_resolution=256)
     for i in range(len(gts)):
         p = gts.patch(i)
         filled = p["height"] > 0

@@ -1,7 +1,8 @@
-"""What a set costs and that no cap is silent: maps hold only what the mesh has (see also
-test_gtex_file.py), max_bytes coarsens the texel until the maps fit, a hit cap is a CapWarning and
-a stat, and a set far past one storage binding's worth of min-max pyramid (128 MiB on lavapipe)
-still renders, against trimesh."""
+"""What a set costs and that no cap is silent: the default convert is error-driven within the
+mesh's bytes, maps hold only what the mesh has (see also test_gtex_file.py), max_bytes coarsens
+the texel until the maps fit (or, with max_error, chooses levels within it), a hit cap is a
+CapWarning and a stat, and a set far past one storage binding's worth of min-max pyramid
+(128 MiB on lavapipe) still renders, against trimesh."""
 
 from __future__ import annotations
 
@@ -44,7 +45,7 @@ def test_a_budget_that_cannot_be_met_warns(fandisk: Converted) -> None:
 
 def test_the_chart_cap_is_a_warning_and_a_stat(fandisk: Converted) -> None:
     with pytest.warns(gt.CapWarning, match=r"stopped at 4 charts \(max_charts\)"):
-        capped = gt.convert(fandisk.mesh, max_charts=4)
+        capped = gt.convert(fandisk.mesh, max_resolution=256, max_charts=4)
     assert capped.stats["charts_capped"] == 1 and capped.stats["vsa_charts"] == 4
     assert capped.stats["vsa_mean_error"] > 0.1
     assert fandisk.gts.stats["charts_capped"] == 0
@@ -59,11 +60,56 @@ def test_the_chart_cap_is_a_warning_and_a_stat(fandisk: Converted) -> None:
 @pytest.mark.parametrize(("keywords", "message"), [
     (dict(max_bytes=0), r"max_bytes must be >= 1, got 0"),
     (dict(max_bytes=-5), r"max_bytes must be >= 1, got -5"),
-    (dict(max_bytes=10**6, max_error_rel=1e-4), r"max_bytes \(1000000\) cannot be combined with max_error"),
+    (dict(max_bytes=10**6, max_error_rel=1e-4, error_scope="chart"),
+     r"max_bytes \(1000000\) cannot be combined with error_scope='chart'"),
 ])
 def test_bad_budgets_are_parameter_errors(fandisk: Converted, keywords, message) -> None:
     with pytest.raises(gt.ParameterError, match=message):
         gt.convert(fandisk.mesh, **keywords)
+
+
+def mesh_bytes(mesh: gt.Mesh) -> int:
+    return 12 * (mesh.n_vertices + mesh.n_faces)
+
+
+def test_the_default_is_error_driven_within_the_mesh_bytes(bunny: Converted) -> None:
+    """No keyword that sets the resolution: the cone partition, each chart's level for the bound
+    max_error_rel=2e-4 within a budget of the mesh's own bytes, and a set that renders close to
+    trimesh."""
+    gts = gt.convert(bunny.mesh)
+    s = gts.stats
+    assert s["max_error"] == pytest.approx(2e-4 * s["diagonal"])
+    assert s["max_bytes"] == mesh_bytes(bunny.mesh)  # 1.25 MB, over the 1 MB floor
+    # Measured: 0.997 of the mesh's bytes (a fixed 256-texel set: 17.1), p99 2.5e-4 of the
+    # diagonal, so the budget binds.
+    assert s["bytes"] <= s["max_bytes"] and s["bytes"] <= 0.06 * bunny.gts.stats["bytes"], s["bytes"]
+    assert s["reconstruction_error_p99"] <= 4e-4 * s["diagonal"] and s["max_bytes_binding"] == 1
+    assert len(set(s["patch_texel"])) > 10  # a texel per chart
+    cam = look_from(bunny.mesh, (1, 0.8, 1))
+    m = reference.compare(gt.Renderer(256, 256).render(gts, cam), reference.raycast(bunny.mesh, cam, 256, 256),
+                          bunny.mesh.diagonal)
+    # Measured at 256²: IoU 0.9991, depth p99 4.3e-4 of the diagonal with a one-pixel tolerance.
+    assert m["iou"] >= 0.997 and m["depth_p99_1px"] <= 1.2e-3 and m["nan_depth"] == 0, m
+
+
+def test_a_resolution_keyword_keeps_the_fixed_conversion(fandisk: Converted) -> None:
+    """max_resolution (or texel_size, max_bytes) gives one texel for the set and VSA, as before."""
+    s = fandisk.gts.stats
+    assert "max_error" not in s and "max_bytes" not in s
+    assert s["vsa_charts"] == 18  # VSA at its 0.1 target (the cone partition cuts 107)
+
+
+def test_max_bytes_with_max_error_chooses_levels_within_it(fandisk: Converted) -> None:
+    """A budget below what the bound needs: the least area over the bound within the budget."""
+    free = gt.convert(fandisk.mesh, max_error_rel=5e-5)
+    budget = int(free.stats["bytes"] // 3)
+    held = gt.convert(fandisk.mesh, max_error_rel=5e-5, max_bytes=budget)
+    s = held.stats
+    # Measured: 1,745,875 bytes within the bound (p99 4.9e-5 of the diagonal); within a third of
+    # them, 580,225 of 581,958 bytes and p99 4.9e-4.
+    assert s["bytes"] <= budget and s["bytes"] >= 0.9 * budget, (s["bytes"], budget)
+    assert s["max_bytes_binding"] == 1 and s["reconstruction_error_p99"] > s["max_error"]
+    assert free.stats["reconstruction_error_p99"] <= free.stats["max_error"]
 
 
 def test_the_adapter_holds_about_the_maps(bunny: Converted) -> None:
@@ -83,7 +129,7 @@ def test_a_set_past_one_binding_of_pyramid_renders() -> None:
         # Its partition stops at the chart cap (a CapWarning, test_the_chart_cap_is_...); what is
         # checked here is that the set renders.
         warnings.simplefilter("ignore", gt.CapWarning)
-        gts = gt.convert(mesh)
+        gts = gt.convert(mesh, max_resolution=256)
     assert gts.stats["texels"] > 40_000_000  # 51,218,199
     cam = look_from(mesh, (1, 0.8, 1))
     m = reference.compare(gt.Renderer(256, 256).render(gts, cam), reference.raycast(mesh, cam, 256, 256),

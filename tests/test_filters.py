@@ -47,7 +47,7 @@ def test_gaussian_removes_noise_and_high_pass_adds_to_it(noisy_sphere) -> None: 
 
 
 def test_a_plane_stays_a_plane() -> None:
-    gts = gt.convert(flat_grid())
+    gts = gt.convert(flat_grid(), max_resolution=256)
     out = gts.filtered("gaussian", 0.05)
     points, normals = out.to_points()
     assert np.abs(points[:, 2]).max() < 1e-6
@@ -104,7 +104,7 @@ def test_no_patch_border_shading_step(bunny: Converted) -> None:
     build with those texels keeping the normal of where their search stopped measured 4.6 at 2
     texels and failed. Moving points along their mean normal and resampling per patch gave p95
     0.78 and 1.92."""
-    smooth = gt.convert(bunny.mesh, normals="smooth")
+    smooth = gt.convert(bunny.mesh, normals="smooth", max_resolution=256)
     t = smooth.texel_size
     for sigma, p95_bound, p99_bound in ((None, 1.25, 4.0), (1.0, 1.6, 3.0), (2.0, 1.6, 4.0)):
         gts = smooth if sigma is None else smooth.filtered("gaussian", sigma * t)
@@ -138,12 +138,12 @@ def test_no_spikes_at_rims() -> None:
     ("gaussian", 1.0, {"gain": 2.0}, "gain applies only to kind='high_pass'"),
 ])
 def test_bad_filter_arguments(kind: str, sigma: float, kw: dict, match: str) -> None:
-    gts = gt.convert(GENERATED["single_triangle"]())
+    gts = gt.convert(GENERATED["single_triangle"](), max_resolution=256)
     with pytest.raises(gt.ParameterError, match=match):
         gts.filtered(kind, sigma, **kw)
 
 
 def test_seam_gaps_need_the_source_mesh() -> None:
-    gts = gt.convert(GENERATED["torus"]())
+    gts = gt.convert(GENERATED["torus"](), max_resolution=256)
     with pytest.raises(gt.ParameterError, match="not the mesh it was converted from"):
         gts.seam_gaps(GENERATED["single_triangle"]())

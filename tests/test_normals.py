@@ -72,7 +72,8 @@ def test_box_with_defaults_is_flat_shaded_like_its_raster(r128: gt.Renderer) -> 
     box = rotated_box()
     scene = gt.Scene()
     scene.add(box)
-    results = frames_against_reference(box, r128, [gt.convert(box), scene, gt.convert(box, normals="smooth")])
+    sets = [gt.convert(box, max_resolution=256), scene, gt.convert(box, max_resolution=256, normals="smooth")]
+    results = frames_against_reference(box, r128, sets)
     check_each(BOX_SET, results, 0, "converted box, defaults")
     check_each(BOX_RASTER, results, 1, "rasterized box, defaults")
     for k, view in enumerate(results):
@@ -110,7 +111,7 @@ def test_cad_shapes_match_crease_split_reference(name: str, r128: gt.Renderer) -
     mesh = cad_mesh(name)
     scene = gt.Scene()
     scene.add(mesh)
-    results = frames_against_reference(mesh, r128, [gt.convert(mesh), scene])
+    results = frames_against_reference(mesh, r128, [gt.convert(mesh, max_resolution=256), scene])
     check_each(CAD_BOUNDS[name], results, 0, name, "converted with defaults")
     check_each(RenderBounds(normal_deg_p99=0.06), results, 1, name, "rasterized")  # <= 0.019°
 

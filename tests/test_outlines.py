@@ -46,7 +46,7 @@ def renderer() -> gt.Renderer:
 @pytest.fixture(scope="module")
 def gear() -> tuple[gt.Mesh, gt.GeometryTextureSet]:
     mesh = gear_plate()
-    return mesh, gt.convert(mesh)
+    return mesh, gt.convert(mesh, max_resolution=256)
 
 
 def _check_views(renderer: gt.Renderer, mesh: gt.Mesh, gts: gt.GeometryTextureSet,

@@ -72,7 +72,7 @@ def test_bunny_five_views_match_trimesh(bunny: Converted, r512: gt.Renderer) -> 
     """The renderer issue's bounds at 512² with 256² maps: median |Δdepth| <= 0.1% and p99 <= 1% of
     the diagonal, IoU >= 0.99, median normal error <= 3°, no NaN."""
     tm = bunny.mesh.to_trimesh()
-    flat = gt.convert(bunny.mesh, normals="flat")
+    flat = gt.convert(bunny.mesh, normals="flat", max_resolution=256)
     corners = reference.corner_normals(tm)  # the default rule: crease-split at 20°
     for name, (direction, up) in BUNNY_VIEWS.items():
         cam = look_from(bunny.mesh, direction, up=up)
@@ -115,7 +115,7 @@ def test_8_bit_heights_cost_only_their_rounding(bunny: Converted, r512: gt.Rende
     at most the stated rounding, and depth against trimesh worsens by no more than that rounding
     (median) or twice it (p99: a height offset δ moves depth along a ray by δ / cos θ, and the
     worst pixels see the surface obliquely, θ up to 60°), within the renderer issue's bounds."""
-    narrow = gt.convert(bunny.mesh, height_bits=8)
+    narrow = gt.convert(bunny.mesh, height_bits=8, max_resolution=256)
     diag = bunny.mesh.diagonal
     q8, q16 = narrow.stats["max_quantization_error"], bunny.gts.stats["max_quantization_error"]
     # Half a code step of the tallest box (box height = length of world_from_patch's z column).
@@ -159,7 +159,7 @@ def test_cad_part_and_terrain_match_trimesh(name: str, r256: gt.Renderer) -> Non
     """
     c = converted(name)
     mesh = c.mesh
-    gts = gt.convert(mesh, normals="flat")
+    gts = gt.convert(mesh, normals="flat", max_resolution=256)
     tm = mesh.to_trimesh()
     for view, (direction, up) in FOUR_VIEWS.items():
         cam = look_from(mesh, direction, 1.5, up=up)
@@ -263,7 +263,7 @@ def flat_plate(z: float = 0.0, half: float = 1.0, n: int = 8) -> gt.Mesh:
 def test_depth_is_z_depth_and_axis_parallel_rays_work(r256: gt.Renderer) -> None:
     """A flat plate seen straight down its normal: every ray parallel to the patch's z axis in the
     centre, depth = the camera height at every pixel (z-depth, not distance along the ray)."""
-    plate = gt.convert(flat_plate(z=0.25))
+    plate = gt.convert(flat_plate(z=0.25), max_resolution=256)
     assert len(plate) == 1 and np.allclose(plate.patch(0)["axes"][2], [0, 0, 1])
     cam = gt.Camera.look_at([0.0, 0.0, 2.25], [0.0, 0.0, 0.25], up=(0, 1, 0), yfov_deg=30)
     f = r256.render(plate, cam)
@@ -290,7 +290,7 @@ def test_orthographic_sheet_matches_the_analytic_surface(r256: gt.Renderer) -> N
 
 
 def test_image_rows_start_at_the_top(r256: gt.Renderer) -> None:
-    plate = gt.convert(flat_plate(z=0.0, half=0.3))
+    plate = gt.convert(flat_plate(z=0.0, half=0.3), max_resolution=256)
     scene = gt.Scene()
     scene.add(plate, world_from_object=np.array([[1, 0, 0, 0], [0, 1, 0, 0.5], [0, 0, 1, 0], [0, 0, 0, 1.0]]))
     f = r256.render(scene, gt.Camera.look_at([0, 0, 3], [0, 0, 0], yfov_deg=40))

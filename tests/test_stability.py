@@ -70,7 +70,7 @@ def test_bunny_far_away_tiny_and_huge(bunny: Converted, r512: gt.Renderer, scale
     tighter bounds, and the figures must match the untransformed bunny's (offsets and scales cost
     nothing)."""
     mesh = similar(bunny.mesh, scale, [offset, -offset, 0.5 * offset])
-    gts = gt.convert(mesh)
+    gts = gt.convert(mesh, max_resolution=256)
     for direction in [(1, 0.8, 1), (0.3, -1, 0.2)]:
         for quality in ["balanced", "exact"]:
             m = agreement(r512, gts, mesh, look_from(mesh, direction), quality=quality)
@@ -104,7 +104,7 @@ def test_any_scale_and_offset(r160: gt.Renderer, log_scale: float, offset, direc
     assume(np.linalg.norm(d) > 0.1)
     torus = converted("torus").mesh
     mesh = similar(torus, 10.0 ** log_scale, offset)
-    m = agreement(r160, gt.convert(mesh), mesh, look_from(mesh, d), quality=quality)
+    m = agreement(r160, gt.convert(mesh, max_resolution=256), mesh, look_from(mesh, d), quality=quality)
     ANY_SCALE.check(m, log_scale, offset, direction, quality)
 
 
@@ -151,7 +151,7 @@ def test_grazing_rays(r160: gt.Renderer, elevation_deg: float, azimuth_deg: floa
     a pixel of each other."""
     if mesh_name == "flat":
         mesh = flat_grid()
-        gts = gt.convert(mesh)
+        gts = gt.convert(mesh, max_resolution=256)
         assert len(gts) == 1
     else:
         c = converted("open_sheet")
@@ -183,7 +183,7 @@ def check_renders(gts: gt.GeometryTextureSet, mesh: gt.Mesh, r: gt.Renderer) -> 
 def test_triangle_soup_converts_like_its_welded_mesh(bunny: Converted, r160: gt.Renderer) -> None:
     """STL-style soup: vertices are welded by position, so the charts are the welded mesh's."""
     mesh = soup(bunny.mesh)
-    gts = gt.convert(mesh)
+    gts = gt.convert(mesh, max_resolution=256)
     used = len(np.unique(np.asarray(bunny.mesh.faces)))
     assert gts.stats["duplicate_vertices"] == 3 * len(mesh.faces) - used
     for key in ["charts", "texels", "boundary_edges"]:
@@ -195,7 +195,7 @@ def test_reversed_faces_are_rewound(bunny: Converted, r160: gt.Renderer) -> None
     """10% of the faces wound the other way: each connected piece is rewound to its majority, so
     exactly the reversed faces are flipped back and the charts are the clean mesh's."""
     mesh, reversed_faces = flip_faces(bunny.mesh, 0.10, seed=1)
-    gts = gt.convert(mesh)
+    gts = gt.convert(mesh, max_resolution=256)
     assert gts.stats["inconsistent_edges"] > len(reversed_faces)
     assert gts.stats["flipped_faces"] == len(reversed_faces)
     assert gts.stats["charts"] == bunny.gts.stats["charts"]
@@ -204,7 +204,7 @@ def test_reversed_faces_are_rewound(bunny: Converted, r160: gt.Renderer) -> None
 
 def test_holes_in_a_scan(bunny: Converted, r160: gt.Renderer) -> None:
     mesh = punch_holes(bunny.mesh, 0.05, holes=40, seed=2)
-    gts = gt.convert(mesh)
+    gts = gt.convert(mesh, max_resolution=256)
     assert gts.stats["boundary_edges"] > bunny.gts.stats["boundary_edges"] + 40 * 6
     check_renders(gts, mesh, r160)
 
@@ -212,7 +212,7 @@ def test_holes_in_a_scan(bunny: Converted, r160: gt.Renderer) -> None:
 def test_non_manifold_fins(bunny: Converted, r160: gt.Renderer) -> None:
     """200 triangles standing on existing edges, so three faces share each of those edges."""
     mesh = add_fins(bunny.mesh, 200, height=0.01, seed=3)
-    gts = gt.convert(mesh)
+    gts = gt.convert(mesh, max_resolution=256)
     assert 0.9 * 200 <= gts.stats["nonmanifold_edges"] <= 200
     check_renders(gts, mesh, r160)
 
@@ -221,7 +221,7 @@ def test_slivers_and_zero_area_faces(bunny: Converted, r160: gt.Renderer) -> Non
     """20% of the faces split into a 1e-9 needle and a near-copy (T-junctions on their
     neighbours), plus 100 faces with a repeated vertex, reported and left out of every patch."""
     mesh = add_slivers(bunny.mesh, 0.20, zero_area=100, seed=4)
-    gts = gt.convert(mesh)
+    gts = gt.convert(mesh, max_resolution=256)
     assert gts.stats["degenerate_faces"] == 100
     assert np.all(gts.face_patch()[-100:] == -1) and np.all(gts.face_patch()[:-100] >= 0)
     check_renders(gts, mesh, r160)
@@ -236,7 +236,7 @@ def test_8_bit_heights_round_within_half_a_texel(amplitude: float, kept_at_16: i
     stands ~1.7 of its width tall, where 8-bit codes would step 1.6 texels, so it keeps 16 bits."""
     x = np.linspace(-1, 1, 61)
     sheet = height_field(x, x, lambda u, v: amplitude * np.sin(3 * u) * np.cos(2 * v))
-    gts = gt.convert(sheet, charts=1, height_bits=8)
+    gts = gt.convert(sheet, charts=1, height_bits=8, max_resolution=256)
     assert gts.stats["patches_kept_at_16_bits"] == kept_at_16
     assert gts.stats["max_quantization_error"] <= 0.5 * gts.stats["texel_size"]
     assert gts.patch(0)["height"].dtype == (np.uint16 if kept_at_16 else np.uint8)

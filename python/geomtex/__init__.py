@@ -152,6 +152,13 @@ def convert(
     """Converts a mesh into geometry textures.
 
     mesh: a :class:`Mesh`, ``trimesh.Trimesh`` or a mesh file path.
+
+    With none of ``max_resolution``, ``texel_size``, ``max_error``, ``max_error_rel`` and
+    ``max_bytes`` the conversion is error-driven: ``max_error_rel=2e-4`` with the cone partition,
+    within ``max_bytes`` = the mesh's float32/uint32 bytes (at least 1 MB); a rough mesh that
+    cannot meet the bound within them gets the least error the budget buys
+    (``stats["max_bytes_binding"]`` is 1). Any of those keywords converts as before.
+
     max_resolution: longest side of any patch in texels (default 256; 1024 with ``max_error``,
         where it only caps a chart's memory). Without ``max_error`` one texel size serves every
         patch, chosen so the largest chart just fits.
@@ -170,7 +177,8 @@ def convert(
         with the fewest bytes: charts whose tail (a crease, a steep rim) would be dear to remove
         keep it while cheaper charts get finer. ``"chart"`` bounds every chart's own error,
         which costs more where charts differ.
-    partition: how the mesh is cut into charts. ``"vsa"`` (default): the paper's Variational Shape
+    partition: how the mesh is cut into charts (default ``"cone"`` when error-driven without
+        ``charts`` or ``chart_error``, else ``"vsa"``). ``"vsa"``: the paper's Variational Shape
         Approximation, driven by ``chart_error`` or ``charts`` (the keywords below). ``"cone"``:
         each chart grows from a seed while its face normals stay within ``cone_angle`` degrees
         (default 60) of one axis, so no face comes near folding, and within ``chart_size``
@@ -186,10 +194,10 @@ def convert(
         texel, so smaller charts mean finer texels and more bytes.
     charts: exact VSA chart count; by default charts are added until the area-weighted mean
         L2,1 error ``sum(area |n - N|^2) / sum(area)`` is at most ``chart_error`` (0.1 by
-        default; with ``max_error`` and neither ``charts`` nor ``chart_error`` given, 0.1, 0.2
-        and 0.3 are tried and the set within the bound with the fewest bytes is kept, since a
-        chart with its own texel no longer sets everyone's and fewer, larger charts draw fewer
-        ring faces twice; ``stats["chart_error"]`` says which).
+        default; with ``max_error``, ``partition="vsa"`` and neither ``charts`` nor
+        ``chart_error`` given, 0.1, 0.2 and 0.3 are tried and the set within the bound with
+        the fewest bytes is kept, since a chart with its own texel no longer sets everyone's
+        and fewer, larger charts draw fewer ring faces twice; ``stats["chart_error"]`` says which).
     max_charts: most VSA charts (default 4096). compactness: weight of the distance term that
         keeps charts round (default 1.0). lloyd_iterations: VSA refinement rounds (default 6).
     overlap_rings: rings of neighbouring faces each patch also draws (default 1: seamless
@@ -206,7 +214,9 @@ def convert(
         world units.
     max_bytes: most bytes the maps may take (``stats["bytes"]``): the conversion is repeated
         with a coarser texel (scaled by the square root of the excess) until they fit, at most
-        6 times (``stats["max_bytes_coarsenings"]``); not with ``max_error``. If they still do
+        6 times (``stats["max_bytes_coarsenings"]``). With ``max_error`` each chart's level is
+        chosen within the budget instead: the bound where it fits, else the least area over it
+        (``stats["max_bytes_binding"]``; not with ``error_scope="chart"``). If they still do
         not fit, ``stats["max_bytes_exceeded"]`` is 1 and a :class:`CapWarning` says so, as it
         does when VSA stops at ``max_charts`` above its error target (``stats["charts_capped"]``).
     progress: True for a tqdm bar, or ``callback(stage, fraction)``; returning False cancels.

@@ -81,6 +81,36 @@ pub fn surface_samples(mesh: &Mesh, faces: &[u32], spacing: f64, cap: usize) -> 
     out
 }
 
+/// Samples a coarser level measures: about `SAMPLES_PER_TEXEL` per texel of area (as fixed
+/// resolution samples), every k-th of `samples` with its area scaled so the total is kept, and
+/// all of them where that is no fewer. The error search draws each chart at up to a few dozen
+/// levels, mostly far coarser than the texel the samples were spaced for; thinning makes each
+/// level cost about its texels.
+pub fn thinned(samples: &[AreaSample], texel: f64) -> std::borrow::Cow<'_, [AreaSample]> {
+    let area: f64 = samples.iter().map(|s| s.area).sum();
+    let want = (SAMPLES_PER_TEXEL * area / (texel * texel)).max(MIN_SAMPLES as f64);
+    let k = (samples.len() as f64 / want).floor() as usize;
+    if k < 2 {
+        return std::borrow::Cow::Borrowed(samples);
+    }
+    let kept: Vec<AreaSample> = samples.iter().step_by(k).copied().collect();
+    let scale = area / kept.iter().map(|s| s.area).sum::<f64>();
+    std::borrow::Cow::Owned(
+        kept.into_iter()
+            .map(|s| AreaSample {
+                area: s.area * scale,
+                ..s
+            })
+            .collect(),
+    )
+}
+
+/// Samples per texel of area a level is measured with: `surface_samples` at a texel's spacing
+/// gives about two.
+pub const SAMPLES_PER_TEXEL: f64 = 2.0;
+/// Fewest samples a level is measured with, however coarse.
+const MIN_SAMPLES: usize = 256;
+
 /// Distances from the samples to the patch's height field; samples off the map are skipped.
 /// A sample under no surface (the outline map cut it away: a chart narrower than its texels)
 /// counts as a hole a texel deep, so a resolution too coarse to hold the chart's shape is not
@@ -192,6 +222,27 @@ mod tests {
             "{}",
             capped.len()
         );
+    }
+
+    #[test]
+    fn thinning_keeps_the_area_and_about_two_samples_a_texel() {
+        let mesh = Mesh::from_flat(
+            &[0., 0., 0., 2., 0., 0., 0., 2., 0., 2., 2., 0.],
+            &[0, 1, 2, 1, 3, 2],
+            None,
+        )
+        .unwrap();
+        let s = surface_samples(&mesh, &[0, 1], 0.01, 1_000_000);
+        // 4 units of area at a texel of 0.1: 800 samples wanted of ~80,000 (every k-th, k
+        // rounded down: measured 820).
+        let t = thinned(&s, 0.1);
+        assert!((800..=840).contains(&t.len()), "{}", t.len());
+        assert!((t.iter().map(|s| s.area).sum::<f64>() - 4.0).abs() < 1e-9);
+        assert!(t.iter().any(|s| s.point.x > 1.8) && t.iter().any(|s| s.point.x < 0.2));
+        // As fine as the samples themselves: all of them.
+        assert_eq!(thinned(&s, 0.01).len(), s.len());
+        // However coarse, at least MIN_SAMPLES.
+        assert!(thinned(&s, 10.0).len() >= MIN_SAMPLES);
     }
 
     #[test]

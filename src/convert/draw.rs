@@ -113,7 +113,7 @@ impl ChartDrawer<'_> {
             Vec::new(),
             Vec::new(),
         );
-        let mut errors = accuracy::gaps(&probe, samples);
+        let mut errors = accuracy::gaps(&probe, &accuracy::thinned(samples, texel));
         maps.heights = probe.heights;
         maps.outline = probe.outline;
         let texel_len = ((bx.extent.x / bx.width as f64) * (bx.extent.y / bx.height as f64)).sqrt();

@@ -50,9 +50,18 @@ pub fn convert(
     progress: Progress,
 ) -> Result<GeometryTextureSet> {
     opts.validate()?;
-    let set = convert_any(mesh, opts, progress)?;
+    let opts = &opts.resolved(12 * (mesh.positions.len() + mesh.faces.len()) as u64);
+    let mut set = convert_any(mesh, opts, progress)?;
     match opts.max_bytes {
-        Some(limit) => fit_bytes(mesh, opts, progress, set, limit),
+        Some(limit) if !opts.error_driven() => fit_bytes(mesh, opts, progress, set, limit),
+        Some(limit) => {
+            // The levels were chosen within the budget; it binds when the bound was not met.
+            let stat = |n: &str| set.stats.get(n).unwrap_or(0.0);
+            let binding = stat("reconstruction_error_p99") > stat("max_error");
+            set.stats.set("max_bytes", limit as f64);
+            set.stats.set("max_bytes_binding", binding as u8 as f64);
+            Ok(set)
+        }
         None => Ok(set),
     }
 }
@@ -94,7 +103,7 @@ fn convert_any(
     opts: &ConvertOptions,
     progress: Progress,
 ) -> Result<GeometryTextureSet> {
-    if opts.partition != PartitionMethod::Vsa
+    if opts.partition_method() != PartitionMethod::Vsa
         || !opts.error_driven()
         || opts.chart_error.is_some()
         || opts.charts.is_some()
@@ -206,7 +215,7 @@ fn chart_stages(
 ) -> Result<Charted> {
     let (mesh, geo) = (prepared.mesh.as_ref(), &prepared.geo);
     stages.begin("partition")?;
-    let partition = match opts.partition {
+    let partition = match opts.partition_method() {
         PartitionMethod::Cone => {
             cone::partition_mesh(geo, &prepared.active, opts, stages.progress)?
         }
@@ -321,6 +330,12 @@ pub fn chart_planes(
     stages: &mut Stages,
 ) -> Result<Vec<ChartPlane>> {
     opts.validate()?;
+    // VSA unless the cone is asked for: the charts are planes for a simplified mesh, whatever
+    // `convert`'s default bound would choose.
+    let opts = &ConvertOptions {
+        partition: Some(opts.partition.unwrap_or(PartitionMethod::Vsa)),
+        ..opts.clone()
+    };
     stages.begin("geometry")?;
     let prepared = prepare(mesh, stages.progress)?;
     stages.end("geometry");
@@ -455,7 +470,12 @@ pub(crate) mod tests {
     #[test]
     fn sphere_converts_without_folding_and_on_the_surface() {
         let mesh = uv_sphere(24, 48);
-        let set = convert(&mesh, &ConvertOptions::default(), Progress::silent()).unwrap();
+        // One texel for the set, so every point is within its reach of the sphere.
+        let opts = ConvertOptions {
+            max_resolution: Some(256),
+            ..Default::default()
+        };
+        let set = convert(&mesh, &opts, Progress::silent()).unwrap();
         let geo = MeshGeometry::new(&mesh);
         assert!(set.patches.len() >= 2);
         let mut seen = vec![0u32; mesh.faces.len()];

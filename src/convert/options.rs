@@ -43,6 +43,19 @@ pub const DEFAULT_CHART_ERROR: f64 = 0.1;
 /// faces drawn twice) often cost fewer bytes; sharp-creased CAD models still want the finest.
 pub const ERROR_DRIVEN_CHART_ERRORS: [f64; 3] = [0.1, 0.2, 0.3];
 
+/// The bound of a `convert` given no keyword that sets the resolution (`max_resolution`,
+/// `texel_size`, `max_error`, `max_error_rel`, `max_bytes`), as a fraction of the diagonal: the
+/// reconstruction p99 at which the default sets render as close to trimesh as the mesh itself
+/// would at 512² (README "Error-driven conversion", bench/economy.py).
+pub const DEFAULT_MAX_ERROR_REL: f64 = 2e-4;
+
+/// The byte budget of a `convert` given no keyword that sets the resolution: the mesh's own
+/// bytes (float32 positions, uint32 faces) or this many, whichever is more. A rough mesh
+/// (noise at the scale of its faces) never gets within `DEFAULT_MAX_ERROR_REL` at any
+/// resolution a height map can afford, so its set stops at the mesh's bytes; small meshes may
+/// take up to this much to be within the bound.
+pub const DEFAULT_MIN_BUDGET: u64 = 1_000_000;
+
 /// How the mesh is cut into charts.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PartitionMethod {
@@ -74,8 +87,9 @@ pub struct ConvertOptions {
     pub max_error_rel: Option<f64>,
     /// Whose error `max_error` bounds.
     pub error_scope: ErrorScope,
-    /// How the mesh is cut into charts.
-    pub partition: PartitionMethod,
+    /// How the mesh is cut into charts. `None`: VSA at a fixed resolution or with a VSA keyword
+    /// (`charts`, `chart_error`), else the cone partition (one partition, per-chart texels).
+    pub partition: Option<PartitionMethod>,
     /// Cone partition: largest angle, in degrees, between a chart's face normal and its cone's
     /// axis; in (0, 85], below 90 so no face comes near inverting.
     pub cone_angle: f64,
@@ -104,8 +118,10 @@ pub struct ConvertOptions {
     /// Bits per height code, 8 or 16: 8 halves the height map's bytes and rounds heights to
     /// 1/254 of each patch's height range.
     pub height_bits: u8,
-    /// Most bytes the maps may take: the texel is coarsened until they fit (fixed-resolution
-    /// conversion only).
+    /// Most bytes the maps may take: at a fixed resolution the texel is coarsened until they
+    /// fit; with `max_error` the charts' levels are chosen within them (the bound is met if it
+    /// fits, else the least area over it). `None`: no budget, or with no keyword that sets the
+    /// resolution the mesh's bytes (at least `DEFAULT_MIN_BUDGET`).
     pub max_bytes: Option<u64>,
 }
 
@@ -117,7 +133,7 @@ impl Default for ConvertOptions {
             max_error: None,
             max_error_rel: None,
             error_scope: ErrorScope::Set,
-            partition: PartitionMethod::Vsa,
+            partition: None,
             cone_angle: DEFAULT_CONE_ANGLE,
             chart_size: DEFAULT_CHART_SIZE,
             charts: None,
@@ -162,6 +178,43 @@ impl ConvertOptions {
         self.max_error.is_some() || self.max_error_rel.is_some()
     }
 
+    /// Whether no keyword sets the resolution, so `convert` is error-driven at
+    /// `DEFAULT_MAX_ERROR_REL`.
+    pub fn default_bound(&self) -> bool {
+        !self.error_driven()
+            && self.max_resolution.is_none()
+            && self.texel_size.is_none()
+            && self.max_bytes.is_none()
+    }
+
+    /// The partition: the one given, or VSA at a fixed resolution or with a VSA keyword, else
+    /// the cone partition.
+    pub fn partition_method(&self) -> PartitionMethod {
+        let vsa = self.charts.is_some() || self.chart_error.is_some();
+        match self.partition {
+            Some(p) => p,
+            None if vsa || !(self.error_driven() || self.default_bound()) => PartitionMethod::Vsa,
+            None => PartitionMethod::Cone,
+        }
+    }
+
+    /// These options with the defaults that depend on other keywords made explicit: the
+    /// default bound and budget when no keyword sets the resolution (`mesh_bytes`: the mesh's
+    /// float32/uint32 bytes), and the partition.
+    pub fn resolved(&self, mesh_bytes: u64) -> ConvertOptions {
+        let default = self.default_bound();
+        ConvertOptions {
+            max_error_rel: self
+                .max_error_rel
+                .or(default.then_some(DEFAULT_MAX_ERROR_REL)),
+            max_bytes: self
+                .max_bytes
+                .or(default.then_some(mesh_bytes.max(DEFAULT_MIN_BUDGET))),
+            partition: Some(self.partition_method()),
+            ..self.clone()
+        }
+    }
+
     /// `max_resolution`, or its default.
     pub fn resolution_cap(&self) -> u32 {
         self.max_resolution.unwrap_or(if self.error_driven() {
@@ -179,10 +232,10 @@ impl ConvertOptions {
     pub fn validate(&self) -> Result<()> {
         match self.max_bytes {
             Some(0) => return parameter("max_bytes must be >= 1, got 0".into()),
-            Some(b) if self.error_driven() => {
+            Some(b) if self.error_driven() && self.error_scope == ErrorScope::Chart => {
                 return parameter(format!(
-                    "max_bytes ({b}) cannot be combined with max_error or max_error_rel: the \
-                     error bound sets the bytes"
+                    "max_bytes ({b}) cannot be combined with error_scope='chart': each chart's \
+                     bound sets its bytes"
                 ))
             }
             _ => {}
@@ -364,7 +417,7 @@ impl ConvertArgs {
             max_error: self.max_error,
             max_error_rel: self.max_error_rel,
             error_scope: self.error_scope.unwrap_or(default.error_scope),
-            partition: self.partition.unwrap_or(default.partition),
+            partition: self.partition,
             cone_angle: self.cone_angle.unwrap_or(default.cone_angle),
             chart_size: self.chart_size.unwrap_or(default.chart_size),
             charts: self.charts.map(|c| count("charts", c)).transpose()?,
@@ -440,6 +493,49 @@ mod tests {
         assert_eq!(
             (opts.in_plane, opts.normals),
             (InPlane::MinAreaRect, NormalRule::default())
+        );
+    }
+
+    #[test]
+    fn no_resolution_keyword_resolves_to_the_default_bound_and_budget() {
+        let resolved = ConvertOptions::default().resolved(5_000_000);
+        assert_eq!(resolved.max_error_rel, Some(DEFAULT_MAX_ERROR_REL));
+        assert_eq!(resolved.max_bytes, Some(5_000_000));
+        assert_eq!(resolved.partition, Some(PartitionMethod::Cone));
+        assert_eq!(resolved.resolution_cap(), ERROR_DRIVEN_MAX_RESOLUTION);
+        // A small mesh's budget is the floor.
+        let small = ConvertOptions::default().resolved(1000);
+        assert_eq!(small.max_bytes, Some(DEFAULT_MIN_BUDGET));
+        // Any resolution keyword: as before, VSA at one texel.
+        for opts in [
+            ConvertOptions {
+                max_resolution: Some(64),
+                ..Default::default()
+            },
+            ConvertOptions {
+                max_bytes: Some(10),
+                ..Default::default()
+            },
+        ] {
+            let r = opts.resolved(5_000_000);
+            assert!(!r.error_driven(), "{r:?}");
+            assert_eq!(r.partition, Some(PartitionMethod::Vsa));
+        }
+        // A VSA keyword keeps VSA under the default bound; an explicit partition is kept.
+        let charts = ConvertOptions {
+            charts: Some(12),
+            ..Default::default()
+        };
+        let r = charts.resolved(5_000_000);
+        assert!(r.error_driven() && r.partition == Some(PartitionMethod::Vsa));
+        let bound = ConvertOptions {
+            max_error_rel: Some(1e-3),
+            ..Default::default()
+        };
+        let r = bound.resolved(5_000_000);
+        assert_eq!(
+            (r.max_bytes, r.partition),
+            (None, Some(PartitionMethod::Cone))
         );
     }
 

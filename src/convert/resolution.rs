@@ -38,13 +38,21 @@ pub fn chart_texels(
             coarsest_within(&levels, max_error, |r| drawer.draw(j, j.texel_for(r), &s))
         })?,
         ErrorScope::Set => {
-            let costs = each_chart(jobs, progress, "resolution", |j| {
+            let budget = drawer.opts.max_bytes.map(|b| b as f64);
+            let areas: Vec<f64> = jobs.iter().map(|j| chart_area(drawer, j)).collect();
+            let total: f64 = areas.iter().sum::<f64>().max(f64::MIN_POSITIVE);
+            let with_area: Vec<_> = jobs.iter().zip(&areas).collect();
+            let costs = each_chart(&with_area, progress, "resolution", |&(j, &area)| {
                 let s = drawer.samples(j);
-                level_costs(&levels, max_error, |r| drawer.draw(j, j.texel_for(r), &s))
+                // A chart's levels dearer than its share of a budget, several times over,
+                // would never be chosen: not worth drawing (a rough mesh's charts never get
+                // within a tight bound, and the search had drawn them all at 1024²).
+                let cap = budget.map_or(f64::INFINITY, |b| SHARE_MEASURED * b * area / total);
+                level_costs(&levels, max_error, cap, |r| {
+                    drawer.draw(j, j.texel_for(r), &s)
+                })
             })?;
-            // Not even the finest levels fit: every chart at its finest measured.
-            allocate(&costs, ERROR_QUANTILE)
-                .unwrap_or_else(|| costs.iter().map(|c| c.last().unwrap().resolution).collect())
+            allocate(&costs, ERROR_QUANTILE, budget)
         }
     };
     Ok(jobs
@@ -94,9 +102,30 @@ struct LevelCost {
     area: f64,
 }
 
+/// Levels a chart may take of a byte budget, as a multiple of its share by area, and still be
+/// measured.
+const SHARE_MEASURED: f64 = 4.0;
+
+/// The area of a chart's own faces.
+fn chart_area(drawer: &ChartDrawer, job: &ChartJob) -> f64 {
+    let m = drawer.mesh;
+    job.faces[..job.chart_faces]
+        .iter()
+        .map(|&f| {
+            let [a, b, c] = m.faces[f as usize].map(|v| m.positions[v as usize]);
+            0.5 * (b - a).cross(c - a).length()
+        })
+        .sum()
+}
+
 /// A chart's costs from its coarsest level up to the first that has next to nothing over the
-/// bound, or the finest.
-fn level_costs(levels: &[u32], max_error: f64, draw: impl Fn(u32) -> Drawn) -> Vec<LevelCost> {
+/// bound, the first dearer than `cap` bytes, or the finest.
+fn level_costs(
+    levels: &[u32],
+    max_error: f64,
+    cap: f64,
+    draw: impl Fn(u32) -> Drawn,
+) -> Vec<LevelCost> {
     let mut costs = Vec::new();
     for &resolution in levels.iter().rev() {
         let d = draw(resolution);
@@ -118,7 +147,7 @@ fn level_costs(levels: &[u32], max_error: f64, draw: impl Fn(u32) -> Drawn) -> V
         });
         // Finer levels could lower this chart's share of the set's budget by a tenth of its
         // density at most: not worth measuring.
-        if over <= 0.1 * (1.0 - ERROR_QUANTILE) * area {
+        if over <= 0.1 * (1.0 - ERROR_QUANTILE) * area || bytes > cap {
             break;
         }
     }
@@ -128,12 +157,13 @@ fn level_costs(levels: &[u32], max_error: f64, draw: impl Fn(u32) -> Drawn) -> V
 /// Each chart's level for the fewest bytes with at most `1 - quantile` of all the area over the
 /// bound, so the set's error quantile is within it. A multiple-choice knapsack, solved by its
 /// Lagrangian: for a price `lambda` per unit of area over the bound each chart takes its
-/// cheapest level on its own, and the price rises until the set fits. None if even the finest
-/// levels do not fit.
-fn allocate(costs: &[Vec<LevelCost>], quantile: f64) -> Option<Vec<u32>> {
+/// cheapest level on its own, and the price rises until the set fits. If that takes more than
+/// `budget` bytes, or even the finest levels do not fit, the levels with the least area over
+/// the bound within the budget (the coarsest levels if none is; the finest without a budget).
+fn allocate(costs: &[Vec<LevelCost>], quantile: f64, budget: Option<f64>) -> Vec<u32> {
     let slack = 1.0 - quantile;
-    let choose = |lambda: f64| -> (Vec<u32>, f64) {
-        let mut excess = 0.0;
+    let choose = |lambda: f64| -> (Vec<u32>, f64, f64) {
+        let (mut excess, mut bytes) = (0.0, 0.0);
         let picks = costs
             .iter()
             .map(|levels| {
@@ -143,32 +173,73 @@ fn allocate(costs: &[Vec<LevelCost>], quantile: f64) -> Option<Vec<u32>> {
                     .min_by(|a, b| price(a).total_cmp(&price(b)))
                     .expect("every chart has a level");
                 excess += best.over - slack * best.area;
+                bytes += best.bytes;
                 best.resolution
             })
             .collect();
-        (picks, excess)
+        (picks, excess, bytes)
     };
     // The price is in bytes per unit area: bracket it in powers of ten around bytes / area.
     let bytes: f64 = costs.iter().filter_map(|c| c.last()).map(|c| c.bytes).sum();
     let area: f64 = costs.iter().filter_map(|c| c.last()).map(|c| c.area).sum();
     let unit = bytes / area.max(f64::MIN_POSITIVE);
-    let (mut lo, mut hi) = (-12.0f64, 24.0f64); // log10 of lambda / unit
-    let (fine, excess) = choose(unit * 10f64.powf(hi));
-    if excess > 0.0 {
-        return None;
+    let at = |log: f64| choose(unit * 10f64.powf(log));
+    // The lowest price whose choice is within the bound (bisecting log10 of lambda / unit):
+    // bytes rise and the area over the bound falls as the price rises.
+    let (mut lo, mut hi) = (-12.0f64, 24.0f64);
+    let (fine, excess, _) = at(hi);
+    let within_bound = (excess <= 0.0).then(|| {
+        let mut best = fine;
+        for _ in 0..80 {
+            let mid = 0.5 * (lo + hi);
+            let (picks, excess, _) = at(mid);
+            if excess <= 0.0 {
+                hi = mid;
+                best = picks;
+            } else {
+                lo = mid;
+            }
+        }
+        best
+    });
+    let budget = match (within_bound, budget) {
+        (Some(picks), Some(b)) if picks_bytes(costs, &picks) > b => b,
+        (Some(picks), _) => return picks,
+        (None, Some(b)) => b,
+        (None, None) => return costs.iter().map(|c| c.last().unwrap().resolution).collect(),
+    };
+    // The highest price whose choice is within the budget.
+    let coarsest = at(-12.0).0;
+    if picks_bytes(costs, &coarsest) > budget {
+        return coarsest;
     }
-    let mut best = fine;
+    let (mut lo, mut hi) = (-12.0f64, 24.0f64);
+    let mut best = coarsest;
     for _ in 0..80 {
         let mid = 0.5 * (lo + hi);
-        let (picks, excess) = choose(unit * 10f64.powf(mid));
-        if excess <= 0.0 {
-            hi = mid;
+        let (picks, _, bytes) = at(mid);
+        if bytes <= budget {
+            lo = mid;
             best = picks;
         } else {
-            lo = mid;
+            hi = mid;
         }
     }
-    Some(best)
+    best
+}
+
+/// The bytes of the levels `picks` chose, one per chart.
+fn picks_bytes(costs: &[Vec<LevelCost>], picks: &[u32]) -> f64 {
+    costs
+        .iter()
+        .zip(picks)
+        .map(|(levels, &r)| {
+            levels
+                .iter()
+                .find(|c| c.resolution == r)
+                .map_or(0.0, |c| c.bytes)
+        })
+        .sum()
 }
 
 #[cfg(test)]
@@ -209,9 +280,9 @@ mod tests {
             vec![cost(2, 10.0, 0.0, 100.0)],
         ];
         // Budget 3 units of area: fix the first chart, keep the second's tail.
-        assert_eq!(allocate(&costs, 0.99), Some(vec![4, 2, 2]));
+        assert_eq!(allocate(&costs, 0.99, None), vec![4, 2, 2]);
         // Budget 1.5: the second must reach 1%, and the first must be fixed too.
-        assert_eq!(allocate(&costs, 0.995), Some(vec![4, 4, 2]));
+        assert_eq!(allocate(&costs, 0.995, None), vec![4, 4, 2]);
         // Brute force agrees on the cheapest feasible choice for a range of budgets.
         for q in [0.9, 0.97, 0.98, 0.99, 0.995, 0.999, 1.0] {
             let mut best = (f64::INFINITY, vec![]);
@@ -225,9 +296,20 @@ mod tests {
                     }
                 }
             }
-            assert_eq!(allocate(&costs, q), Some(best.1), "quantile {q}");
+            assert_eq!(allocate(&costs, q, None), best.1, "quantile {q}");
         }
-        // Nothing fits when even the finest levels are over.
-        assert_eq!(allocate(&[vec![cost(2, 1.0, 50.0, 100.0)]], 0.99), None);
+        // Nothing fits when even the finest levels are over: the finest.
+        let over = [vec![cost(2, 1.0, 60.0, 100.0), cost(4, 4.0, 50.0, 100.0)]];
+        assert_eq!(allocate(&over, 0.99, None), vec![4]);
+        // A budget below what the bound needs: the least area over within it. 60 bytes buy
+        // the first chart's 40-byte fix (4 units over less) but not the second's 1000.
+        assert_eq!(allocate(&costs, 0.995, Some(60.0)), vec![4, 2, 2]);
+        // A budget that even the coarsest levels exceed: the coarsest.
+        assert_eq!(allocate(&costs, 0.995, Some(5.0)), vec![2, 2, 2]);
+        // A budget the bound fits in changes nothing.
+        assert_eq!(allocate(&costs, 0.995, Some(1e9)), vec![4, 4, 2]);
+        // Over the bound with a budget: the least area over within it.
+        assert_eq!(allocate(&over, 0.99, Some(3.0)), vec![2]);
+        assert_eq!(allocate(&over, 0.99, Some(4.0)), vec![4]);
     }
 }
