@@ -10,6 +10,7 @@ and by anyone checking their own meshes:
 from __future__ import annotations
 
 from .damage import add_fins, add_slivers, flip_faces, punch_holes, similar, soup
+from .seams import common_points, seam_rays, surface_mask
 from .shapes import (
                      GENERATED,
                      chamfered_box,
@@ -22,7 +23,6 @@ from .shapes import (
                      subdivided,
                      wavy_sheet,
 )
-from .seams import common_points, seam_rays, surface_mask
 from .views import look_from
 
 __all__ = [
