@@ -117,7 +117,7 @@ def test_a_rasterized_mesh_samples_its_texture(sphere: gt.Mesh) -> None:
     assert max(errors) <= 0.4, errors  # measured 0.035, 0.12, 0.13
     # An image whose width is not a power of two keeps only the mip levels wgpu sizes alike.
     odd = gt.Mesh(sphere.vertices, sphere.faces, uv=sphere.uv, texture=np.ascontiguousarray(sphere.texture[:, :203]))
-    assert error(odd, VIEWS[0])["mean"] <= 0.03  # measured 0.007
+    assert error(odd, VIEWS[0])["mean"] <= 0.02  # measured 0.007 (bound about 3x)
 
 
 def test_a_texel_averages_the_texture_over_its_footprint() -> None:

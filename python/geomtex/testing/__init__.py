@@ -3,12 +3,14 @@ and by anyone checking their own meshes:
 
 - ``damage``: damaged and transformed copies (soup, flipped faces, holes, fins, slivers, similar);
 - ``shapes``: generated meshes and height grids (``GENERATED`` by name, height fields, horizons);
-- ``views``: cameras placed relative to a mesh.
+- ``views``: cameras placed relative to a mesh;
+- ``seams``: rays at a set's chart borders, texel points compared across a filter.
 """
 
 from __future__ import annotations
 
 from .damage import add_fins, add_slivers, flip_faces, punch_holes, similar, soup
+from .seams import common_points, seam_rays, surface_mask
 from .shapes import (
                      GENERATED,
                      chamfered_box,
@@ -27,6 +29,7 @@ __all__ = [
     "GENERATED",
     "add_fins",
     "chamfered_box",
+    "common_points",
     "add_slivers",
     "flat_grid",
     "flip_faces",
@@ -35,9 +38,11 @@ __all__ = [
     "height_field",
     "horizon_stack",
     "look_from",
+    "seam_rays",
     "noisy_isosurface",
     "punch_holes",
     "similar",
+    "surface_mask",
     "soup",
     "subdivided",
     "wavy_sheet",
