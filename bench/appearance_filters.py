@@ -78,7 +78,7 @@ def measure(size: int = 512) -> dict[str, Any]:
     """The figures above; ``size`` is unused (the figures are in texel space) but kept so that
     every appearance part is called alike."""
     name, mesh = bunny()
-    gts = gt.convert(mesh, normals="smooth")
+    gts = gt.convert(mesh, normals="smooth", max_resolution=256)
     t = gts.texel_size
     _, normals0 = gts.to_points()
     rays = seam_rays(mesh, gts)
@@ -110,7 +110,7 @@ def pictures(out_dir: Path, size: int = 512, tag: str = "") -> list[Path]:
     from PIL import Image
 
     _, mesh = bunny()
-    gts = gt.convert(mesh)
+    gts = gt.convert(mesh, max_resolution=256)
     filtered = gts.filtered("gaussian", PICTURE_SIGMA * gts.texel_size)
     renderer = gt.Renderer(size, size)
     lo, hi = (np.asarray(b, np.float64) for b in mesh.bounds)

@@ -132,7 +132,7 @@ def test_seams_stay_clean_at_4_texels(bunny: Converted) -> None:
     bench/appearance_filters.py): step p99 1.41 deg (bound: the issue's 2), gap p99 0.084 texel
     (bound 0.25), 35,921 seam points (36,571 unfiltered), 57 of 168,704 rays at the faces along
     chart borders through the surface (unfiltered 20; bound 120)."""
-    smooth = gt.convert(bunny.mesh, normals="smooth")
+    smooth = gt.convert(bunny.mesh, normals="smooth", max_resolution=256)
     t = smooth.texel_size
     rays = seam_rays(bunny.mesh, smooth)
     filtered = smooth.filtered("gaussian", 4 * t)
@@ -156,7 +156,9 @@ def test_no_spikes_at_rims() -> None:
     # Texels cut off where a neighbouring patch shows the surface are left out.
     before, after, _ = common_points(gts, gts.filtered("gaussian", 6 * gts.texel_size))
     moves = np.linalg.norm(after - before, axis=1)
-    assert moves.max() < 3.5 * np.percentile(moves, 99)
+    # Measured 3.61x on multilevel VSA's charts (3.2x on the single-level partition); the spikes
+    # this guards against measured 5.7x and more.
+    assert moves.max() < 4.5 * np.percentile(moves, 99)
 
 
 @pytest.mark.parametrize("kind, sigma, kw, match", [
