@@ -629,6 +629,11 @@ mod tests {
         MeshGeometry::new(m).corner_normals(m, rule)
     }
 
+    /// `faces` of `m` (flat corner normals `flat`) rasterized into `bx`, with their outline.
+    fn draw_flat(m: &Mesh, flat: &[[DVec3; 3]], faces: &[u32], bx: &PatchBox) -> Maps {
+        rasterize(m, flat, (faces, faces.len()), &boundary_edges(m, faces), bx)
+    }
+
     #[test]
     fn a_tilted_plane_is_sampled_exactly_and_dilated() {
         // Plane z = 0.25 x over [0, 4] x [0, 2], two triangles, drawn into a 8 x 4 texel box.
@@ -647,15 +652,7 @@ mod tests {
             height: 4,
             height_bits: 16,
         };
-        let draw = |faces: &[u32], bx: &PatchBox| {
-            rasterize(
-                &m,
-                &flat,
-                (faces, faces.len()),
-                &boundary_edges(&m, faces),
-                bx,
-            )
-        };
+        let draw = |faces: &[u32], bx: &PatchBox| draw_flat(&m, &flat, faces, bx);
         let mut maps = draw(&[0, 1], &bx);
         for j in 0..4 {
             for i in 0..8 {
@@ -698,15 +695,7 @@ mod tests {
             height: 2,
             height_bits: 16,
         };
-        let draw = |faces: &[u32], bx: &PatchBox| {
-            rasterize(
-                &m,
-                &flat,
-                (faces, faces.len()),
-                &boundary_edges(&m, faces),
-                bx,
-            )
-        };
+        let draw = |faces: &[u32], bx: &PatchBox| draw_flat(&m, &flat, faces, bx);
         let one = draw(&[0], &bx);
         assert!(one.heights.iter().all(|&q| q != 0));
         // Signed distances (texels) of the centres to the outline: 1/2 from the two legs, on
