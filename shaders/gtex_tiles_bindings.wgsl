@@ -7,8 +7,7 @@
 // the tiles' view direction.
 
 struct Tiles {
-    // x, y: tiles across and down; z: pixels on a tile's side; w: the deepest box (its far depth
-    // less its near one, f32 bits).
+    // x, y: tiles across and down; z: pixels on a tile's side.
     size: vec4<u32>,
     // Frames: the rectangle the lists cover in normalized device coordinates: x0, y0, x1, y1.
     rect: vec4<f32>,

@@ -24,26 +24,8 @@ struct TileHit {
 fn tile_walk(range: vec2<u32>, o: vec3<f32>, d: vec3<f32>, origin_depth: f32, t_lo: f32, t_hi: f32,
              any_hit: bool) -> TileHit {
     var best = TileHit(t_hi, 0u);
-    let end = range.x + range.y;
-    // A ray starting deep in the list (a shadow ray from a surface) cannot reach an entry whose
-    // box ends before it starts: with entries sorted by near depth, every entry nearer than the
-    // start less the deepest box is such a box, and a binary search skips them all at once
-    // (lit shadow rays used to test every box behind them).
-    let reach = origin_depth + t_lo - bitcast<f32>(tiles.size.w);
     var k = range.x;
-    var above = end;
-    // Camera rays start in front of every entry: no search.
-    if (k == end || bitcast<f32>(tile_entries[k].y) >= reach) {
-        above = k;
-    }
-    while (k < above) {
-        let mid = (k + above) / 2u;
-        if (bitcast<f32>(tile_entries[mid].y) < reach) {
-            k = mid + 1u;
-        } else {
-            above = mid;
-        }
-    }
+    let end = range.x + range.y;
     loop {
         var enter: array<f32, BATCH>;
         var piece_at: array<u32, BATCH>;

@@ -26,8 +26,7 @@ pub(crate) type Entry = [u32; 2];
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 pub(crate) struct TilesHeader {
-    /// Tiles across and down, TILE, and the deepest box (its far depth less its near one, f32
-    /// bits): a walk starting at depth z skips every entry nearer than z less that.
+    /// Tiles across and down, TILE, unused.
     pub size: [u32; 4],
     /// Frames: the draw's rectangle in normalized device coordinates: x0, y0, x1, y1.
     pub rect_ndc: [f32; 4],
@@ -47,29 +46,22 @@ pub(crate) struct TileLists {
     pub entries: Vec<Entry>,
 }
 
-/// Where a box lies on screen: its pixel rectangle [x0, y0, x1, y1), nearest and farthest view
-/// depth.
+/// Where a box lies on screen: its pixel rectangle [x0, y0, x1, y1) and nearest view depth.
 #[derive(Clone, Copy, Debug)]
 struct Footprint {
     rect: [u32; 4],
     near: f64,
-    far: f64,
 }
 
 /// The footprint of the box with view-space `corners`, or `None` when it covers no pixel.
 /// Conservative: a box reaching behind the near plane covers the whole image.
 fn footprint(corners: &[DVec3; 8], lens: &Lens, size: [u32; 2]) -> Option<Footprint> {
     let near = corners.iter().map(|c| -c.z).fold(f64::INFINITY, f64::min);
-    let far = corners
-        .iter()
-        .map(|c| -c.z)
-        .fold(f64::NEG_INFINITY, f64::max);
     let whole = [0, 0, size[0], size[1]];
     if !lens.orthographic && near <= lens.near * 0.5 {
         return Some(Footprint {
             rect: whole,
             near: near.max(0.0),
-            far,
         });
     }
     // View point → pixel: invert camera_ray's a = pixel * ray.xy + ray.zw.
@@ -96,7 +88,7 @@ fn footprint(corners: &[DVec3; 8], lens: &Lens, size: [u32; 2]) -> Option<Footpr
         clamp(hi[0].ceil() + 1.0, 0),
         clamp(hi[1].ceil() + 1.0, 1),
     ];
-    (rect[2] > rect[0] && rect[3] > rect[1]).then_some(Footprint { rect, near, far })
+    (rect[2] > rect[0] && rect[3] > rect[1]).then_some(Footprint { rect, near })
 }
 
 impl TileLists {
@@ -138,13 +130,8 @@ impl TileLists {
             entries.extend(list);
         }
         let ndc = |v: u32, k: usize| 2.0 * v as f32 / size[k] as f32 - 1.0;
-        // Rounded up to f32 with room to spare, so no entry a ray can reach is skipped.
-        let deepest = boxes
-            .iter()
-            .map(|(_, f)| f.far - f.near)
-            .fold(0.0, f64::max);
         let header = TilesHeader {
-            size: [across, down, TILE, ((deepest * 1.001) as f32).to_bits()],
+            size: [across, down, TILE, 0],
             // Pixel rows run down, NDC y up.
             rect_ndc: [
                 ndc(rect[0], 0),
@@ -334,13 +321,6 @@ mod tests {
         for (index, centre) in [(0, DVec3::splat(0.5)), (1, DVec3::new(3.5, 0.5, 0.5))] {
             assert!(listed(centre - 4.0 * direction).contains(&index));
         }
-        // The deepest box along the rays: a unit cube spans |dx| + |dy| + |dz| of depth.
-        let deepest = f64::from(f32::from_bits(tiles.header.size[3]));
-        let cube = direction.abs().element_sum();
-        assert!(
-            deepest >= cube && deepest < cube * 1.01,
-            "{deepest} for {cube}"
-        );
         // Between the boxes, and far off to the side: neither.
         assert!(listed(DVec3::new(2.0, 0.5, 0.5) - 4.0 * direction).is_empty());
         assert!(listed(DVec3::new(0.5, 0.5, 40.0)).is_empty());
