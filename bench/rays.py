@@ -183,7 +183,9 @@ def main() -> None:
           f"{parallel['hit_agreement']:.5f}, p99 {parallel['distance_p99']:.1e}; as a mesh {parallel['mesh_first_ms']:8.1f} ms")
     shadow_records = shadows(gts, mesh, False) + shadows(gts, mesh, True)
     OUT.mkdir(parents=True, exist_ok=True)
-    result = {"machine": machine_info(), "embree_build_and_first_cast_s": build_s, "records": records,
+    machine = machine_info()
+    machine["adapter"] = dict(gt.Renderer(8, 8).adapter_info)
+    result = {"machine": machine, "embree_build_and_first_cast_s": build_s, "records": records,
               "parallel": parallel, "shadows": shadow_records}
     (OUT / "rays.json").write_text(json.dumps(result, indent=2))
     plot(records, OUT / "rays.png")
