@@ -560,7 +560,9 @@ def dense_bunny(path: Path, iterations: int) -> gt.Mesh:
 
 def convert_timed(mesh: gt.Mesh) -> tuple[Any, float]:
     t0 = time.perf_counter()
-    gts = gt.convert(mesh)
+    # 256-texel maps: the set issue 13's figures (and every run before the error-driven default)
+    # were measured on; the default's accuracy trade is bench/economy.py's subject.
+    gts = gt.convert(mesh, max_resolution=256)
     return gts, time.perf_counter() - t0
 
 

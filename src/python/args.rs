@@ -8,6 +8,7 @@ use std::ops::RangeInclusive;
 use std::path::PathBuf;
 
 use glam::{DMat4, DVec3};
+use numpy::PyReadonlyArrayDyn;
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyString};
 
@@ -157,6 +158,13 @@ pub fn real_array<'py>(
     np.call_method1("ascontiguousarray", (a, np.getattr("float64")?))
 }
 
+/// The elements of a `real_array` result, read through numpy's buffer (a million rays through
+/// `tolist` took most of a ray query's time on a real GPU).
+fn real_values(a: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
+    let a: PyReadonlyArrayDyn<'_, f64> = a.extract()?;
+    Ok(super::arrays::flat(&a))
+}
+
 /// Rays from (N, 3) array-likes of origins and directions of the same shape (finiteness is the
 /// caller's to check, naming the ray).
 pub fn rays(
@@ -166,8 +174,11 @@ pub fn rays(
     let points = |obj, what| -> PyResult<(Vec<DVec3>, Vec<usize>)> {
         let a = real_array(obj, what, &[None, Some(3)])?;
         let dims: Vec<usize> = a.getattr("shape")?.extract()?;
-        let flat: Vec<f64> = a.call_method0("ravel")?.call_method0("tolist")?.extract()?;
-        Ok((flat.chunks_exact(3).map(DVec3::from_slice).collect(), dims))
+        let values = real_values(&a)?;
+        Ok((
+            values.chunks_exact(3).map(DVec3::from_slice).collect(),
+            dims,
+        ))
     };
     let (o, o_shape) = points(origins, "origins")?;
     let (d, d_shape) = points(directions, "directions")?;
@@ -182,10 +193,7 @@ pub fn rays(
 /// `real_array` of a fixed shape as a flat row-major vector, every element finite.
 fn finite_values(obj: &Bound<'_, PyAny>, what: &str, shape: &[usize]) -> PyResult<Vec<f64>> {
     let dims: Vec<Option<usize>> = shape.iter().map(|&n| Some(n)).collect();
-    let values: Vec<f64> = real_array(obj, what, &dims)?
-        .call_method0("ravel")?
-        .call_method0("tolist")?
-        .extract()?;
+    let values = real_values(&real_array(obj, what, &dims)?)?;
     if values.iter().all(|v| v.is_finite()) {
         Ok(values)
     } else {

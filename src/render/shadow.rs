@@ -7,6 +7,7 @@
 //! light is given in world space, and normals are the frame's world normals.
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use super::{Camera, Frame, Object, Renderer, Scene, SearchOptions};
 use crate::cancel::Cancel;
@@ -146,7 +147,8 @@ impl Renderer {
 
 /// Pixels hit (their index), and from each the shadow ray (start moved `offset` off the surface,
 /// unit direction toward the light) with the stretch that counts (`offset`, the light's
-/// distance).
+/// distance). Built in parallel, pixels in order: on a real GPU the whole lit frame otherwise
+/// waits on this loop.
 #[allow(clippy::type_complexity)] // three parallel lists, one entry per hit pixel
 fn shadow_rays(
     camera: &Camera,
@@ -156,23 +158,24 @@ fn shadow_rays(
 ) -> Result<(Vec<usize>, Vec<(DVec3, DVec3)>, Vec<(f64, f64)>)> {
     let lens = camera.lens(frame.width, frame.height, 1.0, 2.0)?;
     let forward = camera.forward();
-    let (mut pixels, mut rays, mut ranges) = (Vec::new(), Vec::new(), Vec::new());
-    for (i, &depth) in frame.depth.iter().enumerate() {
-        if !depth.is_finite() {
-            continue;
-        }
-        let (x, y) = (i % frame.width as usize, i / frame.width as usize);
-        let (o, d) = camera.pixel_ray(&lens, x as f64 + 0.5, y as f64 + 0.5);
-        let point = o + d * (f64::from(depth) / d.dot(forward));
-        let [nx, ny, nz] = [0, 1, 2].map(|k| f64::from(frame.normal[3 * i + k]));
-        let n = DVec3::new(nx, ny, nz);
-        // The side of the surface the camera sees.
-        let n = if n.dot(d) > 0.0 { -n } else { n };
-        let start = point + n * offset;
-        let (toward, distance) = light.toward(start);
-        pixels.push(i);
-        rays.push((start, toward));
-        ranges.push((offset, distance));
-    }
+    let per_pixel: Vec<(usize, (DVec3, DVec3), (f64, f64))> = (frame.depth.par_iter())
+        .enumerate()
+        .filter(|(_, depth)| depth.is_finite())
+        .map(|(i, &depth)| {
+            let (x, y) = (i % frame.width as usize, i / frame.width as usize);
+            let (o, d) = camera.pixel_ray(&lens, x as f64 + 0.5, y as f64 + 0.5);
+            let point = o + d * (f64::from(depth) / d.dot(forward));
+            let [nx, ny, nz] = [0, 1, 2].map(|k| f64::from(frame.normal[3 * i + k]));
+            let n = DVec3::new(nx, ny, nz);
+            // The side of the surface the camera sees.
+            let n = if n.dot(d) > 0.0 { -n } else { n };
+            let start = point + n * offset;
+            let (toward, distance) = light.toward(start);
+            (i, (start, toward), (offset, distance))
+        })
+        .collect();
+    let pixels = per_pixel.iter().map(|p| p.0).collect();
+    let rays = per_pixel.iter().map(|p| p.1).collect();
+    let ranges = per_pixel.iter().map(|p| p.2).collect();
     Ok((pixels, rays, ranges))
 }

@@ -145,7 +145,8 @@ pub(crate) fn bind_buffers(
 /// that may. On lavapipe an invocation of a texture set's tracer that returns at once still
 /// costs ~0.5 µs (its bindings and size, not its work; a mesh's costs ~0.1 µs), and most shadow
 /// rays of a scene pass beside any one object.
-pub(crate) type RayTest = Box<dyn Fn(DVec3, DVec3, (f64, f64)) -> bool>;
+/// Shared across threads: the test runs over a batch's rays in parallel.
+pub(crate) type RayTest = Box<dyn Fn(DVec3, DVec3, (f64, f64)) -> bool + Send + Sync>;
 
 /// One object's ray-query dispatch, after groups 0 and 2 are bound.
 pub(crate) struct TraceCall {
