@@ -131,14 +131,16 @@ def shadows(gts: Any, mesh: gt.Mesh, as_mesh: bool) -> list[dict[str, Any]]:
             "shadow_rays": int(np.isfinite(lit.depth).sum()), "agreement": float(1 - wrong.sum() / both.sum()),
             "off_edge_disagreements": int((wrong & ~ts.near_edge(ref)).sum()),
             "shadowed": int(lit.shadow.sum()), "embree_shadowed": int(ref[both].sum()),
+            "shadow_ms": lit.stats["shadow_ms"], "shadow_trace_ms": lit.stats["shadow_trace_ms"],
         })
         q = records[-1]
         print(f"{records[-1]['bunny']}, light {direction}: frame {plain_ms:.0f} ms, with shadows {lit_ms:.0f} ms ({q['lit_over_plain']:.1f}x); "
-              f"agreement {q['agreement']:.4f}, off-edge {q['off_edge_disagreements']}")
+              f"agreement {q['agreement']:.4f}, off-edge {q['off_edge_disagreements']}; "
+              f"shadow {q['shadow_ms']:.1f} ms, of it tracing {q['shadow_trace_ms']:.1f} ms")
     return records
 
 
-def plot(records: list[dict[str, Any]], path: Path) -> None:
+def plot(records: list[dict[str, Any]], path: Path, adapter: str) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -146,13 +148,13 @@ def plot(records: list[dict[str, Any]], path: Path) -> None:
 
     n = [r["rays"] for r in records]
     fig, ax = plt.subplots(figsize=(6, 4))
-    ax.loglog(n, [r["geomtex_first_ms"] for r in records], "o-", label="geomtex intersects_first (lavapipe)")
+    ax.loglog(n, [r["geomtex_first_ms"] for r in records], "o-", label="geomtex intersects_first")
     ax.loglog(n, [r["geomtex_any_ms"] for r in records], "s--", label="geomtex intersects_any")
     ax.loglog(n, [r["mesh_first_ms"] for r in records], "d-.", label="geomtex, the bunny as a mesh")
     ax.loglog(n, [r["embree_ms"] for r in records], "^-", label="trimesh + embree, intersector kept")
     ax.set_xlabel("rays per call")
     ax.set_ylabel("wall time (ms)")
-    ax.set_title("Ray queries, Stanford bunny (256-texel maps)")
+    ax.set_title(f"Ray queries, Stanford bunny (256-texel maps), {adapter}")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend()
     fig.tight_layout()
@@ -188,7 +190,7 @@ def main() -> None:
     result = {"machine": machine, "embree_build_and_first_cast_s": build_s, "records": records,
               "parallel": parallel, "shadows": shadow_records}
     (OUT / "rays.json").write_text(json.dumps(result, indent=2))
-    plot(records, OUT / "rays.png")
+    plot(records, OUT / "rays.png", machine["adapter"]["name"])
 
 
 if __name__ == "__main__":

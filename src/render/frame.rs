@@ -42,8 +42,10 @@ pub struct Frame {
     pub fetches: Option<u64>,
     /// With a light (shadow.rs): per pixel, true where the light cannot see the surface.
     pub shadow: Option<Vec<bool>>,
-    /// With a light: milliseconds the shadow rays took.
+    /// With a light: milliseconds the shadow rays took, and of those the tracing (upload,
+    /// dispatches and read-back of the rays), the rest being their preparation on the CPU.
     pub shadow_ms: Option<f64>,
+    pub shadow_trace_ms: Option<f64>,
     /// With surfel objects in the scene: what their passes drew.
     pub surfels: Option<SurfelCounts>,
     /// With an inverse geometric texture in the scene (kinds/igt.rs): per pixel the detailed
@@ -136,6 +138,10 @@ impl Frame {
             let shadowed = self.shadow.iter().flatten().filter(|&&s| s).count();
             stats.extend([
                 ("shadow_ms", StatValue::Float(ms)),
+                (
+                    "shadow_trace_ms",
+                    StatValue::Float(self.shadow_trace_ms.unwrap_or(0.0)),
+                ),
                 ("shadowed_pixels", count(shadowed)),
             ]);
         }
@@ -194,6 +200,7 @@ mod tests {
             fetches,
             shadow: None,
             shadow_ms: None,
+            shadow_trace_ms: None,
             surfels: None,
             face_id: None,
             barycentric: None,

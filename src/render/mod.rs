@@ -321,6 +321,7 @@ impl Renderer {
             fetches: search.count_fetches.then_some(fetches as u64),
             shadow: None,
             shadow_ms: None,
+            shadow_trace_ms: None,
             surfels,
             face_id: None,
             barycentric: None,
