@@ -7,10 +7,9 @@ use super::accuracy::{self, AreaSample, WeightedError, ERROR_QUANTILE, SAMPLES_P
 use super::frame::ChartFrame;
 use super::options::ConvertOptions;
 use super::raster::{self, Maps, PatchBox};
-use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::mesh::Mesh;
+use crate::mesh::{CornerNormals, Mesh};
 
 /// A chart ready to draw: its own faces then its ring, its frame, and the longer side of its
 /// bounds.
@@ -44,7 +43,7 @@ pub struct Drawn {
 pub struct ChartDrawer<'a> {
     pub mesh: &'a Mesh,
     /// Per face, its corners' normals under the conversion's normal rule.
-    pub corner_normals: &'a [[DVec3; 3]],
+    pub corner_normals: &'a CornerNormals,
     pub opts: &'a ConvertOptions,
     pub texel: f64,
     /// Whether each chart gets its own texel size (error-driven resolution).

@@ -11,7 +11,7 @@ use crate::appearance::FaceColor;
 use crate::gtex::{
     decode_normal, encode_height, encode_normal, encode_outline, Patch, NO_NORMAL, OUTLINE_REACH,
 };
-use crate::mesh::Mesh;
+use crate::mesh::{CornerNormals, Mesh};
 
 /// The box a chart is drawn into.
 #[derive(Clone, Copy, Debug)]
@@ -183,12 +183,12 @@ impl<'m> FaceShading<'m> {
     /// the texel grid, so a texture is averaged over a texel.
     fn new(
         mesh: &'m Mesh,
-        corner_normals: &[[DVec3; 3]],
+        corner_normals: &CornerNormals,
         f: u32,
         face: &LocalFace,
     ) -> FaceShading<'m> {
         FaceShading {
-            normals: corner_normals[f as usize],
+            normals: corner_normals.face(f as usize),
             colors: mesh.face_color(f, Some(face.flat())),
         }
     }
@@ -292,7 +292,7 @@ impl<'a> Canvas<'a> {
         })
     }
 
-    fn draw_face(&mut self, mesh: &Mesh, corner_normals: &[[DVec3; 3]], f: u32, lips: bool) {
+    fn draw_face(&mut self, mesh: &Mesh, corner_normals: &CornerNormals, f: u32, lips: bool) {
         let corners = mesh.faces[f as usize].map(|v| self.to_local(mesh.positions[v as usize]));
         let Some(face) = LocalFace::new(corners) else {
             return;
@@ -487,7 +487,7 @@ impl<'a> Canvas<'a> {
 /// `outline` is `boundary_edges(mesh, faces)`, found once for every texel size a chart is drawn at.
 pub fn rasterize(
     mesh: &Mesh,
-    corner_normals: &[[DVec3; 3]],
+    corner_normals: &CornerNormals,
     (faces, chart_faces): (&[u32], usize),
     outline: &[[u32; 2]],
     bx: &PatchBox,
@@ -624,13 +624,13 @@ mod tests {
     use super::*;
     use crate::mesh::{MeshGeometry, NormalRule, NormalSource};
 
-    fn flat_corners(m: &Mesh) -> Vec<[DVec3; 3]> {
+    fn flat_corners(m: &Mesh) -> CornerNormals {
         let rule = NormalRule::from_keywords(Some(NormalSource::Flat), None).unwrap();
         MeshGeometry::new(m).corner_normals(m, rule)
     }
 
     /// `faces` of `m` (flat corner normals `flat`) rasterized into `bx`, with their outline.
-    fn draw_flat(m: &Mesh, flat: &[[DVec3; 3]], faces: &[u32], bx: &PatchBox) -> Maps {
+    fn draw_flat(m: &Mesh, flat: &CornerNormals, faces: &[u32], bx: &PatchBox) -> Maps {
         rasterize(m, flat, (faces, faces.len()), &boundary_edges(m, faces), bx)
     }
 

@@ -352,7 +352,7 @@ fn attributes(mesh: &Mesh, opts: &IgtOptions) -> Attributes {
     let geo = MeshGeometry::new(mesh);
     let normals = geo
         .corner_normals(mesh, opts.normals)
-        .into_iter()
+        .faces()
         .map(|c| c.map(|n| n.as_vec3().to_array()))
         .collect();
     // Face colors before vertex colors, as the mesh itself is drawn (Mesh::face_color).

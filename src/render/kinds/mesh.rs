@@ -234,7 +234,7 @@ fn upload(gpu: &Gpu, mesh: &Mesh, rule: NormalRule) -> UploadedMesh {
     let normals = MeshGeometry::new(mesh).corner_normals(mesh, rule);
     let texture = mesh.appearance.texture.as_ref();
     let mut vertices = Vec::with_capacity(mesh.faces.len() * 3);
-    for (f, (t, n)) in mesh.faces.iter().zip(&normals).enumerate() {
+    for (f, (t, n)) in mesh.faces.iter().zip(normals.faces()).enumerate() {
         let colors = mesh.face_color(f as u32, None);
         let uv = texture.map(|Texture { coords, .. }| match coords {
             TextureCoords::PerVertex(uv) => t.map(|v| uv[v as usize]),
