@@ -363,10 +363,11 @@ fn screen_rect(box_ndc: Option<(glam::DVec2, glam::DVec2)>, size: [u32; 2]) -> [
 /// which for a given shape falls as d / S: holding d to a share of S keeps that loss the same
 /// at every distance, where one fixed share (the one a model 1/16 of a 512² image tall needs)
 /// held near models' rims at their finest levels (the Stanford bunny at 256 texels, 1/2 of a
-/// 512² image tall: 56,641 surfels drawn against 26,576 with this share; at 192 texels 2.3x
-/// the 1.1 M-face bunny's count at full frame, 1.2x with it). 1024: both bunnies keep IoU
-/// >= 0.992, depth p99 <= 0.9 px and no holes against trimesh from full frame to 1/16
-/// (bench/surfels.py); 512 let the bunny's IoU fall to 0.989 at 1/2 (error-driven set).
+/// 512² image tall: 56,641 surfels drawn against 26,576 with this share; at 192 texels, full
+/// frame, 3.6x the 1.1 M-face bunny's count against 1.27x with it). With 1024 both bunnies
+/// keep an IoU of at least 0.992, depth p99 under 0.9 px and no holes against trimesh from full
+/// frame to 1/16 (bench/surfels.py); 512 let the bunny's IoU fall to 0.989 at 1/2 (on its
+/// error-driven set).
 const OUTLINE_PIXELS: f64 = 1024.0;
 /// The least share of max_pixel_error an outline may move (SILHOUETTE_SHARE in
 /// surfels_types.wgsl's words): a model 1/16 of a 512² image tall (a ~130-pixel outline) kept
