@@ -2,9 +2,10 @@
 perpendicular error, splatted through a 64-bit atomic visibility buffer.
 
 In one run, on one wgpu adapter, at 512x512, for the Stanford bunny (69,451 faces) and the same
-bunny after two Loop subdivisions (~1.1 M faces), converted with the default keywords and cut
-into the default 8x8-texel tiles (and 32x32, at the default error only), with a front camera
-backing away so that the model spans from the full image height down to 1/16 of it:
+bunny after two Loop subdivisions (~1.1 M faces), both converted at ``max_resolution=192``
+(RESOLUTION, below, says why) and cut into the default 8x8-texel tiles (and 32x32, at the
+default error only), with a front camera backing away so that the model spans from the full
+image height down to 1/16 of it:
 
 * per distance and per ``max_pixel_error``: surfels drawn (and the finest level's count in
   view), frame time (GPU timestamps around the compute and scene passes; median of
@@ -12,6 +13,8 @@ backing away so that the model spans from the full image height down to 1/16 of 
   + embree ray casting of the original mesh: coverage IoU, depth p99 in pixel footprints
   (|Δz| over z·2·tan(fov/2)/512), median normal angle, and holes (pixels inside the
   reference's silhouette, eroded by one pixel, that the frame misses);
+* at the default error, the meshes' surfel frames again with the meshes taking turns render by
+  render (``--turns`` each), the frame-time comparison least disturbed by a loaded machine;
 * at the default error, side by side: the original mesh rasterized and the geometry textures ray
   cast by the same renderer, as GPU ms and primitives (surfels, triangles) or pixels per second.
 
@@ -51,6 +54,13 @@ DEFAULT_ERROR = 1.0
 # The default tile (the paper's 64/16/4/1) with every error; a 32-texel tile (six levels, down to
 # one surfel per 1024 texels) at the default error, to show what coarser top levels buy far away.
 TILES = (8, 32)
+# One fixed resolution for both meshes, so the two hierarchies hold about the same texels and
+# the comparison is of face counts alone. Not the default conversion: error-driven within the
+# mesh's bytes, it gives the scan texels ~1.5 px wide at full frame, and its surfels then miss
+# the issue's accuracy on their own (IoU 0.972 at 1/16, depth p99 1.24 px at full frame).
+# Not 256: since multilevel VSA the 1.1 M-face bunny's hierarchy there is 4.2 M surfels,
+# 134.6 MB, past lavapipe's 128 MiB storage binding (the renderer refuses it).
+RESOLUTION = 192
 
 
 def camera(mesh: gt.Mesh, fraction: float) -> gt.Camera:
@@ -106,9 +116,9 @@ def dz1_px(frame: gt.Frame, ref: dict[str, Any], both: np.ndarray) -> np.ndarray
 
 
 def prepare(mesh: gt.Mesh) -> dict[str, Any]:
-    """The mesh converted with the defaults, its hierarchies of every tile, and its ray caster."""
+    """The mesh converted at RESOLUTION, its hierarchies of every tile, and its ray caster."""
     t0 = time.perf_counter()
-    gts = gt.convert(mesh, max_resolution=256)  # the default when these figures were measured
+    gts = gt.convert(mesh, max_resolution=RESOLUTION)
     convert_s = time.perf_counter() - t0
     hierarchies, build_s = {}, {}
     for tile in TILES:
@@ -152,6 +162,28 @@ def measure(name: str, state: dict[str, Any], fraction: float, renderer: gt.Rend
               f"holes {row['holes_px']}" + (f"  | mesh {row['mesh_raster_gpu_ms']:.1f} ms, gtex "
                                               f"{row['gtex_gpu_ms']:.1f} ms" if compared else ""))
     return rows
+
+
+def side_by_side(states: dict[str, dict[str, Any]], renderer: gt.Renderer,
+                 repeats: int) -> dict[str, dict[str, float]]:
+    """Surfel frames of every mesh at each distance at the default error, the meshes taking turns
+    render by render (not run by run, as `measure` does): on a loaded machine a neighbour's
+    burst then slows both alike. Median and fastest GPU ms per mesh, keyed by fraction."""
+    out: dict[str, dict[str, float]] = {}
+    for fraction in FRACTIONS:
+        cams = {name: camera(st["mesh"], fraction) for name, st in states.items()}
+        ms: dict[str, list[float]] = {name: [] for name in states}
+        for name, st in states.items():  # warm-up
+            renderer.render(st["hierarchies"][TILES[0]], cams[name], max_pixel_error=DEFAULT_ERROR)
+        for _ in range(repeats):
+            for name, st in states.items():
+                frame = renderer.render(st["hierarchies"][TILES[0]], cams[name], max_pixel_error=DEFAULT_ERROR)
+                ms[name].append(frame.stats["gpu_ms"])
+        out[str(fraction)] = {f"{name}_{k}": float(f(v)) for name, v in ms.items()
+                              for k, f in (("gpu_ms", np.median), ("gpu_ms_min", np.min))}
+        print(f"side by side 1/{1 / fraction:<4.0f}: " + ", ".join(
+            f"{name} {np.median(v):.1f} ms (fastest {np.min(v):.1f})" for name, v in ms.items()))
+    return out
 
 
 def summary(results: dict[str, Any]) -> dict[str, Any]:
@@ -235,6 +267,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true", help="the bunny only, three errors")
     parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--turns", type=int, default=21, help="renders per mesh in the side-by-side timing")
     args = parser.parse_args()
     renderer = gt.Renderer(SIZE, SIZE)
     errors = (0.5, 1.0, 2.0) if args.quick else ERRORS
@@ -249,6 +282,7 @@ def main() -> None:
     for fraction in FRACTIONS:
         for name, state in states.items():
             rows[name] += measure(name, state, fraction, renderer, errors, args.repeats)
+    turns = side_by_side(states, renderer, args.turns)
     results = {
         name: {"faces": st["mesh"].n_faces, "convert_s": st["convert_s"],
                "surfels_build_s": {str(t): v for t, v in st["build_s"].items()},
@@ -261,17 +295,26 @@ def main() -> None:
         "adapter": renderer.adapter_info,
         "size": SIZE,
         "yfov_deg": YFOV,
+        "max_resolution": RESOLUTION,
         "repeats": args.repeats,
         # 1/5/15-minute load averages (2 cores shared with other builds): timings are noisy.
         "loadavg_start": load_before,
         "loadavg_end": os.getloadavg(),
         "summary": summary(results),
+        # The meshes taking turns render by render (side_by_side), args.turns renders each.
+        "side_by_side_turns": args.turns,
+        "side_by_side": turns,
         "meshes": results,
     }
     OUT.mkdir(parents=True, exist_ok=True)
-    (OUT / "surfels.json").write_text(json.dumps(data, indent=1))
     plot(results, OUT / "surfels.png")
+    if len(states) == 2:
+        a, b = states
+        data["side_by_side_dense_over_bunny"] = {
+            f: {k: t[f"{b}_{k}"] / t[f"{a}_{k}"] for k in ("gpu_ms", "gpu_ms_min")} for f, t in turns.items()}
+    (OUT / "surfels.json").write_text(json.dumps(data, indent=1))
     print(json.dumps(data["summary"], indent=1))
+    print(json.dumps(data.get("side_by_side_dense_over_bunny"), indent=1))
 
 
 if __name__ == "__main__":

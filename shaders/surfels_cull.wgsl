@@ -4,7 +4,7 @@
 // level within it. Errors never fall going up and spheres nest, so a node within the budget
 // has every descendant within it and each thread decides alone, without traversal.
 // The budget: max_pixel_error pixels at the sphere's nearest view distance, a share of that
-// where the sphere may show a silhouette (SILHOUETTE_SHARE). Tiles in view and their finest
+// where the sphere may show a silhouette (object.params.w, larger for a model larger on screen). Tiles in view and their finest
 // surfels are tallied whether or not a node above stands for them.
 //
 // Spaces: object (tiles, nodes) → view (camera-relative); pixels at a sphere's nearest view
@@ -49,13 +49,15 @@ fn facing(s: vec4<f32>, cone: vec4<f32>) -> f32 {
 // Whether an error (object units), perpendicular to the surfels of a sphere, is within the
 // budget. Seen at angle θ to its normal, a perpendicular error e moves depth by e / cos θ, so
 // the budget shrinks with the cone's most oblique cos θ; near grazing, where the error moves
-// the outline sideways instead, to SILHOUETTE_SHARE of it. The cone is that of the discs
+// the outline sideways instead, to the object's outline share of it (object.params.w: coverage
+// lost to a moved outline falls with the model's size on screen, so a near model's rim may
+// move further than a far one's). The cone is that of the discs
 // drawn (a tile level's own normals; for a node, its tiles' top-level normals): a scan's noisy
 // finest normals, averaged away at the level drawn, widened cones until most of a far scan
 // counted as grazing and stayed fine.
 fn within(s: vec4<f32>, cone: vec4<f32>, error: f32) -> bool {
     let budget = object.params.x * pixel_size(max(-s.z - s.w, camera.params.y));
-    return error * object.params.z <= budget * max(facing(s, cone), SILHOUETTE_SHARE);
+    return error * object.params.z <= budget * max(facing(s, cone), object.params.w);
 }
 
 fn node_within(n: u32) -> bool {

@@ -57,7 +57,9 @@ struct SurfelObject {
     // The frustum's four side planes in view space: inside where dot(xyz, p) + w >= 0.
     planes: array<vec4<f32>, 4>,
     // x: max_pixel_error, y: world size of a pixel at unit distance (perspective) or of any
-    // pixel (orthographic), z: view units per object unit, w: unused.
+    // pixel (orthographic), z: view units per object unit, w: the share of max_pixel_error a
+    // tile or node that may show a silhouette is held to (it grows with the model's size on
+    // screen, render/kinds/surfels.rs outline_share).
     params: vec4<f32>,
     // x, y: image size, z: the id of the set's patch 0, w: tiles.
     sizes: vec4<u32>,
@@ -76,12 +78,6 @@ const TALLY_FINEST: u32 = 2u;
 const TALLY_LEVEL0: u32 = 3u;
 const TALLY_NODES: u32 = 10u;
 const NO_NODE: u32 = 0xffffffffu;
-// A tile or node that may show a silhouette (its normal cone holds a direction perpendicular to
-// some view ray through its sphere) is held to this share of max_pixel_error: there its error
-// moves the outline sideways, and coverage at 1/16 of the image height (a ~130-pixel outline)
-// tolerates only a few pixels' change (the bunny at 512²: a share of 1/8 left IoU 0.977
-// there, 1/16 left 0.990).
-const SILHOUETTE_SHARE: f32 = 0.0625;
 const TALLY_SLOTS: u32 = 16u;
 // Splatting threads per workgroup, and the most workgroups a dispatch row takes.
 const SPLAT_GROUP: u32 = 64u;

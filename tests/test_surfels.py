@@ -259,8 +259,8 @@ def test_far_models_draw_fewer_surfels_than_tiles_and_keep_their_outline(
         drawn.append(frame.stats["surfels_drawn"])
         assert frame.stats["surfels_above_tiles"] > 0, frame.stats
     tiles = bunny_surfels.stats["tiles"]
-    # Measured 26,337 / 15,827 / 10,790 drawn (54,558 tiles): each halving of the height cuts
-    # the count (by 1.66x, 1.47x), and at 1/16 far fewer surfels than tiles are drawn.
+    # Measured 20,818 / 15,400 / 10,795 drawn (53,005 tiles): each halving of the height cuts
+    # the count (by 1.35x, 1.43x), and at 1/16 far fewer surfels than tiles are drawn.
     assert drawn[0] > 1.2 * drawn[1] > 1.2**2 * drawn[2], drawn
     assert drawn[2] <= tiles / 2, (drawn, tiles)     # measured 0.20 of the tiles
     ref = caster.cast(cam, size, size)
@@ -272,7 +272,8 @@ def test_far_models_draw_fewer_surfels_than_tiles_and_keep_their_outline(
 
 
 @pytest.mark.parametrize(("fraction", "per_pixel_max"), [
-    (1 / 4, 3.5),   # measured 2.55 surfels per covered pixel (26,337 on 10,347 px)
+    (1 / 2, 1.0),   # measured 0.60 (26,576 on 44,373 px); 1.28 with one outline share
+    (1 / 4, 2.4),   # measured 2.01 (20,818 on 10,362 px); 2.46 with one outline share
     (1 / 8, 8.0),   # measured 6.29 (15,827 on 2,518 px)
 ])
 def test_a_noisy_scan_draws_surfels_in_proportion_to_its_coverage(
@@ -281,7 +282,10 @@ def test_a_noisy_scan_draws_surfels_in_proportion_to_its_coverage(
     """The Stanford scan's noisy finest normals do not count as grazing: levels are chosen by the
     normal spread of the discs drawn, so a far scan draws a few surfels per covered pixel and
     keeps its outline against trimesh. A build choosing by the finest normals' cones (all else
-    as here) drew 3.83 at 1/4 and 8.59 at 1/8 and failed both bounds."""
+    as here) drew 3.83 at 1/4 and 8.59 at 1/8 and failed both bounds. Near, a rim that may show
+    a silhouette is held to a share of the error that grows with the model's size on screen; a
+    build holding every rim to the share a model 1/16 of the image tall needs drew 1.28 at 1/2
+    and 2.46 at 1/4 and failed both."""
     size = 512
     cam = backed_away(bunny.mesh, fraction)
     frame = gt.Renderer(size, size).render(bunny_surfels, cam)
@@ -289,7 +293,7 @@ def test_a_noisy_scan_draws_surfels_in_proportion_to_its_coverage(
     m = reference.compare(frame, ref, reference.diagonal(bunny.mesh))
     per_pixel = frame.stats["surfels_drawn"] / m["covered_px"]
     assert per_pixel <= per_pixel_max, (per_pixel, frame.stats)
-    assert m["iou"] >= 0.99, m      # measured 0.9975 at 1/4, 0.9952 at 1/8
+    assert m["iou"] >= 0.99, m      # measured 0.9978 at 1/2, 0.9960 at 1/4, 0.9952 at 1/8
     # 0 cracks before multilevel VSA; its partition of the scan (187 charts, not 188) leaves 2
     # pixels at full frame (256²).
     assert m["crack_px"] <= 6, m
