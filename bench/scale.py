@@ -2,7 +2,8 @@
 
 Meshes: the Stanford bunny (``../shared/meshes/stanford-bunny.obj``, 69,451 faces) and its
 loop subdivision (``geomtex.testing.subdivided``, pymeshlab, until >= 1M faces: 1,111,216).
-Modes: ``vsa`` and ``cone`` (``convert(mesh, partition=...)`` at the default max_resolution
+Modes: ``default`` (``convert(mesh)``, no keyword: error-driven within the mesh's bytes), ``vsa``
+and ``cone`` (``convert(mesh, partition=...)`` at the default max_resolution
 256), and error-driven ``vsa-error`` / ``cone-error`` (``max_error_rel=1e-4``; with VSA and no
 chart target this tries three partitions, so the 1.1M-face mesh runs it only with ``--modes``).
 A conversion past ``--timeout`` seconds is stopped and recorded as timed out.
@@ -49,6 +50,7 @@ REPO = Path(__file__).resolve().parents[1]
 MESH_DIR = REPO.parent / "shared" / "meshes"
 OUT = REPO / "bench" / "results"
 MODES = {
+    "default": {},
     "vsa": {"partition": "vsa"},
     "cone": {"partition": "cone"},
     "vsa-error": {"partition": "vsa", "max_error_rel": 1e-4},
@@ -163,7 +165,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--main", help="directory holding main's built geomtex package")
     ap.add_argument("--meshes", nargs="*", default=["bunny", "bunny-1.1M"])
-    ap.add_argument("--modes", nargs="*", help="default: all four, but vsa-error on the bunny only")
+    ap.add_argument("--modes", nargs="*", help="default: all five, but vsa-error on the bunny only")
     ap.add_argument("--timeout", type=float, default=180.0, help="seconds per conversion")
     ap.add_argument("--out", default=str(OUT / "scale.json"))
     args = ap.parse_args()
