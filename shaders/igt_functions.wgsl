@@ -360,14 +360,13 @@ fn igt_baked(grid: u32, p: vec3<f32>) -> IgtShade {
         let di = k & 1;
         let dj = k >> 1u;
         let c = igt_cell(g, i32(corner.x) + di, i32(corner.y) + dj);
-        let record = object.lod.x + 2u * c;
-        let code = attributes[record];
-        if (code == IGT_EMPTY_CELL) {
+        let record = baked[c];
+        if (record.x == IGT_EMPTY_CELL) {
             continue;
         }
         let w = select(1.0 - f.x, f.x, di == 1) * select(1.0 - f.y, f.y, dj == 1);
-        normal += w * igt_octahedral(unpack2x16snorm(code));
-        base += w * unpack4x8unorm(attributes[record + 1u]);
+        normal += w * igt_octahedral(unpack2x16snorm(record.x));
+        base += w * unpack4x8unorm(record.y);
         weight += w;
     }
     if (weight <= 0.0) {

@@ -21,8 +21,8 @@ struct IgtObject {
     // Where the attribute buffer's parts start: corner colors, texture coordinates, image,
     // occlusion (the normals start at 0).
     segments: vec4<u32>,
-    // x: where the baked texture starts; y: the shader LoD (0 off, 1 where a cell covers less
-    // than a pixel, 2 beyond a distance); z: that distance's f32 bits (view units).
+    // y: the shader LoD (0 off, 1 where a cell covers less than a pixel, 2 beyond a distance);
+    // z: that distance's f32 bits (view units); x, w unused.
     lod: vec4<u32>,
 }
 

@@ -35,20 +35,22 @@ use crate::render::shaders;
 /// Format of the surface target: detailed face + 1 (0 = none) and the barycentrics' f32 bits.
 pub(crate) const SURFACE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Uint;
 
-/// Storage buffers of group 1 (bindings 1 to 6 of igt_bindings.wgsl). With the mesh's own,
-/// seven: within the 8 a fragment stage may bind on any adapter (WebGPU's default limit), which
-/// is why the attributes share one buffer.
-const TABLES: usize = 6;
+/// Storage buffers of group 1 (bindings 1 to 7 of igt_bindings.wgsl). With the mesh's own,
+/// eight: within the 8 a fragment stage may bind on any adapter (WebGPU's default limit), which
+/// is why the attributes share one buffer. The baked texture has its own: it grows with the
+/// cells (8 bytes each), as the cell offsets do (4), so the two stay the largest buffers and
+/// under lavapipe's 128 MiB per binding up to about 4096² cells.
+const TABLES: usize = 7;
 
 /// A texture's tables and attributes on the GPU.
 struct UploadedTables {
-    /// Grids, cell offsets, cell entries, entries, the attributes (`Attributes` below), and
-    /// the detailed faces' corners (for the ray lookup).
+    /// Grids, cell offsets, cell entries, entries, the attributes (`Attributes` below), the
+    /// detailed faces' corners (for the ray lookup) and the baked texture (the shader LoD's).
     buffers: [wgpu::Buffer; TABLES],
     /// Attribute bits and image size (`IgtObject.info` y, z, w).
     info: [u32; 3],
-    /// Where each part starts in the attribute buffer (`IgtObject.segments`, `lod.x`).
-    segments: [u32; 5],
+    /// Where each part starts in the attribute buffer (`IgtObject.segments`).
+    segments: [u32; 4],
     /// The detailed mesh's bounding-box centre: everything is stored relative to it.
     centre: DVec3,
 }
@@ -94,12 +96,21 @@ fn pack_rgba(c: [u8; 4]) -> u32 {
 const EMPTY_CELL: u32 = 0x8000_8000;
 
 /// The attribute buffer: corner normals (always first), corner colors, texture coordinates
-/// (f32 bits), image pixels, corner occlusion (three unorm8 per face) and the baked texture
-/// (normal and color per cell), each part where `segments` says: colors, uvs, image, occlusion,
-/// baked (an absent part is empty).
+/// (f32 bits), image pixels and corner occlusion (three unorm8 per face), each part where
+/// `segments` says: colors, uvs, image, occlusion (an absent part is empty).
 struct Attributes {
     words: Vec<u32>,
-    segments: [u32; 5],
+    segments: [u32; 4],
+}
+
+/// The baked texture (bake.rs) as the shader reads it: per cell its normal's code and color.
+fn pack_baked(igt: &InverseGeometricTexture) -> Vec<[u32; 2]> {
+    (igt.bake().into_iter())
+        .map(|b| match b {
+            Some(b) => [octahedral(b.normal), pack_rgba(b.color)],
+            None => [EMPTY_CELL, 0],
+        })
+        .collect()
 }
 
 fn pack_attributes(igt: &InverseGeometricTexture, image: Option<&Image>) -> Attributes {
@@ -107,7 +118,7 @@ fn pack_attributes(igt: &InverseGeometricTexture, image: Option<&Image>) -> Attr
     let mut words: Vec<u32> = (a.normals.iter().flatten())
         .map(|n| octahedral(Vec3::from_array(*n)))
         .collect();
-    let mut segments = [0u32; 5];
+    let mut segments = [0u32; 4];
     let mut part = |k: usize, words: &mut Vec<u32>, part: &mut dyn Iterator<Item = u32>| {
         segments[k] = words.len() as u32;
         words.extend(part);
@@ -126,11 +137,6 @@ fn pack_attributes(igt: &InverseGeometricTexture, image: Option<&Image>) -> Attr
             .flatten()
             .map(|c| pack_rgba([c[0], c[1], c[2], 0]));
     part(3, &mut words, &mut ao.into_iter());
-    let baked = igt.bake().into_iter().flat_map(|b| match b {
-        Some(b) => [octahedral(b.normal), pack_rgba(b.color)],
-        None => [EMPTY_CELL, 0],
-    });
-    part(4, &mut words, &mut baked.into_iter());
     Attributes { words, segments }
 }
 
@@ -213,6 +219,7 @@ fn upload_tables(gpu: &Gpu, igt: &InverseGeometricTexture) -> Result<UploadedTab
             buffer("igt entries", bytemuck::cast_slice(&entries)),
             buffer("igt attributes", bytemuck::cast_slice(&packed.words)),
             buffer("igt face corners", bytemuck::cast_slice(&corners)),
+            buffer("igt baked", bytemuck::cast_slice(&pack_baked(igt))),
         ],
         info: [bits, w, h],
         segments: packed.segments,
@@ -328,7 +335,7 @@ impl IgtKind {
         // The ray lookup's code (ids.y): 1 along the view ray, 0 projecting; ids.z: samples.
         let ray = u32::from(shaded.lookup == Lookup::Ray) as i32;
         let [bits, w, h] = tables.info;
-        let [colors, uvs, image, ao, baked] = tables.segments;
+        let [colors, uvs, image, ao] = tables.segments;
         // lod.y: 0 off, 1 where a cell covers less than a pixel, 2 beyond distance lod.z.
         let (mode, distance) = match shaded.lod {
             Lod::Off => (0, 0.0),
@@ -342,7 +349,7 @@ impl IgtKind {
             info: [shaded.igt.primary.code(), bits, w, h],
             object_from_view: gpu_matrix(view_from_local.inverse()),
             segments: [colors, uvs, image, ao],
-            lod: [baked, mode, distance.to_bits(), 0],
+            lod: [0, mode, distance.to_bits(), 0],
         };
         let device = &gpu.device;
         let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
