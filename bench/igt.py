@@ -24,12 +24,22 @@ In one run, on one wgpu adapter, at 512x512:
   absolute RGB difference on interior pixels (``reference.albedo_difference``), and a
   side-by-side PNG;
 * speed: the 1.1 M-face bunny rasterized against its simplification (2% and 0.5%) shaded
-  through its IGT (512² and 2048² cells), and the plain simplified meshes, in turn in one run on
-  the same adapter (median of three rounds).
+  through its IGT (512² and 2048² cells; through the lists, and with ``lod="auto"``), and the
+  plain simplified meshes, in turn in one run on the same adapter (median of three rounds);
+* lod (the shader LoD): the bunny at 2% with its 512² texture, the camera at multiples of the
+  distance where one cell spans one pixel (``lod="auto"``'s switch): frame time through the
+  lists, with "auto", and fully baked; the share of pixels "auto" bakes; median normal error
+  against embree of each; the pop (mean normal difference and mean shaded-gray difference
+  between the lists' frame and the baked one on the same pixels), beside what the lists' own
+  frame changes when the camera moves 1% nearer (the flicker there is anyway);
+* occlusion (``attributes=["ao"]``): build seconds of 64 cosine-weighted rays per vertex on the
+  bunny, and the per-vertex result against embree's estimate from 1,024 independent random
+  rays on 400 vertices (the 200 most occluded and 200 at random): mean |difference|, bias.
 
-Results: ``bench/results/igt.json``, ``bench/results/igt.png`` and
-``bench/results/igt_spot.png``. The machine's load (``os.getloadavg``) is recorded at the start
-and the end.
+``--sections`` runs some of these and merges them into the existing JSON (each section keeps
+its own load figures). Results: ``bench/results/igt.json``, ``bench/results/igt.png``,
+``bench/results/igt_spot.png`` and ``bench/results/igt_lod.png``. The machine's load
+(``os.getloadavg``) is recorded at the start and the end.
 
 Run from the repository root::
 
@@ -269,6 +279,8 @@ def speed(renderer: gt.Renderer, repeats: int) -> dict[str, Any]:
                             "stats": {k: v for k, v in igt.stats.items() if k != "histogram"}}
         for f, low in lows.items():
             objects[f"igt_{res}_{f}"] = gt.igt.attach(igt, *low)
+            # The shader LoD where a cell spans less than a pixel (most of the frame at 2048²).
+            objects[f"igt_{res}_{f}_lod"] = gt.igt.attach(igt, *low, lod="auto")
     for f, low in lows.items():
         objects[f"plain_{f}"] = gt.Mesh(*low)
     cam = camera(igt, VIEWS[0])
@@ -282,6 +294,125 @@ def speed(renderer: gt.Renderer, repeats: int) -> dict[str, Any]:
            "speedup": {k: medians["detailed_mesh"] / v for k, v in medians.items() if k.startswith("igt_")}}
     print(json.dumps(out["gpu_ms"], indent=1), flush=True)
     return out
+
+
+# Camera distances of the LoD sweep, in units of the distance where one cell spans one pixel.
+LOD_DISTANCES = (0.5, 0.7, 1.0, 1.4, 2.0, 4.0)
+
+
+def lod(renderer: gt.Renderer, repeats: int) -> list[dict[str, Any]]:
+    """The shader LoD's sweep over camera distance (see the module's docstring)."""
+    import trimesh
+
+    mesh = gt.load_mesh(BUNNY)
+    igt = gt.igt.build(mesh, resolution=512)
+    low = gt.igt.simplify(igt, int(len(igt.faces) * 0.02))
+    shaded = {name: gt.igt.attach(igt, low.vertices, low.faces, lod=value)
+              for name, value in (("lists", "off"), ("auto", "auto"), ("baked", 1e-9))}
+    detailed = trimesh.Trimesh(igt.vertices, igt.faces, process=False)
+    caster = reference.RayCaster(detailed)
+    corners = reference.corner_normals(detailed)
+    v = igt.vertices
+    centre = (v.min(0) + v.max(0)) / 2
+    pixel = 2 * np.tan(np.radians(45.0) / 2) / SIZE
+    switch = float(igt.grids["cell"][0, 0]) / pixel
+    d = np.asarray(VIEWS[0]) / np.linalg.norm(VIEWS[0])
+    rows = []
+    for k in LOD_DISTANCES:
+        cam = gt.Camera.look_at(centre + d * switch * k, centre)
+        frames, ms = {}, {}
+        for name, obj in shaded.items():
+            frames[name], ms[name] = timed(renderer, obj, cam, repeats)
+        closer = renderer.render(shaded["lists"], gt.Camera.look_at(centre + d * switch * k * 0.99, centre))
+        ref = caster.cast(cam, SIZE, SIZE)
+        ref_normal = reference.shading_normals(detailed, corners, ref)
+        lists, auto, baked = frames["lists"], frames["auto"], frames["baked"]
+        mask = interior(ref["hit"]) & interior(np.isfinite(lists.depth))
+        both = mask & interior(np.isfinite(closer.depth))
+
+        def gray(f: gt.Frame) -> np.ndarray:
+            return f.color[..., :3].astype(float).mean(axis=-1)
+
+        row = {"distance_over_switch": k, "distance": switch * k, "pixels": int(mask.sum()),
+               "lists_gpu_ms": ms["lists"], "auto_gpu_ms": ms["auto"], "baked_gpu_ms": ms["baked"],
+               "auto_baked_share": float((auto.normal == baked.normal).all(axis=-1)[mask].mean()),
+               "pop_normal_deg_mean": float(reference.normal_angles(lists.normal, baked.normal, mask).mean()),
+               "pop_gray_mean": float(np.abs(gray(lists) - gray(baked))[mask].mean()),
+               "motion_normal_deg_mean": float(reference.normal_angles(lists.normal, closer.normal, both).mean()),
+               "motion_gray_mean": float(np.abs(gray(lists) - gray(closer))[both].mean())}
+        for name, f in frames.items():
+            row[f"{name}_normal_deg_median"] = float(np.median(reference.normal_angles(f.normal, ref_normal, mask)))
+        rows.append(row)
+        print(f"lod {k:4.1f} x switch ({switch * k:.3f}): {ms['lists']:6.1f} ms lists, {ms['auto']:6.1f} auto "
+              f"({100 * row['auto_baked_share']:3.0f}% baked), {ms['baked']:6.1f} baked; pop "
+              f"{row['pop_normal_deg_mean']:.2f}° / {row['pop_gray_mean']:.2f} gray (1% motion: "
+              f"{row['motion_normal_deg_mean']:.2f}° / {row['motion_gray_mean']:.2f}); median error "
+              f"{row['lists_normal_deg_median']:.3f}° lists, {row['baked_normal_deg_median']:.3f}° baked", flush=True)
+    return rows
+
+
+def occlusion(repeats: int) -> dict[str, Any]:
+    """Ambient occlusion per vertex on the bunny against embree (see the module's docstring)."""
+    import trimesh
+
+    mesh = gt.load_mesh(BUNNY)
+    seconds = []
+    for _ in range(max(1, repeats // 2)):
+        igt = gt.igt.build(mesh, resolution=128, attributes=["normals", "ao"])
+        seconds.append(igt.stats["seconds_occlusion"])
+    ao = igt.ao
+    assert ao is not None
+    vertex_ao = np.ones(len(igt.vertices), np.float32)
+    vertex_ao[igt.faces] = ao
+    tm = trimesh.Trimesh(igt.vertices, igt.faces, process=False)
+    rng = np.random.default_rng(2)
+    picked = np.concatenate([np.argsort(vertex_ao)[:200], rng.choice(len(igt.vertices), 200, replace=False)])
+    rays = 1024
+    n = tm.vertex_normals[picked]
+    helper = np.where(np.abs(n[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+    t = np.cross(n, helper)
+    t /= np.linalg.norm(t, axis=1, keepdims=True)
+    b = np.cross(n, t)
+    u1, u2 = rng.random((2, len(picked), rays))
+    r, phi = np.sqrt(u1), 2 * np.pi * u2
+    dirs = ((r * np.cos(phi))[..., None] * t[:, None] + (r * np.sin(phi))[..., None] * b[:, None]
+            + np.sqrt(1 - u1)[..., None] * n[:, None])
+    lift = 1e-5 * float(np.linalg.norm(tm.extents))
+    o = np.repeat(tm.vertices[picked] + n * lift, rays, axis=0)
+    ref = 1.0 - tm.ray.intersects_any(o, dirs.reshape(-1, 3)).reshape(len(picked), rays).mean(axis=1)
+    diff = vertex_ao[picked] - ref
+    out = {"vertices": len(igt.vertices), "rays": 64, "seconds": float(np.median(seconds)),
+           "reference_rays": rays, "compared": len(picked), "mean_abs_diff": float(np.abs(diff).mean()),
+           "bias": float(diff.mean()), "p95_abs_diff": float(np.percentile(np.abs(diff), 95)),
+           "reference_min": float(ref.min()), "mean_ao": float(vertex_ao.mean())}
+    print(f"occlusion: {out['seconds']:.1f} s for {out['vertices']} vertices x 64 rays; against embree "
+          f"(1,024 rays) mean |diff| {out['mean_abs_diff']:.4f}, bias {out['bias']:+.4f}", flush=True)
+    return out
+
+
+def plot_lod(rows: list[dict[str, Any]], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    k = [r["distance_over_switch"] for r in rows]
+    fig, ax = plt.subplots(1, 2, figsize=(11, 4))
+    for name, style in (("lists", "-o"), ("auto", "-s"), ("baked", "--^")):
+        ax[0].plot(k, [r[f"{name}_gpu_ms"] for r in rows], style, label=name)
+    ax[0].set_yscale("log")
+    ax[0].set_title("frame ms (bunny 2% + IGT 512²)")
+    ax[1].plot(k, [r["pop_normal_deg_mean"] for r in rows], "-o", label="pop: lists vs baked")
+    ax[1].plot(k, [r["motion_normal_deg_mean"] for r in rows], "--s", label="lists, camera 1% nearer")
+    ax[1].set_title("mean normal difference (°)")
+    for a in ax:
+        a.set_xscale("log", base=2)
+        a.set_xlabel("camera distance / distance where a cell spans a pixel")
+        a.axvline(1.0, color="gray", lw=0.8)
+        a.legend()
+    fig.suptitle(f"shader LoD at {SIZE}² (bench/igt.py)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
 
 
 def summary(data: dict[str, Any]) -> dict[str, Any]:
@@ -319,6 +450,14 @@ def summary(data: dict[str, Any]) -> dict[str, Any]:
                                              "one_gpu_ms", "five_gpu_ms")}
     if data.get("speed"):
         out["speed"] = data["speed"]["gpu_ms"] | {"speedup": data["speed"]["speedup"]}
+    if data.get("lod"):
+        at = min(data["lod"], key=lambda r: abs(r["distance_over_switch"] - 1.0))
+        out["lod_at_switch"] = {key: at[key] for key in (
+            "lists_gpu_ms", "auto_gpu_ms", "baked_gpu_ms", "auto_baked_share", "pop_normal_deg_mean",
+            "pop_gray_mean", "motion_normal_deg_mean", "motion_gray_mean", "lists_normal_deg_median",
+            "baked_normal_deg_median")}
+    if data.get("occlusion"):
+        out["occlusion"] = data["occlusion"]
     return out
 
 
@@ -358,31 +497,54 @@ def plot(data: dict[str, Any], path: Path) -> None:
     fig.savefig(path, dpi=90)
 
 
+SECTIONS = ("tables", "accuracy", "color", "filtering", "speed", "lod", "occlusion")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true", help="bunny and spot only")
     parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--sections", default=",".join(SECTIONS),
+                        help="comma-separated sections to run, merged into the existing JSON")
     args = parser.parse_args()
-    load_start = os.getloadavg()
+    sections = args.sections.split(",")
+    unknown = set(sections) - set(SECTIONS)
+    if unknown:
+        parser.error(f"unknown sections {sorted(unknown)}; choose from {SECTIONS}")
     renderer = gt.Renderer(SIZE, SIZE)
     OUT.mkdir(parents=True, exist_ok=True)
-    data: dict[str, Any] = {
-        "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-        "machine": platform.platform(), "adapter": renderer.adapter_info, "size": SIZE,
-        "repeats": args.repeats, "load_start": load_start,
+    path = OUT / "igt.json"
+    full = set(sections) == set(SECTIONS)
+    data: dict[str, Any] = {} if full or not path.exists() else json.loads(path.read_text())
+    stamp = {"date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+             "machine": platform.platform(), "adapter": renderer.adapter_info, "size": SIZE,
+             "repeats": args.repeats, "load_start": os.getloadavg()}
+    if full:
+        data |= stamp
+    runs = {
+        "tables": lambda: tables("bunny", gt.load_mesh(BUNNY), renderer, args.repeats, RESOLUTIONS)
+        + tables("spot", load_spot(), renderer, args.repeats, RESOLUTIONS),
+        "accuracy": lambda: accuracy(renderer, args.repeats),
+        "color": lambda: color(renderer),
+        "filtering": lambda: filtering(renderer, args.repeats),
+        "speed": lambda: None if args.quick else speed(renderer, args.repeats),
+        "lod": lambda: lod(renderer, args.repeats),
+        "occlusion": lambda: occlusion(args.repeats),
     }
-    data["tables"] = tables("bunny", gt.load_mesh(BUNNY), renderer, args.repeats, RESOLUTIONS)
-    data["tables"] += tables("spot", load_spot(), renderer, args.repeats, RESOLUTIONS)
-    data["accuracy"] = accuracy(renderer, args.repeats)
-    data["color"] = color(renderer)
-    data["filtering"] = filtering(renderer, args.repeats)
-    if not args.quick:
-        data["speed"] = speed(renderer, args.repeats)
+    for name in sections:
+        start = os.getloadavg()
+        data[name] = runs[name]()
+        if not full:
+            data.setdefault("section_runs", {})[name] = stamp | {"load_start": start, "load_end": os.getloadavg()}
     data["load_end"] = os.getloadavg()
     data["summary"] = summary(data)
-    (OUT / "igt.json").write_text(json.dumps(data, indent=1))
-    plot(data, OUT / "igt.png")
-    print(json.dumps(data["summary"], indent=1))
+    path.write_text(json.dumps(data, indent=1))
+    if "tables" in data and "accuracy" in data:
+        plot(data, OUT / "igt.png")
+    if data.get("lod"):
+        plot_lod(data["lod"], OUT / "igt_lod.png")
+    print(json.dumps({k: data["summary"][k] for k in ("lod_at_switch", "occlusion") if k in data["summary"]},
+                     indent=1))
 
 
 if __name__ == "__main__":

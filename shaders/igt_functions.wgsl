@@ -285,9 +285,17 @@ fn igt_octahedral(e: vec2<f32>) -> vec3<f32> {
 fn igt_normal(face: u32, bary: vec3<f32>) -> vec3<f32> {
     var n = vec3<f32>(0.0);
     for (var k = 0u; k < 3u; k++) {
-        n += bary[k] * igt_octahedral(unpack2x16snorm(corner_normals[3u * face + k]));
+        n += bary[k] * igt_octahedral(unpack2x16snorm(attributes[3u * face + k]));
     }
     return normalize(n);
+}
+
+// The unoccluded fraction at `bary` of the detailed face (1 without the occlusion attribute).
+fn igt_occlusion(face: u32, bary: vec3<f32>) -> f32 {
+    if ((object.info.y & 4u) == 0u) {
+        return 1.0;
+    }
+    return dot(bary, unpack4x8unorm(attributes[object.segments.w + face]).xyz);
 }
 
 // Texel (i, j) of the image, repeating.
@@ -296,7 +304,7 @@ fn igt_texel(i: i32, j: i32) -> vec4<f32> {
     let h = i32(object.info.w);
     let ii = ((i % w) + w) % w;
     let jj = ((j % h) + h) % h;
-    return unpack4x8unorm(image[jj * w + ii]);
+    return unpack4x8unorm(attributes[object.segments.z + u32(jj * w + ii)]);
 }
 
 // The image sampled bilinearly at full size at texture coordinates `uv` ((0, 0) at the bottom
@@ -317,16 +325,82 @@ fn igt_sample(uv: vec2<f32>) -> vec4<f32> {
 // The detailed face's base color at `bary`: its texture, else its corner colors, else neutral.
 fn igt_color(face: u32, bary: vec3<f32>) -> vec4<f32> {
     if ((object.info.y & 2u) != 0u) {
-        let k = 3u * face;
-        let uv = bary.x * corner_uvs[k] + bary.y * corner_uvs[k + 1u] + bary.z * corner_uvs[k + 2u];
+        var uv = vec2<f32>(0.0);
+        for (var k = 0u; k < 3u; k++) {
+            let at = object.segments.y + 6u * face + 2u * k;
+            uv += bary[k] * bitcast<vec2<f32>>(vec2<u32>(attributes[at], attributes[at + 1u]));
+        }
         return igt_sample(uv);
     }
     if ((object.info.y & 1u) != 0u) {
         var c = vec4<f32>(0.0);
         for (var k = 0u; k < 3u; k++) {
-            c += bary[k] * unpack4x8unorm(corner_colors[3u * face + k]);
+            c += bary[k] * unpack4x8unorm(attributes[object.segments.x + 3u * face + k]);
         }
         return c;
     }
     return vec4<f32>(200.0, 200.0, 200.0, 255.0) / 255.0;
+}
+
+// A baked cell with nothing listed near it (kinds/igt.rs, EMPTY_CELL).
+const IGT_EMPTY_CELL: u32 = 0x80008000u;
+
+// The shader LoD: the baked texture (one normal and color per cell, bake.rs) read bilinearly
+// between the four cell centres around object-space point `p` of grid `grid`, empty cells
+// left out. Alpha -1 when all four are empty (the caller then looks up).
+fn igt_baked(grid: u32, p: vec3<f32>) -> IgtShade {
+    let g = grids[grid];
+    let at = igt_project(g, p) - vec2<f32>(0.5);
+    let corner = floor(at);
+    let f = at - corner;
+    var normal = vec3<f32>(0.0);
+    var base = vec4<f32>(0.0);
+    var weight = 0.0;
+    for (var k = 0; k < 4; k++) {
+        let di = k & 1;
+        let dj = k >> 1u;
+        let c = igt_cell(g, i32(corner.x) + di, i32(corner.y) + dj);
+        let record = baked[c];
+        if (record.x == IGT_EMPTY_CELL) {
+            continue;
+        }
+        let w = select(1.0 - f.x, f.x, di == 1) * select(1.0 - f.y, f.y, dj == 1);
+        normal += w * igt_octahedral(unpack2x16snorm(record.x));
+        base += w * unpack4x8unorm(record.y);
+        weight += w;
+    }
+    if (weight <= 0.0) {
+        return IgtShade(vec3<f32>(0.0), vec4<f32>(-1.0));
+    }
+    return IgtShade(normalize(normal), base / weight);
+}
+
+// How many cells of grid `grid` one pixel spans at `p`, from the simplified surface's
+// object-space derivatives per pixel (the larger of the two screen axes; a wrapping primary's
+// u difference taken the short way round).
+fn igt_cells_per_pixel(grid: u32, p: vec3<f32>, dx: vec3<f32>, dy: vec3<f32>) -> f32 {
+    let g = grids[grid];
+    let at = igt_project(g, p);
+    let w = f32(g.size.x);
+    var du = igt_project(g, p + dx) - at;
+    var dv = igt_project(g, p + dy) - at;
+    if (igt_wraps()) {
+        du.x -= w * round(du.x / w);
+        dv.x -= w * round(dv.x / w);
+    }
+    return max(length(du), length(dv));
+}
+
+// Whether the shader LoD shades this point from the baked texture (object.lod: off, where a
+// cell covers less than a pixel, or beyond a distance).
+fn igt_far(grid: u32, p: vec3<f32>, view_pos: vec3<f32>, dx: vec3<f32>, dy: vec3<f32>) -> bool {
+    if (object.lod.y == 1u) {
+        return igt_cells_per_pixel(grid, p, dx, dy) >= 1.0;
+    }
+    if (object.lod.y == 2u) {
+        let ortho = camera.params.x > 0.5;
+        let distance = select(length(view_pos), -view_pos.z, ortho);
+        return distance >= bitcast<f32>(object.lod.z);
+    }
+    return false;
 }

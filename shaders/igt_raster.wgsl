@@ -2,8 +2,9 @@
 // the shared targets and reversed-Z depth (two-sided, as meshes are), and each fragment is
 // shaded with the attributes of the detailed triangle under it (igt_functions.wgsl): its
 // normal, and its texture or corner colors (with 5 samples, averaged over the pixel's
-// footprint). Where nothing is listed near a point, the simplified face's own normal and the
-// neutral color.
+// footprint), darkened by its ambient occlusion when the texture has it. Where nothing is
+// listed near a point, the simplified face's own normal and the neutral color. Where the
+// object's shader LoD says the point is far, the baked texture instead (igt_baked).
 //
 // Spaces: see igt_types.wgsl.
 
@@ -85,7 +86,31 @@ fn igt_shade(in: VsOut) -> IgtShade {
         return IgtShade(vec3<f32>(0.0), vec4<f32>(200.0, 200.0, 200.0, 255.0) / 255.0);
     }
     let face = entries[hit.entry].face;
-    return IgtShade(igt_normal(face, hit.bary), igt_color(face, hit.bary));
+    let base = igt_color(face, hit.bary);
+    let open = igt_occlusion(face, hit.bary);
+    return IgtShade(igt_normal(face, hit.bary), vec4<f32>(base.rgb * open, base.a));
+}
+
+// What `in` shows through the lookup: one sample, or with object.ids.z == 5 the pixel's five
+// (moved along the simplified surface by the footprint's derivatives, and their view rays with
+// them; the normals that were found and all colors averaged).
+fn igt_shade_pixel(in: VsOut, dx: vec3<f32>, dy: vec3<f32>, view_dx: vec3<f32>, view_dy: vec3<f32>) -> IgtShade {
+    let shade = igt_shade(in);
+    if (object.ids.z != 5) {
+        return shade;
+    }
+    var normal_sum = shade.normal;
+    var base_sum = shade.base;
+    for (var k = 0; k < 4; k++) {
+        var s = in;
+        let o = IGT_OFFSETS[k];
+        s.object_pos += o.x * dx + o.y * dy;
+        s.view_pos += o.x * view_dx + o.y * view_dy;
+        let more = igt_shade(s);
+        normal_sum += more.normal;
+        base_sum += more.base;
+    }
+    return IgtShade(normal_sum, base_sum / 5.0);
 }
 
 @fragment
@@ -96,22 +121,14 @@ fn fs_main(in: VsOut) -> RasterFsOut {
     let view_dx = dpdx(in.view_pos);
     let view_dy = dpdy(in.view_pos);
     let flat_normal = cross(dx, dy);
-    var shade = igt_shade(in);
-    if (object.ids.z == 5) {
-        // The footprint's samples moved along the simplified surface (and their view rays
-        // with them); the normals that were found and all colors averaged.
-        var normal_sum = shade.normal;
-        var base_sum = shade.base;
-        for (var k = 0; k < 4; k++) {
-            var s = in;
-            let o = IGT_OFFSETS[k];
-            s.object_pos += o.x * dx + o.y * dy;
-            s.view_pos += o.x * view_dx + o.y * view_dy;
-            let more = igt_shade(s);
-            normal_sum += more.normal;
-            base_sum += more.base;
-        }
-        shade = IgtShade(normal_sum, base_sum / 5.0);
+    // Far away the baked texture (already one value per cell: no extra samples), unless no
+    // cell near the point holds one.
+    var shade = IgtShade(vec3<f32>(0.0), vec4<f32>(-1.0));
+    if (igt_far(in.grid, in.object_pos, in.view_pos, dx, dy)) {
+        shade = igt_baked(in.grid, in.object_pos);
+    }
+    if (shade.base.a < 0.0) {
+        shade = igt_shade_pixel(in, dx, dy, view_dx, view_dy);
     }
     var n = flat_normal;
     if (dot(shade.normal, shade.normal) > 0.0) {

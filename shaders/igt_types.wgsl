@@ -13,10 +13,17 @@ struct IgtObject {
     // per pixel (1, or 5 averaged).
     ids: vec4<i32>,
     // x: primary (0 charts, 1 spherical, 2 cylindrical), y: attribute bits (1 corner colors,
-    // 2 texture coordinates and image), z, w: the image's width and height in pixels.
+    // 2 texture coordinates and image, 4 ambient occlusion), z, w: the image's width and height
+    // in pixels.
     info: vec4<u32>,
     // Inverse of view_from_object (for the view ray's direction in object space).
     object_from_view: mat4x4<f32>,
+    // Where the attribute buffer's parts start: corner colors, texture coordinates, image,
+    // occlusion (the normals start at 0).
+    segments: vec4<u32>,
+    // y: the shader LoD (0 off, 1 where a cell covers less than a pixel, 2 beyond a distance);
+    // z: that distance's f32 bits (view units); x, w unused.
+    lod: vec4<u32>,
 }
 
 // One grid of the primary space. Its y axis is cross(z, x) (the axes are right-handed).
@@ -50,7 +57,7 @@ struct IgtHit {
 }
 
 // What a fragment shows: the detailed normal (object space; zero when no triangle was found)
-// and base color.
+// and base color (occlusion applied; alpha -1 from igt_baked when no baked cell was near).
 struct IgtShade {
     normal: vec3<f32>,
     base: vec4<f32>,

@@ -33,9 +33,10 @@ def restore_igt(data: bytes) -> _core.InverseGeometricTexture:
 
 
 def restore_igt_mesh(igt: _core.InverseGeometricTexture, vertices: Any, faces: Any, face_grid: Any,
-                     lookup: str | None = None) -> _core.IgtMesh:
-    # Pickles made before the ray lookup carry no lookup: they get the default.
-    return igt.shade(vertices, faces, [int(g) for g in face_grid], lookup=lookup)
+                     lookup: str | None = None, samples: int | None = None,
+                     lod: str | float | None = None) -> _core.IgtMesh:
+    # Older pickles carry no lookup, samples or LoD: they get the defaults.
+    return igt.shade(vertices, faces, [int(g) for g in face_grid], lookup=lookup, samples=samples, lod=lod)
 
 
 def restore_mesh(*arrays: Any) -> Any:
@@ -83,7 +84,8 @@ def _reduce_igt(self: _core.InverseGeometricTexture) -> tuple[Any, ...]:
 
 
 def _reduce_igt_mesh(self: _core.IgtMesh) -> tuple[Any, ...]:
-    return restore_igt_mesh, (self.igt, self.vertices, self.faces, self.face_grid, self.lookup)
+    return restore_igt_mesh, (self.igt, self.vertices, self.faces, self.face_grid, self.lookup, self.samples,
+                              self.lod)
 
 
 def _reduce_mesh(self: _core.Mesh) -> tuple[Any, ...]:

@@ -37,6 +37,8 @@ def build(
     normals: Literal["crease", "smooth", "flat"] | None = None,
     crease_angle: float | None = None,
     charts: int | None = None,
+    ao_rays: int | None = None,
+    ao_distance: float | None = None,
     progress: Callable[[str, float], Any] | None = None,
 ) -> InverseGeometricTexture:
     """The inverse geometric texture of a detailed mesh (Mesh, trimesh or path).
@@ -44,8 +46,13 @@ def build(
     primary: "charts" (the conversion's fold-free charts, bijective by construction),
     "spherical" (star-shaped meshes) or "cylindrical". resolution: about resolution² cells over
     the whole primary space (default 512). attributes: which of "normals", "colors", "uv" to
-    keep (default all the mesh has; normals always). normals / crease_angle: the normal rule, as
-    for convert. charts: a fixed chart count for the partition. progress(stage, fraction)."""
+    keep (default the normals, and the colors and texture coordinates the mesh has), and "ao" to
+    compute ambient occlusion per vertex: the unoccluded fraction of `ao_rays` (default 64)
+    cosine-weighted rays over the hemisphere around the vertex normal, cast against the detailed
+    mesh on the CPU, hits beyond `ao_distance` (mesh units; default none) not counting. It
+    darkens the base color where the texture shades (frame.color and frame.albedo), leaving
+    normals alone. normals / crease_angle: the normal rule, as for convert. charts: a fixed
+    chart count for the partition. progress(stage, fraction)."""
     if isinstance(attributes, str):
         attributes = [attributes]
     return _core.build_igt(
@@ -56,6 +63,8 @@ def build(
         normals=normals,
         crease_angle=crease_angle,
         charts=charts,
+        ao_rays=ao_rays,
+        ao_distance=ao_distance,
         progress=progress,
     )
 
@@ -66,10 +75,16 @@ def load(path: str | os.PathLike[str]) -> InverseGeometricTexture:
     return _core.load_igt(path)
 
 
-def simplify(igt: InverseGeometricTexture, target_faces: int, lookup: str = "ray", samples: int = 1) -> IgtMesh:
+def simplify(
+    igt: InverseGeometricTexture,
+    target_faces: int,
+    lookup: str = "ray",
+    samples: int = 1,
+    lod: str | float = "off",
+) -> IgtMesh:
     """The detailed mesh simplified to about `target_faces` faces (pymeshlab's quadric edge
     collapse, normals preserved), as an IgtMesh shaded through `igt` (see `attach` for how its
-    faces are given their grids and for `lookup`)."""
+    faces are given their grids, `lookup`, `samples` and `lod`)."""
     if not isinstance(target_faces, (int, np.integer)) or isinstance(target_faces, bool):
         raise ParameterError(f"target_faces must be an integer, got {target_faces!r}")
     faces = igt.faces
@@ -88,10 +103,17 @@ def simplify(igt: InverseGeometricTexture, target_faces: int, lookup: str = "ray
         targetfacenum=int(target_faces), preservenormal=True, qualitythr=0.5
     )
     low = ms.current_mesh()
-    return attach(igt, low.vertex_matrix(), low.face_matrix(), lookup=lookup, samples=samples)
+    return attach(igt, low.vertex_matrix(), low.face_matrix(), lookup=lookup, samples=samples, lod=lod)
 
 
-def attach(igt: InverseGeometricTexture, vertices: Any, faces: Any, lookup: str = "ray", samples: int = 1) -> IgtMesh:
+def attach(
+    igt: InverseGeometricTexture,
+    vertices: Any,
+    faces: Any,
+    lookup: str = "ray",
+    samples: int = 1,
+    lod: str | float = "off",
+) -> IgtMesh:
     """A mesh simplified from the detailed one (by `simplify` or elsewhere; same space), as an
     IgtMesh shaded through `igt`.
 
@@ -105,6 +127,12 @@ def attach(igt: InverseGeometricTexture, vertices: Any, faces: Any, lookup: str 
     points of its footprint on the simplified surface, from the screen-space derivatives of the
     lookup position; normals and colors averaged): the paper's filtering option, against
     aliasing where a pixel covers several detailed triangles, at 5x the lookup cost.
+
+    `lod`, the shader LoD: "off" (default) always looks up through the lists; "auto" shades a
+    pixel from a plain texture baked from the same attributes (one value per cell of the
+    primary space, read bilinearly) where one cell covers less than a pixel, so the lists would
+    resolve detail the pixel cannot show; a number: beyond that distance from the camera (world
+    units). The texture is baked once per texture when first drawn (stats["bytes_lod"]).
 
     Every face is assigned the grid (chart) of the detailed face nearest to its centroid, and its
     points are projected along that chart's axis: the simplified surface lies close to the
@@ -125,4 +153,4 @@ def attach(igt: InverseGeometricTexture, vertices: Any, faces: Any, lookup: str 
         centroids = igt.vertices[igt.faces[listed]].mean(axis=1)
         _, nearest = cKDTree(centroids).query(v[f].mean(axis=1))
         face_grid = igt.face_grid[listed[nearest]]
-    return igt.shade(v, f, face_grid.tolist(), lookup=lookup, samples=samples)
+    return igt.shade(v, f, face_grid.tolist(), lookup=lookup, samples=samples, lod=lod)

@@ -1,9 +1,11 @@
-//! The .gtigt file format of inverse geometric textures, version 1. Little-endian throughout.
+//! The .gtigt file format of inverse geometric textures, version 2 (version 1 files, which
+//! cannot hold ambient occlusion, are read too). Little-endian throughout.
 //!
 //! ```text
 //! header (32 bytes): magic b"GTIGT\r\n\x1a" | version u32 | primary u32 (0 charts, 1 spherical,
 //!                    2 cylindrical) | payload length u64 | CRC-32 of the payload u32 | reserved u32
-//! payload: resolution u32 | faces u32 | flags u32 (1 colors, 2 texture coordinates, 4 image) |
+//! payload: resolution u32 | faces u32 | flags u32 (1 colors, 2 texture coordinates, 4 image,
+//!          8 ambient occlusion) |
 //!          stats: count u32, then (name: len u16 + UTF-8, value f64) |
 //!          grid count u32 | each grid: origin 3 f64 | axes 9 f64 | cell 2 f64 | width u32 |
 //!          height u32 |
@@ -13,7 +15,7 @@
 //!          face grid u32[faces] | vertex count u32 | positions f64[vertices * 3] |
 //!          faces u32[faces * 3] | normals f32[faces * 9] | colors u8[faces * 12] (flag 1) |
 //!          texture coordinates f32[faces * 6] (flag 2) | image width u32, height u32,
-//!          RGBA8 pixels (flag 4)
+//!          RGBA8 pixels (flag 4) | ambient occlusion u8[faces * 3] (flag 8)
 //! ```
 //! A file whose bytes pass the checksum must still hold a possible texture (`validate`: finite
 //! orthonormal grids of 1 to MAX_RESOLUTION cells a side, offsets that rise to the payload's
@@ -31,7 +33,7 @@ use crate::error::{GeomtexError, Result};
 use crate::gtex::file::{put_f64s, put_named, write_atomically, Reader};
 
 pub const MAGIC: &[u8; 8] = b"GTIGT\r\n\x1a";
-pub const VERSION: u32 = 1;
+pub const VERSION: u32 = 2;
 const HEADER: usize = 32;
 
 fn put_u32s(out: &mut Vec<u8>, v: impl IntoIterator<Item = u32>) {
@@ -47,7 +49,10 @@ fn put_f32s(out: &mut Vec<u8>, v: impl IntoIterator<Item = f32>) {
 }
 
 fn flags(a: &Attributes) -> u32 {
-    a.colors.is_some() as u32 | (a.uv.is_some() as u32) << 1 | (a.image.is_some() as u32) << 2
+    a.colors.is_some() as u32
+        | (a.uv.is_some() as u32) << 1
+        | (a.image.is_some() as u32) << 2
+        | (a.ao.is_some() as u32) << 3
 }
 
 fn encode_payload(igt: &InverseGeometricTexture) -> Vec<u8> {
@@ -88,6 +93,9 @@ fn encode_payload(igt: &InverseGeometricTexture) -> Vec<u8> {
     if let Some(image) = &a.image {
         put_u32s(&mut p, [image.width() as u32, image.height() as u32]);
         p.extend(image.pixels().iter().flatten());
+    }
+    if let Some(ao) = &a.ao {
+        p.extend(ao.iter().flatten());
     }
     p
 }
@@ -225,11 +233,18 @@ fn read_attributes(r: &mut Reader, faces: usize, flags: u32) -> Text<Attributes>
     } else {
         None
     };
+    let ao = if flags & 8 != 0 {
+        let b = r.take(faces * 3, "ambient occlusion")?;
+        Some(b.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect())
+    } else {
+        None
+    };
     Ok(Attributes {
         normals,
         colors,
         uv,
         image,
+        ao,
     })
 }
 
@@ -261,9 +276,9 @@ pub fn decode(bytes: &[u8]) -> Text<InverseGeometricTexture> {
         return Err("not a .gtigt file (bad magic number or shorter than its header)".into());
     }
     let word = |at: usize| u32::from_le_bytes(bytes[at..at + 4].try_into().unwrap());
-    if word(8) != VERSION {
+    if !(1..=VERSION).contains(&word(8)) {
         return Err(format!(
-            "file format version {}; this geomtex reads version {VERSION}",
+            "file format version {}; this geomtex reads versions 1 to {VERSION}",
             word(8)
         ));
     }
@@ -285,6 +300,13 @@ pub fn decode(bytes: &[u8]) -> Text<InverseGeometricTexture> {
         pos: 0,
     };
     let (resolution, faces, flags) = (r.u32("resolution")?, r.u32("faces")?, r.u32("flags")?);
+    // Version 1 knew flags 1, 2 and 4; 8 (ambient occlusion) came with version 2.
+    let known = if word(8) == 1 { 7 } else { 15 };
+    if flags & !known != 0 {
+        return Err(format!(
+            "attribute flags {flags:#x} name unknown attributes"
+        ));
+    }
     super::check_resolution(resolution as i64).map_err(|e| e.to_string())?;
     let stats = r.named("stats")?;
     let n_grids = r.u32("grid count")? as usize;

@@ -98,8 +98,12 @@ impl InverseGeometricTexture {
 
     /// The detailed face under world point `p` in grid `g`.
     pub fn lookup(&self, g: usize, p: DVec3) -> Hit {
+        self.lookup_uv(g, self.grids[g].project(self.primary, p))
+    }
+
+    /// The detailed face under point `uv` of grid `g`'s primary space (cell units).
+    pub fn lookup_uv(&self, g: usize, uv: DVec2) -> Hit {
         let grid = &self.grids[g];
-        let uv = grid.project(self.primary, p);
         let (i, j) = (uv.x.floor() as i64, uv.y.floor() as i64);
         let cell = (grid.first_cell + grid.cell_index(self.primary, i, j)) as usize;
         let list = self.list(cell);

@@ -9,8 +9,10 @@
 //! Spaces: world (the detailed mesh's, f64) in; primary space per grid in cell units
 //! (primary.rs).
 
+pub mod bake;
 pub mod file;
 pub mod lookup;
+pub mod occlusion;
 pub mod primary;
 pub mod window;
 
@@ -23,6 +25,7 @@ use crate::appearance::{Image, TextureCoords};
 use crate::convert::{chart_planes, ConvertOptions, Progress, Stages};
 use crate::error::{GeomtexError, Result};
 use crate::mesh::{Mesh, MeshGeometry, NormalRule};
+pub use occlusion::OcclusionOptions;
 pub use primary::{Grid, Primary};
 
 pub const DEFAULT_RESOLUTION: u32 = 512;
@@ -43,6 +46,8 @@ pub struct IgtOptions {
     pub colors: bool,
     /// Keep texture coordinates and the texture image (when the mesh has them).
     pub uv: bool,
+    /// Compute ambient occlusion per vertex (occlusion.rs); None: no occlusion attribute.
+    pub ao: Option<OcclusionOptions>,
     /// Partition options for the charts primary (convert's, one partition).
     pub charts: ConvertOptions,
 }
@@ -55,6 +60,7 @@ impl Default for IgtOptions {
             normals: NormalRule::default(),
             colors: true,
             uv: true,
+            ao: None,
             charts: ConvertOptions::default(),
         }
     }
@@ -96,6 +102,9 @@ pub struct Attributes {
     /// The mesh's texture coordinates, and its texture image.
     pub uv: Option<Vec<[[f32; 2]; 3]>>,
     pub image: Option<Arc<Image>>,
+    /// Ambient occlusion at each corner (its vertex's, occlusion.rs), 0 to 255 for the
+    /// unoccluded fraction 0 to 1.
+    pub ao: Option<Vec<[u8; 3]>>,
 }
 
 /// An inverse geometric texture of a detailed mesh.
@@ -150,8 +159,13 @@ pub fn build(
     stages.end("entries");
     let (cell_start, cell_entries) = lists(opts.primary, &grids, &entries, &mut stages)?;
     stages.begin("attributes")?;
-    let attributes = attributes(mesh, opts);
+    let mut attributes = attributes(mesh, opts);
     stages.end("attributes");
+    if let Some(o) = &opts.ao {
+        stages.begin("occlusion")?;
+        attributes.ao = Some(corner_occlusion(mesh, o, stages.progress)?);
+        stages.end("occlusion");
+    }
     let mut igt = InverseGeometricTexture {
         primary: opts.primary,
         resolution: opts.resolution,
@@ -385,15 +399,32 @@ fn attributes(mesh: &Mesh, opts: &IgtOptions) -> Attributes {
         colors,
         uv,
         image: texture.map(|t| t.image.clone()),
+        ao: None,
     }
 }
 
+/// Ambient occlusion at every corner of `mesh` (its vertex's), as bytes.
+fn corner_occlusion(
+    mesh: &Mesh,
+    opts: &OcclusionOptions,
+    progress: Progress,
+) -> Result<Vec<[u8; 3]>> {
+    let geo = MeshGeometry::new(mesh);
+    let open = occlusion::vertex_occlusion(mesh, &geo, opts, progress)?;
+    let byte = |v: u32| (open[v as usize] * 255.0).round() as u8;
+    Ok(mesh.faces.iter().map(|t| t.map(byte)).collect())
+}
+
 /// Bytes per GPU entry (corners 6 f32, face, grid) and per face of each attribute (three
-/// corners: a normal as two snorm16, a color as four unorm8, texture coordinates as two f32).
+/// corners: a normal as two snorm16, a color as four unorm8, texture coordinates as two f32,
+/// ambient occlusion as one unorm8, the three in one u32).
 pub const ENTRY_BYTES: usize = 32;
 pub const NORMAL_BYTES: usize = 12;
 pub const COLOR_BYTES: usize = 12;
 pub const UV_BYTES: usize = 24;
+pub const AO_BYTES: usize = 4;
+/// Bytes per cell of the shader LoD's baked texture (a normal and a color).
+pub const BAKED_BYTES: usize = 8;
 /// Bytes per grid record on the GPU.
 pub const GRID_BYTES: usize = 64;
 
@@ -428,7 +459,8 @@ impl InverseGeometricTexture {
         let faces = self.face_count();
         let attributes = faces * NORMAL_BYTES
             + a.colors.as_ref().map_or(0, |_| faces * COLOR_BYTES)
-            + a.uv.as_ref().map_or(0, |_| faces * UV_BYTES);
+            + a.uv.as_ref().map_or(0, |_| faces * UV_BYTES)
+            + a.ao.as_ref().map_or(0, |_| faces * AO_BYTES);
         let image = a.image.as_ref().map_or(0, |i| i.width() * i.height() * 4);
         [
             self.cell_start.len() * 4 + self.grids.len() * GRID_BYTES,
@@ -473,6 +505,8 @@ impl InverseGeometricTexture {
             ("bytes_triangles", bytes[2] as f64),
             ("bytes_attributes", bytes[3] as f64),
             ("bytes_image", bytes[4] as f64),
+            // Built when the texture is first drawn (bake.rs), one record per cell.
+            ("bytes_lod", (cells * BAKED_BYTES) as f64),
             ("bytes", total as f64),
             (
                 "bytes_per_face",
@@ -518,6 +552,45 @@ impl Lookup {
     }
 }
 
+/// When fragments shade from the baked texture (bake.rs) instead of the lists: the shader LoD.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum Lod {
+    /// Always through the lists (the default: the accuracy figures are the lookup's).
+    #[default]
+    Off,
+    /// Where one cell of the primary space covers less than a pixel (the lookup then
+    /// resolves detail the pixel cannot show).
+    Auto,
+    /// Beyond this distance from the camera (view units).
+    Distance(f32),
+}
+
+impl Lod {
+    /// From the keyword's forms: "off", "auto", or a distance (positive, finite).
+    pub fn from_keyword(text: Option<&str>, distance: Option<f64>) -> Result<Lod> {
+        match (text, distance) {
+            (None, None) => Ok(Lod::default()),
+            (Some("off"), None) => Ok(Lod::Off),
+            (Some("auto"), None) => Ok(Lod::Auto),
+            (None, Some(d)) if d.is_finite() && d > 0.0 => Ok(Lod::Distance(d as f32)),
+            (None, Some(d)) => Err(GeomtexError::Parameter(format!(
+                "lod distance must be positive and finite, got {d}"
+            ))),
+            (Some(t), _) => Err(GeomtexError::Parameter(format!(
+                "lod must be 'auto', 'off' or a distance, got {t:?}"
+            ))),
+        }
+    }
+
+    pub fn name(self) -> String {
+        match self {
+            Lod::Off => "off".into(),
+            Lod::Auto => "auto".into(),
+            Lod::Distance(d) => format!("{d}"),
+        }
+    }
+}
+
 /// A simplified mesh shaded through an inverse geometric texture: each of its faces names the
 /// grid its points are projected into (for the charts primary, the chart of the detailed
 /// surface around it; grid 0 for a spherical or cylindrical map).
@@ -536,6 +609,8 @@ pub struct IgtMesh {
     /// Lookups per pixel: 1 (its centre) or 5 (and four points of its footprint, the
     /// attributes averaged: the paper's filtering option).
     pub samples: u32,
+    /// Where the baked texture replaces the lookup.
+    pub lod: Lod,
 }
 
 impl IgtMesh {
@@ -569,6 +644,7 @@ impl IgtMesh {
             face_window,
             face_search_grids,
             samples: 1,
+            lod: Lod::default(),
         })
     }
 
@@ -581,5 +657,11 @@ impl IgtMesh {
         }
         self.samples = samples as u32;
         Ok(self)
+    }
+
+    /// The same mesh with the shader LoD `lod`.
+    pub fn with_lod(mut self, lod: Lod) -> Self {
+        self.lod = lod;
+        self
     }
 }

@@ -12,7 +12,7 @@ use super::errors::heavy;
 use super::gtex::with_progress;
 use super::mesh::PyMesh;
 use crate::error::GeomtexError;
-use crate::igt::{self, file, IgtMesh, IgtOptions, InverseGeometricTexture, Lookup};
+use crate::igt::{self, file, IgtMesh, IgtOptions, InverseGeometricTexture, Lod, Lookup};
 use crate::mesh::{Mesh, NormalRule};
 
 /// An inverse geometric texture: per cell of a primary parameterization (the conversion's
@@ -31,27 +31,58 @@ impl PyIgt {
     }
 }
 
-/// Which optional attributes to keep: ("colors", "uv"); normals are always kept.
-fn attribute_flags(attributes: Option<Vec<String>>) -> PyResult<(bool, bool)> {
+/// Which optional attributes to keep or compute: ("colors", "uv", "ao"); normals are always
+/// kept; by default colors and uv (the mesh's own), no occlusion (it is computed, at a cost).
+fn attribute_flags(attributes: Option<Vec<String>>) -> PyResult<(bool, bool, bool)> {
     let Some(names) = attributes else {
-        return Ok((true, true));
+        return Ok((true, true, false));
     };
     for n in &names {
-        if !["normals", "colors", "uv"].contains(&n.as_str()) {
+        if !["normals", "colors", "uv", "ao"].contains(&n.as_str()) {
             return Err(GeomtexError::Parameter(format!(
-                "attributes may name 'normals', 'colors' and 'uv', got {n:?}"
+                "attributes may name 'normals', 'colors', 'uv' and 'ao', got {n:?}"
             ))
             .into());
         }
     }
     let has = |n: &str| names.iter().any(|x| x == n);
-    Ok((has("colors"), has("uv")))
+    Ok((has("colors"), has("uv"), has("ao")))
+}
+
+/// The occlusion options from `ao_rays` and `ao_distance` (which need "ao" among the
+/// attributes).
+fn occlusion_options(
+    ao: bool,
+    rays: Option<&Bound<'_, PyAny>>,
+    distance: Option<f64>,
+) -> PyResult<Option<igt::OcclusionOptions>> {
+    let rays = opt_integer(rays, "ao_rays", 1..=igt::occlusion::MAX_RAYS as i64)?;
+    if !ao {
+        if rays.is_some() || distance.is_some() {
+            return Err(GeomtexError::Parameter(
+                "ao_rays and ao_distance need 'ao' among the attributes".into(),
+            )
+            .into());
+        }
+        return Ok(None);
+    }
+    if let Some(d) = distance.filter(|d| !(d.is_finite() && *d > 0.0)) {
+        return Err(GeomtexError::Parameter(format!(
+            "ao_distance must be positive and finite (mesh units), got {d}"
+        ))
+        .into());
+    }
+    let mut o = igt::OcclusionOptions::default();
+    o.rays = rays.map_or(o.rays, |r| r as u32);
+    o.distance = distance;
+    Ok(Some(o))
 }
 
 /// Builds the inverse geometric texture of a detailed mesh (see geomtex.igt.build).
 #[pyfunction]
 #[pyo3(signature = (mesh, *, primary = None, resolution = None, attributes = None,
-    normals = None, crease_angle = None, charts = None, progress = None))]
+    normals = None, crease_angle = None, charts = None, ao_rays = None, ao_distance = None,
+    progress = None))]
 #[allow(clippy::too_many_arguments)] // one per keyword of geomtex.igt.build
 pub fn build_igt(
     py: Python<'_>,
@@ -62,6 +93,8 @@ pub fn build_igt(
     normals: Option<&Bound<'_, PyAny>>,
     crease_angle: Option<f64>,
     charts: Option<&Bound<'_, PyAny>>,
+    ao_rays: Option<&Bound<'_, PyAny>>,
+    ao_distance: Option<f64>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<PyIgt> {
     let mut opts = IgtOptions::default();
@@ -71,7 +104,9 @@ pub fn build_igt(
     if let Some(r) = opt_integer(resolution, "resolution", i64::MIN..=i64::MAX)? {
         opts.resolution = igt::check_resolution(r)?;
     }
-    (opts.colors, opts.uv) = attribute_flags(attributes)?;
+    let ao;
+    (opts.colors, opts.uv, ao) = attribute_flags(attributes)?;
+    opts.ao = occlusion_options(ao, ao_rays, ao_distance)?;
     let source = opt_text(normals, "normals")?
         .map(|s| s.parse())
         .transpose()?;
@@ -206,6 +241,15 @@ impl PyIgt {
         ))
     }
 
+    /// (F, 3) float32 ambient occlusion at the corners (the unoccluded fraction of each
+    /// vertex's cosine-weighted hemisphere, in steps of 1/255), or None.
+    #[getter]
+    fn ao<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f32>>> {
+        let a = self.inner.attributes.ao.as_ref()?;
+        let v = a.iter().flatten().map(|&b| f32::from(b) / 255.0).collect();
+        Some(matrix(py, v, a.len(), 3))
+    }
+
     /// (H, W, 4) uint8 texture image, row 0 at the top, or None.
     #[getter]
     fn texture<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray3<u8>>> {
@@ -266,8 +310,10 @@ impl PyIgt {
 
     /// A simplified mesh (V, 3) / (M, 3) to render through this texture, each face projected
     /// into grid `face_grid[m]` (see geomtex.igt.simplify); `lookup` "ray" (default) or
-    /// "projection"; `samples` 1 (default) or 5 lookups per pixel, averaged.
-    #[pyo3(signature = (vertices, faces, face_grid, lookup = None, samples = None))]
+    /// "projection"; `samples` 1 (default) or 5 lookups per pixel, averaged; `lod` "off"
+    /// (default), "auto" or a distance (see geomtex.igt.attach).
+    #[pyo3(signature = (vertices, faces, face_grid, lookup = None, samples = None, lod = None))]
+    #[allow(clippy::too_many_arguments)] // one per keyword of geomtex.igt.attach
     fn shade(
         &self,
         py: Python<'_>,
@@ -276,14 +322,33 @@ impl PyIgt {
         face_grid: Vec<i64>,
         lookup: Option<&str>,
         samples: Option<i64>,
+        lod: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<PyIgtMesh> {
+        let lod = match lod {
+            None => Lod::default(),
+            Some(v) => match v.extract::<String>() {
+                Ok(t) => Lod::from_keyword(Some(&t), None)?,
+                Err(_) => Lod::from_keyword(
+                    None,
+                    Some(v.extract::<f64>().map_err(|_| {
+                        GeomtexError::Parameter(format!(
+                            "lod must be 'auto', 'off' or a distance, got {v}"
+                        ))
+                    })?),
+                )?,
+            },
+        };
         expect_columns(&vertices, 3, "vertices", GeomtexError::Mesh)?;
         expect_columns(&faces, 3, "faces", GeomtexError::Mesh)?;
         let lookup = lookup.map_or(Ok(Lookup::default()), str::parse::<Lookup>)?;
         let mesh = Mesh::from_flat(&flat(&vertices), &flat(&faces), None)?;
         let igt = self.inner.clone();
         let shaded = py.detach(move || {
-            IgtMesh::new(igt, mesh, face_grid, lookup)?.with_samples(samples.unwrap_or(1))
+            Ok::<_, GeomtexError>(
+                IgtMesh::new(igt, mesh, face_grid, lookup)?
+                    .with_samples(samples.unwrap_or(1))?
+                    .with_lod(lod),
+            )
         })?;
         Ok(PyIgtMesh {
             inner: Arc::new(shaded),
@@ -378,6 +443,16 @@ impl PyIgtMesh {
     #[getter]
     fn samples(&self) -> u32 {
         self.inner.samples
+    }
+
+    /// The shader LoD: "auto", "off", or the distance (float) beyond which the baked texture
+    /// shades.
+    #[getter]
+    fn lod(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        Ok(match self.inner.lod {
+            Lod::Distance(d) => f64::from(d).into_pyobject(py)?.into_any().unbind(),
+            other => other.name().into_pyobject(py)?.into_any().unbind(),
+        })
     }
 
     /// (M, K) int64: per face, the grids the ray lookup walks (its own first; -1 pads).

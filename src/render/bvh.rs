@@ -110,9 +110,9 @@ impl Bvh {
         self.nodes.len()
     }
 
-    /// GPU nodes with the bounds of `placed` (one box per item, in the frame's space; an empty
-    /// box is a leaf no ray enters).
-    pub fn refit(&self, placed: &[Aabb]) -> Vec<BvhNodeGpu> {
+    /// Per node (depth first), the box around its subtree's items in `placed` (one box per
+    /// item; an empty box is a leaf no ray enters).
+    pub fn node_bounds(&self, placed: &[Aabb]) -> Vec<Aabb> {
         let mut bounds = vec![Aabb::EMPTY; self.nodes.len()];
         // Children follow their parent, so walking backwards meets them first.
         for i in (0..self.nodes.len()).rev() {
@@ -121,6 +121,12 @@ impl Bvh {
                 Shape::Interior { right } => bounds[i + 1].union(bounds[right as usize]),
             };
         }
+        bounds
+    }
+
+    /// GPU nodes with the bounds of `placed` (in the frame's space, as `node_bounds`).
+    pub fn refit(&self, placed: &[Aabb]) -> Vec<BvhNodeGpu> {
+        let bounds = self.node_bounds(placed);
         self.nodes
             .iter()
             .zip(&bounds)
@@ -138,6 +144,37 @@ impl Bvh {
                 }
             })
             .collect()
+    }
+
+    /// Whether `hit(item)` holds for some item whose box the ray o + t d meets for t in
+    /// `span`, on the CPU (`bounds` from `node_bounds`). Stops at the first: an any-hit walk,
+    /// as occlusion rays need.
+    pub fn any(
+        &self,
+        bounds: &[Aabb],
+        o: DVec3,
+        d: DVec3,
+        span: (f64, f64),
+        mut hit: impl FnMut(u32) -> bool,
+    ) -> bool {
+        let mut stack = Vec::with_capacity(64);
+        if !self.nodes.is_empty() {
+            stack.push(0usize);
+        }
+        while let Some(i) = stack.pop() {
+            if !bounds[i].meets(o, d, span) {
+                continue;
+            }
+            match self.nodes[i] {
+                Shape::Leaf { item } => {
+                    if hit(item) {
+                        return true;
+                    }
+                }
+                Shape::Interior { right } => stack.extend([right as usize, i + 1]),
+            }
+        }
+        false
     }
 }
 

@@ -314,6 +314,8 @@ pub(crate) struct IgtObjectGpu {
     pub ids: [i32; 4],
     pub info: [u32; 4],
     pub object_from_view: [[f32; 4]; 4],
+    pub segments: [u32; 4],
+    pub lod: [u32; 4],
 }
 
 /// `IgtGrid` in igt_types.wgsl.
@@ -350,7 +352,7 @@ pub(crate) struct IgtVertex {
     pub normal: [f32; 3],
 }
 
-wgsl_size!(IgtObjectGpu, 224);
+wgsl_size!(IgtObjectGpu, 256);
 const _: () = assert!(offset_of!(IgtObjectGpu, ids) == 128);
 const _: () = assert!(offset_of!(IgtObjectGpu, info) == 144);
 // The sizes the texture's figures count (igt::GRID_BYTES, igt::ENTRY_BYTES).

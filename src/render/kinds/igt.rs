@@ -20,8 +20,9 @@ use wgpu::util::DeviceExt;
 use super::{
     bind_buffers, storage_buffer, DrawCall, FrameView, Kind, Tally, TraceCall, UploadCache,
 };
+use crate::appearance::Image;
 use crate::error::{GeomtexError, Result};
-use crate::igt::{IgtMesh, InverseGeometricTexture, Lookup};
+use crate::igt::{IgtMesh, InverseGeometricTexture, Lod, Lookup};
 use crate::render::cull::DepthRange;
 use crate::render::device::Gpu;
 use crate::render::gpu_types::{
@@ -34,16 +35,22 @@ use crate::render::shaders;
 /// Format of the surface target: detailed face + 1 (0 = none) and the barycentrics' f32 bits.
 pub(crate) const SURFACE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Uint;
 
-/// Storage buffers of group 1 (bindings 1 to 9 of igt_bindings.wgsl).
-const TABLES: usize = 9;
+/// Storage buffers of group 1 (bindings 1 to 7 of igt_bindings.wgsl). With the mesh's own,
+/// eight: within the 8 a fragment stage may bind on any adapter (WebGPU's default limit), which
+/// is why the attributes share one buffer. The baked texture has its own: it grows with the
+/// cells (8 bytes each), as the cell offsets do (4), so the two stay the largest buffers and
+/// under lavapipe's 128 MiB per binding up to about 4096² cells.
+const TABLES: usize = 7;
 
 /// A texture's tables and attributes on the GPU.
 struct UploadedTables {
-    /// Grids, cell offsets, cell entries, entries, normals, colors, uvs, image, and the
-    /// detailed faces' corners (for the ray lookup).
+    /// Grids, cell offsets, cell entries, entries, the attributes (`Attributes` below), the
+    /// detailed faces' corners (for the ray lookup) and the baked texture (the shader LoD's).
     buffers: [wgpu::Buffer; TABLES],
     /// Attribute bits and image size (`IgtObject.info` y, z, w).
     info: [u32; 3],
+    /// Where each part starts in the attribute buffer (`IgtObject.segments`).
+    segments: [u32; 4],
     /// The detailed mesh's bounding-box centre: everything is stored relative to it.
     centre: DVec3,
 }
@@ -82,6 +89,55 @@ fn octahedral(n: Vec3) -> u32 {
 
 fn pack_rgba(c: [u8; 4]) -> u32 {
     u32::from_le_bytes(c)
+}
+
+/// A baked cell with nothing listed near it: a normal code the encoder never writes (it
+/// rounds to ±32767 at most), so the shader can tell it from every normal.
+const EMPTY_CELL: u32 = 0x8000_8000;
+
+/// The attribute buffer: corner normals (always first), corner colors, texture coordinates
+/// (f32 bits), image pixels and corner occlusion (three unorm8 per face), each part where
+/// `segments` says: colors, uvs, image, occlusion (an absent part is empty).
+struct Attributes {
+    words: Vec<u32>,
+    segments: [u32; 4],
+}
+
+/// The baked texture (bake.rs) as the shader reads it: per cell its normal's code and color.
+fn pack_baked(igt: &InverseGeometricTexture) -> Vec<[u32; 2]> {
+    (igt.bake().into_iter())
+        .map(|b| match b {
+            Some(b) => [octahedral(b.normal), pack_rgba(b.color)],
+            None => [EMPTY_CELL, 0],
+        })
+        .collect()
+}
+
+fn pack_attributes(igt: &InverseGeometricTexture, image: Option<&Image>) -> Attributes {
+    let a = &igt.attributes;
+    let mut words: Vec<u32> = (a.normals.iter().flatten())
+        .map(|n| octahedral(Vec3::from_array(*n)))
+        .collect();
+    let mut segments = [0u32; 4];
+    let mut part = |k: usize, words: &mut Vec<u32>, part: &mut dyn Iterator<Item = u32>| {
+        segments[k] = words.len() as u32;
+        words.extend(part);
+    };
+    part(
+        0,
+        &mut words,
+        &mut a.colors.iter().flatten().flatten().map(|c| pack_rgba(*c)),
+    );
+    let uvs = a.uv.iter().flatten().flatten().flatten();
+    part(1, &mut words, &mut uvs.map(|x| x.to_bits()));
+    let pixels = image.map(|i| i.pixels().iter().map(|p| pack_rgba(*p)));
+    part(2, &mut words, &mut pixels.into_iter().flatten());
+    let ao =
+        a.ao.iter()
+            .flatten()
+            .map(|c| pack_rgba([c[0], c[1], c[2], 0]));
+    part(3, &mut words, &mut ao.into_iter());
+    Attributes { words, segments }
 }
 
 /// The grids as the shader takes them, relative to `centre`, with the heights (along z from
@@ -137,21 +193,14 @@ fn upload_tables(gpu: &Gpu, igt: &InverseGeometricTexture) -> Result<UploadedTab
         })
         .collect();
     let a = &igt.attributes;
-    let normals: Vec<u32> = (a.normals.iter().flatten())
-        .map(|n| octahedral(Vec3::from_array(*n)))
-        .collect();
-    let colors: Vec<u32> = (a.colors.iter().flatten().flatten())
-        .map(|c| pack_rgba(*c))
-        .collect();
-    let uvs: Vec<[f32; 2]> = a.uv.iter().flatten().flatten().copied().collect();
-    let image = a.uv.as_ref().and(a.image.as_ref());
+    let image = a.uv.as_ref().and(a.image.as_deref());
+    let packed = pack_attributes(igt, image);
     let corners: Vec<[f32; 3]> = (igt.faces.iter().flatten())
         .map(|&v| (igt.positions[v as usize] - centre).as_vec3().to_array())
         .collect();
-    let pixels: Vec<u32> = image.map_or(Vec::new(), |i| {
-        i.pixels().iter().map(|p| pack_rgba(*p)).collect()
-    });
-    let bits = u32::from(!colors.is_empty()) | (u32::from(image.is_some()) << 1);
+    let bits = u32::from(a.colors.is_some())
+        | (u32::from(image.is_some()) << 1)
+        | (u32::from(a.ao.is_some()) << 2);
     let (w, h) = image.map_or((0, 0), |i| (i.width() as u32, i.height() as u32));
     let device = &gpu.device;
     // Bindings need a buffer: absent parts take one zero.
@@ -168,13 +217,12 @@ fn upload_tables(gpu: &Gpu, igt: &InverseGeometricTexture) -> Result<UploadedTab
             buffer("igt cell offsets", bytemuck::cast_slice(&igt.cell_start)),
             buffer("igt cell entries", bytemuck::cast_slice(&igt.cell_entries)),
             buffer("igt entries", bytemuck::cast_slice(&entries)),
-            buffer("igt normals", bytemuck::cast_slice(&normals)),
-            buffer("igt colors", bytemuck::cast_slice(&colors)),
-            buffer("igt uvs", bytemuck::cast_slice(&uvs)),
-            buffer("igt image", bytemuck::cast_slice(&pixels)),
+            buffer("igt attributes", bytemuck::cast_slice(&packed.words)),
             buffer("igt face corners", bytemuck::cast_slice(&corners)),
+            buffer("igt baked", bytemuck::cast_slice(&pack_baked(igt))),
         ],
         info: [bits, w, h],
+        segments: packed.segments,
         centre,
     })
 }
@@ -287,12 +335,21 @@ impl IgtKind {
         // The ray lookup's code (ids.y): 1 along the view ray, 0 projecting; ids.z: samples.
         let ray = u32::from(shaded.lookup == Lookup::Ray) as i32;
         let [bits, w, h] = tables.info;
+        let [colors, uvs, image, ao] = tables.segments;
+        // lod.y: 0 off, 1 where a cell covers less than a pixel, 2 beyond distance lod.z.
+        let (mode, distance) = match shaded.lod {
+            Lod::Off => (0, 0.0),
+            Lod::Auto => (1, 0.0),
+            Lod::Distance(d) => (2, d),
+        };
         let record = IgtObjectGpu {
             view_from_object: gpu_matrix(view_from_local),
             world_normal_from_object: normal_matrix(DMat3::from_mat4(placed.world_from_object)),
             ids: [id, ray, shaded.samples as i32, 0],
             info: [shaded.igt.primary.code(), bits, w, h],
             object_from_view: gpu_matrix(view_from_local.inverse()),
+            segments: [colors, uvs, image, ao],
+            lod: [0, mode, distance.to_bits(), 0],
         };
         let device = &gpu.device;
         let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
