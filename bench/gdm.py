@@ -29,6 +29,7 @@ from __future__ import annotations
 import argparse
 import datetime
 import json
+import os
 import platform
 import time
 from pathlib import Path
@@ -201,6 +202,7 @@ def main() -> None:
     ap.add_argument("--size", type=int, default=512)
     ap.add_argument("--views", type=int, default=5)
     args = ap.parse_args()
+    load_start = list(os.getloadavg())  # timings are noisy on a shared machine: say how loaded
     cases = []
     for base in ("torus", "bunny"):
         for pattern in ("chain", "weave"):
@@ -214,6 +216,7 @@ def main() -> None:
                       f"{c['mesh_ms_median']:.0f} ms ({c['explicit_faces']} faces) | bytes vol {c['bytes_volume']} "
                       f"svd {c['bytes_svd']} explicit {c['bytes_explicit']}", flush=True)
     results = {"date": datetime.datetime.now(datetime.timezone.utc).isoformat(), "machine": platform.platform(),
+               "load_start": load_start, "load_end": list(os.getloadavg()),
                "adapter": gt.Renderer(8, 8).adapter_info, "size": args.size, "views": args.views, "k": K,
                "cases": cases, "svd": svd_trade()}
     for r in results["svd"]:
