@@ -43,33 +43,85 @@ fn gdm_ray_triangle(o: vec3<f32>, d: vec3<f32>, a: vec3<f32>, b: vec3<f32>, c: v
     return dot(e2, qv) / det;
 }
 
-// (t_in, t_out) of the ray in the prism's polyhedron; t_out < t_in when it misses.
+// Distances (up to two, -1 for none) where the ray o + t d meets the bilinear patch
+//   P(u, v) = (1 - v) ((1 - u) p00 + u p10) + v ((1 - u) p01 + u p11),  u, v in [0, 1]:
+// the patch's distances to two planes through the ray, each bilinear in (u, v), both zero;
+// eliminating v leaves a quadratic in u.
+fn gdm_ray_bilinear(o: vec3<f32>, d: vec3<f32>, p00: vec3<f32>, p10: vec3<f32>, p01: vec3<f32>,
+                    p11: vec3<f32>) -> vec2<f32> {
+    let ad = abs(d);
+    var helper = vec3<f32>(1.0, 0.0, 0.0);
+    if (ad.y <= ad.x && ad.y <= ad.z) {
+        helper = vec3<f32>(0.0, 1.0, 0.0);
+    } else if (ad.z <= ad.x && ad.z <= ad.y) {
+        helper = vec3<f32>(0.0, 0.0, 1.0);
+    }
+    let n1 = normalize(cross(d, helper));
+    let n2 = normalize(cross(d, n1));
+    let e00 = p00 - o;
+    let eu = p10 - p00;
+    let ev = p01 - p00;
+    let euv = p11 - p10 - p01 + p00;
+    // f_i(u, v) = a_i + b_i u + c_i v + e_i u v.
+    let a = vec2<f32>(dot(n1, e00), dot(n2, e00));
+    let b = vec2<f32>(dot(n1, eu), dot(n2, eu));
+    let c = vec2<f32>(dot(n1, ev), dot(n2, ev));
+    let e = vec2<f32>(dot(n1, euv), dot(n2, euv));
+    let qa = b.y * e.x - e.y * b.x;
+    let qb = a.y * e.x + b.y * c.x - c.y * b.x - e.y * a.x;
+    let qc = a.y * c.x - c.y * a.x;
+    var roots = vec2<f32>(-1.0, -1.0);
+    var us = vec2<f32>(2.0, 2.0);
+    if (abs(qa) <= 1e-6 * abs(qb)) {
+        if (abs(qb) > 0.0) {
+            us.x = -qc / qb;
+        }
+    } else {
+        let disc = qb * qb - 4.0 * qa * qc;
+        if (disc >= 0.0) {
+            let q = -0.5 * (qb + select(-1.0, 1.0, qb >= 0.0) * sqrt(disc));
+            us = vec2<f32>(q / qa, select(2.0, qc / q, q != 0.0));
+        }
+    }
+    for (var k = 0; k < 2; k++) {
+        let u = us[k];
+        if (u < -1e-5 || u > 1.0 + 1e-5) {
+            continue;
+        }
+        let den = c + e * u;
+        let num = a + b * u;
+        let v = select(-num.y / den.y, -num.x / den.x, abs(den.x) >= abs(den.y));
+        if (v < -1e-5 || v > 1.0 + 1e-5) {
+            continue;
+        }
+        let p = p00 + eu * u + ev * v + euv * (u * v);
+        roots[k] = dot(p - o, d) / dot(d, d);
+    }
+    return roots;
+}
+
+// (t_in, t_out) of the ray in the prism: its top and bottom triangles and its three bilinear
+// fins (the prism map's own sides, so the segment's ends map onto the face's texture
+// triangle, which matters where a texture seam runs along the fin); t_out < t_in on a miss.
 fn gdm_prism_interval(pr: Prism, o: vec3<f32>, d: vec3<f32>) -> vec2<f32> {
     var c = gdm_corners(pr);
-    let bits = u32(pr.p0.w);
     var lo = 3.0e38;
     var hi = -3.0e38;
-    for (var f = 0u; f < 8u; f++) {
-        var i: vec3<u32>;
-        if (f == 0u) {
-            i = vec3<u32>(3u, 4u, 5u);
-        } else if (f == 1u) {
-            i = vec3<u32>(0u, 2u, 1u);
-        } else {
-            let e = (f - 2u) / 2u;
-            let a = e;
-            let b = (e + 1u) % 3u;
-            let second = (f - 2u) % 2u == 1u;
-            if ((bits >> e) & 1u) == 1u {
-                i = select(vec3<u32>(a, b, b + 3u), vec3<u32>(a, b + 3u, a + 3u), second);
-            } else {
-                i = select(vec3<u32>(a, b, a + 3u), vec3<u32>(b, b + 3u, a + 3u), second);
-            }
+    var caps = array<f32, 2>(gdm_ray_triangle(o, d, c[3], c[4], c[5]), gdm_ray_triangle(o, d, c[0], c[2], c[1]));
+    for (var k = 0; k < 2; k++) {
+        if (caps[k] > -0.5) {
+            lo = min(lo, caps[k]);
+            hi = max(hi, caps[k]);
         }
-        let t = gdm_ray_triangle(o, d, c[i.x], c[i.y], c[i.z]);
-        if (t > -0.5) {
-            lo = min(lo, t);
-            hi = max(hi, t);
+    }
+    for (var e = 0u; e < 3u; e++) {
+        let n = (e + 1u) % 3u;
+        let t = gdm_ray_bilinear(o, d, c[e], c[n], c[e + 3u], c[n + 3u]);
+        for (var k = 0; k < 2; k++) {
+            if (t[k] > -0.5) {
+                lo = min(lo, t[k]);
+                hi = max(hi, t[k]);
+            }
         }
     }
     return vec2<f32>(lo, hi);

@@ -22,7 +22,8 @@ struct GdmObject {
 // One prism: base corners p (local), top corners q = p + thickness * n (shared vertex normals),
 // texture coordinates of the corners in voxels. p0.w holds the fin diagonals: bit e set when fin
 // e (corner e to e + 1) is split along p_e - q_(e+1), else along p_(e+1) - q_e; both prisms
-// sharing a fin split it alike (chosen by vertex id on the CPU).
+// sharing a fin split it alike (chosen by vertex id on the CPU). Only the raster pass draws
+// those triangles; a ray's span in the prism is found through the exact bilinear fins.
 struct Prism {
     p0: vec4<f32>,
     p1: vec4<f32>,

@@ -187,8 +187,9 @@ class GdmShell:
 
 def gdm_explicit_mesh(positions: npt.NDArray[np.float64], normals: npt.NDArray[np.float64],
                       faces: npt.NDArray[np.uint32], uv: npt.NDArray[np.float64], thickness: float,
-                      size: tuple[int, int, int], tile_vertices: npt.NDArray[np.float64],
-                      tile_faces: npt.NDArray[np.uint32]) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.uint32]]: ...
+                      volume: GdmVolume, tile_vertices: npt.NDArray[np.float64],
+                      tile_faces: npt.NDArray[np.uint32],
+                      seam_fins: npt.NDArray[np.uint8]) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.uint32]]: ...
 
 @final
 class Surfels:

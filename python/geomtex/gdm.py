@@ -248,11 +248,16 @@ class CompressedGDM:
         return np.einsum("xypk,ktz->xyztp", self.weights, self.eigen)
 
 
+def _position_groups(vertices: npt.NDArray[np.float64]) -> npt.NDArray[np.int64]:
+    """One id per distinct position: copies of a vertex split at a texture seam share it."""
+    _, group = np.unique(np.round(vertices, 12), axis=0, return_inverse=True)
+    return group.reshape(-1)
+
+
 def _welded_normals(vertices: npt.NDArray[np.float64], faces: npt.NDArray[np.int64]) -> npt.NDArray[np.float64]:
     """Area-weighted vertex normals summed over every vertex at the same position, so copies of a
     vertex split at a texture seam extrude alike (no cracks between their prisms)."""
-    _, group = np.unique(np.round(vertices, 12), axis=0, return_inverse=True)
-    group = group.reshape(-1)
+    group = _position_groups(vertices)
     tri = vertices[faces]
     face_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])  # length = 2 x area
     summed = np.zeros((group.max() + 1, 3))
@@ -263,6 +268,36 @@ def _welded_normals(vertices: npt.NDArray[np.float64], faces: npt.NDArray[np.int
     if (length < 1e-300).any():
         raise MeshError("Shell: a vertex has no normal (its faces cancel or are degenerate)")
     return n / length
+
+
+def seam_fins(vertices: npt.NDArray[np.float64], faces: npt.NDArray[np.int64],
+              uv: npt.NDArray[np.float64]) -> npt.NDArray[np.uint8]:
+    """Per face, bit e set when its fin from corner e to e + 1 is a seam: the tile does not
+    continue across it, because the edge is open (one face), non-manifold (three or more), or
+    its two faces give its ends texture coordinates (in tiles) that differ by other than one
+    whole-tile shift. ``uv`` is (F, 3, 2); vertices at one position count as one."""
+    group = _position_groups(vertices)
+    g = group[faces]
+    nf = len(faces)
+    a, b = g, np.roll(g, -1, axis=1)  # fin e runs from corner e to corner e + 1
+    ua, ub = uv, np.roll(uv, -1, axis=1)
+    key = np.sort(np.stack([a, b], axis=-1), axis=-1).reshape(-1, 2)
+    # Texture coordinates of each fin's ends in key order (smaller group first).
+    swap = (a > b).reshape(-1)
+    lo = np.where(swap[:, None], ub.reshape(-1, 2), ua.reshape(-1, 2))
+    hi = np.where(swap[:, None], ua.reshape(-1, 2), ub.reshape(-1, 2))
+    _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    inverse = inverse.reshape(-1)
+    seam = counts[inverse] != 2
+    order = np.argsort(inverse, kind="stable")
+    pairs = order[np.isin(inverse[order], np.flatnonzero(counts == 2))].reshape(-1, 2)
+    shift_lo = lo[pairs[:, 0]] - lo[pairs[:, 1]]
+    shift_hi = hi[pairs[:, 0]] - hi[pairs[:, 1]]
+    whole = np.abs(shift_lo - np.round(shift_lo)).max(axis=1) < 1e-6
+    cut = ~(whole & (np.abs(shift_lo - shift_hi).max(axis=1) < 1e-6))
+    seam[pairs[cut].ravel()] = True
+    bits = seam.reshape(nf, 3).astype(np.uint8) << np.arange(3, dtype=np.uint8)
+    return np.ascontiguousarray(bits.sum(axis=1).astype(np.uint8))
 
 
 def box_uv(vertices: npt.NDArray[np.float64], faces: npt.NDArray[np.int64]) -> npt.NDArray[np.float64]:
@@ -384,13 +419,15 @@ class Shell:
 
     def to_mesh(self) -> Any:
         """The explicit reference: the tile's surface clipped to every prism's texture triangle and
-        mapped through the prism's map, as a trimesh.Trimesh (welded)."""
+        mapped through the prism's map, as a trimesh.Trimesh (welded); where a texture seam
+        (``seam_fins``) cuts the solid, a cap on the fin closes it, as the renderer sees it."""
         import trimesh
 
         tv, tf = self.tile_surface()
         v, f = _core.gdm_explicit_mesh(
             self.vertices, self.normals, np.ascontiguousarray(self.faces, dtype=np.uint32), self.uv,
-            self.thickness, self.volume.size, tv, np.ascontiguousarray(tf, dtype=np.uint32))
+            self.thickness, self.volume._core, tv, np.ascontiguousarray(tf, dtype=np.uint32),
+            seam_fins(self.vertices, self.faces, self.uv))
         mesh = trimesh.Trimesh(v, f.astype(np.int64), process=True)
         # Clipping near a prism's corners leaves slivers that welding folds onto their neighbours.
         mesh.update_faces(mesh.nondegenerate_faces(height=1e-12))

@@ -6,10 +6,12 @@
 //!
 //! Spaces: texture space in voxel units of the tile (volume.rs); the base mesh's object space.
 
+pub mod caps;
 pub mod distance;
 pub mod shell;
 pub mod volume;
 
+pub use caps::Seams;
 pub use distance::{distance_function, DistanceFunction, Marcher, DEFAULT_DIRECTIONS};
 pub use shell::{Shell, TileSurface};
 pub use volume::{Pattern, Volume, PATTERNS};

@@ -13,6 +13,7 @@ use std::collections::HashMap;
 use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 
+use super::caps::Seams;
 use crate::error::{GeomtexError, Result};
 
 /// A base mesh ready to be extruded.
@@ -31,9 +32,9 @@ pub struct Shell {
 /// A point of a clipped polygon: texture space, and the base edge (vertex ids, smaller first)
 /// it was cut on, so both prisms sharing that edge map it to the very same position.
 #[derive(Clone, Copy)]
-struct Corner {
-    p: DVec3,
-    edge: Option<[u32; 2]>,
+pub(crate) struct Corner {
+    pub p: DVec3,
+    pub edge: Option<[u32; 2]>,
 }
 
 /// The tile's surface, its triangles binned over the tile's footprint for lookup.
@@ -127,7 +128,7 @@ fn cross2(a: DVec2, b: DVec2) -> f64 {
 
 impl Shell {
     /// Object-space position of texture point `p` (voxel units) in face `f`'s prism.
-    fn place(&self, f: usize, c: Corner) -> DVec3 {
+    pub(crate) fn place(&self, f: usize, c: Corner) -> DVec3 {
         let h = c.p.z / self.size[2] as f64;
         let lift =
             |k: u32| self.positions[k as usize] + self.normals[k as usize] * (h * self.thickness);
@@ -147,7 +148,7 @@ impl Shell {
         lift(tri[0]) * (1.0 - w1 - w2) + lift(tri[1]) * w1 + lift(tri[2]) * w2
     }
 
-    fn uv_voxels(&self, f: usize) -> [DVec2; 3] {
+    pub(crate) fn uv_voxels(&self, f: usize) -> [DVec2; 3] {
         let scale = DVec2::new(self.size[0] as f64, self.size[1] as f64);
         self.uv[f].map(|t| t * scale)
     }
@@ -209,11 +210,24 @@ impl Shell {
         out
     }
 
-    /// The explicit mesh: every prism's pieces, welded where they meet exactly.
-    pub fn explicit_mesh(&self, tile: &TileSurface) -> (Vec<DVec3>, Vec<[u32; 3]>) {
+    /// The explicit mesh: every prism's pieces, welded where they meet exactly, and with
+    /// `seams` the caps closing the solid where a seam fin cuts it (caps.rs).
+    pub fn explicit_mesh(
+        &self,
+        tile: &TileSurface,
+        seams: Option<&Seams>,
+    ) -> (Vec<DVec3>, Vec<[u32; 3]>) {
         let pieces: Vec<Vec<[DVec3; 3]>> = (0..self.faces.len())
             .into_par_iter()
-            .map(|f| self.prism_pieces(f, tile))
+            .map(|f| {
+                let mut out = self.prism_pieces(f, tile);
+                if let Some(s) = seams {
+                    for e in (0..3).filter(|&e| s.fins[f] >> e & 1 == 1) {
+                        out.extend(self.fin_cap(f, e, s.volume));
+                    }
+                }
+                out
+            })
             .collect();
         let mut index: HashMap<[u64; 3], u32> = HashMap::new();
         let mut vertices = Vec::new();
@@ -306,7 +320,7 @@ mod tests {
             thickness: 0.2,
             size,
         };
-        let (v, f) = shell.explicit_mesh(&slab(size));
+        let (v, f) = shell.explicit_mesh(&slab(size), None);
         // The slab at z = 2 of 4 voxels lies at half the thickness.
         assert!(v.iter().all(|p| (p.z - 0.1).abs() < 1e-12));
         let area: f64 = f

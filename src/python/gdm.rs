@@ -7,8 +7,8 @@ use std::sync::Arc;
 use glam::{DVec2, DVec3};
 use numpy::ndarray::{Array3, Array5};
 use numpy::{
-    IntoPyArray, PyArray1, PyArray3, PyArray5, PyReadonlyArray2, PyReadonlyArray3,
-    PyReadonlyArray4, PyUntypedArrayMethods,
+    IntoPyArray, PyArray1, PyArray3, PyArray5, PyReadonlyArray1, PyReadonlyArray2,
+    PyReadonlyArray3, PyReadonlyArray4, PyUntypedArrayMethods,
 };
 use pyo3::prelude::*;
 
@@ -18,8 +18,8 @@ use super::errors::heavy;
 use super::gtex::with_progress;
 use crate::error::{parse_choice, GeomtexError};
 use crate::gdm::{
-    distance_function, CompressedTable, GdmShell, Marcher, Pattern, Shell, TileSurface, Volume,
-    DEFAULT_PIECES, PATTERNS,
+    distance_function, CompressedTable, GdmShell, Marcher, Pattern, Seams, Shell, TileSurface,
+    Volume, DEFAULT_PIECES, PATTERNS,
 };
 
 /// A mesostructure tile: an occupancy grid (x, y periodic), optional per-voxel RGBA.
@@ -299,15 +299,30 @@ pub fn gdm_explicit_mesh<'py>(
     faces: PyReadonlyArray2<'_, u32>,
     uv: PyReadonlyArray3<'_, f64>,
     thickness: f64,
-    size: (usize, usize, usize),
+    volume: &PyGdmVolume,
     tile_vertices: PyReadonlyArray2<'_, f64>,
     tile_faces: PyReadonlyArray2<'_, u32>,
+    seam_fins: PyReadonlyArray1<'_, u8>,
 ) -> ArrayPair<'py, numpy::PyArray2<f64>, numpy::PyArray2<u32>> {
-    let size = [size.0, size.1, size.2];
+    let volume = volume.inner.clone();
+    let size = volume.size;
     let shell = shell_of(&positions, &normals, &faces, &uv, thickness, size)?;
     let tile = TileSurface::new(points(&tile_vertices), triangles(&tile_faces), size)?;
+    let fins = seam_fins.as_slice()?.to_vec();
+    if fins.len() != shell.faces.len() {
+        return Err(GeomtexError::Parameter(format!(
+            "seam_fins holds {} faces but the base mesh has {}",
+            fins.len(),
+            shell.faces.len()
+        ))
+        .into());
+    }
     let (v, f) = heavy(py, "building a shell's explicit mesh", move |_| {
-        Ok(shell.explicit_mesh(&tile))
+        let seams = Seams {
+            volume: &volume,
+            fins: &fins,
+        };
+        Ok(shell.explicit_mesh(&tile, Some(&seams)))
     })?;
     let v: Vec<[f64; 3]> = v.iter().map(|p| p.to_array()).collect();
     Ok((rows(py, &v), rows(py, &f)))

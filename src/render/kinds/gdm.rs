@@ -110,7 +110,8 @@ impl GdmKind {
 }
 
 /// The eight triangles of a prism (corners 0-2 base, 3-5 top), counter-clockwise from outside;
-/// fin e is split by the diagonal `bits` bit e names (as gdm_prism_interval does).
+/// fin e is split by the diagonal `bits` bit e names, so neighbours rasterize the same
+/// triangles (the fragment then intersects the exact bilinear fin, gdm_prism_interval).
 fn prism_triangles(bits: u32) -> [[usize; 3]; 8] {
     let mut t = [
         [3, 4, 5],
