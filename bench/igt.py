@@ -369,18 +369,7 @@ def occlusion(repeats: int) -> dict[str, Any]:
     rng = np.random.default_rng(2)
     picked = np.concatenate([np.argsort(vertex_ao)[:200], rng.choice(len(igt.vertices), 200, replace=False)])
     rays = 1024
-    n = tm.vertex_normals[picked]
-    helper = np.where(np.abs(n[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
-    t = np.cross(n, helper)
-    t /= np.linalg.norm(t, axis=1, keepdims=True)
-    b = np.cross(n, t)
-    u1, u2 = rng.random((2, len(picked), rays))
-    r, phi = np.sqrt(u1), 2 * np.pi * u2
-    dirs = ((r * np.cos(phi))[..., None] * t[:, None] + (r * np.sin(phi))[..., None] * b[:, None]
-            + np.sqrt(1 - u1)[..., None] * n[:, None])
-    lift = 1e-5 * float(np.linalg.norm(tm.extents))
-    o = np.repeat(tm.vertices[picked] + n * lift, rays, axis=0)
-    ref = 1.0 - tm.ray.intersects_any(o, dirs.reshape(-1, 3)).reshape(len(picked), rays).mean(axis=1)
+    ref = reference.occlusion(tm, picked, rays, seed=3)
     diff = vertex_ao[picked] - ref
     out = {"vertices": len(igt.vertices), "rays": 64, "seconds": float(np.median(seconds)),
            "reference_rays": rays, "compared": len(picked), "mean_abs_diff": float(np.abs(diff).mean()),

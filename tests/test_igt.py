@@ -5,12 +5,12 @@ simplification, files and bad input."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import pytest
 
 import geomtex as gt
+from geomtex import reference
 
 from conftest import SHARED_MESHES, pymeshlab_bunny_path
 
@@ -418,27 +418,6 @@ def _ao_igt() -> gt.igt.InverseGeometricTexture:
     return _ao_built[0]
 
 
-def _embree_occlusion(tm: Any, vertices: np.ndarray, rays: int, seed: int = 0) -> np.ndarray:
-    """The unoccluded fraction of `rays` cosine-weighted random directions around each vertex's
-    trimesh normal, cast with trimesh's embree intersector (an independent sampler and tracer)."""
-    rng = np.random.default_rng(seed)
-    n = tm.vertex_normals[vertices]
-    helper = np.where(np.abs(n[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
-    t = np.cross(n, helper)
-    t /= np.linalg.norm(t, axis=1, keepdims=True)
-    b = np.cross(n, t)
-    u1, u2 = rng.random((2, len(vertices), rays))
-    r, phi = np.sqrt(u1), 2 * np.pi * u2
-    d = (r * np.cos(phi))[..., None] * t[:, None] + (r * np.sin(phi))[..., None] * b[:, None] \
-        + np.sqrt(1 - u1)[..., None] * n[:, None]
-    # Embree works in float32: the rays start a little off the surface so the vertex's own faces
-    # never count.
-    lift = 1e-5 * float(np.linalg.norm(tm.extents))
-    o = np.repeat(tm.vertices[vertices] + n * lift, rays, axis=0)
-    hit = tm.ray.intersects_any(o, d.reshape(-1, 3)).reshape(len(vertices), rays)
-    return 1.0 - hit.mean(axis=1)
-
-
 def test_ambient_occlusion_against_embree() -> None:
     """Per-vertex occlusion (64 rays, the default) on 200 bunny vertices, half the most occluded,
     against embree's estimate from 1,024 independent random rays each."""
@@ -452,7 +431,7 @@ def test_ambient_occlusion_against_embree() -> None:
     tm = trimesh.Trimesh(igt.vertices, igt.faces, process=False)
     rng = np.random.default_rng(1)
     picked = np.concatenate([np.argsort(vertex_ao)[:100], rng.choice(len(igt.vertices), 100, replace=False)])
-    ref = _embree_occlusion(tm, picked, 1024)
+    ref = reference.occlusion(tm, picked, 1024)
     diff = vertex_ao[picked] - ref
     # Measured: mean |difference| 0.0156, mean difference (bias) -0.0063, on 200 vertices whose
     # reference runs 0.27-1.0 (sampling noise alone: 64 rays give up to 0.0625 standard
