@@ -3,8 +3,9 @@
 Meshes: the Stanford bunny (``../shared/meshes/stanford-bunny.obj``, 69,451 faces) and its
 loop subdivision (``geomtex.testing.subdivided``, pymeshlab, until >= 1M faces: 1,111,216).
 Modes: ``default`` (``convert(mesh)``, no keyword: error-driven within the mesh's bytes), ``vsa``
-and ``cone`` (``convert(mesh, partition=...)`` at the default max_resolution
-256), and error-driven ``vsa-error`` / ``cone-error`` (``max_error_rel=1e-4``; with VSA and no
+and ``cone`` (``convert(mesh, partition=...)``: error-driven like the default since it became so,
+and at 256 texels before, when scale.json was measured; so ``cone`` is now ``default``), and
+error-driven ``vsa-error`` / ``cone-error`` (``max_error_rel=1e-4``; with VSA and no
 chart target this tries three partitions, so the 1.1M-face mesh runs it only with ``--modes``).
 A conversion past ``--timeout`` seconds is stopped and recorded as timed out.
 

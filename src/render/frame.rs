@@ -42,9 +42,10 @@ pub struct Frame {
     pub fetches: Option<u64>,
     /// With a light (shadow.rs): per pixel, true where the light cannot see the surface.
     pub shadow: Option<Vec<bool>>,
-    /// With a light: milliseconds the shadow rays took, and of those the tracing (upload,
-    /// dispatches and read-back of the rays), the rest being their preparation on the CPU.
+    /// With a light: milliseconds the shadow rays took.
     pub shadow_ms: Option<f64>,
+    /// Of `shadow_ms`, the tracing (upload, dispatches and read-back of the rays); the rest is
+    /// building the rays and darkening the frame on the CPU.
     pub shadow_trace_ms: Option<f64>,
     /// With surfel objects in the scene: what their passes drew.
     pub surfels: Option<SurfelCounts>,
