@@ -19,6 +19,8 @@ pub struct StageFigures {
     /// The chart cap stopped the partition before its target.
     pub charts_capped: bool,
     pub repair_splits: usize,
+    /// Of those, charts split because they lay in two sheets (`sheets`), not because they folded.
+    pub sheet_splits: usize,
     pub folding_before: Folding,
     pub ring_faces_skipped: usize,
     pub reconstruction: SetError,
@@ -95,7 +97,7 @@ fn chart_figures(
     set: &GeometryTextureSet,
     figures: &StageFigures,
     after: Folding,
-) -> [(&'static str, f64); 14] {
+) -> [(&'static str, f64); 15] {
     let before = figures.folding_before;
     let ring_faces: usize = set.patches.iter().map(|p| p.ring_faces.len()).sum();
     [
@@ -107,6 +109,7 @@ fn chart_figures(
         ("cone_angle", opts.cone_angle),
         ("chart_size", opts.chart_size),
         ("repair_splits", figures.repair_splits as f64),
+        ("sheet_splits", figures.sheet_splits as f64),
         ("folding_charts", after.charts as f64),
         ("inverted_triangles", after.inverted_faces as f64),
         ("folding_charts_before_repair", before.charts as f64),

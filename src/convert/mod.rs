@@ -15,6 +15,7 @@ pub mod progress;
 pub mod raster;
 pub mod repair;
 pub mod resolution;
+pub mod sheets;
 pub mod vsa;
 
 use std::borrow::Cow;
@@ -204,6 +205,7 @@ struct Charted {
     vsa_mean_error: f64,
     charts_capped: bool,
     repair_splits: usize,
+    sheet_splits: usize,
     folding_before: Folding,
 }
 
@@ -226,7 +228,7 @@ fn chart_stages(
     stages.begin("repair")?;
     let vsa_charts = partition.groups.len();
     let folding_before = Folding::before_repair(geo, &partition.groups);
-    let repaired = repair::repair(geo, partition.groups);
+    let repaired = repair::repair(mesh, geo, partition.groups);
     stages.end("repair");
 
     stages.begin("overlap")?;
@@ -243,6 +245,7 @@ fn chart_stages(
         vsa_mean_error: partition.mean_error,
         charts_capped: partition.capped,
         repair_splits: repaired.splits,
+        sheet_splits: repaired.sheet_splits,
         folding_before,
     })
 }
@@ -393,6 +396,7 @@ fn convert_once(
         vsa_mean_error: charted.vsa_mean_error,
         charts_capped: charted.charts_capped,
         repair_splits: charted.repair_splits,
+        sheet_splits: charted.sheet_splits,
         folding_before: charted.folding_before,
         ring_faces_skipped,
         reconstruction,

@@ -1,14 +1,17 @@
 //! Folding repair: a chart folds if any of its faces has normal·z <= 0 in its frame, so no
 //! height field can hold it. A folding chart is split in two (VSA seeded at its worst and best
-//! fitting faces) until every chart has a z that all its faces face.
+//! fitting faces) until every chart has a z that all its faces face. A chart that does not fold
+//! but lies in two sheets over one point of its projection (`sheets`) is split between them.
 //!
 //! Space: world (face normals and height directions, unit vectors).
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use super::frame::{self, FOLD_COS};
+use super::sheets;
 use super::vsa::{self, FaceSet, NONE};
-use crate::mesh::MeshGeometry;
+use crate::mesh::{Mesh, MeshGeometry};
 
 /// A chart after repair: its faces and height direction.
 pub struct Chart {
@@ -57,22 +60,56 @@ impl Folding {
 pub struct Repaired {
     pub charts: Vec<Chart>,
     pub splits: usize,
+    /// Of those, splits of charts that did not fold but lay in two sheets.
+    pub sheet_splits: usize,
 }
 
-/// Splits folding charts until none folds.
-pub fn repair(geo: &MeshGeometry, groups: Vec<Vec<u32>>) -> Repaired {
+/// What repair makes of one chart.
+enum Verdict {
+    /// One sheet facing this z.
+    Fine(DVec3),
+    /// Some face does not face the best z there is.
+    Folds(DVec3),
+    /// Two sheets, with a face of each.
+    Sheets(u32, u32),
+}
+
+fn judge(mesh: &Mesh, geo: &MeshGeometry, faces: &[u32]) -> Verdict {
+    let (z, worst) = frame::choose_z(geo, faces);
+    if worst <= FOLD_COS && faces.len() > 1 {
+        return Verdict::Folds(z);
+    }
+    match sheets::overlapping_faces(mesh, geo, faces, z) {
+        Some((a, b)) => Verdict::Sheets(a, b),
+        None => Verdict::Fine(z),
+    }
+}
+
+/// Splits folding charts, and charts in two sheets, until none is left. Charts are judged in
+/// parallel, a round at a time (the parts of a split are judged in the next round).
+pub fn repair(mesh: &Mesh, geo: &MeshGeometry, groups: Vec<Vec<u32>>) -> Repaired {
     let mut scratch = vec![NONE; geo.degenerate.len()];
     let mut queue = groups;
     let mut charts: Vec<Chart> = Vec::with_capacity(queue.len());
-    let mut splits = 0usize;
-    while let Some(faces) = queue.pop() {
-        let (z, worst) = frame::choose_z(geo, &faces);
-        if worst > FOLD_COS || faces.len() == 1 {
-            charts.push(Chart { faces, z });
-            continue;
+    let (mut splits, mut sheet_splits) = (0usize, 0usize);
+    while !queue.is_empty() {
+        let verdicts: Vec<Verdict> = queue.par_iter().map(|f| judge(mesh, geo, f)).collect();
+        let mut next = Vec::new();
+        for (faces, verdict) in queue.into_iter().zip(verdicts) {
+            match verdict {
+                Verdict::Fine(z) => charts.push(Chart { faces, z }),
+                Verdict::Folds(z) => {
+                    next.extend(split(geo, &faces, z, &mut scratch));
+                    splits += 1;
+                }
+                Verdict::Sheets(a, b) => {
+                    next.extend(sheets::split_between(geo, &faces, [a, b]));
+                    splits += 1;
+                    sheet_splits += 1;
+                }
+            }
         }
-        queue.extend(split(geo, &faces, z, &mut scratch));
-        splits += 1;
+        queue = next;
     }
     // Largest charts first: a stable, meaningful order for users and for atlas packing.
     charts.sort_by(|a, b| {
@@ -81,7 +118,11 @@ pub fn repair(geo: &MeshGeometry, groups: Vec<Vec<u32>>) -> Repaired {
             .cmp(&a.faces.len())
             .then(a.faces[0].cmp(&b.faces[0]))
     });
-    Repaired { charts, splits }
+    Repaired {
+        charts,
+        splits,
+        sheet_splits,
+    }
 }
 
 /// A folding chart's two (rarely more) parts.
