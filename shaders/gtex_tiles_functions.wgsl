@@ -19,6 +19,17 @@ const BATCH: u32 = 8u;
 // Patches a walk remembers having searched (and from where), the last this many.
 const SEARCHED: u32 = 8u;
 
+// A normal f16 (the low 16 bits of `h`) as f32, 0 for zero and subnormals (the CPU writes no
+// others): decoded by hand, since unpack2x16float needs a capability not every adapter has.
+fn normal_f16(h: u32) -> f32 {
+    let e = (h >> 10u) & 0x1fu;
+    if (e == 0u) {
+        return 0.0;
+    }
+    // Rebias the exponent from 15 to 127 and widen the 10-bit mantissa to 23 bits.
+    return bitcast<f32>(((h & 0x8000u) << 16u) | ((e + 112u) << 23u) | ((h & 0x3ffu) << 13u));
+}
+
 // Where ray o + t d is inside tile piece `piece` (src/render/kinds/gtex/boxes.rs, tile_pieces):
 // its column of patch-local u/v, lo.xy to hi.xy, and across it the slab
 // lo.z <= z - a u - b v <= hi.z along the plane of slopes (a, b) (two f16 in `level`). In the
@@ -27,7 +38,7 @@ fn tile_piece_span(piece: PatchBox, o: vec3<f32>, d: vec3<f32>) -> vec2<f32> {
     let patch_from_view = patches[piece.patch_index].patch_from_view;
     let o_p = (patch_from_view * vec4<f32>(o, 1.0)).xyz;
     let d_p = (patch_from_view * vec4<f32>(d, 0.0)).xyz;
-    let slope = unpack2x16float(piece.level);
+    let slope = vec2<f32>(normal_f16(piece.level & 0xffffu), normal_f16(piece.level >> 16u));
     let o_s = vec3<f32>(o_p.xy, o_p.z - dot(slope, o_p.xy));
     let d_s = vec3<f32>(d_p.xy, d_p.z - dot(slope, d_p.xy));
     return slab(piece.lo, piece.hi, o_s, safe_inverse(d_s));

@@ -103,7 +103,7 @@ def test_tiles_draw_what_boxes_draw_with_fewer_searches(bunny: Converted, r256: 
         assert np.sum(np.isfinite(tiles.depth) != hit) <= 3, name
         both = hit & np.isfinite(tiles.depth)
         gap = np.abs(tiles.depth[both] - boxes.depth[both]) / bunny.mesh.diagonal
-        # Measured: p99 5.1e-6 / 3.5e-6 / 5.1e-6 of the diagonal; 1 / 1 / 3 pixels beyond 1e-4.
+        # Measured: p99 5.1e-6 / 3.5e-6 / 5.1e-6 of the diagonal; 2 / 0 / 3 pixels beyond 1e-4.
         assert np.percentile(gap, 99) <= 1.5e-5, (name, np.percentile(gap, 99))
         assert np.sum(gap > 1e-4) <= 10, (name, np.sum(gap > 1e-4))
         same_id = float(np.mean(tiles.patch_id[both] == boxes.patch_id[both]))

@@ -4,7 +4,7 @@
 //! both patches' pieces before its hit: two searches. Here a texel is left out of its patch's
 //! pieces where another patch holds the same surface (same point within a few texels, normals on
 //! the same side) further inside its own drawn region, by more than MARGIN: the band both keep
-//! shrinks from the rings' width to about 2 MARGIN texels, and no ray loses the surface, since
+//! shrinks from twice the rings' width to about MARGIN, and no ray loses the surface, since
 //! the other patch's pieces hold it (the surface stays in the maps; a search that started in a
 //! kept piece still finds it).
 //!
@@ -140,4 +140,43 @@ pub(crate) fn owned_heights(set: &GeometryTextureSet) -> Vec<Vec<u16>> {
             heights
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::heightfield::test_patch;
+
+    /// A 100 x 100 flat patch at height 0.5 of a unit box placed at `origin`.
+    fn flat_at(origin: DVec3) -> Patch {
+        Patch {
+            origin,
+            ..test_patch(100, 100, 16, |_, _| Some(0.5))
+        }
+    }
+
+    /// Two patches sharing a 20-texel band of one plane each give up the half of it nearer
+    /// their own outline, less MARGIN (3 texels), and every texel of the band stays in one of
+    /// them; a sheet 0.3 above, far beyond the tolerance, takes nothing.
+    #[test]
+    fn a_shared_band_is_split_between_its_patches() {
+        let set = GeometryTextureSet {
+            patches: vec![
+                flat_at(DVec3::ZERO),
+                flat_at(DVec3::new(0.8, 0.0, 0.0)),
+                flat_at(DVec3::new(0.0, 0.0, 0.3)),
+            ],
+            texel_size: 0.01,
+            stats: Default::default(),
+        };
+        let owned = owned_heights(&set);
+        let row = |k: usize| &owned[k][50 * 100..51 * 100];
+        // A's texel i and B's texel i - 80 lie over the same point: A is 100 - i texels from
+        // its outline there, B i - 79; A gives it up from i = 92, B below i = 88.
+        let a_kept: Vec<bool> = row(0).iter().map(|&q| q != 0).collect();
+        let b_kept: Vec<bool> = row(1).iter().map(|&q| q != 0).collect();
+        assert!(a_kept[..92].iter().all(|&k| k) && a_kept[92..].iter().all(|&k| !k));
+        assert!(b_kept[..8].iter().all(|&k| !k) && b_kept[8..].iter().all(|&k| k));
+        assert_eq!(owned[2], set.patches[2].heights);
+    }
 }
