@@ -12,14 +12,6 @@
 // Piece searches this invocation started: the measure of overdraw (frame.stats).
 var<private> searches: u32 = 0u;
 
-// Where ray o + t d is inside piece `piece`: (enter, exit), enter > exit on a miss.
-fn piece_span(piece: PatchBox, o: vec3<f32>, d: vec3<f32>) -> vec2<f32> {
-    let patch_from_view = patches[piece.patch_index].patch_from_view;
-    let o_p = (patch_from_view * vec4<f32>(o, 1.0)).xyz;
-    let d_p = (patch_from_view * vec4<f32>(d, 0.0)).xyz;
-    return slab(piece.lo, piece.hi, o_p, safe_inverse(d_p));
-}
-
 // The first hit inside piece `piece` for t in [t_lo, t_hi), or -1.
 fn piece_search(piece: PatchBox, o: vec3<f32>, d: vec3<f32>, t_lo: f32, t_hi: f32) -> f32 {
     let patch_from_view = patches[piece.patch_index].patch_from_view;

@@ -1,9 +1,13 @@
 // The walk of one tile's list (tiles.rs), shared by the tiled primary pass (camera rays) and
-// parallel ray queries (shadow rays toward a directional light): the list is sorted by each
-// piece's nearest depth along the tiles' view, not by where this ray enters it, so the next BATCH
-// pieces the ray enters are sorted by entry (insertion) and searched in that order (the piece
-// holding the nearest hit tends to come first, and the rest are skipped); the walk stops at the
-// first piece that starts behind the nearest hit.
+// parallel ray queries (shadow rays toward a directional light). The list holds pieces of the
+// patches (boxes.rs, tile_pieces: a pyramid node's column with a thin slab along the surface's
+// slope, over the texels the patch owns), sorted by each piece's nearest depth along the tiles'
+// view, not by where this ray enters it, so the next BATCH pieces the ray enters are sorted by
+// entry (insertion) and taken in that order; the walk stops at the first piece that starts
+// behind the nearest hit. Entering a piece is a cheap test, not a search: the first piece of a
+// patch the ray enters before the nearest hit starts one search of that patch's whole box, from
+// the piece's entry on (the height-field search of gtex_piece_functions.wgsl, counted in
+// `searches`), and the patch's later pieces start none.
 //
 // Spaces: the ray and the pieces' records in one space (view space for frames, the query's frame
 // for queries); depths along the tiles' view direction, where the ray's origin lies at
@@ -12,6 +16,33 @@
 
 // Pieces a walk orders by where its ray enters them, at most this many at a time.
 const BATCH: u32 = 8u;
+// Patches a walk remembers having searched (and from where), the last this many.
+const SEARCHED: u32 = 8u;
+
+// A normal f16 (the low 16 bits of `h`) as f32, 0 for zero and subnormals (the CPU writes no
+// others): decoded by hand, since unpack2x16float needs a capability not every adapter has.
+fn normal_f16(h: u32) -> f32 {
+    let e = (h >> 10u) & 0x1fu;
+    if (e == 0u) {
+        return 0.0;
+    }
+    // Rebias the exponent from 15 to 127 and widen the 10-bit mantissa to 23 bits.
+    return bitcast<f32>(((h & 0x8000u) << 16u) | ((e + 112u) << 23u) | ((h & 0x3ffu) << 13u));
+}
+
+// Where ray o + t d is inside tile piece `piece` (src/render/kinds/gtex/boxes.rs, tile_pieces):
+// its column of patch-local u/v, lo.xy to hi.xy, and across it the slab
+// lo.z <= z - a u - b v <= hi.z along the plane of slopes (a, b) (two f16 in `level`). In the
+// sheared coordinates (u, v, z - a u - b v) that is a box. (enter, exit), enter > exit on a miss.
+fn tile_piece_span(piece: PatchBox, o: vec3<f32>, d: vec3<f32>) -> vec2<f32> {
+    let patch_from_view = patches[piece.patch_index].patch_from_view;
+    let o_p = (patch_from_view * vec4<f32>(o, 1.0)).xyz;
+    let d_p = (patch_from_view * vec4<f32>(d, 0.0)).xyz;
+    let slope = vec2<f32>(normal_f16(piece.level & 0xffffu), normal_f16(piece.level >> 16u));
+    let o_s = vec3<f32>(o_p.xy, o_p.z - dot(slope, o_p.xy));
+    let d_s = vec3<f32>(d_p.xy, d_p.z - dot(slope, d_p.xy));
+    return slab(piece.lo, piece.hi, o_s, safe_inverse(d_s));
+}
 
 struct TileHit {
     t: f32,
@@ -24,6 +55,9 @@ struct TileHit {
 fn tile_walk(range: vec2<u32>, o: vec3<f32>, d: vec3<f32>, origin_depth: f32, t_lo: f32, t_hi: f32,
              any_hit: bool) -> TileHit {
     var best = TileHit(t_hi, 0u);
+    var searched_patch: array<u32, SEARCHED>;
+    var searched_from: array<f32, SEARCHED>;
+    var n_searched = 0u;
     var k = range.x;
     let end = range.x + range.y;
     loop {
@@ -37,7 +71,7 @@ fn tile_walk(range: vec2<u32>, o: vec3<f32>, d: vec3<f32>, origin_depth: f32, t_
                 break;
             }
             k += 1u;
-            let span = piece_span(pieces[entry.x], o, d);
+            let span = tile_piece_span(pieces[entry.x], o, d);
             let t0 = max(span.x, t_lo);
             if (!(min(span.y, best.t) > t0)) {
                 continue;
@@ -53,10 +87,32 @@ fn tile_walk(range: vec2<u32>, o: vec3<f32>, d: vec3<f32>, origin_depth: f32, t_
             n += 1u;
         }
         for (var i = 0u; i < n && enter[i] < best.t; i += 1u) {
-            let piece = pieces[piece_at[i]];
-            let t = piece_search(piece, o, d, t_lo, best.t);
+            let owner = pieces[piece_at[i]].patch_index;
+            // A patch is searched once, from the first of its pieces the ray enters to its box's
+            // exit (or the nearest hit): its other pieces lie on that stretch. Only a piece met
+            // later in the list that the ray enters earlier opens the stretch before it.
+            var t_end = best.t;
+            var slot = SEARCHED;
+            for (var s = 0u; s < min(n_searched, SEARCHED); s += 1u) {
+                if (searched_patch[s] == owner) {
+                    slot = s;
+                    break;
+                }
+            }
+            if (slot < SEARCHED) {
+                if (searched_from[slot] <= enter[i]) {
+                    continue;
+                }
+                t_end = min(t_end, searched_from[slot]);
+            } else {
+                slot = n_searched % SEARCHED;
+                searched_patch[slot] = owner;
+                n_searched += 1u;
+            }
+            searched_from[slot] = enter[i];
+            let t = piece_search(PatchBox(vec3<f32>(0.0), owner, vec3<f32>(1.0), 31u), o, d, enter[i], t_end);
             if (t >= 0.0) {
-                best = TileHit(t, piece.patch_index);
+                best = TileHit(t, owner);
                 if (any_hit) {
                     return best;
                 }

@@ -64,9 +64,14 @@ def test_parallel_rays_walk_tiles_and_agree_with_trimesh(bunny: Converted) -> No
     walked = bunny.gts.intersects_first(origins, tilted)
     same = np.array_equal(walked.hit[1:], hits.hit[1:])
     assert same, int((walked.hit[1:] != hits.hit[1:]).sum())
-    # Measured: at most 5.4e-7 of the diagonal apart (f32 rounding of two searches' entries).
+    # Where two patches store the same surface (the overlap rings) the hierarchy returns the
+    # nearer sampling and the tiles the owner's (their pieces leave the other's copy out), so a
+    # few rays land a sampling apart. Measured (Stanford bunny, 6,550 hits): p99 4.5e-6 of the
+    # diagonal, 32 rays beyond 1e-5, at most 2.3e-4.
     gap = np.abs(walked.distances[1:][hits.hit[1:]] - hits.distances[1:][hits.hit[1:]]) / diag
-    assert gap.max() <= 2e-6, gap.max()
+    assert np.percentile(gap, 99) <= 1.4e-5, np.percentile(gap, 99)
+    assert np.sum(gap > 1e-5) <= 100, np.sum(gap > 1e-5)
+    assert gap.max() <= 7e-4, gap.max()
 
 
 def test_location_and_any_match_first(bunny: Converted) -> None:

@@ -86,8 +86,9 @@ def test_bunny_five_views_match_trimesh(bunny: Converted, r512: gt.Renderer) -> 
 
 
 def test_tiles_draw_what_boxes_draw_with_fewer_searches(bunny: Converted, r256: gt.Renderer) -> None:
-    """Frames walk each screen tile's boxes nearest first (the default, primary="tiles") instead of
-    drawing every box: the same image, and fewer height-map searches per covered pixel."""
+    """Frames walk each screen tile's pieces nearest first (the default, primary="tiles") instead
+    of drawing every box: the same image, and about one height-map search per covered pixel,
+    where every box over a pixel starts one when boxes are drawn."""
     for name in ("front", "below", "oblique"):
         direction, up = BUNNY_VIEWS[name]
         cam = look_from(bunny.mesh, direction, up=up)
@@ -95,18 +96,24 @@ def test_tiles_draw_what_boxes_draw_with_fewer_searches(bunny: Converted, r256: 
         boxes = r256.render(bunny.gts, cam, primary="boxes")
         assert tiles.stats["primary"] == "tiles" and boxes.stats["primary"] == "boxes"
         hit = np.isfinite(boxes.depth)
-        assert np.array_equal(np.isfinite(tiles.depth), hit), name
-        # Each box's search is the same one, so depths agree; where two patches hold the same
-        # surface (the overlap rings) either may show it.
-        gap = np.abs(tiles.depth[hit] - boxes.depth[hit]).max() / bunny.mesh.diagonal
-        assert gap <= 1e-6, (name, gap)
-        same_id = float(np.mean(tiles.patch_id[hit] == boxes.patch_id[hit]))
-        # Measured (Stanford bunny): gap 0.0; the same id on 96.7-97.7% of hit pixels.
-        assert same_id >= 0.9, (name, same_id)
-        ratio = tiles.stats["searches_per_pixel"] / boxes.stats["searches_per_pixel"]
-        # Measured at 256² (Stanford / pymeshlab bunny): 2.4-2.5 against 4.8-6.1 searches per
-        # covered pixel, ratio 0.41-0.50 / 0.40-0.50.
-        assert ratio <= 0.65, (name, ratio)
+        # Where two patches hold the same surface (the overlap rings), boxes show the nearer
+        # sampling and tiles the one of the patch that owns it (the other patch's pieces leave
+        # it out), so a grazing ray at a fold can pass beside one and meet the other.
+        # Measured (Stanford bunny): 0 / 0 / 1 pixels of ~8,000 hit differ.
+        assert np.sum(np.isfinite(tiles.depth) != hit) <= 3, name
+        both = hit & np.isfinite(tiles.depth)
+        gap = np.abs(tiles.depth[both] - boxes.depth[both]) / bunny.mesh.diagonal
+        # Measured: p99 5.1e-6 / 3.5e-6 / 5.1e-6 of the diagonal; 2 / 0 / 3 pixels beyond 1e-4.
+        assert np.percentile(gap, 99) <= 1.5e-5, (name, np.percentile(gap, 99))
+        assert np.sum(gap > 1e-4) <= 10, (name, np.sum(gap > 1e-4))
+        same_id = float(np.mean(tiles.patch_id[both] == boxes.patch_id[both]))
+        # Measured: the same id on 89.8-90.7% of hit pixels.
+        assert same_id >= 0.8, (name, same_id)
+        spp = tiles.stats["searches_per_pixel"]
+        # Measured at 256² (Stanford bunny): 1.15 / 1.19 / 1.15 searches per covered pixel
+        # (boxes drawn: 4.8 / 6.1 / 5.0); the tiles of whole patch boxes started 2.4-2.5.
+        assert spp <= 1.25, (name, spp)
+        assert spp / boxes.stats["searches_per_pixel"] <= 0.3, name
 
 
 def test_8_bit_heights_cost_only_their_rounding(bunny: Converted, r512: gt.Renderer) -> None:

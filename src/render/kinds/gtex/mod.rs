@@ -1,6 +1,7 @@
 //! Geometry-texture sets. Frames ray cast them per pixel in their patches' boxes: by default one
-//! rectangle over the set whose fragments search their screen tile's boxes nearest first
-//! (tiles.rs, gtex_tiles.wgsl), or one instance of the unit cube per visible patch, each fragment
+//! rectangle over the set whose fragments walk their screen tile's pieces nearest first,
+//! searching each patch they enter once (tiles.rs, gtex_tiles.wgsl; the pieces: boxes.rs'
+//! tile_pieces over the texels each patch owns, owners.rs), or one instance of the unit cube per visible patch, each fragment
 //! searching its box (gtex_raycast.wgsl, `primary="boxes"`). Ray queries trace them (gtex_trace_rays.wgsl): a hierarchy
 //! (bvh.rs) over thin pieces of the patches' boxes (boxes.rs), both made on the first query of a
 //! set, is walked front to back, and a piece a ray enters before its nearest hit so far gets a
@@ -12,6 +13,7 @@
 //! bounds; for queries, world space translated near the rays) and clip (the lens's, for culling).
 
 mod boxes;
+mod owners;
 mod tiles;
 
 use std::sync::OnceLock;
@@ -21,11 +23,11 @@ use glam::{DMat3, DMat4, DVec3};
 
 use super::{storage_buffer, DrawCall, FrameView, Kind, Tally, TraceCall, UploadCache};
 use crate::error::Result;
-use crate::gtex::GeometryTextureSet;
+use crate::gtex::{GeometryTextureSet, Patch};
 use crate::heightfield::min_max_pyramid;
 use crate::render::atlas::Atlas;
 use crate::render::bvh::{Aabb, Bvh};
-use crate::render::cull::{box_corners, in_frustum, lod_level, DepthRange};
+use crate::render::cull::{in_frustum, lod_level, DepthRange};
 use crate::render::device::Gpu;
 use crate::render::gpu_types::{gpu_matrix, normal_matrix, PatchGpu};
 use crate::render::pipelines::{
@@ -35,7 +37,7 @@ use crate::render::scene::{Object, SceneObject};
 use crate::render::search::Primary;
 use crate::render::shaders;
 
-use boxes::{patch_boxes, placed as placed_box, PatchBoxGpu};
+use boxes::{patch_boxes, placed as placed_box, tile_piece_corners, tile_pieces, PatchBoxGpu};
 use tiles::TileLists;
 
 /// The unit cube as 12 triangles (gtex_raycast.wgsl's CUBE), one instance per drawn patch.
@@ -88,8 +90,7 @@ impl GtexUpload {
     }
 
     fn tile_pieces(&self, gpu: &Gpu, set: &GeometryTextureSet) -> &Pieces {
-        self.tile_pieces
-            .get_or_init(|| Pieces::whole_boxes(gpu, set))
+        self.tile_pieces.get_or_init(|| Pieces::for_tiles(gpu, set))
     }
 }
 
@@ -103,23 +104,20 @@ impl Pieces {
         Self::upload(gpu, list)
     }
 
-    /// Each patch's whole box (the unit cube), searched from its pyramid's top, for the patches
-    /// with any surface. Whole boxes, not the tracer's pieces: on the bunny's five headline views
-    /// level-4 pieces started 2.1–2.2 searches per covered pixel against 2.4–2.6, but took 1.3×
-    /// the CPU time of drawing every box where whole boxes took 0.5–0.6× (longer lists, a slab
-    /// test per listed piece); level 5 took 0.7–0.9×. Not cut to the heights either: a flat chart's heights span a few codes, and a
-    /// box that thin, entered from a far origin in patch-local units (where one unit is its
-    /// height), loses the surface to f32 rounding (a tiled sheet lost half its pixels).
-    fn whole_boxes(gpu: &Gpu, set: &GeometryTextureSet) -> Pieces {
-        let list = (0..)
-            .zip(&set.patches)
-            .filter(|(_, p)| p.heights.iter().any(|&h| h != 0))
-            .map(|(i, _)| PatchBoxGpu {
-                lo: [0.0; 3],
-                patch_index: i,
-                hi: [1.0; 3],
-                // The top of any pyramid (the search clamps it), as gtex_raycast.wgsl's boxes.
-                level: 31,
+    /// The tiles' pieces (boxes.rs, `tile_pieces`): TILE_LEVEL nodes of each patch's pyramid
+    /// over the texels it owns (owners.rs). On the bunny's five headline views (256² maps, 512²,
+    /// loaded machine) level 4 (16 texels) started 1.15-1.18 searches per covered pixel, level 5
+    /// 1.24-1.31 in about 0.8x the frame time (shorter lists), level 6 1.8-2.0.
+    fn for_tiles(gpu: &Gpu, set: &GeometryTextureSet) -> Pieces {
+        let owned = owners::owned_heights(set);
+        let list: Vec<PatchBoxGpu> = (0..)
+            .zip(set.patches.iter().zip(&owned))
+            .flat_map(|(i, (p, heights))| {
+                let pyramid = min_max_pyramid(&Patch {
+                    heights: heights.clone(),
+                    ..p.clone()
+                });
+                tile_pieces(i, p, heights, &pyramid, TILE_LEVEL, TILE_MIN_THICKNESS)
             })
             .collect();
         Self::upload(gpu, list)
@@ -140,6 +138,12 @@ impl Pieces {
         Pieces { list, buffer }
     }
 }
+
+/// The pyramid level tiles list pieces at (for_tiles).
+const TILE_LEVEL: u32 = 4;
+
+/// A tile piece's least thickness, in units of its node's width (a quarter texel at level 4).
+const TILE_MIN_THICKNESS: f64 = 1.0 / 64.0;
 
 /// A primary pass and the same shader with its fetch counter switched on.
 struct PrimaryPipelines {
@@ -445,11 +449,9 @@ fn piece_corners<'a>(
 ) -> impl Iterator<Item = (u32, [DVec3; 8])> + 'a {
     (0..).zip(&pieces.list).filter_map(|(k, b)| {
         let view_from_patch = placements[b.patch_index as usize]?;
-        let lo = DVec3::from(b.lo.map(f64::from));
-        let hi = DVec3::from(b.hi.map(f64::from));
         Some((
             k,
-            box_corners(lo, hi).map(|c| view_from_patch.transform_point3(c)),
+            tile_piece_corners(b).map(|c| view_from_patch.transform_point3(c)),
         ))
     })
 }

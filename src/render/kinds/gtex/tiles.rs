@@ -1,10 +1,14 @@
-//! Screen tiles for primary frames: each tile of the image lists the patch boxes that may cover
-//! it, nearest first, so a pixel searches boxes front to back and stops once the next box starts
-//! behind its nearest hit (gtex_tiles.wgsl). Drawing every box and searching each fragment
-//! started 4.8–6.1 searches per covered pixel on the bunny, since writing frag_depth switches
-//! early depth testing off; camera rays through the tracer's hierarchy cut that but cost more per
-//! ray on lavapipe (bench/README.md). A camera's rays share one origin and sweep the image in
-//! order, so sorting boxes once per tile replaces the per-ray walk.
+//! Screen tiles for primary frames: each tile of the image lists the pieces of the patches'
+//! boxes (boxes.rs, tile_pieces) that may cover it, nearest first, so a pixel enters pieces front
+//! to back, searches each patch once from the first of its pieces it enters, and stops once the
+//! next piece starts behind its nearest hit (gtex_tiles_functions.wgsl). Drawing every box and
+//! searching each fragment started 4.8–6.1 searches per covered pixel on the bunny, since
+//! writing frag_depth switches early depth testing off; listing whole boxes here started
+//! 2.4–2.7 (a ray entered about one more thick box of a neighbouring chart, or an overlap ring's
+//! copy of the surface, before the box it hit); the pieces start 1.15–1.18. Camera rays through
+//! the tracer's hierarchy cost more per ray on lavapipe (bench/README.md). A camera's rays share
+//! one origin and sweep the image in order, so sorting pieces once per tile replaces the per-ray
+//! walk.
 //!
 //! Spaces: view (camera-relative, OpenGL-style: depth along the view is -z, which is also the ray
 //! parameter t of camera_ray's rays) and framebuffer pixels (row 0 at the top, centres at +0.5).
@@ -18,8 +22,8 @@ use crate::render::gpu_types::gpu_matrix;
 /// (4,096 tiles at 512²).
 pub(crate) const TILE: u32 = 8;
 
-/// One entry of a tile's list: the index of a box (a piece, boxes.rs) and the nearest view depth
-/// of its box (f32 bits), the depth at which no hit in it can be nearer.
+/// One entry of a tile's list: the index of a piece (boxes.rs) and its nearest view depth (f32
+/// bits), the depth at which no hit in it can be nearer.
 pub(crate) type Entry = [u32; 2];
 
 /// gtex_tiles_bindings.wgsl's `Tiles`.
