@@ -13,7 +13,8 @@ box across it (what shadow rays toward a directional light are), which the trace
 tiles seen along that direction instead of the hierarchy; same figures.
 
 Shadows: the bunny (converted, then as a mesh) on a ground plane (a mesh) at 512², three
-directional lights: the frame with and without ``light=``, and the shadow mask against embree's
+directional lights: the frame with and without ``light=`` rendered in alternation (the ratio is
+the median of each pair's), the load average beside them, and the shadow mask against embree's
 shadow rays cast from embree's own hits (tests/test_shadows.py at 128²).
 
 Results: ``bench/results/rays.json`` and ``bench/results/rays.png``.
@@ -22,12 +23,14 @@ Run from the repository root::
 
     python bench/rays.py            # 10k, 100k and 1M rays (~1 min)
     python bench/rays.py --quick    # 10k and 100k
+    python bench/rays.py --shadows-only   # the shadow frames alone (bench/results/shadows.json)
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import time
 from pathlib import Path
 from typing import Any, Callable
@@ -108,6 +111,21 @@ SHADOW_SIZE = 512
 LIGHTS = ((0.3, -1.0, 0.2), (1.0, -0.6, -0.4), (-0.5, -1.0, 0.8))
 
 
+def side_by_side(plain: Callable[[], Any], lit: Callable[[], Any], repeats: int) -> tuple[Any, float, float, float]:
+    """The last lit frame, the median wall times (ms) of unshadowed and shadowed frames rendered
+    in alternation (so that both see the same load), and the median of each pair's ratio."""
+    plain(), lit()
+    walls = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        plain()
+        t1 = time.perf_counter()
+        frame = lit()
+        walls.append((t1 - t0, time.perf_counter() - t1))
+    p, q = (1e3 * np.array(w) for w in zip(*walls))
+    return frame, float(np.median(p)), float(np.median(q)), float(np.median(q / p))
+
+
 def shadows(gts: Any, mesh: gt.Mesh, as_mesh: bool) -> list[dict[str, Any]]:
     import sys
 
@@ -121,22 +139,25 @@ def shadows(gts: Any, mesh: gt.Mesh, as_mesh: bool) -> list[dict[str, Any]]:
     records = []
     for direction in LIGHTS:
         light = gt.DirectionalLight(direction)
-        plain, plain_ms = timed(lambda: r.render(scene, camera), 7)
-        lit, lit_ms = timed(lambda: r.render(scene, camera, light=light), 7)
+        load = os.getloadavg()
+        lit, plain_ms, lit_ms, ratio = side_by_side(
+            lambda: r.render(scene, camera), lambda: r.render(scene, camera, light=light), 7)
         hit, ref = ts.embree_shadow(whole, camera, np.asarray(direction, float), diag, size=SHADOW_SIZE)
         both = hit & np.isfinite(lit.depth)
         wrong = (lit.shadow != ref) & both
         records.append({
-            "bunny": "mesh" if as_mesh else "set", "light": direction, "frame_ms": plain_ms, "lit_frame_ms": lit_ms, "lit_over_plain": lit_ms / plain_ms,
-            "shadow_rays": int(np.isfinite(lit.depth).sum()), "agreement": float(1 - wrong.sum() / both.sum()),
+            "bunny": "mesh" if as_mesh else "set", "light": direction, "frame_ms": plain_ms, "lit_frame_ms": lit_ms,
+            "lit_over_plain": ratio, "shadow_rays": int(np.isfinite(lit.depth).sum()),
+            "agreement": float(1 - wrong.sum() / both.sum()),
             "off_edge_disagreements": int((wrong & ~ts.near_edge(ref)).sum()),
             "shadowed": int(lit.shadow.sum()), "embree_shadowed": int(ref[both].sum()),
             "shadow_ms": lit.stats["shadow_ms"], "shadow_trace_ms": lit.stats["shadow_trace_ms"],
+            "loadavg_before": load, "loadavg_after": os.getloadavg(),
         })
         q = records[-1]
-        print(f"{records[-1]['bunny']}, light {direction}: frame {plain_ms:.0f} ms, with shadows {lit_ms:.0f} ms ({q['lit_over_plain']:.1f}x); "
+        print(f"{q['bunny']}, light {direction}: frame {plain_ms:.0f} ms, with shadows {lit_ms:.0f} ms ({q['lit_over_plain']:.2f}x); "
               f"agreement {q['agreement']:.4f}, off-edge {q['off_edge_disagreements']}; "
-              f"shadow {q['shadow_ms']:.1f} ms, of it tracing {q['shadow_trace_ms']:.1f} ms")
+              f"shadow {q['shadow_ms']:.1f} ms, of it tracing {q['shadow_trace_ms']:.1f} ms; load {load[0]:.1f}")
     return records
 
 
@@ -165,9 +186,19 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--wait-idle", type=float, default=30.0)
+    parser.add_argument("--shadows-only", action="store_true",
+                        help="only the shadow frames, into bench/results/shadows.json")
     args = parser.parse_args()
     mesh = gt.load_mesh(str(BUNNY))
     gts = gt.convert(mesh, max_resolution=256)
+    if args.shadows_only:
+        wait_idle(args.wait_idle)
+        machine = machine_info()
+        machine["adapter"] = dict(gt.Renderer(8, 8).adapter_info)
+        result = {"machine": machine, "shadows": shadows(gts, mesh, False) + shadows(gts, mesh, True)}
+        OUT.mkdir(parents=True, exist_ok=True)
+        (OUT / "shadows.json").write_text(json.dumps(result, indent=2))
+        return
     caster, build_s = ray_caster(mesh)
     records = []
     for n in COUNTS_QUICK if args.quick else COUNTS_FULL:

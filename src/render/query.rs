@@ -20,9 +20,9 @@ use super::{Renderer, Scene, SearchOptions};
 use crate::cancel::Cancel;
 use crate::error::{GeomtexError, Result};
 
-/// Rays per batch: 2 MiB of rays and of hits, far under every adapter's binding limit, and
-/// short enough on a software adapter (about half a second) that the cancel token, checked
-/// between batches, answers Ctrl-C within a second.
+/// Rays per batch of a query: 2 MiB of rays and of hits, far under every adapter's binding
+/// limit, and short enough on a software adapter (about half a second) that the cancel token,
+/// checked between batches, answers Ctrl-C within a second.
 const BATCH: usize = 1 << 16;
 
 /// Invocations per workgroup (gtex_trace_rays.wgsl).
@@ -90,16 +90,27 @@ impl Renderer {
         cancel: &Cancel,
     ) -> Result<RayHits> {
         let rays = checked_rays(rays)?;
-        self.trace_rays(scene, &rays, None, search, any_hit, cancel)
+        self.trace_rays(scene, &rays, None, BATCH, search, any_hit, cancel)
+    }
+
+    /// The most rays one batch can hold under the adapter's binding limit (rays and hits are
+    /// each one binding). A frame's shadow rays go in one batch: each batch waits for its
+    /// read-back, and the whole frame is no longer to cancel than the frame itself.
+    pub(crate) fn largest_batch(&self) -> usize {
+        let limit = self.gpu.device.limits().max_storage_buffer_binding_size;
+        let per_ray = size_of::<QueryRayGpu>().max(size_of::<QueryHitGpu>());
+        (limit as usize / per_ray).max(1)
     }
 
     /// `intersect` for rays with unit directions, each counting hits only for t in its
-    /// (t_min, t_max) when `ranges` are given (shadow rays).
+    /// (t_min, t_max) when `ranges` are given (shadow rays), `batch` rays at a time.
+    #[allow(clippy::too_many_arguments)] // the query's own settings, passed through
     pub(crate) fn trace_rays(
         &mut self,
         scene: &Scene,
         rays: &[(DVec3, DVec3)],
         ranges: Option<&[(f64, f64)]>,
+        batch: usize,
         search: &SearchOptions,
         any_hit: bool,
         cancel: &Cancel,
@@ -116,10 +127,10 @@ impl Renderer {
                 patch_id: Vec::with_capacity(rays.len()),
                 normal: Vec::with_capacity(3 * rays.len()),
             };
-            for (k, batch) in rays.chunks(BATCH).enumerate() {
+            for (k, chunk) in rays.chunks(batch).enumerate() {
                 cancel.check("tracing rays")?;
-                let batch_ranges = ranges.map(|r| &r[k * BATCH..k * BATCH + batch.len()]);
-                let found = self.run_batch(&traces, batch, batch_ranges, centre, any_hit)?;
+                let chunk_ranges = ranges.map(|r| &r[k * batch..k * batch + chunk.len()]);
+                let found = self.run_batch(&traces, chunk, chunk_ranges, centre, any_hit)?;
                 for h in found {
                     let hit = h.id != -1;
                     hits.distance

@@ -130,7 +130,9 @@ impl Renderer {
         let mut shadow = vec![false; frame.depth.len()];
         if !rays.is_empty() && !casters.objects.is_empty() {
             let traced = std::time::Instant::now();
-            let hits = self.trace_rays(&casters, &rays, Some(&ranges), search, true, cancel)?;
+            let batch = self.largest_batch();
+            let hits =
+                self.trace_rays(&casters, &rays, Some(&ranges), batch, search, true, cancel)?;
             frame.shadow_trace_ms = Some(traced.elapsed().as_secs_f64() * 1e3);
             for (&i, &id) in pixels.iter().zip(&hits.patch_id) {
                 shadow[i] = id != -1;
