@@ -1,6 +1,7 @@
 // Group 1 of the inverse-geometric-texture passes: the object's record, the texture's tables
-// (grids; cell offsets, cell c listing cell_entries[cell_start[c] .. cell_start[c + 1]];
-// entries), its attributes in one buffer of u32 (parts where object.segments says;
+// (grids; cell offsets, cell c listing cell_entries[cell_start[c] .. cell_start[c + 1]], then
+// from object.lod.w on per cell the heights its listed triangles span (kinds/igt.rs,
+// cell_heights); entries), its attributes in one buffer of u32 (parts where object.segments says;
 // kinds/igt.rs, pack_attributes): per detailed face and corner a normal as two snorm16 of its
 // octahedral encoding (first, from 0), a color as RGBA8, texture coordinates as two f32 bits;
 // the texture image (RGBA8 per u32, row 0 at the top); per face the corners' ambient occlusion

@@ -234,12 +234,27 @@ fn igt_ray_walk(grid: u32, p: vec3<f32>, d: vec3<f32>, back: f32, best: ptr<func
     let edge = vec2<f32>(cell) + select(vec2<f32>(0.0), vec2<f32>(1.0), up);
     var exits = select(vec2<f32>(3.0e38), (edge - at) / safe, moves);
     let per = select(vec2<f32>(3.0e38), abs(1.0 / safe), moves);
+    // The cells' heights (cell_heights in kinds/igt.rs): unorm16 of the slab, rounded outward;
+    // a step of slack for the f32 arithmetic here.
+    let span = top - g.z.w;
+    let slack = span * (2.0 / 65535.0);
+    var enter = first;
     for (var k = 0; k < IGT_MAX_WALK; k++) {
         if (any(cell < vec2<i32>(0)) || any(cell >= size)) {
             break;
         }
         let c = g.size.z + u32(cell.y * size.x + cell.x);
-        for (var q = cell_start[c]; q < cell_start[c + 1u]; q++) {
+        // The heights the ray has over this cell (up to the best hit so far), against those of
+        // the cell's listed triangles: where they miss, no listed triangle can be met here (a
+        // triangle met elsewhere is listed, and tested, in the cell it is met over).
+        let leave = min(min(exits.x, exits.y), *best);
+        let h_enter = height + rise * enter;
+        let h_leave = height + rise * leave;
+        let listed = unpack2x16unorm(cell_start[object.lod.w + c]);
+        let meets = max(h_enter, h_leave) >= g.z.w + listed.x * span - slack
+            && min(h_enter, h_leave) <= g.z.w + listed.y * span + slack;
+        let end = select(cell_start[c], cell_start[c + 1u], meets);
+        for (var q = cell_start[c]; q < end; q++) {
             let e = cell_entries[q];
             let f = entries[e].face;
             let r = ray_triangle(igt_corner(f, 0u), igt_corner(f, 1u), igt_corner(f, 2u), p, d, -back, *best);
@@ -251,6 +266,7 @@ fn igt_ray_walk(grid: u32, p: vec3<f32>, d: vec3<f32>, back: f32, best: ptr<func
         if (min(exits.x, exits.y) >= min(*best, h_hi)) {
             break;
         }
+        enter = min(exits.x, exits.y);
         if (exits.x < exits.y) {
             cell.x += step.x;
             exits.x += per.x;

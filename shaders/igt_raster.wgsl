@@ -1,10 +1,11 @@
-// Entry points of the inverse-geometric-texture pass: the simplified mesh is rasterized into
-// the shared targets and reversed-Z depth (two-sided, as meshes are), and each fragment is
-// shaded with the attributes of the detailed triangle under it (igt_functions.wgsl): its
-// normal, and its texture or corner colors (with 5 samples, averaged over the pixel's
-// footprint), darkened by its ambient occlusion when the texture has it. Where nothing is
-// listed near a point, the simplified face's own normal and the neutral color. Where the
-// object's shader LoD says the point is far, the baked texture instead (igt_baked).
+// Entry points of the inverse-geometric-texture scene pass and the shading both passes share:
+// the simplified mesh is rasterized into the shared targets and reversed-Z depth (two-sided, as
+// meshes are); the surface pass (igt_surface.wgsl) then shades each visible fragment with the
+// attributes of the detailed triangle under it (igt_functions.wgsl): its normal, and its
+// texture or corner colors (with 5 samples, averaged over the pixel's footprint), darkened by
+// its ambient occlusion when the texture has it. Where nothing is listed near a point, the
+// simplified face's own normal and the neutral color. Where the object's shader LoD says the
+// point is far, the baked texture instead (igt_baked).
 //
 // Spaces: see igt_types.wgsl.
 
@@ -79,9 +80,8 @@ const IGT_OFFSETS = array<vec2<f32>, 4>(
 );
 
 // The normal (object space, unit; zero when nothing was found) and base color of the detailed
-// surface seen through `in`.
-fn igt_shade(in: VsOut) -> IgtShade {
-    let hit = igt_fragment_hit(in);
+// surface at `hit`.
+fn igt_shade(hit: IgtHit) -> IgtShade {
     if (hit.entry < 0) {
         return IgtShade(vec3<f32>(0.0), vec4<f32>(200.0, 200.0, 200.0, 255.0) / 255.0);
     }
@@ -91,11 +91,12 @@ fn igt_shade(in: VsOut) -> IgtShade {
     return IgtShade(igt_normal(face, hit.bary), vec4<f32>(base.rgb * open, base.a));
 }
 
-// What `in` shows through the lookup: one sample, or with object.ids.z == 5 the pixel's five
-// (moved along the simplified surface by the footprint's derivatives, and their view rays with
-// them; the normals that were found and all colors averaged).
-fn igt_shade_pixel(in: VsOut, dx: vec3<f32>, dy: vec3<f32>, view_dx: vec3<f32>, view_dy: vec3<f32>) -> IgtShade {
-    let shade = igt_shade(in);
+// What `in` shows through the lookup: one sample (`hit`, its centre's), or with
+// object.ids.z == 5 the pixel's five (moved along the simplified surface by the footprint's
+// derivatives, and their view rays with them; the normals that were found and all colors
+// averaged).
+fn igt_shade_pixel(in: VsOut, hit: IgtHit, dx: vec3<f32>, dy: vec3<f32>, view_dx: vec3<f32>, view_dy: vec3<f32>) -> IgtShade {
+    let shade = igt_shade(hit);
     if (object.ids.z != 5) {
         return shade;
     }
@@ -106,40 +107,26 @@ fn igt_shade_pixel(in: VsOut, dx: vec3<f32>, dy: vec3<f32>, view_dx: vec3<f32>, 
         let o = IGT_OFFSETS[k];
         s.object_pos += o.x * dx + o.y * dy;
         s.view_pos += o.x * view_dx + o.y * view_dy;
-        let more = igt_shade(s);
+        let more = igt_shade(igt_fragment_hit(s));
         normal_sum += more.normal;
         base_sum += more.base;
     }
     return IgtShade(normal_sum, base_sum / 5.0);
 }
 
+// The scene pass: depth, the object's id and the simplified face's own normal only. The
+// lookup and the shading wait for the surface pass (igt_surface.wgsl), which draws over the
+// visible fragments alone: a lookup costs far more than rasterizing (on lavapipe about 10 us a
+// pixel for the ray lookup), and hidden fragments of the simplified mesh (about one for each
+// visible one, two-sided, in no particular order) would each have paid for one.
 @fragment
 fn fs_main(in: VsOut) -> RasterFsOut {
-    // The simplified face's normal and the footprint's derivatives, taken before any branch.
-    let dx = dpdx(in.object_pos);
-    let dy = dpdy(in.object_pos);
-    let view_dx = dpdx(in.view_pos);
-    let view_dy = dpdy(in.view_pos);
-    let flat_normal = cross(dx, dy);
-    // Far away the baked texture (already one value per cell: no extra samples), unless no
-    // cell near the point holds one.
-    var shade = IgtShade(vec3<f32>(0.0), vec4<f32>(-1.0));
-    if (igt_far(in.grid, in.object_pos, in.view_pos, dx, dy)) {
-        shade = igt_baked(in.grid, in.object_pos);
-    }
-    if (shade.base.a < 0.0) {
-        shade = igt_shade_pixel(in, dx, dy, view_dx, view_dy);
-    }
-    var n = flat_normal;
-    if (dot(shade.normal, shade.normal) > 0.0) {
-        n = shade.normal;
-    }
-    let base = shade.base;
+    let n = cross(dpdx(in.object_pos), dpdy(in.object_pos));
     let world_n = normalize((object.world_normal_from_object * vec4<f32>(n, 0.0)).xyz);
     var out: RasterFsOut;
-    out.color = vec4<f32>(headlight(camera, base.rgb, world_n, in.view_pos), base.a);
+    out.color = vec4<f32>(0.0);
     out.normal = vec4<f32>(world_n, 0.0);
     out.id = object.ids.x;
-    out.albedo = base;
+    out.albedo = vec4<f32>(0.0);
     return out;
 }

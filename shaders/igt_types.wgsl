@@ -22,7 +22,8 @@ struct IgtObject {
     // occlusion (the normals start at 0).
     segments: vec4<u32>,
     // y: the shader LoD (0 off, 1 where a cell covers less than a pixel, 2 beyond a distance);
-    // z: that distance's f32 bits (view units); x, w unused.
+    // z: that distance's f32 bits (view units); w: where the cells' heights start in
+    // cell_start (igt_bindings.wgsl); x unused.
     lod: vec4<u32>,
 }
 

@@ -220,19 +220,30 @@ impl Targets {
         timed: bool,
     ) -> wgpu::RenderPass<'e> {
         let (texture, _) = self.surface.as_ref().expect("ensure_surface ran");
-        let view = texture.create_view(&Default::default());
+        let views = [texture, &self.color, &self.normal, &self.albedo]
+            .map(|t| t.create_view(&Default::default()));
         let depth_view = self.depth.create_view(&Default::default());
-        encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("surface"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: &view,
+        // The surface target cleared; the scene's color, normal and albedo kept, to be shaded
+        // over where the pass draws.
+        let attachments = views.iter().enumerate().map(|(k, view)| {
+            Some(wgpu::RenderPassColorAttachment {
+                view,
                 depth_slice: None,
                 resolve_target: None,
                 ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                    load: if k == 0 {
+                        wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT)
+                    } else {
+                        wgpu::LoadOp::Load
+                    },
                     store: wgpu::StoreOp::Store,
                 },
-            })],
+            })
+        });
+        let attachments: Vec<_> = attachments.collect();
+        encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("surface"),
+            color_attachments: &attachments,
             depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                 view: &depth_view,
                 depth_ops: Some(wgpu::Operations {

@@ -26,7 +26,8 @@ use crate::igt::{IgtMesh, InverseGeometricTexture, Lod, Lookup};
 use crate::render::cull::DepthRange;
 use crate::render::device::Gpu;
 use crate::render::gpu_types::{
-    gpu_matrix, normal_matrix, IgtEntryGpu, IgtGridGpu, IgtObjectGpu, IgtVertex, DEPTH_FORMAT,
+    gpu_matrix, normal_matrix, IgtEntryGpu, IgtGridGpu, IgtObjectGpu, IgtVertex, COLOR_FORMAT,
+    DEPTH_FORMAT, NORMAL_FORMAT,
 };
 use crate::render::pipelines::{storage_entry, uniform_entry, RasterPipeline, VERTEX_AND_FRAGMENT};
 use crate::render::scene::{Object, SceneObject};
@@ -37,9 +38,10 @@ pub(crate) const SURFACE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba
 
 /// Storage buffers of group 1 (bindings 1 to 7 of igt_bindings.wgsl). With the mesh's own,
 /// eight: within the 8 a fragment stage may bind on any adapter (WebGPU's default limit), which
-/// is why the attributes share one buffer. The baked texture has its own: it grows with the
-/// cells (8 bytes each), as the cell offsets do (4), so the two stay the largest buffers and
-/// under lavapipe's 128 MiB per binding up to about 4096² cells.
+/// is why the attributes share one buffer (and the cells' heights follow their offsets in
+/// one). The baked texture has its own: it grows with the cells (8 bytes each), as the cell
+/// offsets and heights do (8), so the two stay the largest buffers and within lavapipe's
+/// 128 MiB per binding up to about 4096² cells.
 const TABLES: usize = 7;
 
 /// A texture's tables and attributes on the GPU.
@@ -51,6 +53,8 @@ struct UploadedTables {
     info: [u32; 3],
     /// Where each part starts in the attribute buffer (`IgtObject.segments`).
     segments: [u32; 4],
+    /// Where the cells' heights start in the cell buffer (`IgtObject.lod.w`).
+    heights_at: u32,
     /// The detailed mesh's bounding-box centre: everything is stored relative to it.
     centre: DVec3,
 }
@@ -140,34 +144,74 @@ fn pack_attributes(igt: &InverseGeometricTexture, image: Option<&Image>) -> Attr
     Attributes { words, segments }
 }
 
-/// The grids as the shader takes them, relative to `centre`, with the heights (along z from
-/// the origin) their listed faces span, rounded outward (the ray lookup's slab).
-fn grid_records(igt: &InverseGeometricTexture, centre: DVec3) -> Vec<IgtGridGpu> {
-    let per = |cell: f64| if cell > 0.0 { (1.0 / cell) as f32 } else { 0.0 };
+/// Per grid, the heights (along its z, from its origin) its listed faces span, widened by a
+/// little slack and rounded outward to f32: the ray lookup's slab (`IgtGrid.z.w`, `size.w`).
+fn grid_slabs(igt: &InverseGeometricTexture) -> Vec<(f32, f32)> {
     let mut heights = vec![(f64::INFINITY, f64::NEG_INFINITY); igt.grids.len()];
     for e in &igt.entries {
-        let g = &igt.grids[e.grid as usize];
         let h = &mut heights[e.grid as usize];
-        for &v in &igt.faces[e.face as usize] {
-            let z = (igt.positions[v as usize] - g.origin).dot(g.axes[2]);
-            *h = (h.0.min(z), h.1.max(z));
-        }
+        let (lo, hi) = face_heights(igt, e);
+        *h = (h.0.min(lo), h.1.max(hi));
     }
     (igt.grids.iter().zip(heights))
         .map(|(g, (lo, hi))| {
+            let slack = 1e-4 * (hi - lo).abs().max(g.cell.max_element());
+            ((lo - slack) as f32, (hi + slack) as f32)
+        })
+        .collect()
+}
+
+/// The heights (along its grid's z, from the grid's origin) entry `e`'s face spans.
+fn face_heights(igt: &InverseGeometricTexture, e: &crate::igt::Entry) -> (f64, f64) {
+    let g = &igt.grids[e.grid as usize];
+    (igt.faces[e.face as usize].iter()).fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
+        let z = (igt.positions[v as usize] - g.origin).dot(g.axes[2]);
+        (lo.min(z), hi.max(z))
+    })
+}
+
+/// Per cell, the heights its listed faces span as two unorm16 of its grid's slab (`slabs`;
+/// low half the lowest, rounded down, high half the highest, rounded up; an empty cell
+/// 0x0000ffff): the ray lookup skips the triangle tests of a cell whose heights the ray's
+/// stretch over it misses (igt_ray_walk). At 512² on the 1.1 M-face bunny a cell lists 14
+/// triangles on average, and most cells a slanted view ray crosses lie well above or below
+/// the surface there.
+fn cell_heights(igt: &InverseGeometricTexture, slabs: &[(f32, f32)]) -> Vec<u32> {
+    let mut words = vec![0x0000_ffffu32; igt.cell_start.len().saturating_sub(1)];
+    for (grid, &(lo, hi)) in igt.grids.iter().zip(slabs) {
+        let span = f64::from(hi - lo).max(f64::MIN_POSITIVE);
+        let unit = |h: f64| ((h - f64::from(lo)) / span * 65535.0).clamp(0.0, 65535.0);
+        for c in grid.first_cell..grid.first_cell + grid.cells() {
+            let listed = igt.cell_start[c as usize]..igt.cell_start[c as usize + 1];
+            let (a, b) = (igt.cell_entries[listed.start as usize..listed.end as usize].iter())
+                .map(|&k| face_heights(igt, &igt.entries[k as usize]))
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), (l, h)| {
+                    (a.min(l), b.max(h))
+                });
+            if a <= b {
+                words[c as usize] = unit(a).floor() as u32 | ((unit(b).ceil() as u32) << 16);
+            }
+        }
+    }
+    words
+}
+
+/// The grids as the shader takes them, relative to `centre`, with their slabs (`grid_slabs`).
+fn grid_records(
+    igt: &InverseGeometricTexture,
+    centre: DVec3,
+    slabs: &[(f32, f32)],
+) -> Vec<IgtGridGpu> {
+    let per = |cell: f64| if cell > 0.0 { (1.0 / cell) as f32 } else { 0.0 };
+    (igt.grids.iter().zip(slabs))
+        .map(|(g, &(lo, hi))| {
             let o = (g.origin - centre).as_vec3();
             let [x, _, z] = g.axes.map(|a| a.as_vec3());
-            let slack = 1e-4 * (hi - lo).abs().max(g.cell.max_element());
             IgtGridGpu {
                 origin: [o.x, o.y, o.z, per(g.cell.x)],
                 x: [x.x, x.y, x.z, per(g.cell.y)],
-                z: [z.x, z.y, z.z, (lo - slack) as f32],
-                size: [
-                    g.width,
-                    g.height,
-                    g.first_cell,
-                    ((hi + slack) as f32).to_bits(),
-                ],
+                z: [z.x, z.y, z.z, lo],
+                size: [g.width, g.height, g.first_cell, hi.to_bits()],
             }
         })
         .collect()
@@ -202,6 +246,9 @@ fn upload_tables(gpu: &Gpu, igt: &InverseGeometricTexture) -> Result<UploadedTab
         | (u32::from(image.is_some()) << 1)
         | (u32::from(a.ao.is_some()) << 2);
     let (w, h) = image.map_or((0, 0), |i| (i.width() as u32, i.height() as u32));
+    let slabs = grid_slabs(igt);
+    // The cell offsets, then the cells' heights (from `IgtObject.lod.w` on).
+    let cells = [igt.cell_start.as_slice(), &cell_heights(igt, &slabs)].concat();
     let device = &gpu.device;
     // Bindings need a buffer: absent parts take one zero.
     let buffer = |label: &str, bytes: &[u8]| {
@@ -212,9 +259,9 @@ fn upload_tables(gpu: &Gpu, igt: &InverseGeometricTexture) -> Result<UploadedTab
         buffers: [
             buffer(
                 "igt grids",
-                bytemuck::cast_slice(&grid_records(igt, centre)),
+                bytemuck::cast_slice(&grid_records(igt, centre, &slabs)),
             ),
-            buffer("igt cell offsets", bytemuck::cast_slice(&igt.cell_start)),
+            buffer("igt cells", bytemuck::cast_slice(&cells)),
             buffer("igt cell entries", bytemuck::cast_slice(&igt.cell_entries)),
             buffer("igt entries", bytemuck::cast_slice(&entries)),
             buffer("igt attributes", bytemuck::cast_slice(&packed.words)),
@@ -223,6 +270,7 @@ fn upload_tables(gpu: &Gpu, igt: &InverseGeometricTexture) -> Result<UploadedTab
         ],
         info: [bits, w, h],
         segments: packed.segments,
+        heights_at: igt.cell_start.len() as u32,
         centre,
     })
 }
@@ -349,7 +397,7 @@ impl IgtKind {
             info: [shaded.igt.primary.code(), bits, w, h],
             object_from_view: gpu_matrix(view_from_local.inverse()),
             segments: [colors, uvs, image, ao],
-            lod: [0, mode, distance.to_bits(), 0],
+            lod: [0, mode, distance.to_bits(), tables.heights_at],
         };
         let device = &gpu.device;
         let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -421,11 +469,13 @@ fn surface_pipeline(
             module: &module,
             entry_point: Some("fs_surface"),
             compilation_options: Default::default(),
-            targets: &[Some(wgpu::ColorTargetState {
-                format: SURFACE_FORMAT,
-                blend: None,
-                write_mask: wgpu::ColorWrites::ALL,
-            })],
+            targets: &[SURFACE_FORMAT, COLOR_FORMAT, NORMAL_FORMAT, COLOR_FORMAT].map(|format| {
+                Some(wgpu::ColorTargetState {
+                    format,
+                    blend: None,
+                    write_mask: wgpu::ColorWrites::ALL,
+                })
+            }),
         }),
         multiview_mask: None,
         cache: None,
@@ -516,6 +566,46 @@ impl Kind for IgtKind {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every listed face's heights lie within its cell's decoded bounds (the ray lookup skips
+    /// the cell otherwise), and the bounds are the listed faces' own, to a quantum each side.
+    #[test]
+    fn cell_heights_hold_their_listed_faces_tightly() {
+        let mesh = crate::convert::tests::uv_sphere(24, 48);
+        let igt = crate::igt::build(
+            &mesh,
+            &Default::default(),
+            crate::convert::Progress::silent(),
+        )
+        .unwrap();
+        let slabs = grid_slabs(&igt);
+        let words = cell_heights(&igt, &slabs);
+        let (mut outside, mut loose, mut tested) = (0, 0, 0);
+        for (grid, &(lo, hi)) in igt.grids.iter().zip(&slabs) {
+            let quantum = f64::from(hi - lo) / 65535.0;
+            for c in grid.first_cell..grid.first_cell + grid.cells() {
+                let w = words[c as usize];
+                let decode = |q: u32| f64::from(lo) + f64::from(q & 0xffff) * quantum;
+                let (a, b) = (decode(w), decode(w >> 16));
+                let listed = igt.list(c as usize);
+                let spans = listed
+                    .iter()
+                    .map(|&k| face_heights(&igt, &igt.entries[k as usize]));
+                let (l, h) = spans.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), (x, y)| {
+                    (l.min(x), h.max(y))
+                });
+                if listed.is_empty() {
+                    assert_eq!(w, 0x0000_ffff);
+                    continue;
+                }
+                tested += 1;
+                outside += usize::from(l < a - 1e-12 || h > b + 1e-12);
+                loose += usize::from(a < l - quantum || b > h + quantum);
+            }
+        }
+        assert!(tested > 1000, "{tested}");
+        assert_eq!((outside, loose), (0, 0), "of {tested} cells");
+    }
 
     /// The encoding decoded as igt_octahedral does (WGSL) comes back within snorm16 rounding.
     #[test]
