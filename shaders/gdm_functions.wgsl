@@ -287,47 +287,67 @@ fn gdm_march(a: vec3<f32>, dir: vec3<f32>, len: f32) -> f32 {
     return -1.0;
 }
 
-// The SVD-compressed distance d(x, y, z, theta, phi) at texture point t (trilinear over voxel
-// centres, x and y wrapped) for the sampled direction nearest the unit direction dir.
+// The SVD-compressed distance d(x, y, z, theta, phi) at texture point t for the unit direction
+// dir, interpolated in all five (x, y wrapped; z, theta clamped; phi wrapped), as the paper's
+// texture fetches do: each term's weight map W_k(x, y, phi) trilinearly and its eigen map
+// E_k(theta, z) bilinearly, whose products sum to the table's own 5D interpolation. (The nearest
+// sampled direction instead, up to 6 degrees off at 16 x 32, landed on other links.)
 fn gdm_lookup(t: vec3<f32>, dir: vec3<f32>) -> f32 {
     let n = vec3<i32>(shell.size.xyz);
     let counts = shell.lookup;
     let pi = 3.14159265;
-    let theta = acos(clamp(dir.z, -1.0, 1.0));
     var phi = atan2(dir.y, dir.x);
     if (phi < 0.0) {
         phi += 2.0 * pi;
     }
-    let a = u32(clamp(round(theta * f32(counts.x) / pi - 0.5), 0.0, f32(counts.x - 1u)));
-    let b = u32(round(phi * f32(counts.y) / (2.0 * pi))) % counts.y;
+    // Polar samples sit at the centres of equal steps, azimuths at their starts (gdm.py).
+    let ta = clamp(acos(clamp(dir.z, -1.0, 1.0)) * f32(counts.x) / pi - 0.5, 0.0, f32(counts.x - 1u));
+    let a0 = u32(floor(ta));
+    let a1 = min(a0 + 1u, counts.x - 1u);
+    let fa = ta - f32(a0);
+    let tb = phi * f32(counts.y) / (2.0 * pi);
+    let fb = fract(tb);
+    let b0 = u32(floor(tb)) % counts.y;
+    let b1 = (b0 + 1u) % counts.y;
     let s = t - 0.5;
-    let base = floor(s);
-    let f = s - base;
-    var acc = 0.0;
-    for (var c = 0; c < 8; c++) {
-        let o = vec3<i32>(c & 1, (c >> 1) & 1, (c >> 2) & 1);
-        let v = vec3<i32>(base) + o;
-        let i = ((v.x % n.x) + n.x) % n.x;
-        let j = ((v.y % n.y) + n.y) % n.y;
-        let z = u32(clamp(v.z, 0, n.z - 1));
-        let wt = mix(1.0 - f, f, vec3<f32>(o));
-        var d = 0.0;
-        for (var k = 0u; k < counts.z; k++) {
-            let w = gdm_terms_w[((u32(i * n.y + j)) * counts.y + b) * counts.z + k];
-            d += w * gdm_terms_e[(k * counts.x + a) * u32(n.z) + z];
+    let base = vec3<i32>(floor(s));
+    let f = s - floor(s);
+    let z0 = u32(clamp(base.z, 0, n.z - 1));
+    let z1 = u32(clamp(base.z + 1, 0, n.z - 1));
+    var d = 0.0;
+    for (var k = 0u; k < counts.z; k++) {
+        var w = 0.0;
+        for (var c = 0; c < 4; c++) {
+            let o = vec2<i32>(c & 1, (c >> 1) & 1);
+            let i = (((base.x + o.x) % n.x) + n.x) % n.x;
+            let j = (((base.y + o.y) % n.y) + n.y) % n.y;
+            let wt = mix(1.0 - f.xy, f.xy, vec2<f32>(o));
+            let row = u32(i * n.y + j) * counts.y;
+            let wp = mix(gdm_terms_w[(row + b0) * counts.z + k], gdm_terms_w[(row + b1) * counts.z + k], fb);
+            w += wt.x * wt.y * wp;
         }
-        acc += wt.x * wt.y * wt.z * d;
+        let e0 = mix(gdm_terms_e[(k * counts.x + a0) * u32(n.z) + z0], gdm_terms_e[(k * counts.x + a1) * u32(n.z) + z0], fa);
+        let e1 = mix(gdm_terms_e[(k * counts.x + a0) * u32(n.z) + z1], gdm_terms_e[(k * counts.x + a1) * u32(n.z) + z1], fa);
+        d += w * mix(e0, e1, f.z);
     }
-    return acc;
+    return d;
 }
 
-// The paper's lookup along one straight piece: the distance the table gives from its start,
-// kept when it falls within the piece and the field confirms solid there (a miss in the table
-// holds the distance to the slab's boundary instead, where there is none); -1 otherwise.
+// The paper's lookup along one straight piece: the distance the table gives from its start; a
+// miss when it lies beyond the piece (a miss in the table holds the distance to the slab's
+// boundary). With shell.params.x = 0 the distance is kept where the field confirms solid within
+// a voxel past it, as the paper takes it. With a half-width r > 0 the first surface within r of
+// it is searched exactly instead: the table's value, interpolated between samples a voxel and a
+// direction step apart and off by the SVD's error (4.7 voxels rms at k = 8), stopped short of or
+// beyond links two or three voxels thick.
 fn gdm_lookup_piece(a: vec3<f32>, dir: vec3<f32>, len: f32) -> f32 {
+    let r = shell.params.x;
     let d = max(gdm_lookup(a, dir), 0.0);
-    if (d > len) {
+    if (d > len + r) {
         return -1.0;
+    }
+    if (r > 0.0) {
+        return gdm_fine_search(a, dir, max(d - r, 0.0), min(d + r, len));
     }
     for (var k = 0; k < 3; k++) {
         if (gdm_field(a + dir * (d + 0.5 * f32(k))) >= 0.5) {
@@ -337,15 +357,21 @@ fn gdm_lookup_piece(a: vec3<f32>, dir: vec3<f32>, len: f32) -> f32 {
     return -1.0;
 }
 
-// The field's gradient at texture point t (central differences); `dir` where a feature as thin
-// as the differences' step leaves none.
+// The field's gradient at texture point t: the trilinear interpolation's own derivative within
+// t's cell, so the normal is that of the level set the march hits. (Central differences half a
+// voxel wide reached into the neighbouring cells and tilted the flat tops beside every terrace
+// step of a thin layer; see README.) `dir` where the field is flat there (a saddle).
 fn gdm_gradient(t: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
-    let e = 0.5;
-    let g = vec3<f32>(
-        gdm_field(t + vec3<f32>(e, 0.0, 0.0)) - gdm_field(t - vec3<f32>(e, 0.0, 0.0)),
-        gdm_field(t + vec3<f32>(0.0, e, 0.0)) - gdm_field(t - vec3<f32>(0.0, e, 0.0)),
-        gdm_field(t + vec3<f32>(0.0, 0.0, e)) - gdm_field(t - vec3<f32>(0.0, 0.0, e)),
-    );
+    let s = t - 0.5;
+    let f = s - floor(s);
+    let v = vec3<i32>(floor(s));
+    var g = vec3<f32>(0.0);
+    for (var k = 0; k < 8; k++) {
+        let o = vec3<f32>(vec3<i32>(k & 1, (k >> 1) & 1, (k >> 2) & 1));
+        let wt = mix(1.0 - f, f, o);
+        let sign_o = 2.0 * o - 1.0;
+        g += gdm_solid(v + vec3<i32>(o)) * sign_o * vec3<f32>(wt.y * wt.z, wt.x * wt.z, wt.x * wt.y);
+    }
     return select(g, dir, dot(g, g) < 1e-12);
 }
 

@@ -17,6 +17,8 @@ struct GdmObject {
     // The GDM lookup (SVD terms in gdm_bindings.wgsl): x, y: theta and phi counts, z: terms k,
     // w: 1 to look up instead of marching exactly.
     lookup: vec4<u32>,
+    // x: half-width (voxels) of the exact search around a looked-up distance; 0: none.
+    params: vec4<f32>,
 }
 
 // One prism: base corners p (local), top corners q = p + thickness * n (shared vertex normals),

@@ -254,20 +254,72 @@ def _position_groups(vertices: npt.NDArray[np.float64]) -> npt.NDArray[np.int64]
     return group.reshape(-1)
 
 
-def _welded_normals(vertices: npt.NDArray[np.float64], faces: npt.NDArray[np.int64]) -> npt.NDArray[np.float64]:
+def _welded_normals(vertices: npt.NDArray[np.float64], faces: npt.NDArray[np.int64], thickness: float,
+                    rounds: int = 32) -> tuple[npt.NDArray[np.float64], int]:
     """Area-weighted vertex normals summed over every vertex at the same position, so copies of a
-    vertex split at a texture seam extrude alike (no cracks between their prisms)."""
+    vertex split at a texture seam extrude alike (no cracks between their prisms), then untangled
+    (``_untangle``, at most ``rounds`` rounds) for this thickness: (normals, how many positions the
+    untangling moved)."""
     group = _position_groups(vertices)
     tri = vertices[faces]
     face_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])  # length = 2 x area
     summed = np.zeros((group.max() + 1, 3))
     for c in range(3):
         np.add.at(summed, group[faces[:, c]], face_n)
-    n = summed[group]
-    length = np.linalg.norm(n, axis=1, keepdims=True)
+    length = np.linalg.norm(summed, axis=1, keepdims=True)
     if (length < 1e-300).any():
         raise MeshError("Shell: a vertex has no normal (its faces cancel or are degenerate)")
-    return n / length
+    positions = np.zeros_like(summed)
+    positions[group] = vertices
+    normals, moved = _untangle(positions, group[faces], summed / length, thickness, rounds)
+    return normals[group], moved
+
+
+def _inverted_prisms(positions: npt.NDArray[np.float64], faces: npt.NDArray[np.int64],
+                     normals: npt.NDArray[np.float64], thickness: float) -> npt.NDArray[np.bool_]:
+    """Per face, whether its prism's cross-section turns over anywhere up to the top (checked at
+    four heights: the cross-section's normal along the base's is quadratic in the height)."""
+    p = positions[faces]
+    step = thickness * normals[faces]
+    base = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    bad = np.zeros(len(faces), bool)
+    for h in (0.25, 0.5, 0.75, 1.0):
+        m = p + h * step
+        bad |= np.einsum("ij,ij->i", base, np.cross(m[:, 1] - m[:, 0], m[:, 2] - m[:, 0])) <= 0
+    # A degenerate base triangle has no side to turn over to (and no face normal to push toward).
+    return bad & (np.linalg.norm(base, axis=1) > 0)
+
+
+def _untangle(positions: npt.NDArray[np.float64], faces: npt.NDArray[np.int64], normals: npt.NDArray[np.float64],
+              thickness: float, rounds: int = 32) -> tuple[npt.NDArray[np.float64], int]:
+    """Vertex normals bent so no prism turns inside out: where neighbouring normals converge over
+    a triangle narrower than about the thickness (creases of a decimated mesh, concave side), its
+    top turns over and the prism's map folds (88 of the 3,000-face bunny's prisms at 1.2% of its
+    diagonal). Each round moves the normals at the corners of every inverted prism halfway toward
+    the mean of those prisms' face normals (a triangle whose corners share its face normal
+    extrudes without turning); the bunny needs three rounds and moves 136 of 1,502 normals. Not
+    a cure everywhere: pushes from neighbouring inverted prisms can cancel (at 1.2% of the
+    diagonal fandisk keeps 8 of 22, rocker-arm 67 of 396), so the round with the fewest
+    inverted prisms is kept and none is made worse. Returns (normals, how many moved)."""
+    out = normals.copy()
+    best, fewest = out.copy(), len(faces) + 1
+    for k in range(rounds + 1):
+        bad = _inverted_prisms(positions, faces, out, thickness)
+        if bad.sum() < fewest:
+            best, fewest = out.copy(), int(bad.sum())
+        if not bad.any() or k == rounds:
+            break
+        tri = positions[faces[bad]]
+        face_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        face_n /= np.linalg.norm(face_n, axis=1, keepdims=True)
+        push = np.zeros_like(out)
+        for c in range(3):
+            np.add.at(push, faces[bad, c], face_n)
+        touched = np.linalg.norm(push, axis=1) > 0
+        push[touched] /= np.linalg.norm(push[touched], axis=1, keepdims=True)
+        bent = out[touched] + 0.5 * (push[touched] - out[touched])
+        out[touched] = bent / np.linalg.norm(bent, axis=1, keepdims=True)
+    return best, int((best != normals).any(axis=1).sum())
 
 
 def seam_fins(vertices: npt.NDArray[np.float64], faces: npt.NDArray[np.int64],
@@ -318,6 +370,26 @@ def box_uv(vertices: npt.NDArray[np.float64], faces: npt.NDArray[np.int64]) -> n
     return uv
 
 
+def tile_surface(volume: Volume) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]:
+    """A volume's surface over one period (marching cubes at 0.5 of the occupancy sampled at voxel
+    centres, x and y wrapped, empty below and above): vertices in voxel units with x, y in
+    [0.5, n + 0.5] and z in [0, nz], faces wound outward."""
+    from skimage import measure
+
+    occ = volume.occupancy.astype(np.float32)
+    nx, ny, nz = occ.shape
+    grid = np.zeros((nx + 1, ny + 1, nz + 2), np.float32)
+    grid[:, :, 1:-1] = np.pad(occ, ((0, 1), (0, 1), (0, 0)), mode="wrap")
+    verts, faces, normals, _ = measure.marching_cubes(grid, level=0.5, allow_degenerate=False)
+    verts = verts.astype(np.float64) + np.array([0.5, 0.5, -0.5])
+    # Outward winding: the returned normals point down the field's gradient, out of the solid.
+    tri = verts[faces]
+    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    if np.einsum("ij,ij->", cross, normals[faces].sum(axis=1)) < 0:
+        faces = faces[:, ::-1]
+    return verts, np.ascontiguousarray(faces, dtype=np.int64)
+
+
 class Shell:
     """A volume tiled over a base mesh: every triangle extruded along its vertices' shared normals
     by ``thickness`` (object units) into a prism.
@@ -326,19 +398,24 @@ class Shell:
     through each prism is cut into ``pieces`` straight texture-space pieces (their ends mapped
     exactly) and the tile is marched for the first surface; with ``lookup`` (a CompressedGDM of
     this volume) each piece instead takes the paper's one lookup in the SVD-compressed distance
-    function. Drawn in ``color`` (RGBA). Ray queries (``Scene.intersects_*``,
-    ``Renderer.intersect``) and shadow rays (``render(..., light=...)``) trace shells by the same
-    march through a hierarchy over the prisms: a shell casts shadows on itself and on other
-    objects.
+    function (interpolated in position and direction, as the paper's textures are), kept where
+    the field confirms it; ``refine`` > 0 (voxels) searches exactly for the first surface within
+    that distance of the looked-up one instead. Drawn in ``color`` (RGBA). Ray queries
+    (``Scene.intersects_*``, ``Renderer.intersect``) and shadow rays (``render(..., light=...)``)
+    trace shells by the same march through a hierarchy over the prisms: a shell casts shadows on
+    itself and on other objects.
 
     Texture coordinates (in tiles: 1.0 = one tile): ``uv`` as (V, 2) per vertex or (F, 3, 2) per
     corner; else the base mesh's own UVs times ``tiles``; else generated by ``box_uv`` times
     ``tiles`` (default (8, 8): eight tiles across the bounding box's largest side).
+
+    Vertex normals are shared by every copy of a position, and bent where a prism would turn
+    inside out at this thickness (``untangled``: how many positions were bent).
     """
 
     def __init__(self, base_mesh: Any, volume: Volume, thickness: float, *,
                  tiles: Any = (8, 8), uv: Any = None, color: Any = (200, 170, 110, 255),
-                 pieces: int = 4, lookup: CompressedGDM | None = None) -> None:
+                 pieces: int = 4, lookup: CompressedGDM | None = None, refine: float = 0.0) -> None:
         from ._mesh import as_mesh
 
         mesh = as_mesh(base_mesh)
@@ -356,7 +433,7 @@ class Shell:
         self.vertices = np.asarray(mesh.vertices, dtype=np.float64)
         self.faces = np.asarray(mesh.faces, dtype=np.int64)
         self.volume, self.thickness, self.tiles = volume, t, tuple(scale)
-        self.normals = _welded_normals(self.vertices, self.faces)
+        self.normals, self.untangled = _welded_normals(self.vertices, self.faces, t)
         self.uv, self.uv_source = self._texture_coordinates(mesh, uv, scale)
         rgba = np.asarray(color)
         if rgba.shape != (4,) or rgba.dtype.kind not in "iu" or (rgba < 0).any() or (rgba > 255).any():
@@ -368,6 +445,10 @@ class Shell:
         if lookup is not None and (not isinstance(lookup, CompressedGDM) or lookup.shape[:3] != volume.size):
             raise ParameterError("lookup must be a CompressedGDM of this shell's volume (DistanceFunction.compress)")
         self.lookup = lookup
+        r = float(refine) if isinstance(refine, (int, float, np.number)) and not isinstance(refine, bool) else -1.0
+        if not 0 <= r <= 64:
+            raise ParameterError(f"refine must be a number of voxels in 0..64, got {refine!r}")
+        self.refine = r
         self._drawn: Any = None
 
     def __getstate__(self) -> dict[str, Any]:
@@ -395,27 +476,12 @@ class Shell:
                 self.vertices, self.normals, np.ascontiguousarray(self.faces, dtype=np.uint32), self.uv,
                 self.thickness, self.volume._core, self.color, self.pieces,
                 None if self.lookup is None else (np.ascontiguousarray(self.lookup.weights),
-                                                  np.ascontiguousarray(self.lookup.eigen)))
+                                                  np.ascontiguousarray(self.lookup.eigen), self.refine))
         return self._drawn
 
     def tile_surface(self) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]:
-        """The tile's surface over one period (marching cubes at 0.5 of the occupancy sampled at
-        voxel centres, x and y wrapped, empty below and above): vertices in voxel units with x, y
-        in [0.5, n + 0.5] and z in [0, nz], faces wound outward."""
-        from skimage import measure
-
-        occ = self.volume.occupancy.astype(np.float32)
-        nx, ny, nz = occ.shape
-        grid = np.zeros((nx + 1, ny + 1, nz + 2), np.float32)
-        grid[:, :, 1:-1] = np.pad(occ, ((0, 1), (0, 1), (0, 0)), mode="wrap")
-        verts, faces, normals, _ = measure.marching_cubes(grid, level=0.5, allow_degenerate=False)
-        verts = verts.astype(np.float64) + np.array([0.5, 0.5, -0.5])
-        # Outward winding: the returned normals point down the field's gradient, out of the solid.
-        tri = verts[faces]
-        cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-        if np.einsum("ij,ij->", cross, normals[faces].sum(axis=1)) < 0:
-            faces = faces[:, ::-1]
-        return verts, np.ascontiguousarray(faces, dtype=np.int64)
+        """The tile's surface over one period (``tile_surface`` of this shell's volume)."""
+        return tile_surface(self.volume)
 
     def to_mesh(self) -> Any:
         """The explicit reference: the tile's surface clipped to every prism's texture triangle and

@@ -41,6 +41,9 @@ pub struct CompressedTable {
     pub weights: Vec<f32>,
     /// E[(i * n_theta + theta) * nz + z].
     pub eigen: Vec<f32>,
+    /// Half-width in voxels of the exact search around the distance looked up; 0: the paper's
+    /// lookup alone (its distance kept where the field confirms solid there).
+    pub refine: f32,
 }
 
 /// Default pieces per prism.

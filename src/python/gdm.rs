@@ -218,8 +218,15 @@ fn shell_of(
 fn table_of(
     weights: &PyReadonlyArray4<'_, f32>,
     eigen: &PyReadonlyArray3<'_, f32>,
+    refine: f32,
     size: [usize; 3],
 ) -> PyResult<CompressedTable> {
+    if !(0.0..=64.0).contains(&refine) {
+        return Err(GeomtexError::Parameter(format!(
+            "lookup: refine must be 0..=64 voxels, got {refine}"
+        ))
+        .into());
+    }
     let (w, e) = (weights.shape(), eigen.shape());
     if w[..2] != size[..2] || e[2] != size[2] || w[3] != e[0] || w[3] == 0 || w[2] == 0 || e[1] == 0
     {
@@ -233,6 +240,7 @@ fn table_of(
         k: w[3],
         weights: flat(weights),
         eigen: flat(eigen),
+        refine,
     })
 }
 
@@ -257,7 +265,7 @@ impl PyGdmShell {
         volume: &PyGdmVolume,
         color: (u8, u8, u8, u8),
         pieces: Option<u32>,
-        lookup: Option<(PyReadonlyArray4<'_, f32>, PyReadonlyArray3<'_, f32>)>,
+        lookup: Option<(PyReadonlyArray4<'_, f32>, PyReadonlyArray3<'_, f32>, f32)>,
     ) -> PyResult<Self> {
         let volume = volume.inner.clone();
         let volume_size = volume.size;
@@ -275,7 +283,7 @@ impl PyGdmShell {
                 color: [color.0, color.1, color.2, color.3],
                 pieces,
                 lookup: lookup
-                    .map(|(w, e)| table_of(&w, &e, volume_size))
+                    .map(|(w, e, refine)| table_of(&w, &e, refine, volume_size))
                     .transpose()?,
             }),
         })

@@ -82,6 +82,7 @@ pub(crate) struct GdmObjectGpu {
     pub color: [f32; 4],
     pub ids: [i32; 4],
     pub lookup: [u32; 4],
+    pub params: [f32; 4],
 }
 
 /// `Prism` in gdm_types.wgsl.
@@ -176,7 +177,7 @@ wgsl_size!(MeshObjectGpu, 144);
 const _: () = assert!(offset_of!(MeshObjectGpu, world_normal_from_object) == 64);
 const _: () = assert!(offset_of!(MeshObjectGpu, ids) == 128);
 
-wgsl_size!(GdmObjectGpu, 256);
+wgsl_size!(GdmObjectGpu, 272);
 const _: () = assert!(offset_of!(GdmObjectGpu, size) == 192);
 const _: () = assert!(offset_of!(GdmObjectGpu, ids) == 224);
 wgsl_size!(PrismGpu, 128);

@@ -235,6 +235,12 @@ fn shell_record(
             let [nt, np] = t.directions.map(|n| n as u32);
             [nt, np, t.k as u32, 1]
         }),
+        params: [
+            shell.lookup.as_ref().map_or(0.0, |t| t.refine),
+            0.0,
+            0.0,
+            0.0,
+        ],
     }
 }
 
