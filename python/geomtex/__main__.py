@@ -29,7 +29,8 @@ def stats_table(gts: gt.GeometryTextureSet) -> str:
     st = gts.stats
     rows = [
         ("faces", f"{st['faces']:,} ({st['degenerate_faces']} degenerate)"),
-        ("patches (charts)", f"{st['charts']} (VSA {st['vsa_charts']}, +{st['repair_splits']} by folding repair)"),
+        ("patches (charts)", f"{st['charts']} (partition {st['vsa_charts']}, +{st['repair_splits']} by repair, "
+                             f"{st.get('sheet_splits', 0)} of them two-sheet charts)"),
         ("folding charts", f"{st['folding_charts']} (before repair: {st['folding_charts_before_repair']})"),
         ("inverted triangles", f"{st['inverted_triangles']} (before repair: {st['inverted_triangles_before_repair']})"),
         ("texels", f"{st['texels']:,} ({100 * st['empty_fraction']:.1f}% empty)"),
