@@ -665,6 +665,22 @@ impl UnionFind {
     }
 }
 
+/// Two triangles per cell of an `nx` x `ny` grid of cells whose (nx + 1) x (ny + 1) vertices are
+/// numbered row by row, wound counter-clockwise seen from +z when x and y grow with i and j:
+/// the faces of the test meshes built on grids.
+#[cfg(test)]
+pub(crate) fn grid_faces(nx: usize, ny: usize) -> Vec<i64> {
+    let v = |i: usize, j: usize| (j * (nx + 1) + i) as i64;
+    let mut faces = Vec::with_capacity(6 * nx * ny);
+    for j in 0..ny {
+        for i in 0..nx {
+            faces.extend_from_slice(&[v(i, j), v(i + 1, j), v(i + 1, j + 1)]);
+            faces.extend_from_slice(&[v(i, j), v(i + 1, j + 1), v(i, j + 1)]);
+        }
+    }
+    faces
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -419,15 +419,7 @@ mod tests {
                 pos.extend_from_slice(&[i as f64 / n as f64, j as f64 / n as f64, amplitude * r]);
             }
         }
-        let v = |i: usize, j: usize| (j * (n + 1) + i) as i64;
-        let mut faces = Vec::new();
-        for j in 0..n {
-            for i in 0..n {
-                faces.extend_from_slice(&[v(i, j), v(i + 1, j), v(i + 1, j + 1)]);
-                faces.extend_from_slice(&[v(i, j), v(i + 1, j + 1), v(i, j + 1)]);
-            }
-        }
-        Mesh::from_flat(&pos, &faces, None).unwrap()
+        Mesh::from_flat(&pos, &crate::mesh::grid_faces(n, n), None).unwrap()
     }
 
     #[test]

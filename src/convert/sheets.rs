@@ -231,15 +231,7 @@ mod tests {
                 ]);
             }
         }
-        let v = |i: usize, j: usize| (j * (nr + 1) + i) as i64;
-        let mut faces = Vec::new();
-        for j in 0..nt {
-            for i in 0..nr {
-                faces.extend_from_slice(&[v(i, j), v(i + 1, j), v(i + 1, j + 1)]);
-                faces.extend_from_slice(&[v(i, j), v(i + 1, j + 1), v(i, j + 1)]);
-            }
-        }
-        Mesh::from_flat(&pos, &faces, None).unwrap()
+        Mesh::from_flat(&pos, &crate::mesh::grid_faces(nr, nt), None).unwrap()
     }
 
     #[test]
