@@ -4,19 +4,18 @@
 //! above the other (a hand's fingers, a chart wrapped round a handle). One height map holds only
 //! the upper one, and the bilinear cells between the two become a wall that rays hit between
 //! the parts. A height field has one height per point, so two faces whose projections overlap,
-//! at clearly different heights there, are two sheets. Such a chart is split along the geodesic midline between those two faces, which
-//! separates sheets joined round a bend (their normals may agree, so VSA's normal-driven split
-//! would not).
+//! at clearly different heights there, are two sheets. Such a chart is split along the geodesic
+//! midline between those two faces, which separates sheets joined round a bend (their normals
+//! may agree, so VSA's normal-driven split would not).
 //!
 //! Space: world (positions, the chart's z).
 
-use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
 use glam::{DVec2, DVec3};
 
 use super::frame::perpendicular;
-use super::vsa::NONE;
+use super::vsa::{Candidate, NONE};
 use crate::mesh::{Mesh, MeshGeometry};
 
 /// Heights closer than this (in typical edge lengths of the chart) are one sheet: rounding, and
@@ -166,10 +165,16 @@ pub fn split_between(geo: &MeshGeometry, faces: &[u32], seeds: [u32; 2]) -> Vec<
         if let Some(k) = index(s) {
             distance[k] = 0.0;
             owner[k] = side as u32;
-            heap.push(Reverse((Ordered(0.0), k)));
+            heap.push(Candidate {
+                cost: 0.0,
+                face: k as u32,
+                chart: (),
+            });
         }
     }
-    while let Some(Reverse((Ordered(d), k))) = heap.pop() {
+    // Candidates carry a face's index in `faces_sorted`; the heap pops the nearest first.
+    while let Some(Candidate { cost: d, face, .. }) = heap.pop() {
+        let k = face as usize;
         if d > distance[k] {
             continue;
         }
@@ -180,7 +185,11 @@ pub fn split_between(geo: &MeshGeometry, faces: &[u32], seeds: [u32; 2]) -> Vec<
             if d + step < distance[m] {
                 distance[m] = d + step;
                 owner[m] = owner[k];
-                heap.push(Reverse((Ordered(d + step), m)));
+                heap.push(Candidate {
+                    cost: d + step,
+                    face: m as u32,
+                    chart: (),
+                });
             }
         }
     }
@@ -190,24 +199,6 @@ pub fn split_between(geo: &MeshGeometry, faces: &[u32], seeds: [u32; 2]) -> Vec<
     }
     parts.retain(|p| !p.is_empty());
     parts
-}
-
-/// An f64 ordered by `total_cmp`, for the heap.
-#[derive(Clone, Copy, PartialEq)]
-struct Ordered(f64);
-
-impl Eq for Ordered {}
-
-impl PartialOrd for Ordered {
-    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
-        Some(self.cmp(other))
-    }
-}
-
-impl Ord for Ordered {
-    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
-        self.0.total_cmp(&other.0)
-    }
 }
 
 #[cfg(test)]

@@ -162,12 +162,16 @@ impl Patch {
                 let t = (j * self.width + i) as usize;
                 let q = self.heights[t];
                 (q != 0).then(|| {
-                    let nl = decode_normal(self.normals[t]);
-                    let normal = (self.axes[0] * nl.x + self.axes[1] * nl.y + self.axes[2] * nl.z)
-                        .normalize_or_zero();
-                    (t, self.local_to_world(self.texel_local(i, j, q)), normal)
+                    let point = self.local_to_world(self.texel_local(i, j, q));
+                    (t, point, self.world_normal(t))
                 })
             })
+    }
+
+    /// The world unit normal texel `t` holds (zero where it holds none).
+    pub fn world_normal(&self, t: usize) -> DVec3 {
+        let n = decode_normal(self.normals[t]);
+        (self.axes[0] * n.x + self.axes[1] * n.y + self.axes[2] * n.z).normalize_or_zero()
     }
 
     pub fn texels(&self) -> usize {
@@ -280,6 +284,53 @@ pub fn encode_normal(n: DVec3) -> [i8; 2] {
         }
     }
     best.1
+}
+
+/// Two chamfer sweeps over a `w` x `h` map in place (rows of `w`, from the top left, then from
+/// the bottom right): each value becomes the least of itself and a neighbour's plus the step
+/// to it (`axis.0` across, `axis.1` down, `diagonal` on the diagonals). Outside the map a
+/// neighbour holds `outside`, or none when that is None. Patches use it for distances to or
+/// from their surface texels.
+pub(crate) fn chamfer<T>(
+    d: &mut [T],
+    w: usize,
+    h: usize,
+    axis: (T, T),
+    diagonal: T,
+    outside: Option<T>,
+) where
+    T: Copy + PartialOrd + std::ops::Add<Output = T>,
+{
+    let steps = [
+        (-1, 0, axis.0),
+        (0, -1, axis.1),
+        (-1, -1, diagonal),
+        (1, -1, diagonal),
+    ];
+    for forward in [true, false] {
+        for k in 0..w * h {
+            let t = if forward { k } else { w * h - 1 - k };
+            let (i, j) = ((t % w) as i64, (t / w) as i64);
+            for &(di, dj, cost) in &steps {
+                let (ni, nj) = if forward {
+                    (i + di, j + dj)
+                } else {
+                    (i - di, j - dj)
+                };
+                let inside = ni >= 0 && nj >= 0 && (ni as usize) < w && (nj as usize) < h;
+                let neighbour = if inside {
+                    Some(d[nj as usize * w + ni as usize])
+                } else {
+                    outside
+                };
+                if let Some(n) = neighbour {
+                    if n + cost < d[t] {
+                        d[t] = n + cost;
+                    }
+                }
+            }
+        }
+    }
 }
 
 /// Unit direction of an octahedral code (`encode_normal`); zero for `NO_NORMAL`.

@@ -173,27 +173,7 @@ impl Reach {
         let mut d: Vec<f64> = (0..w * h)
             .map(|t| if p.is_surface(t) { 0.0 } else { f64::INFINITY })
             .collect();
-        // Two chamfer sweeps: from the top left, then from the bottom right.
-        let steps = [
-            (-1, 0, sx),
-            (0, -1, sy),
-            (-1, -1, diagonal),
-            (1, -1, diagonal),
-        ];
-        for forward in [true, false] {
-            for k in 0..w * h {
-                let t = if forward { k } else { w * h - 1 - k };
-                let (i, j) = ((t % w) as i64, (t / w) as i64);
-                for &(di, dj, cost) in &steps {
-                    let (di, dj) = if forward { (di, dj) } else { (-di, -dj) };
-                    let (ni, nj) = (i + di, j + dj);
-                    if ni >= 0 && nj >= 0 && (ni as usize) < w && (nj as usize) < h {
-                        let n = d[nj as usize * w + ni as usize] + cost;
-                        d[t] = d[t].min(n);
-                    }
-                }
-            }
-        }
+        crate::gtex::chamfer(&mut d, w, h, (sx, sy), diagonal, None);
         Reach {
             values: d,
             width: w,

@@ -13,7 +13,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::gtex::{decode_normal, GeometryTextureSet, Patch};
+use crate::gtex::{chamfer, GeometryTextureSet, Patch};
 
 /// Chamfer distance units per texel (steps 3 across, 4 diagonally).
 const UNIT: u32 = 3;
@@ -28,41 +28,12 @@ const DEEPEST: u32 = 96 * UNIT;
 /// Per texel, the chamfer distance (UNIT per texel) to the nearest texel without surface, the
 /// map's outside counting as without; 0 for texels without surface.
 fn inside_distance(p: &Patch) -> Vec<u32> {
-    let (w, h) = (p.width as i64, p.height as i64);
     let mut d: Vec<u32> = (0..p.texels())
         .map(|t| if p.is_surface(t) { u32::MAX / 2 } else { 0 })
         .collect();
-    let at = |d: &[u32], i: i64, j: i64| {
-        if i < 0 || j < 0 || i >= w || j >= h {
-            0
-        } else {
-            d[(j * w + i) as usize]
-        }
-    };
-    let steps = [(-1, 0, UNIT), (0, -1, UNIT), (-1, -1, 4), (1, -1, 4)];
-    for j in 0..h {
-        for i in 0..w {
-            let t = (j * w + i) as usize;
-            for (di, dj, c) in steps {
-                d[t] = d[t].min(at(&d, i + di, j + dj) + c);
-            }
-        }
-    }
-    for j in (0..h).rev() {
-        for i in (0..w).rev() {
-            let t = (j * w + i) as usize;
-            for (di, dj, c) in steps {
-                d[t] = d[t].min(at(&d, i - di, j - dj) + c);
-            }
-        }
-    }
+    let (w, h) = (p.width as usize, p.height as usize);
+    chamfer(&mut d, w, h, (UNIT, UNIT), 4, Some(0));
     d
-}
-
-/// The world unit normal of texel `t` of `p`.
-fn world_normal(p: &Patch, t: usize) -> DVec3 {
-    let n = decode_normal(p.normals[t]);
-    (p.axes[0] * n.x + p.axes[1] * n.y + p.axes[2] * n.z).normalize_or_zero()
 }
 
 /// Whether patch `b` (with inside distances `db`) shows world point `x` (normal `n`) further
@@ -85,7 +56,7 @@ fn shown_deeper(b: &Patch, db: &[u32], x: DVec3, n: DVec3, depth: u32, tolerance
         return false;
     }
     let h = b.decode_height(f64::from(b.heights[t]));
-    (q.z - h).abs() * b.extent.z <= tolerance && world_normal(b, t).dot(n) > 0.5
+    (q.z - h).abs() * b.extent.z <= tolerance && b.world_normal(t).dot(n) > 0.5
 }
 
 /// Each patch's heights with the texels another patch shows further inside its own region set
@@ -128,7 +99,7 @@ pub(crate) fn owned_heights(set: &GeometryTextureSet) -> Vec<Vec<u16>> {
                         continue;
                     }
                     let x = pa.local_to_world(pa.texel_local(i, j, pa.heights[t]));
-                    let n = world_normal(pa, t);
+                    let n = pa.world_normal(t);
                     let owned_elsewhere = others.iter().any(|&b| {
                         shown_deeper(&set.patches[b], &inside[b], x, n, depth, tolerance)
                     });
