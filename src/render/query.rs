@@ -28,6 +28,49 @@ const BATCH: usize = 1 << 16;
 /// Invocations per workgroup (gtex_trace_rays.wgsl).
 const WORKGROUP: u32 = 64;
 
+/// A ray's record before any object is traced, and after, for a ray no object hit.
+const MISS: QueryHitGpu = QueryHitGpu {
+    normal: [0.0; 3],
+    t: 0.0,
+    id: -1,
+    _pad: [0; 3],
+};
+
+/// The rays of a batch that some object's test keeps (`kept`, in order, as indices into the
+/// batch), and where each ray of the batch sits among them (`slot`; `u32::MAX` for a ray no test
+/// keeps).
+struct Compact {
+    kept: Vec<u32>,
+    slot: Vec<u32>,
+}
+
+impl Compact {
+    /// From the rays (indices into a batch of `rays`) each object's test keeps.
+    fn new(rays: usize, reached: &[Vec<u32>]) -> Compact {
+        let mut slot = vec![u32::MAX; rays];
+        for &i in reached.iter().flatten() {
+            slot[i as usize] = 0;
+        }
+        let mut kept = Vec::with_capacity(reached.iter().map(Vec::len).max().unwrap_or(0));
+        for (i, s) in slot.iter_mut().enumerate() {
+            if *s == 0 {
+                *s = kept.len() as u32;
+                kept.push(i as u32);
+            }
+        }
+        Compact { kept, slot }
+    }
+
+    /// The hits of the whole batch of `rays` from those of the kept rays: a miss for the rest.
+    fn expand(&self, found: &[QueryHitGpu], rays: usize) -> Vec<QueryHitGpu> {
+        let mut hits = vec![MISS; rays];
+        for (&i, hit) in self.kept.iter().zip(found) {
+            hits[i as usize] = *hit;
+        }
+        hits
+    }
+}
+
 /// What a query found, per ray.
 pub struct RayHits {
     /// Distance to the hit along the ray's unit direction; +inf for a miss.
@@ -169,7 +212,10 @@ impl Renderer {
 
     /// Traces one batch through every object's dispatch in turn (each no further than the
     /// nearest hit so far, and each only for the rays its test says may reach it) and reads the
-    /// hits back.
+    /// hits back. Only the rays some object's test keeps go to the device (`Compact`): the
+    /// others are misses already, and on a software adapter uploading, clearing and reading
+    /// back their records cost more than the dispatches they skip (most of a frame's shadow
+    /// rays pass beside every caster).
     fn run_batch(
         &self,
         traces: &[TraceCall],
@@ -180,26 +226,39 @@ impl Renderer {
     ) -> Result<Vec<QueryHitGpu>> {
         let device = &self.gpu.device;
         let range = |i: usize| ranges.map_or((0.0, f64::from(f32::MAX)), |r| r[i]);
-        let gpu_rays: Vec<QueryRayGpu> = rays
-            .par_iter()
-            .enumerate()
-            .map(|(i, &(o, d))| QueryRayGpu {
-                origin: (o - centre).as_vec3().to_array(),
-                t_min: range(i).0 as f32,
-                dir: d.as_vec3().to_array(),
-                _pad: 0,
+        let reached: Vec<Vec<u32>> = (traces.iter())
+            .map(|trace| {
+                (0..rays.len() as u32)
+                    .into_par_iter()
+                    .filter(|&i| {
+                        let (o, d) = rays[i as usize];
+                        (trace.reaches)(o - centre, d, range(i as usize))
+                    })
+                    .collect()
+            })
+            .collect();
+        let compact = Compact::new(rays.len(), &reached);
+        let gpu_rays: Vec<QueryRayGpu> = (compact.kept.par_iter())
+            .map(|&i| {
+                let (o, d) = rays[i as usize];
+                QueryRayGpu {
+                    origin: (o - centre).as_vec3().to_array(),
+                    t_min: range(i as usize).0 as f32,
+                    dir: d.as_vec3().to_array(),
+                    _pad: 0,
+                }
             })
             .collect();
         // Each ray's far bound is where its search stops: no hit beyond it counts.
-        let hits_init: Vec<QueryHitGpu> = (0..rays.len())
-            .into_par_iter()
-            .map(|i| QueryHitGpu {
-                normal: [0.0; 3],
-                t: range(i).1 as f32,
-                id: -1,
-                _pad: [0; 3],
+        let hits_init: Vec<QueryHitGpu> = (compact.kept.par_iter())
+            .map(|&i| QueryHitGpu {
+                t: range(i as usize).1 as f32,
+                ..MISS
             })
             .collect();
+        if gpu_rays.is_empty() {
+            return Ok(vec![MISS; rays.len()]);
+        }
         let storage = wgpu::BufferUsages::STORAGE;
         let rays_buffer = storage_buffer(device, "query rays", bytemuck::cast_slice(&gpu_rays));
         let hits = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -211,17 +270,11 @@ impl Renderer {
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());
             pass.set_bind_group(0, &self.frame_bindings.group, &[]);
-            for trace in traces {
-                let active: Vec<u32> = (0..rays.len() as u32)
-                    .into_par_iter()
-                    .filter(|&i| {
-                        let (o, d) = rays[i as usize];
-                        (trace.reaches)(o - centre, d, range(i as usize))
-                    })
-                    .collect();
-                if active.is_empty() {
+            for (trace, reached) in traces.iter().zip(&reached) {
+                if reached.is_empty() {
                     continue;
                 }
+                let active: Vec<u32> = reached.iter().map(|&i| compact.slot[i as usize]).collect();
                 let (settings, per_row, rows) = self.dispatch_settings(active.len(), any_hit);
                 let settings = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                     label: Some("query"),
@@ -239,7 +292,7 @@ impl Renderer {
             }
         }
         let bytes = super::targets::read_buffer(&self.gpu, encoder, &hits)?;
-        Ok(bytemuck::cast_slice(&bytes).to_vec())
+        Ok(compact.expand(bytemuck::cast_slice(&bytes), rays.len()))
     }
 
     /// A dispatch of `rays` invocations in rows under the adapter's per-dimension limit.
@@ -256,5 +309,39 @@ impl Renderer {
             counts: [rays as u32, any_hit as u32, per_row * WORKGROUP, 0],
         };
         (settings, per_row, rows)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn compaction_keeps_every_ray_some_object_reaches_in_order() {
+        // Ten rays; one object reaches 1, 4 and 7, another 4, 8 and 9.
+        let reached = [vec![1, 4, 7], vec![4, 8, 9]];
+        let compact = Compact::new(10, &reached);
+        assert_eq!(compact.kept, [1, 4, 7, 8, 9]);
+        for (k, &i) in compact.kept.iter().enumerate() {
+            assert_eq!(compact.slot[i as usize], k as u32);
+        }
+        let dropped = [0, 2, 3, 5, 6];
+        assert!(dropped.iter().all(|&i| compact.slot[i] == u32::MAX));
+        // Hits of the kept rays land on their own rays; the rest are misses.
+        let found: Vec<QueryHitGpu> = (0..5)
+            .map(|k| QueryHitGpu {
+                t: k as f32,
+                id: 100 + k,
+                ..MISS
+            })
+            .collect();
+        let hits = compact.expand(&found, 10);
+        for (k, &i) in compact.kept.iter().enumerate() {
+            assert_eq!(
+                (hits[i as usize].id, hits[i as usize].t),
+                (100 + k as i32, k as f32)
+            );
+        }
+        assert!(dropped.iter().all(|&i| hits[i].id == -1));
     }
 }
