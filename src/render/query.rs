@@ -28,7 +28,7 @@ const BATCH: usize = 1 << 16;
 /// Invocations per workgroup (gtex_trace_rays.wgsl).
 const WORKGROUP: u32 = 64;
 
-/// A ray's record before any object is traced, and after, for a ray no object hit.
+/// The record of a ray no object hit (id -1; its t is then unused).
 const MISS: QueryHitGpu = QueryHitGpu {
     normal: [0.0; 3],
     t: 0.0,
@@ -48,6 +48,7 @@ impl Compact {
     /// From the rays (indices into a batch of `rays`) each object's test keeps.
     fn new(rays: usize, reached: &[Vec<u32>]) -> Compact {
         let mut slot = vec![u32::MAX; rays];
+        // 0 marks a kept ray until the pass below numbers the kept rays in order.
         for &i in reached.iter().flatten() {
             slot[i as usize] = 0;
         }
