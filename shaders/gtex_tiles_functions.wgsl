@@ -57,10 +57,10 @@ struct TileHit {
     patch_index: u32,
 }
 
-// The nearest hit in [t_lo, t_hi) among the pieces of list `range` (first, count), or with
-// `any_hit` the first hit found; t = t_hi for none.
-fn tile_walk(range: vec2<u32>, o: vec3<f32>, d: vec3<f32>, origin_depth: f32, t_lo: f32, t_hi: f32,
-             any_hit: bool) -> TileHit {
+// The nearest hit in [t_lo, t_hi) among the pieces of list `range` (first, count) whose pixel
+// rectangles hold `pixel`, or with `any_hit` the first hit found; t = t_hi for none.
+fn tile_walk(range: vec2<u32>, pixel: vec2<u32>, o: vec3<f32>, d: vec3<f32>, origin_depth: f32, t_lo: f32,
+             t_hi: f32, any_hit: bool) -> TileHit {
     var best = TileHit(t_hi, 0u);
     var searched_patch: array<u32, SEARCHED>;
     var searched_from: array<f32, SEARCHED>;
@@ -78,6 +78,12 @@ fn tile_walk(range: vec2<u32>, o: vec3<f32>, d: vec3<f32>, origin_depth: f32, t_
                 break;
             }
             k += 1u;
+            // The piece's footprint misses this pixel (the cheap test: no record read).
+            let lo = vec2<u32>(entry.z & 0xffffu, entry.z >> 16u);
+            let hi = vec2<u32>(entry.w & 0xffffu, entry.w >> 16u);
+            if (any(pixel < lo) || any(pixel >= hi)) {
+                continue;
+            }
             if (COUNT_FETCHES) {
                 piece_tests += 1u;
             }
