@@ -16,10 +16,12 @@ fn gtex_fragment(index: u32, ray: Ray, t: f32) -> FsOut {
     return out;
 }
 
-// Adds this invocation's height fetches (counting build) and box searches to the frame's counters.
+// Adds this invocation's height fetches and piece tests (counting build) and box searches to the
+// frame's counters.
 fn count_work() {
     if (COUNT_FETCHES) {
         atomicAdd(&counters[0], fetches);
+        atomicAdd(&counters[2], piece_tests);
     }
     if (searches > 0u) {
         atomicAdd(&counters[1], searches);

@@ -11,9 +11,17 @@
 
 // Piece searches this invocation started: the measure of overdraw (frame.stats).
 var<private> searches: u32 = 0u;
+// Counting build: pieces whose slab this invocation's tiled walk tested (the walk's cost beside
+// its searches; frame.stats).
+var<private> piece_tests: u32 = 0u;
 
 // The first hit inside piece `piece` for t in [t_lo, t_hi), or -1.
 fn piece_search(piece: PatchBox, o: vec3<f32>, d: vec3<f32>, t_lo: f32, t_hi: f32) -> f32 {
+    return piece_search_from(piece, o, d, t_lo, t_hi, i32(piece.level));
+}
+
+// piece_search whose exact (min-max) descent starts at pyramid level `start`.
+fn piece_search_from(piece: PatchBox, o: vec3<f32>, d: vec3<f32>, t_lo: f32, t_hi: f32, start: i32) -> f32 {
     let patch_from_view = patches[piece.patch_index].patch_from_view;
     let o_p = (patch_from_view * vec4<f32>(o, 1.0)).xyz;
     let d_p = (patch_from_view * vec4<f32>(d, 0.0)).xyz;
@@ -30,7 +38,7 @@ fn piece_search(piece: PatchBox, o: vec3<f32>, d: vec3<f32>, t_lo: f32, t_hi: f3
     let entry = o_p + d_p * t_start;
     var t_local: f32;
     if (search.method.x == 1u) {
-        t_local = maxmip_hit(p, search, entry, d_p, 0.0, t_end - t_start, i32(piece.level));
+        t_local = maxmip_hit_from(p, search, entry, d_p, 0.0, t_end - t_start, i32(piece.level), start);
     } else {
         t_local = linear_binary_hit(p, search, entry, d_p, 0.0, t_end - t_start);
     }

@@ -17,10 +17,11 @@ fn vs_main(@builtin(vertex_index) vertex: u32) -> VsOut {
 
 @fragment
 fn fs_main(in: VsOut) -> FsOut {
-    let tile = vec2<u32>(in.position.xy) / tiles.size.z;
+    let pixel = vec2<u32>(in.position.xy);
+    let tile = pixel / tiles.size.z;
     let range = tile_ranges[tile.y * tiles.size.x + tile.x];
     let ray = camera_ray(camera, in.position.xy);
-    let found = tile_walk(range, ray.origin, ray.dir, 0.0, camera.params.y, 3.0e38, false);
+    let found = tile_walk(range, pixel, ray.origin, ray.dir, 0.0, camera.params.y, 3.0e38, false);
     count_work();
     if (found.t >= 3.0e38) {
         discard;

@@ -20,6 +20,6 @@ struct Tiles {
 @group(1) @binding(9) var<storage, read> tiles: Tiles;
 // Per tile (row-major): first entry, entry count.
 @group(1) @binding(10) var<storage, read> tile_ranges: array<vec2<u32>>;
-// Per entry: index of a piece in `pieces`, the nearest view depth of its box (f32 bits); nearest
-// first.
-@group(1) @binding(11) var<storage, read> tile_entries: array<vec2<u32>>;
+// Per entry: index of a piece in `pieces`, the nearest view depth of its box (f32 bits), its
+// pixel rectangle [x0, y0, x1, y1) as x0 | y0 << 16, x1 | y1 << 16; nearest first.
+@group(1) @binding(11) var<storage, read> tile_entries: array<vec4<u32>>;

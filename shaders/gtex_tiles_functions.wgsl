@@ -7,7 +7,8 @@
 // behind the nearest hit. Entering a piece is a cheap test, not a search: the first piece of a
 // patch the ray enters before the nearest hit starts one search of that patch's whole box, from
 // the piece's entry on (the height-field search of gtex_piece_functions.wgsl, counted in
-// `searches`), and the patch's later pieces start none.
+// `searches`; an exact one descends from SEARCH_START_LEVEL), and the patch's later pieces start
+// none.
 //
 // Spaces: the ray and the pieces' records in one space (view space for frames, the query's frame
 // for queries); depths along the tiles' view direction, where the ray's origin lies at
@@ -18,6 +19,12 @@
 const BATCH: u32 = 8u;
 // Patches a walk remembers having searched (and from where), the last this many.
 const SEARCHED: u32 = 8u;
+// The pyramid level an exact search of a patch starts its descent at (maxmip_hit_from): the ray
+// enters a piece a step or two from the surface, so starting at the cells and climbing over what
+// is skipped reads fewer nodes than coming down from the box's root. Bunny, 512², top, oblique
+// and below views: 12.3-13.8 fetches per search against 20.1-21.6 from the root and 16.1-17.6
+// from the pieces' own level (16 texels).
+const SEARCH_START_LEVEL: i32 = 0;
 
 // A normal f16 (the low 16 bits of `h`) as f32, 0 for zero and subnormals (the CPU writes no
 // others): decoded by hand, since unpack2x16float needs a capability not every adapter has.
@@ -50,10 +57,10 @@ struct TileHit {
     patch_index: u32,
 }
 
-// The nearest hit in [t_lo, t_hi) among the pieces of list `range` (first, count), or with
-// `any_hit` the first hit found; t = t_hi for none.
-fn tile_walk(range: vec2<u32>, o: vec3<f32>, d: vec3<f32>, origin_depth: f32, t_lo: f32, t_hi: f32,
-             any_hit: bool) -> TileHit {
+// The nearest hit in [t_lo, t_hi) among the pieces of list `range` (first, count) whose pixel
+// rectangles hold `pixel`, or with `any_hit` the first hit found; t = t_hi for none.
+fn tile_walk(range: vec2<u32>, pixel: vec2<u32>, o: vec3<f32>, d: vec3<f32>, origin_depth: f32, t_lo: f32,
+             t_hi: f32, any_hit: bool) -> TileHit {
     var best = TileHit(t_hi, 0u);
     var searched_patch: array<u32, SEARCHED>;
     var searched_from: array<f32, SEARCHED>;
@@ -71,6 +78,15 @@ fn tile_walk(range: vec2<u32>, o: vec3<f32>, d: vec3<f32>, origin_depth: f32, t_
                 break;
             }
             k += 1u;
+            // The piece's footprint misses this pixel (the cheap test: no record read).
+            let lo = vec2<u32>(entry.z & 0xffffu, entry.z >> 16u);
+            let hi = vec2<u32>(entry.w & 0xffffu, entry.w >> 16u);
+            if (any(pixel < lo) || any(pixel >= hi)) {
+                continue;
+            }
+            if (COUNT_FETCHES) {
+                piece_tests += 1u;
+            }
             let span = tile_piece_span(pieces[entry.x], o, d);
             let t0 = max(span.x, t_lo);
             if (!(min(span.y, best.t) > t0)) {
@@ -110,7 +126,8 @@ fn tile_walk(range: vec2<u32>, o: vec3<f32>, d: vec3<f32>, origin_depth: f32, t_
                 n_searched += 1u;
             }
             searched_from[slot] = enter[i];
-            let t = piece_search(PatchBox(vec3<f32>(0.0), owner, vec3<f32>(1.0), 31u), o, d, enter[i], t_end);
+            let t = piece_search_from(PatchBox(vec3<f32>(0.0), owner, vec3<f32>(1.0), 31u), o, d, enter[i], t_end,
+                                      SEARCH_START_LEVEL);
             if (t >= 0.0) {
                 best = TileHit(t, owner);
                 if (any_hit) {

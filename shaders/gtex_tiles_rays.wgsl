@@ -21,10 +21,11 @@ fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
     if (any(pixel < vec2<f32>(0.0)) || any(pixel >= extent)) {
         return;
     }
-    let tile = vec2<u32>(pixel) / tiles.size.z;
+    let at = vec2<u32>(pixel);
+    let tile = at / tiles.size.z;
     let range = tile_ranges[tile.y * tiles.size.x + tile.x];
     let t_hi = hits[i].t;
-    let found = tile_walk(range, ray.origin, ray.dir, -p.z, ray.t_min, t_hi, query.counts.y == 1u);
+    let found = tile_walk(range, at, ray.origin, ray.dir, -p.z, ray.t_min, t_hi, query.counts.y == 1u);
     if (found.t >= t_hi) {
         return;
     }

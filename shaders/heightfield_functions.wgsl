@@ -262,30 +262,47 @@ fn node_hit(p: PatchMaps, o: vec3<f32>, d: vec3<f32>, node: vec2<f32>, scale: f3
     return -1.0;
 }
 
+// Nodes across and down at pyramid level `l` of a pyramid whose level 0 is `size` nodes: each
+// level halves the one below, rounding up, which is size / 2^l rounded up.
+fn level_dims(size: vec2<u32>, l: i32) -> vec2<u32> {
+    let s = u32(l);
+    return (size + (1u << s) - 1u) >> vec2<u32>(s);
+}
+
+fn node_count(size: vec2<u32>, l: i32) -> u32 {
+    let n = level_dims(size, l);
+    return n.x * n.y;
+}
+
 // Exact first hit by descending the min-max pyramid from level `top` (the ray's stretch lies in
 // one node of it): a node is skipped whole when the ray over it stays above its highest surface
 // or below its lowest (no crossing is possible); a level-0 cell is solved in closed form. Node
 // values pack the max code (high 16 bits) and min code (low).
 fn maxmip_hit(p: PatchMaps, search: Search, o: vec3<f32>, d: vec3<f32>, t_start: f32, t_end: f32, top: i32) -> f32 {
+    return maxmip_hit_from(p, search, o, d, t_start, t_end, top, top);
+}
+
+// maxmip_hit starting at level `start` instead of `top` (never below the level-of-detail stop,
+// whose nodes are solved whole): the descent is exact from any level (a skipped node climbs one
+// level, so the walk still widens over empty stretches), and a ray that starts next to the
+// surface (the tiles' pieces) skips the visits down from the top.
+fn maxmip_hit_from(p: PatchMaps, search: Search, o: vec3<f32>, d: vec3<f32>, t_start: f32, t_end: f32, top: i32,
+                   start: i32) -> f32 {
     let levels = i32(p.pyramid_at.y);
     // Level-of-detail stop level (0: exact, down to the bilinear cells), never above `top`: a
     // coarser node's surface could leave the piece being searched.
     var stop = min(i32(p.pyramid_at.w), top);
-    // Offsets and row lengths of each level (level 0 is (W + 1) x (H + 1)).
-    var offset: array<u32, 16>;
-    var dims: array<vec2<u32>, 16>;
-    var size = vec2<u32>(p.size) + 1u;
-    var at = p.pyramid_at.x;
-    for (var l = 0; l < levels; l += 1) {
-        offset[l] = at;
-        dims[l] = size;
-        at += size.x * size.y;
-        size = (size + 1u) / 2u;
+    // Level 0 is (W + 1) x (H + 1) nodes; `offset` is where level `level` begins, kept as the
+    // walk moves a level up or down (no per-search table of every level's offset).
+    let size = vec2<u32>(p.size) + 1u;
+    var level = clamp(max(start, stop), 0, levels - 1);
+    var offset = p.pyramid_at.x;
+    for (var l = 0; l < level; l += 1) {
+        offset += node_count(size, l);
     }
     let g0 = vec2<f32>(o.x * p.size.x + 0.5, o.y * p.size.y + 0.5);
     let dg = d.xy * p.size;
     let along = select(vec2<f32>(0.0), normalize(dg), dot(dg, dg) > 0.0);
-    var level = min(top, levels - 1);
     var t = t_start;
     for (var step = 0u; step < search.method.y; step += 1u) {
         if (t >= t_end) {
@@ -294,7 +311,8 @@ fn maxmip_hit(p: PatchMaps, search: Search, o: vec3<f32>, d: vec3<f32>, t_start:
         let scale = f32(1 << u32(level));
         // Probe a hair along the ray so a node boundary belongs to the node being entered.
         let g = g0 + dg * t + along * 1e-3;
-        let node = clamp(floor(g / scale), vec2<f32>(0.0), vec2<f32>(dims[level] - 1u));
+        let dims = level_dims(size, level);
+        let node = clamp(floor(g / scale), vec2<f32>(0.0), vec2<f32>(dims - 1u));
         let lo = node * scale;
         let hi = lo + scale;
         var t_exit = t_end;
@@ -307,18 +325,22 @@ fn maxmip_hit(p: PatchMaps, search: Search, o: vec3<f32>, d: vec3<f32>, t_start:
         if (COUNT_FETCHES) {
             fetches += 1u;
         }
-        let index = offset[level] + u32(node.y) * dims[level].x + u32(node.x);
+        let index = offset + u32(node.y) * dims.x + u32(node.x);
         let bounds = pyramid_node(p, index);
         let za = o.z + d.z * t;
         let zb = o.z + d.z * t_exit;
         if (bounds.x > bounds.y || min(za, zb) > decode(p, bounds.y)
             || max(za, zb) < decode(p, bounds.x)) {
             t = t_exit;
-            level = min(level + 1, levels - 1);
+            if (level < levels - 1) {
+                offset += dims.x * dims.y;
+                level += 1;
+            }
             continue;
         }
         if (level > stop) {
             level -= 1;
+            offset -= node_count(size, level);
             continue;
         }
         // At the level-of-detail stop (a node about a pixel wide) the map subsampled to the
@@ -330,11 +352,15 @@ fn maxmip_hit(p: PatchMaps, search: Search, o: vec3<f32>, d: vec3<f32>, t_start:
         }
         if (hit < -1.5 && level > 0) {
             level -= 1;
+            offset -= node_count(size, level);
             stop = 0;
             continue;
         }
         t = t_exit;
-        level = min(level + 1, levels - 1);
+        if (level < levels - 1) {
+            offset += dims.x * dims.y;
+            level += 1;
+        }
     }
     return -1.0;
 }

@@ -40,6 +40,8 @@ pub struct Frame {
     pub searches: u64,
     /// With `count_fetches`: height-map and pyramid reads.
     pub fetches: Option<u64>,
+    /// With `count_fetches`: pieces whose slab the tiled walks tested (0 with boxes drawn).
+    pub piece_tests: Option<u64>,
     /// With a light (shadow.rs): per pixel, true where the light cannot see the surface.
     pub shadow: Option<Vec<bool>>,
     /// With a light: milliseconds the shadow rays took.
@@ -169,6 +171,10 @@ impl Frame {
                     "fetches_per_search",
                     StatValue::Float(fetches as f64 / self.searches.max(1) as f64),
                 ),
+                (
+                    "piece_tests_per_pixel",
+                    per_pixel(self.piece_tests.unwrap_or(0)),
+                ),
             ]);
         }
         stats
@@ -199,6 +205,7 @@ mod tests {
             primary: Primary::Tiles,
             searches: 0,
             fetches,
+            piece_tests: fetches.map(|_| 60),
             shadow: None,
             shadow_ms: None,
             shadow_trace_ms: None,
@@ -229,7 +236,12 @@ mod tests {
         let counted = frame(Some(30));
         assert_eq!(
             names(&counted)[12..],
-            ["fetches", "fetches_per_pixel", "fetches_per_search"]
+            [
+                "fetches",
+                "fetches_per_pixel",
+                "fetches_per_search",
+                "piece_tests_per_pixel"
+            ]
         );
         let stats = counted.stats();
         assert_eq!(stats[0].1, StatValue::Absent);
@@ -238,5 +250,6 @@ mod tests {
         // Nothing covered and no searches: the figures divide by one, not zero.
         assert_eq!(stats[13].1, StatValue::Float(30.0));
         assert_eq!(stats[14].1, StatValue::Float(30.0));
+        assert_eq!(stats[15].1, StatValue::Float(60.0));
     }
 }

@@ -11,8 +11,9 @@ use super::gpu_types::{CameraGpu, SearchGpu};
 use super::pipelines::{storage_entry, uniform_entry, FRAME_STAGES};
 use super::search::SearchOptions;
 
-/// Bytes of the counters: height fetches (counting build only) and box searches, u32 each.
-const COUNTERS_BYTES: u64 = 8;
+/// Bytes of the counters: height fetches (counting build only), box searches and piece tests
+/// (counting build only), u32 each.
+const COUNTERS_BYTES: u64 = 12;
 
 pub(crate) struct FrameBindings {
     pub layout: wgpu::BindGroupLayout,

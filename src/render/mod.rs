@@ -299,7 +299,7 @@ impl Renderer {
             .map(|&d| Camera::distance_from_depth(&lens, d))
             .collect();
         let tally = prepared.tally;
-        let [fetches, searches] = readback.counters;
+        let [fetches, searches, piece_tests] = readback.counters;
         Frame {
             width,
             height,
@@ -319,6 +319,7 @@ impl Renderer {
             primary: search.primary,
             searches: searches as u64,
             fetches: search.count_fetches.then_some(fetches as u64),
+            piece_tests: search.count_fetches.then_some(piece_tests as u64),
             shadow: None,
             shadow_ms: None,
             shadow_trace_ms: None,

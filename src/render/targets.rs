@@ -49,8 +49,9 @@ pub(crate) struct Readback {
     /// Reversed-Z depth values.
     pub depth: Vec<f32>,
     pub gpu_ms: Option<f64>,
-    /// The frame's counters: height fetches (counting build only) and piece searches.
-    pub counters: [u32; 2],
+    /// The frame's counters: height fetches (counting build only), piece searches and tiled
+    /// walks' piece tests (counting build only).
+    pub counters: [u32; 3],
 }
 
 fn render_texture(
@@ -424,7 +425,7 @@ impl Targets {
         let albedo = self.unpad(next(), 4);
         let depth = bytemuck::cast_slice(&next()).to_vec();
         let counts: Vec<u32> = bytemuck::cast_slice(&next()).to_vec();
-        let counters = [counts[0], counts[1]];
+        let counters = [counts[0], counts[1], counts[2]];
         let gpu_ms = self.timestamps.as_ref().map(|_| {
             let ticks: Vec<u64> = bytemuck::cast_slice(&next()).to_vec();
             let period = gpu.queue.get_timestamp_period() as f64;
