@@ -38,13 +38,32 @@ fn pyramid_node(p: PatchMaps, index: u32) -> vec2<f32> {
     return vec2<f32>(f32(lo << shift), f32((hi << shift) | fill));
 }
 
-// Outline distance at a texel (indices clamped), in units of OUTLINE_REACH texels.
-fn load_outline(p: PatchMaps, texel: vec2<i32>) -> f32 {
+// Outline distance stored at a texel of the map, in units of OUTLINE_REACH texels.
+fn fetch_outline(p: PatchMaps, t: vec2<i32>) -> f32 {
     if (COUNT_FETCHES) {
         fetches += 1u;
     }
-    let t = clamp(texel, vec2<i32>(0), vec2<i32>(p.size) - 1);
     return textureLoad(outlines, vec2<i32>(p.atlas_origin) + t, p.ids.x, 0).x;
+}
+
+// Outline distance at a texel, continued linearly past the map's edge (cells reach one texel
+// beyond it, over the box's border half-texel). The box hugs the faces, so the outline often
+// runs through that half-texel: clamped there, the distance would be the edge texel's own
+// everywhere across it, and the surface would reach the box's side instead of the outline.
+// src/heightfield.rs (outline_at_texel) implements the same rule.
+fn load_outline(p: PatchMaps, texel: vec2<i32>) -> f32 {
+    let last = vec2<i32>(p.size) - 1;
+    let t = clamp(texel, vec2<i32>(0), last);
+    let past = texel - t;
+    if (all(past == vec2<i32>(0))) {
+        return fetch_outline(p, t);
+    }
+    // One step back inside along each axis that is past the edge (none on a one-texel axis).
+    let back = clamp(t - sign(past), vec2<i32>(0), last);
+    let here = fetch_outline(p, t);
+    let gx = here - fetch_outline(p, vec2<i32>(back.x, t.y));
+    let gy = here - fetch_outline(p, vec2<i32>(t.x, back.y));
+    return here + gx * f32(abs(past.x)) + gy * f32(abs(past.y));
 }
 
 // Outline distances at the corners of the cell with lower-left texel ij, in corner_codes' order.
