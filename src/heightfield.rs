@@ -5,9 +5,10 @@
 //! Space: patch-local (the box is the unit cube, heights h in [0, 1]). Inside it we also use
 //! texel-centre coordinates x = u W - 1/2, y = v H - 1/2, where texel (i, j) sits at (i, j).
 //!
-//! The surface: the bilinear blend of the four texels around (x, y) (indices clamped to the map,
-//! so the border half-texel is flat), where all four hold surface and the bilinear blend of their
-//! outline distances (gtex::decode_outline) is not negative; none elsewhere. Inside a cell the
+//! The surface: the bilinear blend of the four texels around (x, y) (heights and outline
+//! distances continued linearly past the map's edge, over the box's border half-texel), where all
+//! four hold surface and the bilinear blend of their outline distances (gtex::decode_outline) is
+//! not negative; none elsewhere. Inside a cell the
 //! height along a ray is a quadratic in t, so its crossings are found in closed form; the first
 //! one inside the outline is the hit. (A cell with an empty corner would need a made-up height
 //! there; conversion fills every texel of the cells a drawn face touches, and the outline cuts
@@ -34,19 +35,44 @@ impl Cell {
     }
 }
 
-/// The cell whose lower-left texel centre is (i, j) (indices clamped); None unless all four
-/// corners hold a height and some of the cell lies inside the outline.
-fn cell_at(p: &Patch, i: i64, j: i64) -> Option<Cell> {
+/// A map's value at texel (i, j), continued linearly past the map's edge: the cells at the map's
+/// sides reach one texel beyond it, over the box's border half-texel, and the box hugs the faces,
+/// so the surface and its outline often run through that half-texel. Repeating the edge texel
+/// there (as before) made the surface flat across it, and the outline reach the box's side.
+/// `value` is a texel's value, None where it has none: then so is the continued one, and a
+/// neighbour without one counts as level with the edge. The shader's `load_code` and
+/// `load_outline` implement the same rule.
+fn continued(p: &Patch, i: i64, j: i64, value: impl Fn(usize) -> Option<f64>) -> Option<f64> {
     let (w, h) = (p.width as i64, p.height as i64);
-    let index = |x: i64, y: i64| (y.clamp(0, h - 1) * w + x.clamp(0, w - 1)) as usize;
-    let corners = [
-        index(i, j),
-        index(i + 1, j),
-        index(i, j + 1),
-        index(i + 1, j + 1),
-    ];
-    let codes = corners.map(|t| p.heights[t] as f64);
-    let outline = corners.map(|t| decode_outline(p.outline[t] as f64));
+    let at = |x: i64, y: i64| value((y * w + x) as usize);
+    let (x, y) = (i.clamp(0, w - 1), j.clamp(0, h - 1));
+    let (past_x, past_y) = (i - x, j - y);
+    let here = at(x, y)?;
+    if past_x == 0 && past_y == 0 {
+        return Some(here);
+    }
+    // One step back inside along each axis that is past the edge (none on a one-texel axis).
+    let back_x = at((x - past_x.signum()).clamp(0, w - 1), y).unwrap_or(here);
+    let back_y = at(x, (y - past_y.signum()).clamp(0, h - 1)).unwrap_or(here);
+    Some(here + (here - back_x) * past_x.abs() as f64 + (here - back_y) * past_y.abs() as f64)
+}
+
+/// Height code at texel (i, j), continued past the map's edge and kept within the box (codes
+/// 1..=code_max); 0 where the texel is empty.
+pub(crate) fn code_at_texel(p: &Patch, i: i64, j: i64) -> f64 {
+    let code = |t: usize| (p.heights[t] > 0).then(|| f64::from(p.heights[t]));
+    continued(p, i, j, code).map_or(0.0, |c| c.clamp(1.0, f64::from(p.code_max())))
+}
+
+/// The cell whose lower-left texel centre is (i, j) (values continued past the map's edge);
+/// None unless all four corners hold a height and some of the cell lies inside the outline.
+fn cell_at(p: &Patch, i: i64, j: i64) -> Option<Cell> {
+    let corners = [(i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1)];
+    let codes = corners.map(|(x, y)| code_at_texel(p, x, y));
+    let outline = corners.map(|(x, y)| {
+        let code = |t: usize| Some(f64::from(p.outline[t]));
+        decode_outline(continued(p, x, y, code).unwrap_or(0.0))
+    });
     let some_inside = outline.iter().any(|&d| d >= 0.0);
     (codes.iter().all(|&c| c > 0.0) && some_inside).then_some(Cell { codes, outline })
 }
@@ -295,7 +321,13 @@ pub fn min_max_pyramid(p: &Patch) -> Vec<(u32, u32, Vec<u32>)> {
     for r in 0..ch as i64 {
         for c in 0..cw as i64 {
             base.push(match cell_at(p, c - 1, r - 1) {
-                Some(cell) => pack(&mut cell.codes.into_iter().map(|q| q as u32)),
+                // Codes continued past the map's edge fall between integers: round outwards.
+                Some(cell) => pack(
+                    &mut cell
+                        .codes
+                        .into_iter()
+                        .flat_map(|q| [q.floor() as u32, q.ceil() as u32]),
+                ),
                 None => 0,
             });
         }
@@ -468,6 +500,60 @@ mod tests {
     }
 
     #[test]
+    fn a_plane_continues_across_the_border_half_texel() {
+        // A tilted plane over a 12 x 9 map, sampled over the whole box, sides included: the
+        // cells at the map's sides continue it to the box's side.
+        let plane = |x: f64, y: f64| 0.3 + 0.04 * x - 0.025 * y;
+        let p = patch(12, 9, |i, j| Some(plane(f64::from(i), f64::from(j))));
+        let mut worst = 0.0f64;
+        for a in 0..=60 {
+            for b in 0..=60 {
+                let (u, v) = (f64::from(a) / 60.0, f64::from(b) / 60.0);
+                let h = height_at(&p, u, v).expect("surface everywhere in the box");
+                worst = worst.max((h - plane(u * 12.0 - 0.5, v * 9.0 - 0.5)).abs());
+            }
+        }
+        // Measured 1.6e-5 (16-bit codes round by 7.6e-6, and continuing past the edge adds two
+        // texels' rounding); with the side texels repeated to the box's side the surface was
+        // flat there: 0.02 off at a side, 0.0325 at a corner.
+        assert!(worst < 3e-5, "{worst}");
+    }
+
+    #[test]
+    fn an_outline_through_the_border_half_texel_ends_the_surface_there() {
+        // Straight outlines running between the box's sides (x or y = -0.5 or 15.5) and the
+        // edge texels' centres, and one crossing a corner: the whole map, border included.
+        let cases = [
+            (-std::f64::consts::FRAC_PI_2, (-0.3, 0.0)),
+            (std::f64::consts::FRAC_PI_2, (15.2, 0.0)),
+            (0.0, (0.0, 15.35)),
+            (std::f64::consts::PI, (0.0, -0.2)),
+            (2.3, (15.3, 15.1)),
+        ];
+        for (angle, through) in cases {
+            let (p, signed) = cut_patch(angle, through);
+            let (mut wrong, mut worst) = (0, 0.0f64);
+            for a in 0..=160 {
+                for b in 0..=160 {
+                    let (u, v) = (a as f64 / 160.0, b as f64 / 160.0);
+                    let (x, y) = (u * 16.0 - 0.5, v * 16.0 - 0.5);
+                    if height_at(&p, u, v).is_some() != (signed(x, y) >= 0.0) {
+                        wrong += 1;
+                        worst = worst.max(signed(x, y).abs());
+                    }
+                }
+            }
+            // Measured 0.0079 texel at most (the slanted case; the codes round up by 1/64);
+            // with the edge texels' distances clamped across the border instead, the surface
+            // reached the box's side: 0.20 texel past the first outline (327 points).
+            assert!(
+                worst < 0.02,
+                "{worst} texel off ({wrong} points) at angle {angle}"
+            );
+        }
+    }
+
+    #[test]
     fn a_crossing_outside_the_outline_lets_the_ray_go_on() {
         // Heights tilted along x, outline cutting off x < 7.5: a grazing ray along -x first
         // meets the surface past the outline and must go on to its crossing inside.
@@ -502,12 +588,12 @@ mod tests {
         let levels = min_max_pyramid(&p);
         assert_eq!((levels[0].0, levels[0].1), (14, 8));
         assert_eq!((levels.last().unwrap().0, levels.last().unwrap().1), (1, 1));
+        // The top holds every texel (and the map continued past its edge, within the box).
         let top = levels.last().unwrap().2[0];
-        assert_eq!(top >> 16, *p.heights.iter().max().unwrap() as u32);
-        assert_eq!(
-            top & 0xffff,
-            *p.heights.iter().filter(|&&c| c > 0).min().unwrap() as u32
-        );
+        assert!(top >> 16 >= *p.heights.iter().max().unwrap() as u32);
+        assert!(top >> 16 <= u32::from(p.code_max()));
+        assert!(top & 0xffff <= *p.heights.iter().filter(|&&c| c > 0).min().unwrap() as u32);
+        assert!(top & 0xffff >= 1);
         // Every surface height in a level-0 cell lies within that cell's [min, max].
         let mut checked = 0;
         for k in 0..2000 {

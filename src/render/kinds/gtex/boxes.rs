@@ -11,6 +11,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::{DMat3, DMat4, DVec3};
 
 use crate::gtex::Patch;
+use crate::heightfield::code_at_texel;
 use crate::render::bvh::Aabb;
 
 /// The pyramid level the boxes are cut at (16 x 16 cells); a patch with fewer levels is one box.
@@ -121,19 +122,28 @@ pub(crate) fn tile_pieces(
             let texels: Vec<DVec3> = held.iter().map(|t| t.2).collect();
             let (a, b) = fit_slope(&texels);
             // Bilinear cells minus a plane stay bilinear: their extremes are at their corners,
-            // the texels, and the map's sides for the cells there (which repeat the side's
-            // texels out to it).
-            let sides = |k: i64, last: i64, at: f64| {
-                [
-                    at,
-                    if k == 0 { 0.0 } else { at },
-                    if k == last { 1.0 } else { at },
-                ]
-            };
+            // the texels, and the map's sides for the cells there (whose far corners continue
+            // the map past its edge, heightfield::code_at_texel).
+            let sides =
+                |k: i64, last: i64| [Some(0), (k == 0).then_some(-1), (k == last).then_some(1)];
             let across = held.iter().flat_map(|&(i, j, t)| {
-                let (us, vs) = (sides(i, w - 1, t.x), sides(j, h - 1, t.y));
-                us.into_iter()
-                    .flat_map(move |u| vs.map(|v| t.z - a * u - b * v))
+                let (us, vs) = (sides(i, w - 1), sides(j, h - 1));
+                us.into_iter().flatten().flat_map(move |si| {
+                    vs.into_iter().flatten().filter_map(move |sj| {
+                        let z = side_height(p, i, j, si, sj)?;
+                        let u = if si == 0 {
+                            t.x
+                        } else {
+                            f64::from((si + 1) / 2)
+                        };
+                        let v = if sj == 0 {
+                            t.y
+                        } else {
+                            f64::from((sj + 1) / 2)
+                        };
+                        Some(z - a * u - b * v)
+                    })
+                })
             });
             let lo = across.clone().fold(f64::INFINITY, f64::min) - dz;
             let hi = across.fold(f64::NEG_INFINITY, f64::max) + dz;
@@ -156,6 +166,21 @@ pub(crate) fn tile_pieces(
         }
     }
     pieces
+}
+
+/// Patch-local height of the surface at texel (i, j) (si = sj = 0), or where its cell meets the
+/// map's side (si, sj = -1 or 1 past the first or last texel): the blend of the texel and the
+/// map continued past its edge; None where a corner is empty (no surface there).
+fn side_height(p: &Patch, i: i64, j: i64, si: i32, sj: i32) -> Option<f64> {
+    let corners = [(0, 0), (si, 0), (0, sj), (si, sj)];
+    let codes: Vec<f64> = corners
+        .iter()
+        .map(|&(di, dj)| code_at_texel(p, i + i64::from(di), j + i64::from(dj)))
+        .collect();
+    if codes.contains(&0.0) {
+        return None;
+    }
+    Some(p.decode_height(codes.iter().sum::<f64>() / 4.0))
 }
 
 /// The u (or v) range of tile piece `n` (nodes of `cells` cells on a map `texels` wide) whose
