@@ -1,7 +1,8 @@
 // Group 1 of ray queries through a mesh: its settings, the hierarchy over its triangles
-// (trace_types.wgsl) and the triangles (mesh_types.wgsl), all placed in the query's frame.
+// (trace_types.wgsl) and the triangles (mesh_types.wgsl).
 //
-// Space: the query's frame (see query_types.wgsl).
+// Space: the hierarchy and triangles in the mesh's local space, kept between queries; `traced`
+// says where the mesh is in this query's frame (see query_types.wgsl).
 
 // Storage, not uniform: Mesa's lavapipe (22.3) crashed dispatching this pipeline with a uniform
 // buffer here.

@@ -1,7 +1,7 @@
 // The mesh leaf of the tracer's walk (trace_functions.wgsl): a leaf is one triangle, hit by the
 // watertight test of ray_triangle_functions.wgsl.
 //
-// Space: rays and triangles in the query's frame (see query_types.wgsl).
+// Space: rays and triangles in the mesh's local space (mesh_trace_rays.wgsl moves the rays there).
 
 // The hit of o + t d with triangle `item` for t in [t_lo, t_best), or -1.
 fn leaf_search(item: u32, o: vec3<f32>, d: vec3<f32>, t_lo: f32, t_best: f32) -> f32 {

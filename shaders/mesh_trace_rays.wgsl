@@ -3,16 +3,18 @@
 // nearest hit earlier objects left in `hits`, and writes the hit where it finds a nearer one:
 // the triangle's unit normal as its corners wind (as trimesh's face normals).
 //
-// Space: the query's frame (see query_types.wgsl), a translation of world space, so its normals
-// are world normals.
+// Space: each ray is moved from the query's frame into the mesh's local space, where its
+// triangles stay between queries; t keeps the query's unit (see mesh_types.wgsl), and normals
+// go back to world space (the query's frame only translates it).
 
 @compute @workgroup_size(64)
 fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
-    let q = trace_query_ray(id);
+    let q = trace_query_ray_in(id, traced.local_from_query);
     if (q.index < 0) {
         return;
     }
     let tri = triangles[q.found.item];
-    let normal = normalize(cross(tri.b - tri.a, tri.c - tri.a));
+    let local = cross(tri.b - tri.a, tri.c - tri.a);
+    let normal = normalize((traced.world_normal_from_local * vec4<f32>(local, 0.0)).xyz);
     hits[q.index] = QueryHit(normal, q.found.t, traced.ids.x, 0u, 0u, 0u);
 }

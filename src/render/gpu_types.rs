@@ -204,11 +204,13 @@ pub(crate) struct TraceTriangleGpu {
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
 pub(crate) struct MeshTraceGpu {
+    pub local_from_query: [[f32; 4]; 4],
+    pub world_normal_from_local: [[f32; 4]; 4],
     pub ids: [i32; 4],
 }
 
 wgsl_size!(TraceTriangleGpu, 48);
-wgsl_size!(MeshTraceGpu, 16);
+wgsl_size!(MeshTraceGpu, 144);
 
 /// `QueryRay` in query_types.wgsl.
 #[repr(C)]

@@ -4,13 +4,14 @@
 //! Vertices go up unwelded, three per face, each with its corner's normal, color and texture
 //! coordinates; a textured mesh's image goes up once with its mip chain and is sampled per pixel.
 //!
-//! Meshes are traced too (ray queries and shadow rays): a hierarchy over their triangles (bvh.rs,
-//! its shape built once per mesh in object space) is refitted to the triangles as each query
-//! places them, and walked by the shared tracer (trace_functions.wgsl, mesh_trace_*.wgsl).
+//! Meshes are traced too (ray queries and shadow rays): their triangles and a hierarchy over
+//! them (bvh.rs) go up once per mesh in its local space and stay; each query only moves its rays
+//! into that space (mesh_trace_rays.wgsl), so a frame's shadow rays do not re-place, refit and
+//! re-upload the mesh (about 8 MB for the 69k-triangle bunny) every frame.
 //!
 //! Spaces: the mesh's object space (placed by `world_from_object`); its vertices are stored
-//! relative to their bounding box centre ("local", f32) so f32 keeps their detail; view
-//! (camera-relative); a query's frame (world translated near its rays) for traced triangles.
+//! relative to their bounding box centre ("local", f32) so f32 keeps their detail, for drawing
+//! and tracing alike; view (camera-relative); a query's frame (world translated near its rays).
 
 use std::sync::OnceLock;
 
@@ -47,14 +48,24 @@ struct UploadedMesh {
     hi: DVec3,
 }
 
+/// A mesh's triangles and the hierarchy over them on the device, in its local space (object
+/// space relative to its bounding box centre, f32), as every query traces them.
+struct TracedMesh {
+    nodes: wgpu::Buffer,
+    triangles: wgpu::Buffer,
+    /// Object-space bounding box; local space is object space less its centre.
+    lo: DVec3,
+    hi: DVec3,
+}
+
 /// Everything kept of one mesh: its uploads under each normal rule it was drawn with, its
-/// texture image (uploaded with the first of them), and the shape of the hierarchy over its
-/// triangles, built the first time it is traced.
+/// texture image (uploaded with the first of them), and its triangles for tracing, uploaded the
+/// first time it is traced.
 #[derive(Default)]
 struct MeshUploads {
     drawn: Vec<(NormalRule, UploadedMesh)>,
     image: Option<wgpu::TextureView>,
-    tree: OnceLock<Bvh>,
+    traced: OnceLock<TracedMesh>,
 }
 
 pub(crate) struct MeshKind {
@@ -173,6 +184,20 @@ fn placed_triangles(mesh: &Mesh, view_from_object: &DMat4) -> (Vec<TraceTriangle
             (triangle, Aabb::of_points([a, b, c]))
         })
         .unzip()
+}
+
+/// The mesh's triangles and their hierarchy in local space, uploaded.
+fn upload_traced(gpu: &Gpu, mesh: &Mesh) -> TracedMesh {
+    let (lo, hi) = mesh.bounds();
+    let (triangles, boxes) = placed_triangles(mesh, &DMat4::from_translation(-0.5 * (lo + hi)));
+    let nodes = Bvh::build(&boxes).refit(&boxes);
+    let device = &gpu.device;
+    TracedMesh {
+        nodes: storage_buffer(device, "triangle hierarchy", bytemuck::cast_slice(&nodes)),
+        triangles: storage_buffer(device, "triangles", bytemuck::cast_slice(&triangles)),
+        lo,
+        hi,
+    }
 }
 
 /// A sampled RGBA8 texture from `levels` (full size first, each row-major with row 0 at the top,
@@ -367,24 +392,41 @@ impl Kind for MeshKind {
         let Some(uploads) = self.uploads.get(mesh) else {
             return Ok(None);
         };
-        let tree = uploads.tree.get_or_init(|| {
-            let identity = DMat4::IDENTITY;
-            Bvh::build(&placed_triangles(mesh, &identity).1)
-        });
-        let (triangles, boxes) =
-            placed_triangles(mesh, &(view_from_world * placed.world_from_object));
-        let nodes = tree.refit(&boxes);
-        let settings = MeshTraceGpu { ids: [id, 0, 0, 0] };
+        let traced = uploads.traced.get_or_init(|| upload_traced(gpu, mesh));
+        let centre = 0.5 * (traced.lo + traced.hi);
+        let view_from_object = view_from_world * placed.world_from_object;
+        let view_from_local = view_from_object * DMat4::from_translation(centre);
+        // Rays move into local space by the inverse placement, their directions unnormalized,
+        // so t stays the distance along the query's unit direction (in world units) under any
+        // scale. Normals come back by the cofactor matrix (det M times M^-T): it turns the
+        // local face normal into that of the placed triangle, mirrored placements included.
+        let linear = DMat3::from_mat4(placed.world_from_object);
+        let cofactor = linear.inverse().transpose() * linear.determinant();
+        let settings = MeshTraceGpu {
+            local_from_query: gpu_matrix(view_from_local.inverse()),
+            world_normal_from_local: gpu_matrix(DMat4::from_mat3(cofactor)),
+            ids: [id, 0, 0, 0],
+        };
         let device = &gpu.device;
         let settings = storage_buffer(device, "mesh trace", bytemuck::bytes_of(&settings));
-        let nodes = storage_buffer(device, "triangle hierarchy", bytemuck::cast_slice(&nodes));
-        let triangles = storage_buffer(device, "triangles", bytemuck::cast_slice(&triangles));
-        let buffers = [&settings, &nodes, &triangles];
+        let buffers = [&settings, &traced.nodes, &traced.triangles];
         let group = bind_buffers(device, "mesh (tracer)", &self.trace_layout, &buffers);
+        // The rays' test takes the placed bounding box: no tighter than the placed triangles'
+        // boxes, so it may keep a few more rays, never drop one that reaches a triangle.
+        let (lo, hi) = (traced.lo, traced.hi);
+        let corners = (0..8).map(|k| {
+            let pick = |bit: usize, a: f64, b: f64| if k >> bit & 1 == 1 { b } else { a };
+            let corner = DVec3::new(
+                pick(0, lo.x, hi.x),
+                pick(1, lo.y, hi.y),
+                pick(2, lo.z, hi.z),
+            );
+            view_from_object.transform_point3(corner)
+        });
         Ok(Some(TraceCall::within(
             self.trace_pipeline.clone(),
             group,
-            &boxes,
+            &[Aabb::of_points(corners)],
         )))
     }
 
