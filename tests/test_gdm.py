@@ -350,11 +350,15 @@ def test_conservative_table_never_exceeds_the_distance_to_the_surface() -> None:
     for k in (2, 6):
         packed = lower.compress(k)
         assert packed.conservative and packed.k == k and packed.eigen.shape[0] == k + 1
+        # At the samples, below the uncompressed bound (the margin term's job).
+        assert (packed.reconstruct() <= lower.distance).all()
         bound = table_lookup(packed, p, d)
-        # The walk's 0.01 steps may stop up to one step late; measured worst truth - bound 0.0.
+        # The walk's 0.01 steps may stop up to one step late; measured bound - truth at most
+        # -0.046 (k = 2) and -0.107 (k = 6); without the margin term +0.108 on 4 rays at k = 2.
         assert (bound <= truth + 0.01).all(), float((bound - truth).max())
-        # Not vacuous: measured mean skip 0.0 of the truth's 0.0 voxels at k = 2, 0.0 at k = 6.
-        assert np.maximum(bound, 0).mean() > 0.0 * truth.mean()
+        # Not vacuous: measured mean skip 0.92 (k = 2) and 1.14 (k = 6) voxels against the
+        # truth's mean of 8.2 (0.11 and 0.14 of it; the footprint's clearance costs the rest).
+        assert np.maximum(bound, 0).mean() > 0.05 * truth.mean()
 
 
 def test_conservative_lookup_renders_the_march_image(torus_chain: tuple) -> None:
@@ -368,14 +372,16 @@ def test_conservative_lookup_renders_the_march_image(torus_chain: tuple) -> None
                         thickness=0.08, uv=shell.uv, lookup=packed)
     frame = r.render(bounded, cam)
     a, b = np.isfinite(march.depth), np.isfinite(frame.depth)
-    assert (a != b).sum() <= 0  # measured 0 pixels differ in coverage
-    assert np.abs(march.depth[a & b] - frame.depth[a & b]).max() < 1e-4  # measured 0.0
+    assert (a != b).sum() == 0  # measured 0 pixels differ in coverage
+    assert np.abs(march.depth[a & b] - frame.depth[a & b]).max() < 1e-4  # measured 0.0 (same hits)
     iou, p99, _ = compare(frame, ref)
-    assert iou > 0.98 and p99 < 0.8 * 0.08 / 16  # the march's bounds above
+    assert iou > 0.98 and p99 < 0.8 * 0.08 / 16  # measured 0.9949 and 0.28 voxel, as the march
     counted = gdm.Shell(trimesh.Trimesh(shell.vertices, shell.faces, process=False), shell.volume,
                         thickness=0.08, uv=shell.uv, lookup=packed, count_steps=True)
     counts = r.render(counted, cam).normal[b]
-    assert counts[:, 0].mean() >= 1.0  # at least a lookup per drawn pixel; measured 0.0
+    # Measured per drawn pixel: 2.8 lookups, 4.87 march steps (the march alone: 5.03), 18.3 field
+    # samples either way: the radius grid already skips most of the space the table vouches for.
+    assert 1.0 <= counts[:, 0].mean() < 8.4 and counts[:, 1].mean() < 15
 
 
 def test_shell_composites_with_a_mesh_in_one_depth_buffer(torus_chain: tuple) -> None:
