@@ -287,7 +287,11 @@ mod tests {
         for n in 0..32usize {
             let o = [n & 1, (n >> 1) & 1, (n >> 2) & 1];
             let (a, wa) = if n & 8 == 0 { (a0, 1.0 - fa) } else { (a1, fa) };
-            let (b, wb) = if n & 16 == 0 { (b0, 1.0 - fb) } else { (b1, fb) };
+            let (b, wb) = if n & 16 == 0 {
+                (b0, 1.0 - fb)
+            } else {
+                (b1, fb)
+            };
             let i = (base.x as i64 + o[0] as i64).rem_euclid(nx) as usize;
             let j = (base.y as i64 + o[1] as i64).rem_euclid(ny) as usize;
             let k = (base.z as i64 + o[2] as i64).clamp(0, nz - 1) as usize;

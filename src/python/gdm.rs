@@ -18,8 +18,8 @@ use super::errors::heavy;
 use super::gtex::with_progress;
 use crate::error::{parse_choice, GeomtexError};
 use crate::gdm::{
-    distance_function, lower_bound_function, CompressedTable, GdmShell, Marcher, Pattern, Seams, Shell, TileSurface,
-    Volume, DEFAULT_PIECES, PATTERNS,
+    distance_function, lower_bound_function, CompressedTable, GdmShell, Marcher, Pattern, Seams,
+    Shell, TileSurface, Volume, DEFAULT_PIECES, PATTERNS,
 };
 
 /// A mesostructure tile: an occupancy grid (x, y periodic), optional per-voxel RGBA.
@@ -279,7 +279,12 @@ impl PyGdmShell {
         volume: &PyGdmVolume,
         color: (u8, u8, u8, u8),
         pieces: Option<u32>,
-        lookup: Option<(PyReadonlyArray4<'_, f32>, PyReadonlyArray3<'_, f32>, f32, bool)>,
+        lookup: Option<(
+            PyReadonlyArray4<'_, f32>,
+            PyReadonlyArray3<'_, f32>,
+            f32,
+            bool,
+        )>,
         count_steps: bool,
     ) -> PyResult<Self> {
         let volume = volume.inner.clone();
