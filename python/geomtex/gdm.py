@@ -235,7 +235,7 @@ class DistanceFunction:
             "rms": float(np.sqrt(np.mean(residual.astype(np.float64) ** 2))),
             "max": float(np.abs(residual).max()),
             "p99": float(np.quantile(np.abs(residual), 0.99)),
-            # An all-zero table (a lower bound over a tile too thin to skip anything) has no spectrum.
+            # An all-zero table (a lower bound over a tile too thin to skip anything): no spectrum.
             "relative": float(np.linalg.norm(s[k:]) / max(float(np.linalg.norm(s)), 1e-300)),
         }
         return packed
@@ -444,9 +444,9 @@ class Shell:
     that distance of the looked-up one instead. A conservative ``lookup`` (compressed from
     ``distance_function(lower_bound=True)``) steps each piece by the looked-up lower bound and
     finishes with the exact march: the march's image, the table deciding only what is skipped.
-    ``count_steps=True`` (diagnostics) writes (lookups, march steps, field samples) of the fragment that drew
-    each pixel into the frame's normal instead. Drawn in ``color`` (RGBA). Ray queries
-    (``Scene.intersects_*``, ``Renderer.intersect``) and shadow rays (``render(..., light=...)``)
+    ``count_steps=True`` (diagnostics) writes (lookups, march steps, field samples) of the
+    fragment that drew each pixel into the frame's normal instead. Drawn in ``color`` (RGBA).
+    Ray queries (``Scene.intersects_*``, ``Renderer.intersect``) and shadow rays (``render(..., light=...)``)
     trace shells by the same march through a hierarchy over the prisms: a shell casts shadows on
     itself and on other objects.
 
