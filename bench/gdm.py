@@ -10,12 +10,17 @@ views around each at ``--size``:
   IoU, depth p99 (raw, and in voxels: thickness / nz), median normal angle, for the exact march
   and for the paper's lookup in the SVD-compressed 5D distance function (16 x 32 directions,
   k = 8), as the paper takes it and refined (the first surface searched exactly within
-  ``REFINE`` voxels of the looked-up distance), side by side;
+  ``REFINE`` voxels of the looked-up distance), and the march driven by the conservative table
+  (``distance_function(lower_bound=True)``, k = 8 plus its margin term: each piece steps by the
+  looked-up lower bound, then marches exactly), side by side;
+* per pixel drawn, in the first view: table lookups, march steps and trilinear field samples of
+  the fragment that drew it, for the march, the paper's lookup and the bounded march;
 * frame time (whole render call, median of the views) of each, and of rasterizing the explicit
   mesh through the same renderer; bytes of the volume, the compressed table and the explicit
   mesh (float32 vertices + uint32 faces);
 * the SVD trade on the chain at 64x64x16: reconstruction error (rms, voxels) and bytes against
-  k = 1..16 for 8 x 16 and 16 x 32 directions.
+  k = 1..16 for 8 x 16 and 16 x 32 directions; for the conservative table, the mean skip it
+  offers (voxels) against k with the SVD's overshoot subtracted per row and globally.
 
 Results: ``bench/results/gdm.json`` and ``bench/results/gdm.png``.
 
@@ -62,17 +67,19 @@ def bunny_base() -> tuple[trimesh.Trimesh, float]:
     return tm, float(np.linalg.norm(tm.extents))
 
 
-def shells(base: str, vol: gdm.Volume, packed: gdm.CompressedGDM) -> tuple[list[gdm.Shell], float]:
-    """([the exact march, the paper's lookup, the refined lookup], thickness)."""
+def shells(base: str, vol: gdm.Volume, packed: gdm.CompressedGDM, bound: gdm.CompressedGDM,
+           **extra: Any) -> tuple[list[gdm.Shell], float]:
+    """([the exact march, the paper's lookup, the refined lookup, the march driven by the
+    conservative table], thickness); ``extra`` goes to every Shell (count_steps)."""
     if base == "torus":
         tor, uv = gdm.uv_torus(1.0, 0.35, (48, 24))
         t = 0.08
-        make = lambda **kw: gdm.Shell(tor, vol, thickness=t, uv=uv * [12, 4], **kw)  # noqa: E731
+        make = lambda **kw: gdm.Shell(tor, vol, thickness=t, uv=uv * [12, 4], **kw, **extra)  # noqa: E731
     else:
         tm, diag = bunny_base()
         t = 0.012 * diag
-        make = lambda **kw: gdm.Shell(tm, vol, thickness=t, tiles=(10, 10), **kw)  # noqa: E731
-    return [make(), make(lookup=packed), make(lookup=packed, refine=REFINE)], t
+        make = lambda **kw: gdm.Shell(tm, vol, thickness=t, tiles=(10, 10), **kw, **extra)  # noqa: E731
+    return [make(), make(lookup=packed), make(lookup=packed, refine=REFINE), make(lookup=bound)], t
 
 
 def cameras(mesh: trimesh.Trimesh, views: int, up: int) -> list[gt.Camera]:
@@ -117,14 +124,35 @@ def timed(renderer: gt.Renderer, obj: Any, cam: gt.Camera) -> tuple[Any, float]:
     return frame, time.perf_counter() - t
 
 
+def step_counts(base: str, vol: gdm.Volume, packed: gdm.CompressedGDM, bound: gdm.CompressedGDM,
+                renderer: gt.Renderer, cam: gt.Camera) -> dict[str, dict[str, float]]:
+    """Per pixel drawn, in one view: the table lookups, march steps and trilinear field samples of
+    the fragment that drew it (``count_steps``), for the exact march, the paper's lookup and the
+    bounded march."""
+    (exact, lookup, _, bounded), _ = shells(base, vol, packed, bound, count_steps=True)
+    out = {}
+    for name, shell in (("exact", exact), ("lookup", lookup), ("bound", bounded)):
+        frame = renderer.render(shell, cam)
+        drawn = np.isfinite(frame.depth)
+        counts = np.asarray(frame.normal)[drawn].astype(np.float64)
+        out[name] = {"lookups_mean": float(counts[:, 0].mean()), "steps_mean": float(counts[:, 1].mean()),
+                     "field_mean": float(counts[:, 2].mean()), "steps_p99": float(np.quantile(counts[:, 1], 0.99)),
+                     "pixels": int(drawn.sum())}
+    return out
+
+
 def run_case(pattern: str, nz: int, base: str, size: int, views: int) -> dict[str, Any]:
     vol = gdm.Volume.procedural(pattern, (64, 64, nz))  # type: ignore[arg-type]
     t = time.perf_counter()
     table = vol.distance_function((16, 32))
     precompute = time.perf_counter() - t
     packed = table.compress(K)
-    (exact, lookup, refined), thickness = shells(base, vol, packed)
-    kinds = (("exact", exact), ("lookup", lookup), ("refined", refined))
+    t = time.perf_counter()
+    lower = vol.distance_function((16, 32), lower_bound=True)
+    precompute_bound = time.perf_counter() - t
+    bound = lower.compress(K)
+    (exact, lookup, refined, bounded), thickness = shells(base, vol, packed, bound)
+    kinds = (("exact", exact), ("lookup", lookup), ("refined", refined), ("bound", bounded))
     up = 2 if base == "torus" else 1
     t = time.perf_counter()
     explicit = exact.to_mesh()
@@ -150,8 +178,12 @@ def run_case(pattern: str, nz: int, base: str, size: int, views: int) -> dict[st
                                "to_mesh_s": to_mesh_s, "explicit_faces": len(explicit.faces),
                                "bytes_volume": vol.nbytes, "bytes_table": table.nbytes, "bytes_svd": packed.nbytes,
                                "bytes_explicit": int(len(explicit.vertices) * 12 + len(explicit.faces) * 12),
-                               "svd_rms": packed.error["rms"], "normals_bent": exact.untangled}
+                               "svd_rms": packed.error["rms"], "normals_bent": exact.untangled,
+                               "precompute_bound_s": precompute_bound, "bytes_bound": bound.nbytes,
+                               "bound_mean": float(lower.distance.mean()),
+                               "bound_svd_mean": float(np.maximum(bound.reconstruct(), 0).mean())}
     summary["refine"] = REFINE
+    summary["counts"] = step_counts(base, vol, packed, bound, renderer, cameras(explicit, views, up)[0])
     for name, _ in kinds:
         r = rows[name]
         summary[name] = {"iou_min": min(x["iou"] for x in r), "p99_max": max(x["p99"] for x in r),
@@ -198,13 +230,33 @@ def svd_trade() -> list[dict[str, Any]]:
     return out
 
 
+def bound_trade() -> list[dict[str, Any]]:
+    """What keeping the SVD conservative costs (chain, 64x64x16, 16 x 32): the mean of the
+    lower-bound table (voxels: the skip a lookup can give) against the mean of its k-term SVD
+    with the overshoot subtracted per row (what compress() stores) and globally."""
+    vol = gdm.Volume.procedural("chain", (64, 64, 16))
+    lower = vol.distance_function((16, 32), lower_bound=True)
+    exact = vol.distance_function((16, 32))
+    out = []
+    for k in (1, 2, 4, 8, 12, 16):
+        p = lower.compress(k)
+        plain = np.einsum("xypk,ktz->xyztp", p.weights[..., :-1], p.eigen[:-1])
+        glob = plain - max(float((plain - lower.distance).max()), 0.0)
+        out.append({"k": k, "bound_mean": float(lower.distance.mean()), "exact_mean": float(exact.distance.mean()),
+                    "per_row_mean": float(np.maximum(p.reconstruct(), 0).mean()),
+                    "global_mean": float(np.maximum(glob, 0).mean()),
+                    "margin_mean": float(p.weights[..., -1].mean()), "margin_max": float(p.weights[..., -1].max()),
+                    "bytes": p.nbytes})
+    return out
+
+
 def plot(results: dict[str, Any], path: Path) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4))
+    fig, (a, c, b) = plt.subplots(1, 3, figsize=(16, 4))
     for dirs in ((8, 16), (16, 32)):
         rows = [r for r in results["svd"] if r["directions"] == list(dirs)]
         a.plot([r["k"] for r in rows], [r["rms"] for r in rows], "o-", label=f"{dirs[0]}x{dirs[1]} directions")
@@ -214,12 +266,24 @@ def plot(results: dict[str, Any], path: Path) -> None:
     a.set_ylabel("rms error of d (voxels)")
     a.set_title("chain 64x64x16: SVD trade")
     a.legend()
+    rows = results.get("bound_svd", [])
+    if rows:
+        ks = [r["k"] for r in rows]
+        c.plot(ks, [r["bound_mean"] for r in rows], "k--", label="lower-bound table (uncompressed)")
+        c.plot(ks, [r["per_row_mean"] for r in rows], "o-", label="SVD, overshoot subtracted per row")
+        c.plot(ks, [r["global_mean"] for r in rows], "s-", label="SVD, overshoot subtracted globally")
+        c.plot(ks, [r["exact_mean"] for r in rows], ":", label="exact table (not a bound)")
+        c.set_xlabel("SVD terms k")
+        c.set_ylabel("mean skip a lookup offers (voxels)")
+        c.set_title("chain 64x64x16, 16x32: conservative table")
+        c.legend(fontsize=7)
     labels = [f"{c['pattern']}/{c['size'][2]}\n{c['base']}" for c in results["cases"]]
     x = np.arange(len(labels))
-    bars = [("exact", "exact march"), ("lookup", "GDM lookup k=8"), ("refined", f"lookup refined ±{REFINE} vox")]
-    for off, (key, name) in zip((-0.3, -0.1, 0.1), bars):
-        b.bar(x + off, [c[key]["ms_median"] if key in c else np.nan for c in results["cases"]], 0.2, label=name)
-    b.bar(x + 0.3, [c["mesh_ms_median"] for c in results["cases"]], 0.2, label="to_mesh() rasterized")
+    bars = [("exact", "exact march"), ("lookup", "GDM lookup k=8"), ("refined", f"lookup refined ±{REFINE} vox"),
+            ("bound", "march driven by bound table k=8")]
+    for off, (key, name) in zip((-0.32, -0.16, 0.0, 0.16), bars):
+        b.bar(x + off, [c[key]["ms_median"] if key in c else np.nan for c in results["cases"]], 0.16, label=name)
+    b.bar(x + 0.32, [c["mesh_ms_median"] for c in results["cases"]], 0.16, label="to_mesh() rasterized")
     b.set_xticks(x, labels, fontsize=7)
     b.set_ylabel("frame ms (whole call)")
     b.set_yscale("log")
@@ -263,9 +327,14 @@ def main() -> None:
                       f"(1 px {c['refined']['p99_1px_voxels_max']:.1f}) {c['refined']['ms_median']:.0f} ms | mesh "
                       f"{c['mesh_ms_median']:.0f} ms ({c['explicit_faces']} faces) | bytes vol {c['bytes_volume']} "
                       f"svd {c['bytes_svd']} explicit {c['bytes_explicit']}", flush=True)
+                b = c["bound"]
+                print(f"    bound: IoU {b['iou_min']:.4f} p99 {b['p99_voxels_max']:.2f} vox normal "
+                      f"{b['normal_deg_max']:.2f} deg {b['ms_median']:.0f} ms | counts {c['counts']} | "
+                      f"precompute {c['precompute_bound_s']:.1f} s", flush=True)
     results = {"date": datetime.datetime.now(datetime.timezone.utc).isoformat(), "machine": platform.platform(),
                "adapter": gt.Renderer(8, 8).adapter_info, "size": args.size, "views": args.views, "k": K,
-               "cases": cases, "svd": old["svd"] if old is not None else svd_trade()}
+               "cases": cases, "svd": old["svd"] if old is not None else svd_trade(),
+               "bound_svd": old["bound_svd"] if old is not None and "bound_svd" in old else bound_trade()}
     if old is not None:
         results["rerun"] = sorted("/".join(c) for c in only)
     results["inverted"] = inverted_cost(args.size, args.views)

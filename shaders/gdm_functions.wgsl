@@ -9,6 +9,15 @@
 // and texture space to weights affinely: T = (sum_k w_k uv_k, h * nz).
 
 const GDM_NUDGE: f32 = 1e-4;
+// A conservative table's bound (voxels) below which stepping by it hands over to the march: the
+// bound stays about two voxels short of any surface (bound.rs), so steps shorter than this skip
+// less than the march's own boxes would.
+const GDM_HANDOVER: f32 = 1.0;
+// Most lookups one piece steps by before handing over to the march.
+const GDM_MAX_LOOKUPS: i32 = 64;
+
+// Diagnostics (shell.params.w = 1): lookups, march steps and field samples of this invocation.
+var<private> gdm_counts: vec3<u32>;
 // Step of the fine search near solid voxels (voxels), refined by bisection.
 const GDM_FINE_STEP: f32 = 0.25;
 
@@ -213,6 +222,7 @@ fn gdm_solid(v: vec3<i32>) -> f32 {
 
 // The occupancy sampled at voxel centres, interpolated trilinearly at texture point t.
 fn gdm_field(t: vec3<f32>) -> f32 {
+    gdm_counts.z += 1u;
     let s = t - 0.5;
     let b = floor(s);
     let f = s - b;
@@ -264,6 +274,7 @@ fn gdm_march(a: vec3<f32>, dir: vec3<f32>, len: f32) -> f32 {
         if (s >= len) {
             break;
         }
+        gdm_counts.y += 1u;
         let v = floor(a + dir * (s + GDM_NUDGE));
         let r = gdm_radius(vec3<i32>(v));
         let reach = f32(max(i32(r) - 2, 0));
@@ -357,6 +368,33 @@ fn gdm_lookup_piece(a: vec3<f32>, dir: vec3<f32>, len: f32) -> f32 {
     return -1.0;
 }
 
+// A conservative table (shell.lookup.w = 2) drives the march: from the piece's start, step by
+// the looked-up lower bound of the distance to the first surface (sphere tracing with a
+// directional distance; it never passes a surface, bound.rs), and once the bound falls below
+// GDM_HANDOVER march exactly from there. The hit is the march's; the table only decides how much
+// empty space is skipped.
+fn gdm_bound_piece(a: vec3<f32>, dir: vec3<f32>, len: f32) -> f32 {
+    let nz = f32(shell.size.z);
+    var s = 0.0;
+    for (var n = 0; n < GDM_MAX_LOOKUPS; n++) {
+        if (s >= len) {
+            return -1.0;
+        }
+        let p = a + dir * s;
+        gdm_counts.x += 1u;
+        let b = gdm_lookup(vec3<f32>(p.xy, clamp(p.z, 0.0, nz)), dir);
+        if (b < GDM_HANDOVER) {
+            break;
+        }
+        s += b;
+    }
+    if (s >= len) {
+        return -1.0;
+    }
+    let h = gdm_march(a + dir * s, dir, len - s);
+    return select(-1.0, s + h, h >= 0.0);
+}
+
 // The field's gradient at texture point t: the trilinear interpolation's own derivative within
 // t's cell, so the normal is that of the level set the march hits. (Central differences half a
 // voxel wide reached into the neighbouring cells and tilted the flat tops beside every terrace
@@ -419,6 +457,8 @@ fn gdm_trace_prism(pr: Prism, o: vec3<f32>, d: vec3<f32>, t_lo: f32, t_hi: f32) 
             var s: f32;
             if (shell.lookup.w == 1u) {
                 s = gdm_lookup_piece(t_prev, dir_t, len);
+            } else if (shell.lookup.w == 2u) {
+                s = gdm_bound_piece(t_prev, dir_t, len);
             } else {
                 s = gdm_march(t_prev, dir_t, len);
             }

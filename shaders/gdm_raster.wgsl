@@ -37,6 +37,9 @@ fn fs_main(in: VsOut) -> FsOut {
     var out: FsOut;
     out.color = vec4<f32>(headlight(camera, shell.color.rgb, hit.normal, ray.dir), shell.color.a);
     out.normal = vec4<f32>(hit.normal, 0.0);
+    if (shell.params.w > 0.5) {
+        out.normal = vec4<f32>(vec3<f32>(gdm_counts), 0.0);
+    }
     out.id = shell.ids.x;
     out.albedo = shell.color;
     out.depth = depth_from_distance(camera, hit.t);

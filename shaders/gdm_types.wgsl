@@ -15,9 +15,11 @@ struct GdmObject {
     // x: id written to the id target.
     ids: vec4<i32>,
     // The GDM lookup (SVD terms in gdm_bindings.wgsl): x, y: theta and phi counts, z: terms k,
-    // w: 1 to look up instead of marching exactly.
+    // w: 0 to march exactly, 1 for the paper's lookup, 2 to step by a conservative table and
+    // finish with the march.
     lookup: vec4<u32>,
     // x: half-width (voxels) of the exact search around a looked-up distance; 0: none.
+    // w: 1 to write (lookups, march steps) to the normal target (diagnostics).
     params: vec4<f32>,
 }
 

@@ -140,18 +140,28 @@ class Volume:
         return self._core.march(o, np.ascontiguousarray(d / norm), max_t)  # type: ignore[no-any-return]
 
     def distance_function(self, directions: Any = DEFAULT_DIRECTIONS,
-                          progress: Callable[[str, float], Any] | None = None) -> DistanceFunction:
+                          progress: Callable[[str, float], Any] | None = None, *,
+                          lower_bound: bool = False) -> DistanceFunction:
         """The 5D function d(x, y, z, theta, phi) from every voxel centre along (theta, phi)
         direction counts (default the paper's 16 x 32); in parallel, GIL released, cancellable
-        (``progress(stage, fraction)`` returning False stops it with CancelledError)."""
+        (``progress(stage, fraction)`` returning False stops it with CancelledError).
+
+        With ``lower_bound=True`` each entry is instead a lower bound of the distance to the
+        rendered surface over every point and direction the lookup interpolates it into (a voxel
+        around its centre, the direction cell between its neighbouring samples), misses bounded
+        by the distance to leave the slab: interpolated anywhere, it never passes a surface. Its
+        ``compress()`` keeps that (the SVD's overshoot subtracted), and a Shell given it steps by
+        the table and finishes with the exact march."""
+        if not isinstance(lower_bound, bool):
+            raise ParameterError(f"lower_bound must be True or False, got {lower_bound!r}")
         try:
             counts = tuple(int(c) for c in directions)
         except (TypeError, ValueError):
             counts = ()
         if len(counts) != 2:
             raise ParameterError(f"directions must be (theta, phi) counts, got {directions!r}")
-        d, hit = self._core.distance_function(counts, progress)
-        return DistanceFunction(self, d, hit)
+        d, hit = self._core.distance_function(counts, progress, lower_bound)
+        return DistanceFunction(self, d, hit, lower_bound=lower_bound)
 
 
 def _volume_from_arrays(occupancy: npt.NDArray[np.bool_], colors: npt.NDArray[np.uint8] | None) -> Volume:
@@ -177,11 +187,13 @@ def direction_vectors(directions: Any = DEFAULT_DIRECTIONS) -> npt.NDArray[np.fl
 @dataclass
 class DistanceFunction:
     """d(x, y, z, theta, phi) in voxels, shape (nx, ny, nz, theta, phi), misses replaced by the
-    distance to the slab's top or bottom (``hit`` False there)."""
+    distance to the slab's top or bottom (``hit`` False there); with ``lower_bound``, the
+    conservative table of ``Volume.distance_function(lower_bound=True)``."""
 
     volume: Volume
     distance: npt.NDArray[np.float32]
     hit: npt.NDArray[np.bool_]
+    lower_bound: bool = False
     _svd: Any = field(default=None, repr=False)
 
     def __getstate__(self) -> dict[str, Any]:
@@ -216,28 +228,57 @@ class DistanceFunction:
         weights = (u[:, :k] * s[:k]).astype(np.float32)
         eigen = vt[:k].astype(np.float32)
         packed = CompressedGDM(weights.reshape(nx, ny, nphi, k), eigen.reshape(k, nt, nz), self.distance.shape)
+        if self.lower_bound:
+            packed = _conservative(packed, self.distance)
         residual = packed.reconstruct() - self.distance
         packed.error = {
             "rms": float(np.sqrt(np.mean(residual.astype(np.float64) ** 2))),
             "max": float(np.abs(residual).max()),
             "p99": float(np.quantile(np.abs(residual), 0.99)),
-            "relative": float(np.linalg.norm(s[k:]) / np.linalg.norm(s)),
+            # An all-zero table (a lower bound over a tile too thin to skip anything): no spectrum.
+            "relative": float(np.linalg.norm(s[k:]) / max(float(np.linalg.norm(s)), 1e-300)),
         }
         return packed
 
 
+# Slack (voxels, plus a fraction of the entry) for the renderer's float32 sums of the terms.
+_FLOAT_SLACK = (1e-3, 1e-5)
+
+
+def _conservative(packed: CompressedGDM, bound: npt.NDArray[np.float32]) -> CompressedGDM:
+    """The SVD of a lower-bound table kept a lower bound: per row (x, y, phi), the largest amount
+    by which the k terms overshoot the table over that row's (theta, z), stored as one more term
+    with a constant eigen-map of -1. Interpolation is linear, so subtracting the interpolated
+    margin keeps every interpolated value at or below the interpolated bound. (One global margin
+    instead costs far more skip: a few rows overshoot by much more than most.)"""
+    terms = np.einsum("xypk,ktz->xyztp", packed.weights.astype(np.float64), packed.eigen.astype(np.float64))
+    margin = np.maximum((terms - bound).max(axis=(2, 3)), 0.0)  # (x, y, phi)
+    margin += _FLOAT_SLACK[0] + _FLOAT_SLACK[1] * float(np.abs(bound).max())
+    # Rounded up to float32, so the stored margin is never smaller than the one computed.
+    m32 = margin.astype(np.float32)
+    m32 = np.where(m32 < margin, np.nextafter(m32, np.float32(np.inf)), m32)
+    nx, ny, nz, nt, nphi = bound.shape
+    weights = np.concatenate([packed.weights, m32[..., None]], axis=3)
+    eigen = np.concatenate([packed.eigen, -np.ones((1, nt, nz), np.float32)], axis=0)
+    return CompressedGDM(weights, eigen, packed.shape, conservative=True)
+
+
 @dataclass
 class CompressedGDM:
-    """A distance function as k SVD terms: d ~ sum_i W_i(x, y, phi) E_i(theta, z)."""
+    """A distance function as k SVD terms: d ~ sum_i W_i(x, y, phi) E_i(theta, z). A
+    ``conservative`` one (from a lower-bound table) holds one more term: its per-row margin
+    (weights) times -1 (eigen-map), so the sum stays at or below the bound."""
 
-    weights: npt.NDArray[np.float32]  # (nx, ny, phi, k)
-    eigen: npt.NDArray[np.float32]  # (k, theta, nz)
+    weights: npt.NDArray[np.float32]  # (nx, ny, phi, k [+ 1])
+    eigen: npt.NDArray[np.float32]  # (k [+ 1], theta, nz)
     shape: tuple[int, ...]
     error: dict[str, float] = field(default_factory=dict)
+    conservative: bool = False
 
     @property
     def k(self) -> int:
-        return int(self.eigen.shape[0])
+        """SVD terms (without a conservative table's margin term)."""
+        return int(self.eigen.shape[0]) - int(self.conservative)
 
     @property
     def nbytes(self) -> int:
@@ -400,10 +441,14 @@ class Shell:
     this volume) each piece instead takes the paper's one lookup in the SVD-compressed distance
     function (interpolated in position and direction, as the paper's textures are), kept where
     the field confirms it; ``refine`` > 0 (voxels) searches exactly for the first surface within
-    that distance of the looked-up one instead. Drawn in ``color`` (RGBA). Ray queries
-    (``Scene.intersects_*``, ``Renderer.intersect``) and shadow rays (``render(..., light=...)``)
-    trace shells by the same march through a hierarchy over the prisms: a shell casts shadows on
-    itself and on other objects.
+    that distance of the looked-up one instead. A conservative ``lookup`` (compressed from
+    ``distance_function(lower_bound=True)``) steps each piece by the looked-up lower bound and
+    finishes with the exact march: the march's image, the table deciding only what is skipped.
+    ``count_steps=True`` (diagnostics) writes (lookups, march steps, field samples) of the
+    fragment that drew each pixel into the frame's normal instead. Drawn in ``color`` (RGBA).
+    Ray queries (``Scene.intersects_*``, ``Renderer.intersect``) and shadow rays
+    (``render(..., light=...)``) trace shells by the same march through a hierarchy over the
+    prisms: a shell casts shadows on itself and on other objects.
 
     Texture coordinates (in tiles: 1.0 = one tile): ``uv`` as (V, 2) per vertex or (F, 3, 2) per
     corner; else the base mesh's own UVs times ``tiles``; else generated by ``box_uv`` times
@@ -415,7 +460,8 @@ class Shell:
 
     def __init__(self, base_mesh: Any, volume: Volume, thickness: float, *,
                  tiles: Any = (8, 8), uv: Any = None, color: Any = (200, 170, 110, 255),
-                 pieces: int = 4, lookup: CompressedGDM | None = None, refine: float = 0.0) -> None:
+                 pieces: int = 4, lookup: CompressedGDM | None = None, refine: float = 0.0,
+                 count_steps: bool = False) -> None:
         from ._mesh import as_mesh
 
         mesh = as_mesh(base_mesh)
@@ -448,7 +494,13 @@ class Shell:
         r = float(refine) if isinstance(refine, (int, float, np.number)) and not isinstance(refine, bool) else -1.0
         if not 0 <= r <= 64:
             raise ParameterError(f"refine must be a number of voxels in 0..64, got {refine!r}")
+        if r > 0 and lookup is not None and lookup.conservative:
+            raise ParameterError("refine applies to the paper's lookup; a conservative table is followed by "
+                                 "the exact march (leave refine at 0)")
         self.refine = r
+        if not isinstance(count_steps, bool):
+            raise ParameterError(f"count_steps must be True or False, got {count_steps!r}")
+        self.count_steps = count_steps
         self._drawn: Any = None
 
     def __getstate__(self) -> dict[str, Any]:
@@ -476,7 +528,9 @@ class Shell:
                 self.vertices, self.normals, np.ascontiguousarray(self.faces, dtype=np.uint32), self.uv,
                 self.thickness, self.volume._core, self.color, self.pieces,
                 None if self.lookup is None else (np.ascontiguousarray(self.lookup.weights),
-                                                  np.ascontiguousarray(self.lookup.eigen), self.refine))
+                                                  np.ascontiguousarray(self.lookup.eigen), self.refine,
+                                                  self.lookup.conservative),
+                getattr(self, "count_steps", False))
         return self._drawn
 
     def tile_surface(self) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]:

@@ -6,11 +6,13 @@
 //!
 //! Spaces: texture space in voxel units of the tile (volume.rs); the base mesh's object space.
 
+pub mod bound;
 pub mod caps;
 pub mod distance;
 pub mod shell;
 pub mod volume;
 
+pub use bound::lower_bound_function;
 pub use caps::Seams;
 pub use distance::{distance_function, DistanceFunction, Marcher, DEFAULT_DIRECTIONS};
 pub use shell::{Shell, TileSurface};
@@ -30,6 +32,9 @@ pub struct GdmShell {
     /// When set, the paper's lookup in the SVD-compressed distance function replaces the exact
     /// march.
     pub lookup: Option<CompressedTable>,
+    /// Diagnostics: the normal target holds (lookups, march steps, field samples) of the fragment that wrote
+    /// each pixel instead of its normal.
+    pub count_steps: bool,
 }
 
 /// A distance function as k SVD terms: d = sum_i W_i(x, y, phi) E_i(theta, z).
@@ -44,6 +49,9 @@ pub struct CompressedTable {
     /// Half-width in voxels of the exact search around the distance looked up; 0: the paper's
     /// lookup alone (its distance kept where the field confirms solid there).
     pub refine: f32,
+    /// The terms hold a conservative table (bound.rs, its SVD error subtracted): the renderer
+    /// steps by it and finishes with the exact march instead of trusting one lookup.
+    pub bound: bool,
 }
 
 /// Default pieces per prism.

@@ -18,8 +18,8 @@ use super::errors::heavy;
 use super::gtex::with_progress;
 use crate::error::{parse_choice, GeomtexError};
 use crate::gdm::{
-    distance_function, CompressedTable, GdmShell, Marcher, Pattern, Seams, Shell, TileSurface,
-    Volume, DEFAULT_PIECES, PATTERNS,
+    distance_function, lower_bound_function, CompressedTable, GdmShell, Marcher, Pattern, Seams,
+    Shell, TileSurface, Volume, DEFAULT_PIECES, PATTERNS,
 };
 
 /// A mesostructure tile: an occupancy grid (x, y periodic), optional per-voxel RGBA.
@@ -146,18 +146,24 @@ impl PyGdmVolume {
     }
 
     /// The 5D distance function at `directions` = (theta, phi) counts: (distance float32, hit
-    /// bool), both of shape (nx, ny, nz, theta, phi), distances in voxels.
-    #[pyo3(signature = (directions, progress = None))]
+    /// bool), both of shape (nx, ny, nz, theta, phi), distances in voxels. With `lower_bound`,
+    /// each entry is instead a lower bound over the lookup's interpolation footprint (bound.rs).
+    #[pyo3(signature = (directions, progress = None, lower_bound = false))]
     fn distance_function<'py>(
         &self,
         py: Python<'py>,
         directions: (usize, usize),
         progress: Option<Py<PyAny>>,
+        lower_bound: bool,
     ) -> ArrayPair<'py, PyArray5<f32>, PyArray5<bool>> {
         let volume = self.inner.clone();
         let counts = [directions.0, directions.1];
         let table = with_progress(py, "computing a distance function", progress, move |p| {
-            distance_function(&volume, counts, p)
+            if lower_bound {
+                lower_bound_function(&volume, counts, p)
+            } else {
+                distance_function(&volume, counts, p)
+            }
         })?;
         let [x, y, z] = table.size;
         let shape = (x, y, z, counts[0], counts[1]);
@@ -219,8 +225,15 @@ fn table_of(
     weights: &PyReadonlyArray4<'_, f32>,
     eigen: &PyReadonlyArray3<'_, f32>,
     refine: f32,
+    bound: bool,
     size: [usize; 3],
 ) -> PyResult<CompressedTable> {
+    if bound && refine != 0.0 {
+        return Err(GeomtexError::Parameter(
+            "lookup: a conservative table is followed by the exact march; refine must be 0".into(),
+        )
+        .into());
+    }
     if !(0.0..=64.0).contains(&refine) {
         return Err(GeomtexError::Parameter(format!(
             "lookup: refine must be 0..=64 voxels, got {refine}"
@@ -241,6 +254,7 @@ fn table_of(
         weights: flat(weights),
         eigen: flat(eigen),
         refine,
+        bound,
     })
 }
 
@@ -254,7 +268,7 @@ pub struct PyGdmShell {
 impl PyGdmShell {
     #[new]
     #[pyo3(signature = (positions, normals, faces, uv, thickness, volume, color, pieces = None,
-        lookup = None))]
+        lookup = None, count_steps = false))]
     #[allow(clippy::too_many_arguments)] // the shell's parts, as the package's Shell holds them
     fn new(
         positions: PyReadonlyArray2<'_, f64>,
@@ -265,7 +279,13 @@ impl PyGdmShell {
         volume: &PyGdmVolume,
         color: (u8, u8, u8, u8),
         pieces: Option<u32>,
-        lookup: Option<(PyReadonlyArray4<'_, f32>, PyReadonlyArray3<'_, f32>, f32)>,
+        lookup: Option<(
+            PyReadonlyArray4<'_, f32>,
+            PyReadonlyArray3<'_, f32>,
+            f32,
+            bool,
+        )>,
+        count_steps: bool,
     ) -> PyResult<Self> {
         let volume = volume.inner.clone();
         let volume_size = volume.size;
@@ -283,8 +303,9 @@ impl PyGdmShell {
                 color: [color.0, color.1, color.2, color.3],
                 pieces,
                 lookup: lookup
-                    .map(|(w, e, refine)| table_of(&w, &e, refine, volume_size))
+                    .map(|(w, e, refine, bound)| table_of(&w, &e, refine, bound, volume_size))
                     .transpose()?,
+                count_steps,
             }),
         })
     }

@@ -233,13 +233,13 @@ fn shell_record(
         ids: [id, 0, 0, 0],
         lookup: shell.lookup.as_ref().map_or([1, 1, 0, 0], |t| {
             let [nt, np] = t.directions.map(|n| n as u32);
-            [nt, np, t.k as u32, 1]
+            [nt, np, t.k as u32, if t.bound { 2 } else { 1 }]
         }),
         params: [
             shell.lookup.as_ref().map_or(0.0, |t| t.refine),
             0.0,
             0.0,
-            0.0,
+            f32::from(u8::from(shell.count_steps)),
         ],
     }
 }
