@@ -13,49 +13,16 @@
 // Counting build: this fragment's height, outline and pyramid reads (see COUNT_FETCHES).
 var<private> fetches: u32 = 0u;
 
-// Maps are continued linearly past their edge (src/heightfield.rs, `continued`): the cells at
-// the map's sides reach one texel beyond it, over the box's border half-texel, where the surface
-// and its outline often run (the box hugs the faces). Texel `at` is the map's texel nearest,
-// `past` how far beyond the edge along each axis, `back` the texel one step back inside.
-struct EdgeStep {
-    at: vec2<i32>,
-    past: vec2<i32>,
-    back: vec2<i32>,
-}
-
-fn edge_step(p: PatchMaps, texel: vec2<i32>) -> EdgeStep {
-    let last = vec2<i32>(p.size) - 1;
-    let at = clamp(texel, vec2<i32>(0), last);
-    let past = texel - at;
-    return EdgeStep(at, past, clamp(at - sign(past), vec2<i32>(0), last));
-}
-
-// The edge value `here` continued by `past` texels, from its neighbours one step back inside
-// along x and y.
-fn continued(here: f32, back_x: f32, back_y: f32, past: vec2<i32>) -> f32 {
-    return here + (here - back_x) * f32(abs(past.x)) + (here - back_y) * f32(abs(past.y));
-}
-
-fn fetch_code(p: PatchMaps, t: vec2<i32>) -> f32 {
+// Height code at a texel (0: empty). The atlas holds each map with a one-texel border that
+// continues it linearly past its edge (src/render/atlas.rs, heightfield::padded_heights), so the
+// cells at the map's sides, which reach one texel beyond it over the box's border half-texel,
+// read the continued surface; indices are clamped to that border.
+fn load_code(p: PatchMaps, texel: vec2<i32>) -> f32 {
     if (COUNT_FETCHES) {
         fetches += 1u;
     }
+    let t = clamp(texel, vec2<i32>(-1), vec2<i32>(p.size));
     return f32(textureLoad(heights, vec2<i32>(p.atlas_origin) + t, p.ids.x, 0).x);
-}
-
-// Height code at a texel, continued past the map's edge within the box's codes (0: empty; an
-// empty neighbour counts as level with the edge).
-fn load_code(p: PatchMaps, texel: vec2<i32>) -> f32 {
-    let s = edge_step(p, texel);
-    let here = fetch_code(p, s.at);
-    if (all(s.past == vec2<i32>(0)) || here == 0.0) {
-        return here;
-    }
-    var bx = fetch_code(p, vec2<i32>(s.back.x, s.at.y));
-    var by = fetch_code(p, vec2<i32>(s.at.x, s.back.y));
-    bx = select(bx, here, bx == 0.0);
-    by = select(by, here, by == 0.0);
-    return clamp(continued(here, bx, by, s.past), 1.0, f32(p.pyramid_at.z));
 }
 
 // Pyramid node `index` (src/render/atlas.rs, pack_node) as (smallest, largest) height code, each
@@ -74,24 +41,14 @@ fn pyramid_node(p: PatchMaps, index: u32) -> vec2<f32> {
     return vec2<f32>(f32(lo << shift), f32((hi << shift) | fill));
 }
 
-// Outline distance stored at a texel of the map, in units of OUTLINE_REACH texels.
-fn fetch_outline(p: PatchMaps, t: vec2<i32>) -> f32 {
+// Outline distance at a texel (in the atlas's continued border past the map's edge, as the
+// heights), in units of OUTLINE_REACH texels.
+fn load_outline(p: PatchMaps, texel: vec2<i32>) -> f32 {
     if (COUNT_FETCHES) {
         fetches += 1u;
     }
+    let t = clamp(texel, vec2<i32>(-1), vec2<i32>(p.size));
     return textureLoad(outlines, vec2<i32>(p.atlas_origin) + t, p.ids.x, 0).x;
-}
-
-// Outline distance at a texel, continued past the map's edge.
-fn load_outline(p: PatchMaps, texel: vec2<i32>) -> f32 {
-    let s = edge_step(p, texel);
-    let here = fetch_outline(p, s.at);
-    if (all(s.past == vec2<i32>(0))) {
-        return here;
-    }
-    let bx = fetch_outline(p, vec2<i32>(s.back.x, s.at.y));
-    let by = fetch_outline(p, vec2<i32>(s.at.x, s.back.y));
-    return continued(here, bx, by, s.past);
 }
 
 // Outline distances at the corners of the cell with lower-left texel ij, in corner_codes' order.

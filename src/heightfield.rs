@@ -40,8 +40,8 @@ impl Cell {
 /// so the surface and its outline often run through that half-texel. Repeating the edge texel
 /// there (as before) made the surface flat across it, and the outline reach the box's side.
 /// `value` is a texel's value, None where it has none: then so is the continued one, and a
-/// neighbour without one counts as level with the edge. The shader's `load_code` and
-/// `load_outline` implement the same rule.
+/// neighbour without one counts as level with the edge. The GPU reads the same values from the
+/// atlas's border (`padded_heights`, `padded_outline`).
 fn continued(p: &Patch, i: i64, j: i64, value: impl Fn(usize) -> Option<f64>) -> Option<f64> {
     let (w, h) = (p.width as i64, p.height as i64);
     let at = |x: i64, y: i64| value((y * w + x) as usize);
@@ -57,11 +57,40 @@ fn continued(p: &Patch, i: i64, j: i64, value: impl Fn(usize) -> Option<f64>) ->
     Some(here + (here - back_x) * past_x.abs() as f64 + (here - back_y) * past_y.abs() as f64)
 }
 
-/// Height code at texel (i, j), continued past the map's edge and kept within the box (codes
-/// 1..=code_max); 0 where the texel is empty.
+/// Height code at texel (i, j), continued past the map's edge, rounded to a code and kept
+/// within the box (1..=code_max); 0 where the texel is empty. Rounded, because the GPU reads the
+/// continued border from the atlas as codes (`padded_heights`).
 pub(crate) fn code_at_texel(p: &Patch, i: i64, j: i64) -> f64 {
     let code = |t: usize| (p.heights[t] > 0).then(|| f64::from(p.heights[t]));
-    continued(p, i, j, code).map_or(0.0, |c| c.clamp(1.0, f64::from(p.code_max())))
+    continued(p, i, j, code).map_or(0.0, |c| c.round().clamp(1.0, f64::from(p.code_max())))
+}
+
+/// Outline code at texel (i, j), continued past the map's edge and rounded to a code.
+fn outline_at_texel(p: &Patch, i: i64, j: i64) -> f64 {
+    let code = |t: usize| Some(f64::from(p.outline[t]));
+    continued(p, i, j, code).map_or(0.0, |c| c.round().clamp(-127.0, 127.0))
+}
+
+/// The map of `value` with a one-texel border continuing it past each edge: (w + 2) x (h + 2),
+/// row by row from texel (-1, -1). The atlas stores maps so (src/render/atlas.rs), so that the
+/// shader reads the continued border with a plain clamped load instead of computing it per
+/// read (which cost lavapipe a third of a tiled frame).
+fn padded<T>(p: &Patch, value: impl Fn(i64, i64) -> T) -> Vec<T> {
+    let (w, h) = (i64::from(p.width), i64::from(p.height));
+    (-1..=h)
+        .flat_map(|j| (-1..=w).map(move |i| (i, j)))
+        .map(|(i, j)| value(i, j))
+        .collect()
+}
+
+/// Height codes with the continued border (`padded`).
+pub(crate) fn padded_heights(p: &Patch) -> Vec<u16> {
+    padded(p, |i, j| code_at_texel(p, i, j) as u16)
+}
+
+/// Outline codes with the continued border (`padded`).
+pub(crate) fn padded_outline(p: &Patch) -> Vec<i8> {
+    padded(p, |i, j| outline_at_texel(p, i, j) as i8)
 }
 
 /// The cell whose lower-left texel centre is (i, j) (values continued past the map's edge);
@@ -69,10 +98,7 @@ pub(crate) fn code_at_texel(p: &Patch, i: i64, j: i64) -> f64 {
 fn cell_at(p: &Patch, i: i64, j: i64) -> Option<Cell> {
     let corners = [(i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1)];
     let codes = corners.map(|(x, y)| code_at_texel(p, x, y));
-    let outline = corners.map(|(x, y)| {
-        let code = |t: usize| Some(f64::from(p.outline[t]));
-        decode_outline(continued(p, x, y, code).unwrap_or(0.0))
-    });
+    let outline = corners.map(|(x, y)| decode_outline(outline_at_texel(p, x, y)));
     let some_inside = outline.iter().any(|&d| d >= 0.0);
     (codes.iter().all(|&c| c > 0.0) && some_inside).then_some(Cell { codes, outline })
 }

@@ -3,13 +3,16 @@
 //! min-max pyramid in one 2D texture (a texture, not a storage buffer: a buffer binding is
 //! capped, 128 MiB on lavapipe, and large sets passed it).
 //!
-//! Spaces: atlas texels (layer, x, y); a patch's texel (i, j) sits at its place + (i, j).
+//! Spaces: atlas texels (layer, x, y); a patch's texel (i, j) sits at its place + (i, j), for i
+//! in -1..=width and j in -1..=height: heights and outlines are stored with a one-texel border
+//! continuing them past the map's edge (heightfield::padded_heights), which the cells at the
+//! map's sides reach into; the other maps leave that border unread.
 //! Pyramid node k sits at texel (k mod width, k div width) of the pyramid texture.
 
 use super::device::{texture_2d, Gpu};
 use crate::error::{GeomtexError, Result};
 use crate::gtex::{GeometryTextureSet, NEUTRAL_COLOR};
-use crate::heightfield::min_max_pyramid;
+use crate::heightfield::{min_max_pyramid, padded_heights, padded_outline};
 
 /// A patch's min-max pyramid: per level its width, height and packed values.
 pub(crate) type Pyramid = Vec<(u32, u32, Vec<u32>)>;
@@ -80,19 +83,20 @@ impl Atlas {
 /// The patches' places and the atlas size: layers as narrow and short as the patches allow
 /// (at most `side` square), so a set costs about its maps' bytes, not whole `side`² layers.
 fn fitted(set: &GeometryTextureSet, side: u32) -> Result<(Vec<Place>, wgpu::Extent3d)> {
-    let gapped = |p: &crate::gtex::Patch| (p.width as u64 + 1) * (p.height as u64 + 1);
+    let gapped = |p: &crate::gtex::Patch| (p.width as u64 + 3) * (p.height as u64 + 3);
     let area = set.patches.iter().map(gapped).sum::<u64>() as f64 * (1.0 + PACKING_SLACK);
-    let widest = set.patches.iter().map(|p| p.width).max().unwrap_or(1);
-    let tallest = set.patches.iter().map(|p| p.height).max().unwrap_or(1);
+    let widest = set.patches.iter().map(|p| p.width + 2).max().unwrap_or(1);
+    let tallest = set.patches.iter().map(|p| p.height + 2).max().unwrap_or(1);
     let side_f = side as f64;
     let width = if area < side_f * side_f {
-        (area.sqrt().ceil() as u32).clamp(widest, side)
+        (area.sqrt().ceil() as u32).max(widest).min(side)
     } else {
         side
     };
     let layers_wanted = (area / (width as f64 * side_f)).ceil().max(1.0) as u32;
-    let mut height =
-        ((area / (width as f64 * layers_wanted as f64)).ceil() as u32).clamp(tallest, side);
+    let mut height = ((area / (width as f64 * layers_wanted as f64)).ceil() as u32)
+        .max(tallest)
+        .min(side);
     loop {
         let (places, layers, used) = pack(set, width, height)?;
         // Taller layers until the patches fit in the layers the area asks for (or full size).
@@ -108,8 +112,9 @@ fn fitted(set: &GeometryTextureSet, side: u32) -> Result<(Vec<Place>, wgpu::Exte
     }
 }
 
-/// Shelf packing of the patches into layers of `width` x `height`, tallest first, with 1-texel
-/// gaps: each patch's (layer, x, y), the number of layers and the height the last one uses.
+/// Shelf packing of the patches (each with its one-texel border) into layers of `width` x
+/// `height`, tallest first, with 1-texel gaps: each patch's (layer, x, y) (of its texel (0, 0)),
+/// the number of layers and the height the last one uses.
 fn pack(set: &GeometryTextureSet, width: u32, height: u32) -> Result<(Vec<Place>, u32, u32)> {
     let mut order: Vec<usize> = (0..set.patches.len()).collect();
     order.sort_by_key(|&i| std::cmp::Reverse(set.patches[i].height));
@@ -117,27 +122,28 @@ fn pack(set: &GeometryTextureSet, width: u32, height: u32) -> Result<(Vec<Place>
     let (mut layer, mut x, mut y, mut shelf) = (0u32, 0u32, 0u32, 0u32);
     for &i in &order {
         let p = &set.patches[i];
-        if p.width > width || p.height > height {
+        let (pw, ph) = (p.width + 2, p.height + 2);
+        if pw > width || ph > height {
             return Err(GeomtexError::Device(format!(
-                "patch {i} is {}x{} texels; this adapter's texture layers hold at most \
-                 {width}x{height} (convert with a smaller max_resolution)",
+                "patch {i} is {}x{} texels (and a 1-texel border); this adapter's texture \
+                 layers hold at most {width}x{height} (convert with a smaller max_resolution)",
                 p.width, p.height
             )));
         }
-        if x + p.width > width {
+        if x + pw > width {
             x = 0;
             y += shelf + 1;
             shelf = 0;
         }
-        if y + p.height > height {
+        if y + ph > height {
             layer += 1;
             x = 0;
             y = 0;
             shelf = 0;
         }
-        places[i] = (layer, x, y);
-        x += p.width + 1;
-        shelf = shelf.max(p.height);
+        places[i] = (layer, x + 1, y + 1);
+        x += pw + 1;
+        shelf = shelf.max(ph);
     }
     Ok((places, layer + 1, y + shelf))
 }
@@ -191,13 +197,33 @@ fn write_maps(
         write_texels(queue, &textures[2], (0, 0, 0), (1, 1), &NEUTRAL_COLOR, 4);
     }
     for (p, &(layer, x, y)) in set.patches.iter().zip(places) {
+        // Heights and outlines with their continued border, from texel (-1, -1).
+        let padded_codes = padded_heights(p);
         let narrow_codes: Vec<u8>;
         let height_plane: &[u8] = if narrow {
-            narrow_codes = p.heights.iter().map(|&q| q as u8).collect();
+            narrow_codes = padded_codes.iter().map(|&q| q as u8).collect();
             &narrow_codes
         } else {
-            bytemuck::cast_slice(&p.heights)
+            bytemuck::cast_slice(&padded_codes)
         };
+        let padded_outlines = padded_outline(p);
+        let bordered = ((layer, x - 1, y - 1), (p.width + 2, p.height + 2));
+        write_texels(
+            queue,
+            &textures[0],
+            bordered.0,
+            bordered.1,
+            height_plane,
+            height_bytes,
+        );
+        write_texels(
+            queue,
+            &textures[3],
+            bordered.0,
+            bordered.1,
+            bytemuck::cast_slice(&padded_outlines),
+            1,
+        );
         // A patch without a color map beside patches with one (a merged set) gets neutral texels.
         let neutral: Vec<[u8; 4]>;
         let color_plane: &[u8] = if p.has_colors() || !colored {
@@ -206,13 +232,11 @@ fn write_maps(
             neutral = vec![NEUTRAL_COLOR; p.texels()];
             bytemuck::cast_slice(&neutral)
         };
-        let planes: [(&[u8], u32); 4] = [
-            (height_plane, height_bytes),
-            (bytemuck::cast_slice(&p.normals), 2),
-            (color_plane, 4),
-            (bytemuck::cast_slice(&p.outline), 1),
+        let planes: [(&wgpu::Texture, &[u8], u32); 2] = [
+            (&textures[1], bytemuck::cast_slice(&p.normals), 2),
+            (&textures[2], color_plane, 4),
         ];
-        for (texture, (bytes, texel)) in textures.iter().zip(planes) {
+        for (texture, bytes, texel) in planes {
             if bytes.is_empty() {
                 continue; // no color map anywhere: the one neutral texel is written above
             }
