@@ -21,12 +21,9 @@
 //! the smaller of that and the least distance any footprint ray needs to leave the slab (the
 //! paper's substitution for misses, made a lower bound too).
 
-use std::sync::atomic::{AtomicUsize, Ordering};
-
 use glam::DVec3;
-use rayon::prelude::*;
 
-use super::distance::{check_directions, direction, DistanceFunction, MAX_MARCH};
+use super::distance::{check_directions, direction, tabulate, DistanceFunction, MAX_MARCH};
 use super::volume::Volume;
 use crate::convert::Progress;
 use crate::error::Result;
@@ -175,7 +172,7 @@ pub fn lower_bound_function(
     progress: Progress,
 ) -> Result<DistanceFunction> {
     check_directions(volume, directions)?;
-    let [nx, ny, nz] = volume.size;
+    let nz = volume.size[2] as f64;
     let [nt, np] = directions;
     let radii = Radii {
         volume,
@@ -184,40 +181,14 @@ pub fn lower_bound_function(
     let cells: Vec<DirectionCell> = (0..nt * np)
         .map(|d| direction_cell(d / np, d % np, directions))
         .collect();
-    let per_row = ny * nz * nt * np;
-    let done = AtomicUsize::new(0);
     let stage = "lower-bound distance function";
-    progress.report(stage, 0.0)?;
-    let rows: Vec<(Vec<f32>, Vec<bool>)> = (0..nx)
-        .into_par_iter()
-        .map(|i| {
-            progress.check(stage)?;
-            let mut distance = Vec::with_capacity(per_row);
-            let mut hit = Vec::with_capacity(per_row);
-            for j in 0..ny {
-                for k in 0..nz {
-                    let c = DVec3::new(i as f64, j as f64, k as f64) + 0.5;
-                    let (zlo, zhi) = ((c.z - 1.0).max(0.0), (c.z + 1.0).min(nz as f64));
-                    for cell in &cells {
-                        let exit = exit_bound(zlo, zhi, cell.dz, nz as f64);
-                        let t = radii.sweep(c, cell, exit);
-                        // Rounded down so the float32 entry stays a lower bound.
-                        distance.push(next_down(t as f32, t));
-                        hit.push(t < exit);
-                    }
-                }
-            }
-            let finished = done.fetch_add(1, Ordering::Relaxed) + 1;
-            progress.report(stage, finished as f64 / nx as f64)?;
-            Ok((distance, hit))
-        })
-        .collect::<Result<_>>()?;
-    let (distance, hit): (Vec<Vec<f32>>, Vec<Vec<bool>>) = rows.into_iter().unzip();
-    Ok(DistanceFunction {
-        size: volume.size,
-        directions,
-        distance: distance.concat(),
-        hit: hit.concat(),
+    tabulate(volume, directions, stage, progress, |c, d| {
+        let (zlo, zhi) = ((c.z - 1.0).max(0.0), (c.z + 1.0).min(nz));
+        let cell = &cells[d];
+        let exit = exit_bound(zlo, zhi, cell.dz, nz);
+        let t = radii.sweep(c, cell, exit);
+        // Rounded down so the float32 entry stays a lower bound.
+        (next_down(t as f32, t), t < exit)
     })
 }
 

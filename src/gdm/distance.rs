@@ -147,15 +147,38 @@ pub fn distance_function(
     progress: Progress,
 ) -> Result<DistanceFunction> {
     check_directions(volume, directions)?;
-    let [nx, ny, nz] = volume.size;
     let [nt, np] = directions;
     let marcher = Marcher::new(volume);
     let dirs: Vec<DVec3> = (0..nt * np)
         .map(|d| direction(d / np, d % np, directions))
         .collect();
-    let per_row = ny * nz * nt * np;
+    tabulate(
+        volume,
+        directions,
+        "distance function",
+        progress,
+        |origin, d| {
+            let end = marcher.march(origin, dirs[d], f64::INFINITY);
+            (end.t as f32, end.hit)
+        },
+    )
+}
+
+/// A table in `distance_function`'s layout (x, y, z, then direction index theta * np + phi):
+/// `sample(voxel centre, direction index)` gives each entry and whether a surface bounds it.
+/// Rows of x run in parallel, reporting `stage` after each; serves the plain table and the
+/// lower-bound one (bound.rs).
+pub(crate) fn tabulate(
+    volume: &Volume,
+    directions: [usize; 2],
+    stage: &str,
+    progress: Progress,
+    sample: impl Fn(DVec3, usize) -> (f32, bool) + Sync,
+) -> Result<DistanceFunction> {
+    let [nx, ny, nz] = volume.size;
+    let count = directions[0] * directions[1];
+    let per_row = ny * nz * count;
     let done = AtomicUsize::new(0);
-    let stage = "distance function";
     progress.report(stage, 0.0)?;
     let rows: Vec<(Vec<f32>, Vec<bool>)> = (0..nx)
         .into_par_iter()
@@ -165,11 +188,11 @@ pub fn distance_function(
             let mut hit = Vec::with_capacity(per_row);
             for j in 0..ny {
                 for k in 0..nz {
-                    let origin = DVec3::new(i as f64, j as f64, k as f64) + 0.5;
-                    for &dir in &dirs {
-                        let end = marcher.march(origin, dir, f64::INFINITY);
-                        distance.push(end.t as f32);
-                        hit.push(end.hit);
+                    let centre = DVec3::new(i as f64, j as f64, k as f64) + 0.5;
+                    for d in 0..count {
+                        let (t, h) = sample(centre, d);
+                        distance.push(t);
+                        hit.push(h);
                     }
                 }
             }
