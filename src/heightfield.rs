@@ -347,13 +347,7 @@ pub fn min_max_pyramid(p: &Patch) -> Vec<(u32, u32, Vec<u32>)> {
     for r in 0..ch as i64 {
         for c in 0..cw as i64 {
             base.push(match cell_at(p, c - 1, r - 1) {
-                // Codes continued past the map's edge fall between integers: round outwards.
-                Some(cell) => pack(
-                    &mut cell
-                        .codes
-                        .into_iter()
-                        .flat_map(|q| [q.floor() as u32, q.ceil() as u32]),
-                ),
+                Some(cell) => pack(&mut cell.codes.into_iter().map(|q| q as u32)),
                 None => 0,
             });
         }

@@ -23,7 +23,9 @@
 
 use glam::DVec3;
 
-use super::distance::{check_directions, direction, tabulate, DistanceFunction, MAX_MARCH};
+use super::distance::{
+    box_exit, check_directions, direction, tabulate, DistanceFunction, MAX_MARCH,
+};
 use super::volume::Volume;
 use crate::convert::Progress;
 use crate::error::Result;
@@ -136,18 +138,7 @@ impl Radii<'_> {
                 return t;
             }
             let m = (0.5 * room).floor();
-            let mut exit = f64::INFINITY;
-            for axis in 0..3 {
-                let d = d0[axis];
-                if d != 0.0 {
-                    let face = if d > 0.0 {
-                        v[axis] + 1.0 + m
-                    } else {
-                        v[axis] - m
-                    };
-                    exit = exit.min((face - c[axis]) / d);
-                }
-            }
+            let exit = box_exit(c, d0, v, m);
             // Within the box the centre line keeps r - m - 0.5; the clearance needed grows.
             let limit = if eps > 0.0 {
                 (r - m - CENTRE_OFFSET - CLEARANCE) / eps

@@ -89,19 +89,7 @@ impl<'a> Marcher<'a> {
             if r == 0 {
                 return MarchEnd { t, hit: true };
             }
-            let reach = f64::from(r) - 1.0;
-            let mut exit = f64::INFINITY;
-            for axis in 0..3 {
-                let d = dir[axis];
-                if d != 0.0 {
-                    let face = if d > 0.0 {
-                        v[axis] + 1.0 + reach
-                    } else {
-                        v[axis] - reach
-                    };
-                    exit = exit.min((face - origin[axis]) / d);
-                }
-            }
+            let exit = box_exit(origin, dir, v, f64::from(r) - 1.0);
             t = exit.max(t + NUDGE);
         }
         MarchEnd {
@@ -162,6 +150,24 @@ pub fn distance_function(
             (end.t as f32, end.hit)
         },
     )
+}
+
+/// The t at which `origin + t * dir` leaves the box of voxel `v` (its lower corner) grown by
+/// `margin` voxels on every side; infinite along no axis the ray moves on. Serves the march and
+/// the lower-bound sweep (bound.rs), which both jump from box to box of guaranteed free space.
+pub(crate) fn box_exit(origin: DVec3, dir: DVec3, v: DVec3, margin: f64) -> f64 {
+    (0..3)
+        .filter(|&axis| dir[axis] != 0.0)
+        .map(|axis| {
+            let d = dir[axis];
+            let face = if d > 0.0 {
+                v[axis] + 1.0 + margin
+            } else {
+                v[axis] - margin
+            };
+            (face - origin[axis]) / d
+        })
+        .fold(f64::INFINITY, f64::min)
 }
 
 /// A table in `distance_function`'s layout (x, y, z, then direction index theta * np + phi):

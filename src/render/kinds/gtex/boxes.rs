@@ -172,11 +172,8 @@ pub(crate) fn tile_pieces(
 /// map's side (si, sj = -1 or 1 past the first or last texel): the blend of the texel and the
 /// map continued past its edge; None where a corner is empty (no surface there).
 fn side_height(p: &Patch, i: i64, j: i64, si: i32, sj: i32) -> Option<f64> {
-    let corners = [(0, 0), (si, 0), (0, sj), (si, sj)];
-    let codes: Vec<f64> = corners
-        .iter()
-        .map(|&(di, dj)| code_at_texel(p, i + i64::from(di), j + i64::from(dj)))
-        .collect();
+    let codes = [(0, 0), (si, 0), (0, sj), (si, sj)]
+        .map(|(di, dj)| code_at_texel(p, i + i64::from(di), j + i64::from(dj)));
     if codes.contains(&0.0) {
         return None;
     }
