@@ -15,6 +15,10 @@ struct Tiles {
     // pixels: pixel = (grid xy - zw) / xy.
     grid_from_view: mat4x4<f32>,
     grid: vec4<f32>,
+    // Parallel rays: x = the largest depth extent of a listed box along the rays (with a margin
+    // for rounding), so that a ray skips the entries that lie wholly behind its origin; 0 for
+    // frames (camera rays start at depth 0, behind every box).
+    thickness: vec4<f32>,
 }
 
 @group(1) @binding(9) var<storage, read> tiles: Tiles;

@@ -6,6 +6,25 @@
 // Spaces: the query's frame (see query_types.wgsl), where the patch records were placed; the
 // grid's frame (`tiles.grid_from_view`), whose -Z is the rays' direction.
 
+// The entries of `range` (first, count) from the first that may reach `depth` on: the list is
+// sorted by nearest depth, and no box is thicker than `tiles.thickness.x`, so an entry nearer than
+// depth - thickness lies wholly behind a ray starting at `depth` (found by bisection, where the
+// walk would test each: on the bunny a shadow ray from a surface skipped about half its list).
+fn entries_ahead(range: vec2<u32>, depth: f32) -> vec2<u32> {
+    let behind = depth - tiles.thickness.x;
+    var lo = range.x;
+    var hi = range.x + range.y;
+    while (lo < hi) {
+        let mid = (lo + hi) / 2u;
+        if (bitcast<f32>(tile_entries[mid].y) < behind) {
+            lo = mid + 1u;
+        } else {
+            hi = mid;
+        }
+    }
+    return vec2<u32>(lo, range.x + range.y - lo);
+}
+
 @compute @workgroup_size(64)
 fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
     let index = query_ray_index(id);
@@ -23,7 +42,7 @@ fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let at = vec2<u32>(pixel);
     let tile = at / tiles.size.z;
-    let range = tile_ranges[tile.y * tiles.size.x + tile.x];
+    let range = entries_ahead(tile_ranges[tile.y * tiles.size.x + tile.x], -p.z);
     let t_hi = hits[i].t;
     let found = tile_walk(range, at, ray.origin, ray.dir, -p.z, ray.t_min, t_hi, query.counts.y == 1u);
     if (found.t >= t_hi) {

@@ -40,6 +40,9 @@ pub(crate) struct TilesHeader {
     /// Parallel rays: the grid's frame from the query's, and pixel = (grid xy - zw) / xy.
     pub grid_from_view: [[f32; 4]; 4],
     pub grid: [f32; 4],
+    /// Parallel rays: x = the largest depth extent of a box (gtex_tiles_rays.wgsl skips the
+    /// entries wholly behind a ray's origin by it); 0 for frames.
+    pub thickness: [f32; 4],
 }
 
 /// Pixels on a side of the grid parallel rays are tiled on (64 x 64 tiles).
@@ -51,6 +54,9 @@ pub(crate) struct TileLists {
     /// Per tile (row-major): first entry, entry count.
     pub ranges: Vec<[u32; 2]>,
     pub entries: Vec<Entry>,
+    /// Parallel rays: the grid's frame from the frame the boxes were given in (a rotation, kept
+    /// in f64 so that the lists can serve a query frame translated from it: `moved`).
+    pub grid_from_view: DMat4,
 }
 
 /// Where a box lies on screen: its pixel rectangle [x0, y0, x1, y1) and nearest view depth.
@@ -157,24 +163,36 @@ impl TileLists {
             ],
             grid_from_view: [[0.0; 4]; 4],
             grid: [0.0; 4],
+            thickness: [0.0; 4],
         };
         Some(TileLists {
             header,
             ranges,
             entries,
+            grid_from_view: DMat4::IDENTITY,
         })
     }
 }
 
 impl TileLists {
-    /// Parallel rays' test (kinds::RayTest): whether a ray starts in a tile whose list is not
-    /// empty, found as gtex_tiles_rays.wgsl finds it (from the header's f32 values; a box's
-    /// footprint has a pixel of slack, so rounding cannot drop a ray that enters it).
-    pub fn reaches(&self) -> crate::render::kinds::RayTest {
-        let m = self.header.grid_from_view;
+    /// The header of parallel rays' lists for a query frame that is `view_from_query` of the
+    /// frame they were built in (lists built for one frame's rays serve the next frame's).
+    pub fn header_for(&self, view_from_query: DMat4) -> TilesHeader {
+        TilesHeader {
+            grid_from_view: gpu_matrix(self.grid_from_view * view_from_query),
+            ..self.header
+        }
+    }
+
+    /// Parallel rays' test (kinds::RayTest) under `header` (this one's, or `header_for`'s):
+    /// whether a ray starts in a tile whose list is not empty, found as gtex_tiles_rays.wgsl
+    /// finds it (from the header's f32 values; a box's footprint has a pixel of slack, so
+    /// rounding cannot drop a ray that enters it).
+    pub fn reaches(&self, header: &TilesHeader) -> crate::render::kinds::RayTest {
+        let m = header.grid_from_view;
         let grid_from_view = DMat4::from_cols_array_2d(&m.map(|c| c.map(f64::from)));
-        let [sx, sy, ox, oy] = self.header.grid.map(f64::from);
-        let [across, down, tile, _] = self.header.size;
+        let [sx, sy, ox, oy] = header.grid.map(f64::from);
+        let [across, down, tile, _] = header.size;
         let listed: Vec<bool> = self.ranges.iter().map(|r| r[1] > 0).collect();
         Box::new(move |o, _, _| {
             let p = grid_from_view.transform_point3(o);
@@ -209,9 +227,16 @@ pub(crate) fn parallel(
         .map(|(i, corners)| (i, corners.map(|c| grid_from_view.transform_point3(c))))
         .collect();
     let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
-    for c in boxes.iter().flat_map(|(_, corners)| corners) {
-        lo = lo.min(*c);
-        hi = hi.max(*c);
+    let mut thickness = 0.0f64;
+    for (_, corners) in &boxes {
+        let (near, far) = (corners.iter()).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), c| {
+            (a.min(c.z), b.max(c.z))
+        });
+        thickness = thickness.max(far - near);
+        for c in corners {
+            lo = lo.min(*c);
+            hi = hi.max(*c);
+        }
     }
     let side = f64::from(GRID_PIXELS);
     // A pixel never narrower than f32 can tell apart at the boxes' extent, and a margin so that
@@ -232,6 +257,11 @@ pub(crate) fn parallel(
     let mut lists = TileLists::build(boxes.into_iter(), &lens, [GRID_PIXELS; 2])?;
     lists.header.grid_from_view = gpu_matrix(grid_from_view);
     lists.header.grid = [sx, sy, lo.x, lo.y].map(|v| v as f32);
+    // Depths reach the shader as f32 (entries, and the ray's origin moved into the grid): a
+    // margin far above their rounding at the boxes' extent, far below a box's thickness.
+    let margin = 1e-5 * extent.max_element();
+    lists.header.thickness = [(1.01 * thickness + margin) as f32, 0.0, 0.0, 0.0];
+    lists.grid_from_view = grid_from_view;
     Some(lists)
 }
 
