@@ -131,3 +131,33 @@ def test_point_light_and_bad_lights(bunny: Converted) -> None:
         r.render(scene, camera, light=gt.PointLight([np.nan, 0, 0]))
     with pytest.raises(gt.ParameterError, match="DirectionalLight or PointLight"):
         r.render(scene, camera, light="sun")
+
+
+def test_kept_light_space_tiles_follow_the_light_and_the_set(bunny: Converted) -> None:
+    """One renderer keeps a set's light-space tiles between frames lit from the same direction;
+    a new light direction, or the set moved, must rebuild them: each frame's mask equals that of
+    a fresh renderer (which builds its own), and agrees with embree on the placed copy."""
+    scene, whole, camera, diag = bunny_on_ground(bunny)
+    v, f = np.asarray(bunny.mesh.vertices), np.asarray(bunny.mesh.faces)
+    ground = trimesh.Trimesh(whole.vertices[len(v):], whole.faces[len(f):] - len(v), process=False)
+    lift = np.eye(4)
+    lift[:3, 3] = [0.1 * diag, 0.2 * diag, -0.1 * diag]
+    moved = gt.Scene()
+    moved.add(bunny.gts, lift)
+    moved.add(ground)
+    lifted = trimesh.Trimesh(v, f, process=False)
+    lifted.apply_transform(lift)
+    moved_whole = trimesh.util.concatenate([lifted, ground])
+    kept = gt.Renderer(SIZE, SIZE)
+    steps = [(scene, whole, (0.3, -1.0, 0.2)), (scene, whole, (0.3, -1.0, 0.2)),
+             (scene, whole, (-0.5, -1.0, 0.8)), (moved, moved_whole, (-0.5, -1.0, 0.8))]
+    for placed, placed_whole, direction in steps:
+        light = gt.DirectionalLight(direction)
+        lit = kept.render(placed, camera, light=light)
+        fresh = gt.Renderer(SIZE, SIZE).render(placed, camera, light=light)
+        assert np.array_equal(lit.shadow, fresh.shadow), int((lit.shadow != fresh.shadow).sum())
+        agreement, off_edge, _ = against_embree(lit, placed_whole, camera, direction, diag)
+        # Measured (Stanford bunny, 128²): 0.9992 / 0 px, 0.9992 / 2 px for the second light,
+        # lifted 0.9990 / 1 px; the same bounds as above. A build that kept the first light's
+        # tiles for every frame failed the mask equality at the second light.
+        assert agreement >= 0.996 and off_edge <= 6, (agreement, off_edge)

@@ -7,7 +7,6 @@
 //! light is given in world space, and normals are the frame's world normals.
 
 use glam::DVec3;
-use rayon::prelude::*;
 
 use super::{Camera, Frame, Object, Renderer, Scene, SearchOptions};
 use crate::cancel::Cancel;
@@ -126,17 +125,23 @@ impl Renderer {
                 .collect(),
         };
         let offset = start_offset(scene);
-        let (pixels, rays, ranges) = shadow_rays(camera, frame, light, offset)?;
         let mut shadow = vec![false; frame.depth.len()];
-        if !rays.is_empty() && !casters.objects.is_empty() {
+        if !casters.objects.is_empty() {
             let traced = std::time::Instant::now();
-            let batch = self.largest_batch();
-            let hits =
-                self.trace_rays(&casters, &rays, Some(&ranges), batch, search, true, cancel)?;
-            frame.shadow_trace_ms = Some(traced.elapsed().as_secs_f64() * 1e3);
-            for (&i, &id) in pixels.iter().zip(&hits.patch_id) {
-                shadow[i] = id != -1;
+            let rays = ShadowRays::new(camera, frame, light, offset)?;
+            // Shadow rays toward a directional light share one direction (the tracer tiles
+            // texture sets along it); the query frame is the camera's, as the frame's own.
+            let parallel = match *light {
+                Light::Directional { direction } => Some(-direction.normalize()),
+                Light::Point { .. } => None,
+            };
+            let eye = camera.world_from_camera.w_axis.truncate();
+            let ray = |i| rays.ray(i);
+            let n = frame.depth.len();
+            for i in self.occluded(&casters, eye, parallel, n, ray, search, cancel)? {
+                shadow[i] = true;
             }
+            frame.shadow_trace_ms = Some(traced.elapsed().as_secs_f64() * 1e3);
         }
         for (i, _) in shadow.iter().enumerate().filter(|(_, s)| **s) {
             for c in &mut frame.color[4 * i..4 * i + 3] {
@@ -149,37 +154,52 @@ impl Renderer {
     }
 }
 
-/// Pixels hit (their index), and from each the shadow ray (start moved `offset` off the surface,
-/// unit direction toward the light) with the stretch that counts (`offset`, the light's
-/// distance). Built in parallel, pixels in order: on a real GPU the whole lit frame otherwise
-/// waits on this loop.
-#[allow(clippy::type_complexity)] // three parallel lists, one entry per hit pixel
-fn shadow_rays(
-    camera: &Camera,
-    frame: &Frame,
-    light: &Light,
+/// What makes a frame's shadow rays: one per pixel hit, from the hit moved `offset` off the
+/// surface (along the normal, to the side the camera sees) toward the light, counting hits
+/// between `offset` and the light. Made per pixel, in parallel, by the tracer (`occluded`).
+struct ShadowRays<'a> {
+    camera: &'a Camera,
+    lens: crate::render::Lens,
+    forward: DVec3,
+    frame: &'a Frame,
+    light: &'a Light,
     offset: f64,
-) -> Result<(Vec<usize>, Vec<(DVec3, DVec3)>, Vec<(f64, f64)>)> {
-    let lens = camera.lens(frame.width, frame.height, 1.0, 2.0)?;
-    let forward = camera.forward();
-    let per_pixel: Vec<(usize, (DVec3, DVec3), (f64, f64))> = (frame.depth.par_iter())
-        .enumerate()
-        .filter(|(_, depth)| depth.is_finite())
-        .map(|(i, &depth)| {
-            let (x, y) = (i % frame.width as usize, i / frame.width as usize);
-            let (o, d) = camera.pixel_ray(&lens, x as f64 + 0.5, y as f64 + 0.5);
-            let point = o + d * (f64::from(depth) / d.dot(forward));
-            let [nx, ny, nz] = [0, 1, 2].map(|k| f64::from(frame.normal[3 * i + k]));
-            let n = DVec3::new(nx, ny, nz);
-            // The side of the surface the camera sees.
-            let n = if n.dot(d) > 0.0 { -n } else { n };
-            let start = point + n * offset;
-            let (toward, distance) = light.toward(start);
-            (i, (start, toward), (offset, distance))
+}
+
+impl<'a> ShadowRays<'a> {
+    fn new(
+        camera: &'a Camera,
+        frame: &'a Frame,
+        light: &'a Light,
+        offset: f64,
+    ) -> Result<ShadowRays<'a>> {
+        Ok(ShadowRays {
+            camera,
+            lens: camera.lens(frame.width, frame.height, 1.0, 2.0)?,
+            forward: camera.forward(),
+            frame,
+            light,
+            offset,
         })
-        .collect();
-    let pixels = per_pixel.iter().map(|p| p.0).collect();
-    let rays = per_pixel.iter().map(|p| p.1).collect();
-    let ranges = per_pixel.iter().map(|p| p.2).collect();
-    Ok((pixels, rays, ranges))
+    }
+
+    /// Pixel `i`'s ray (start, unit direction toward the light) and the stretch that counts,
+    /// or `None` where the frame hit nothing.
+    fn ray(&self, i: usize) -> Option<((DVec3, DVec3), (f64, f64))> {
+        let frame = self.frame;
+        let depth = frame.depth[i];
+        if !depth.is_finite() {
+            return None;
+        }
+        let (x, y) = (i % frame.width as usize, i / frame.width as usize);
+        let (o, d) = (self.camera).pixel_ray(&self.lens, x as f64 + 0.5, y as f64 + 0.5);
+        let point = o + d * (f64::from(depth) / d.dot(self.forward));
+        let [nx, ny, nz] = [0, 1, 2].map(|k| f64::from(frame.normal[3 * i + k]));
+        let n = DVec3::new(nx, ny, nz);
+        // The side of the surface the camera sees.
+        let n = if n.dot(d) > 0.0 { -n } else { n };
+        let start = point + n * self.offset;
+        let (toward, distance) = self.light.toward(start);
+        Some(((start, toward), (self.offset, distance)))
+    }
 }
