@@ -72,6 +72,9 @@ impl Compact {
     }
 }
 
+/// A ray (world-space start, unit direction) and the stretch of t along it that counts.
+pub(crate) type RangedRay = ((DVec3, DVec3), (f64, f64));
+
 /// What a query found, per ray.
 pub struct RayHits {
     /// Distance to the hit along the ray's unit direction; +inf for a miss.
@@ -207,27 +210,27 @@ impl Renderer {
         cancel: &Cancel,
     ) -> Result<Vec<usize>>
     where
-        F: Fn(usize) -> Option<((DVec3, DVec3), (f64, f64))> + Sync,
+        F: Fn(usize) -> Option<RangedRay> + Sync,
     {
         search.validate()?;
         let device = self.gpu.device.clone();
         guarded(&device, || {
             let view_from_world = DMat4::from_translation(-origin);
             let traces = self.prepare_query(scene, view_from_world, search, parallel)?;
-            let kept: Vec<(usize, (DVec3, DVec3), (f64, f64))> = (0..count)
+            let kept: Vec<(usize, RangedRay)> = (0..count)
                 .into_par_iter()
                 .filter_map(|i| {
                     let ((o, d), range) = ray(i)?;
                     let reached = traces.iter().any(|t| (t.reaches)(o - origin, d, range));
-                    reached.then_some((i, (o, d), range))
+                    reached.then_some((i, ((o, d), range)))
                 })
                 .collect();
             let batch = self.largest_batch();
             let mut hit = Vec::new();
             for chunk in kept.chunks(batch) {
                 cancel.check("tracing rays")?;
-                let rays: Vec<(DVec3, DVec3)> = chunk.iter().map(|k| k.1).collect();
-                let ranges: Vec<(f64, f64)> = chunk.iter().map(|k| k.2).collect();
+                let rays: Vec<(DVec3, DVec3)> = chunk.iter().map(|k| k.1 .0).collect();
+                let ranges: Vec<(f64, f64)> = chunk.iter().map(|k| k.1 .1).collect();
                 let found = self.run_batch(&traces, &rays, Some(&ranges), origin, true)?;
                 let ids = chunk.iter().zip(found).filter(|(_, h)| h.id != -1);
                 hit.extend(ids.map(|(k, _)| k.0));

@@ -185,7 +185,7 @@ impl<'a> ShadowRays<'a> {
 
     /// Pixel `i`'s ray (start, unit direction toward the light) and the stretch that counts,
     /// or `None` where the frame hit nothing.
-    fn ray(&self, i: usize) -> Option<((DVec3, DVec3), (f64, f64))> {
+    fn ray(&self, i: usize) -> Option<super::query::RangedRay> {
         let frame = self.frame;
         let depth = frame.depth[i];
         if !depth.is_finite() {

@@ -400,6 +400,46 @@ mod tests {
     }
 
     #[test]
+    fn parallel_lists_serve_a_translated_frame_and_bound_every_box() {
+        let direction = DVec3::new(0.3, -1.0, 0.2).normalize();
+        // A tilted, stretched box, so that its depth extent along the rays is not its side.
+        let tilted = DMat4::from_rotation_z(0.7) * DMat4::from_scale(DVec3::new(2.0, 0.2, 0.5));
+        let boxes = [tilted, DMat4::from_translation(DVec3::new(3.0, 0.0, 0.0))];
+        let tiles = parallel(corners(&boxes), direction).unwrap();
+        // Every box's depth extent along the rays lies within the bound the shader skips by.
+        let m = tiles.grid_from_view;
+        for (_, c) in corners(&boxes) {
+            let z = c.map(|p| m.transform_point3(p).z);
+            let extent = z.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+                - z.iter().copied().fold(f64::INFINITY, f64::min);
+            assert!(extent <= f64::from(tiles.header.thickness[0]), "{extent}");
+        }
+        // The same lists for a query frame translated by `shift`: a point there falls in the
+        // tile its world position fell in before, through header_for's matrix.
+        let shift = DVec3::new(10.0, -4.0, 2.5);
+        let moved = TileLists {
+            header: tiles.header_for(DMat4::from_translation(shift)),
+            ranges: tiles.ranges.clone(),
+            entries: tiles.entries.clone(),
+            grid_from_view: tiles.grid_from_view,
+        };
+        for p in [
+            DVec3::splat(0.5) - 4.0 * direction,
+            DVec3::new(3.5, 0.5, 0.5),
+        ] {
+            assert_eq!(tile_of(&moved, p - shift), tile_of(&tiles, p));
+            assert!(tile_of(&tiles, p).is_some());
+        }
+        let test = tiles.reaches(&moved.header);
+        assert!(test(DVec3::splat(0.5) - shift, direction, (0.0, 1.0)));
+        assert!(!test(
+            DVec3::new(0.5, 0.5, 40.0) - shift,
+            direction,
+            (0.0, 1.0)
+        ));
+    }
+
+    #[test]
     fn parallel_rays_find_the_boxes_they_pass_through() {
         let direction = DVec3::new(0.3, -1.0, 0.2).normalize();
         let boxes = [
