@@ -53,9 +53,14 @@ pub(crate) struct GtexUpload {
     atlas: Atlas,
     tracing: OnceLock<Tracing>,
     tile_pieces: OnceLock<Pieces>,
-    /// The last parallel query's tiles, kept while its direction and the set's placement stay.
-    parallel: Mutex<Option<Arc<ParallelTiles>>>,
+    /// Parallel queries' tiles, one per placement of the set (a scene may hold it several
+    /// times), all along the last direction asked for.
+    parallel: Mutex<Vec<Arc<ParallelTiles>>>,
 }
+
+/// Placements of one set whose parallel tiles are kept (each a few MB at most: the bunny's take
+/// 1.2 MB).
+const PLACEMENTS_KEPT: usize = 8;
 
 /// A set's tile pieces tiled as seen along one direction (tiles.rs, `parallel`), here and on
 /// the GPU, for the rays along it. Each frame's shadow rays toward a directional light are such
@@ -90,7 +95,7 @@ impl GtexUpload {
             atlas: Atlas::upload(gpu, set)?,
             tracing: OnceLock::new(),
             tile_pieces: OnceLock::new(),
-            parallel: Mutex::new(None),
+            parallel: Mutex::new(Vec::new()),
         })
     }
 
@@ -112,9 +117,9 @@ impl GtexUpload {
     }
 
     /// The tiles for rays along `direction` (unit, in the query frame `view_from_world`) through
-    /// the set placed by `world_from_object` (its patches at `view_from_patch`): the last ones
-    /// when they were made for the same direction and placement, else new ones (kept in their
-    /// place). `None` when no piece covers the grid.
+    /// the set placed by `world_from_object` (its patches at `view_from_patch`): kept ones made
+    /// for the same direction and placement, else new ones (then kept). `None` when no piece
+    /// covers the grid.
     fn parallel_tiles(
         &self,
         gpu: &Gpu,
@@ -125,10 +130,17 @@ impl GtexUpload {
         let (view_from_world, world_from_object, view_from_patch) = placing;
         let world_direction = view_from_world.inverse().transform_vector3(direction);
         let mut kept = self.parallel.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some(last) = kept.as_ref() {
-            if last.direction == world_direction && last.world_from_object == world_from_object {
-                return Some(last.clone());
-            }
+        let same = |t: &ParallelTiles| {
+            t.direction == world_direction && t.world_from_object == world_from_object
+        };
+        if let Some(found) = kept.iter().find(|t| same(t)) {
+            return Some(found.clone());
+        }
+        // Another direction's tiles serve no query until that light comes back; a scene that
+        // places the set more often than PLACEMENTS_KEPT rebuilds some of them per query.
+        kept.retain(|t| t.direction == world_direction);
+        if kept.len() >= PLACEMENTS_KEPT {
+            kept.remove(0);
         }
         let pieces = self.tile_pieces(gpu, set);
         let placements: Vec<Option<DMat4>> = view_from_patch.iter().copied().map(Some).collect();
@@ -142,7 +154,7 @@ impl GtexUpload {
             ranges,
             entries,
         });
-        *kept = Some(made.clone());
+        kept.push(made.clone());
         Some(made)
     }
 }
