@@ -400,7 +400,8 @@ def test_march_work_per_pixel_barely_grows_with_depth_resolution() -> None:
         work[nz] = frame.normal[np.isfinite(frame.depth)].mean(axis=0)
     steps, field = work[32][1] / work[16][1], work[32][2] / work[16][2]
     # Measured: march steps 5.76 -> 6.98 per pixel (1.21x), field samples 19.4 -> 20.7 (1.07x).
-    assert steps < 1.5 and field < 1.3
+    # A march stepping voxel by voxel (the boxes' reach set to 0) measured 9.41 -> 14.24 (1.51x).
+    assert steps < 1.35 and work[32][1] < 9.0 and field < 1.3
 
 
 def test_shell_composites_with_a_mesh_in_one_depth_buffer(torus_chain: tuple) -> None:
