@@ -269,12 +269,28 @@ def reads(counts: dict[str, float], terms: int) -> float:
             + counts["field_mean"] * READS_PER_FIELD)
 
 
+def mode_work(renderer: gt.Renderer, shell: gdm.Shell, counted: gdm.Shell, cam: gt.Camera, ref: dict,
+              voxel: float, terms: int) -> dict[str, float]:
+    """One mode's frame against the explicit reference (IoU, depth p99 in voxels, normal) and,
+    from its count_steps twin, its work per pixel drawn."""
+    acc = accuracy(renderer.render(shell, cam), ref)
+    frame = renderer.render(counted, cam)
+    drawn = np.isfinite(frame.depth)
+    c = np.asarray(frame.normal)[drawn].astype(np.float64)
+    row = {"lookups_mean": float(c[:, 0].mean()), "steps_mean": float(c[:, 1].mean()),
+           "field_mean": float(c[:, 2].mean()), "pixels": int(drawn.sum()), "terms": terms,
+           "iou": acc["iou"], "p99_voxels": acc["p99"] / voxel, "normal_deg": acc["normal_deg"]}
+    row["reads_mean"] = reads(row, terms)
+    return row
+
+
 def slice_cost(size: int, rounds: int) -> list[dict[str, Any]]:
     """The paper's claim that GDM cost does not grow with depth resolution, against each mode, in
     one run: per tile and base, the shells at 16 and 32 slices and the explicit meshes rendered
     from the first view, interleaved round by round (the order rotated each round) so the machine's
     load falls on all of them alike; frame ms (median of the rounds) and, from count_steps, the
-    work per pixel drawn. Modes: the exact march, the paper's lookup (k = 8), the bounded march
+    work per pixel drawn, and each frame against embree on to_mesh() (IoU, depth p99 in voxels,
+    normal; first view only). Modes: the exact march, the paper's lookup (k = 8), the bounded march
     with the conservative table at k = 8 and at k = 2 (fewer values per lookup, a larger margin)."""
     tables: dict[tuple[str, int], tuple[gdm.Volume, dict[str, gdm.CompressedGDM]]] = {}
     for pattern in ("chain", "weave"):
@@ -295,21 +311,17 @@ def slice_cost(size: int, rounds: int) -> list[dict[str, Any]]:
                 modes = {"exact": None, **t}
                 for name, table in modes.items():
                     kw = {} if table is None else {"lookup": table}
-                    objs[f"{name}/{nz}"] = shells_one(base, vol, **kw)[0]
-                    counted = shells_one(base, vol, count_steps=True, **kw)[0]
+                    objs[f"{name}/{nz}"], thickness = shells_one(base, vol, **kw)
                     if f"mesh/{nz}" not in objs:
                         explicit = objs[f"{name}/{nz}"].to_mesh()
                         # One camera for both slice counts (the 16-slice mesh frames it).
                         cam = cam or cameras(explicit, 1, 2 if base == "torus" else 1)[0]
                         objs[f"mesh/{nz}"] = gt.as_mesh(explicit)
-                    frame = renderer.render(counted, cam)
-                    drawn = np.isfinite(frame.depth)
-                    c = np.asarray(frame.normal)[drawn].astype(np.float64)
+                        ref = reference.RayCaster(explicit).cast(cam, size, size)
+                    counted = shells_one(base, vol, count_steps=True, **kw)[0]
                     terms = 0 if table is None else int(table.eigen.shape[0])
-                    row = {"lookups_mean": float(c[:, 0].mean()), "steps_mean": float(c[:, 1].mean()),
-                           "field_mean": float(c[:, 2].mean()), "pixels": int(drawn.sum()), "terms": terms}
-                    row["reads_mean"] = reads(row, terms)
-                    counts[f"{name}/{nz}"] = row
+                    counts[f"{name}/{nz}"] = mode_work(renderer, objs[f"{name}/{nz}"], counted, cam, ref,
+                                                       thickness / nz, terms)
             names = list(objs)
             for name in names:
                 renderer.render(objs[name], cam)  # warm-up: pipelines and uploads
@@ -323,7 +335,8 @@ def slice_cost(size: int, rounds: int) -> list[dict[str, Any]]:
                         "ms_median": {n: float(np.median(v)) for n, v in ms.items()}, "counts": counts})
             med = out[-1]["ms_median"]
             print(f"slices {base:6} {pattern:6}: " + ", ".join(f"{n} {med[n]:.0f} ms" for n in names)
-                  + " | reads/px " + ", ".join(f"{n} {v['reads_mean']:.0f}" for n, v in counts.items()), flush=True)
+                  + " | reads/px, IoU, p99 vox " + ", ".join(f"{n} {v['reads_mean']:.0f} {v['iou']:.4f} "
+                                                            f"{v['p99_voxels']:.2f}" for n, v in counts.items()), flush=True)
     return out
 
 
