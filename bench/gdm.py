@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import argparse
 import datetime
+import functools
 import json
 import os
 import platform
@@ -55,6 +56,7 @@ K = 8
 REFINE = 1.5
 
 
+@functools.lru_cache(maxsize=1)
 def bunny_base() -> tuple[trimesh.Trimesh, float]:
     import pymeshlab
 
@@ -71,15 +73,20 @@ def shells(base: str, vol: gdm.Volume, packed: gdm.CompressedGDM, bound: gdm.Com
            **extra: Any) -> tuple[list[gdm.Shell], float]:
     """([the exact march, the paper's lookup, the refined lookup, the march driven by the
     conservative table], thickness); ``extra`` goes to every Shell (count_steps)."""
+    kws: list[dict[str, Any]] = [{}, {"lookup": packed}, {"lookup": packed, "refine": REFINE}, {"lookup": bound}]
+    made = [shells_one(base, vol, **kw, **extra) for kw in kws]
+    return [m[0] for m in made], made[0][1]
+
+
+def shells_one(base: str, vol: gdm.Volume, **kw: Any) -> tuple[gdm.Shell, float]:
+    """(One shell of ``vol`` over `base`, its thickness), with Shell keywords ``kw``: the torus
+    (its own continuous texture coordinates, 12 x 4 tiles) or the decimated bunny (box-projected,
+    10 x 10 tiles), 0.08 / 1.2% of the bunny's diagonal thick."""
     if base == "torus":
         tor, uv = gdm.uv_torus(1.0, 0.35, (48, 24))
-        t = 0.08
-        make = lambda **kw: gdm.Shell(tor, vol, thickness=t, uv=uv * [12, 4], **kw, **extra)  # noqa: E731
-    else:
-        tm, diag = bunny_base()
-        t = 0.012 * diag
-        make = lambda **kw: gdm.Shell(tm, vol, thickness=t, tiles=(10, 10), **kw, **extra)  # noqa: E731
-    return [make(), make(lookup=packed), make(lookup=packed, refine=REFINE), make(lookup=bound)], t
+        return gdm.Shell(tor, vol, thickness=0.08, uv=uv * [12, 4], **kw), 0.08
+    tm, diag = bunny_base()
+    return gdm.Shell(tm, vol, thickness=0.012 * diag, tiles=(10, 10), **kw), 0.012 * diag
 
 
 def cameras(mesh: trimesh.Trimesh, views: int, up: int) -> list[gt.Camera]:
@@ -250,13 +257,96 @@ def bound_trade() -> list[dict[str, Any]]:
     return out
 
 
+# Values one lookup reads per term (weights at 4 texels x 2 azimuths, eigen maps at 2 x 2) and
+# per trilinear field sample (its 8 voxels): the load-free proxy of a pixel's work below.
+READS_PER_TERM, READS_PER_FIELD = 12, 8
+
+
+def reads(counts: dict[str, float], terms: int) -> float:
+    """Values read per pixel drawn: lookups x terms x 12 + march steps (one radius each) + field
+    samples x 8. A proxy of the shader's work that does not depend on the machine's load."""
+    return (counts["lookups_mean"] * terms * READS_PER_TERM + counts["steps_mean"]
+            + counts["field_mean"] * READS_PER_FIELD)
+
+
+def mode_work(renderer: gt.Renderer, shell: gdm.Shell, counted: gdm.Shell, cam: gt.Camera, ref: dict,
+              voxel: float, terms: int) -> dict[str, float]:
+    """One mode's frame against the explicit reference (IoU, depth p99 in voxels, normal) and,
+    from its count_steps twin, its work per pixel drawn."""
+    acc = accuracy(renderer.render(shell, cam), ref)
+    frame = renderer.render(counted, cam)
+    drawn = np.isfinite(frame.depth)
+    c = np.asarray(frame.normal)[drawn].astype(np.float64)
+    row = {"lookups_mean": float(c[:, 0].mean()), "steps_mean": float(c[:, 1].mean()),
+           "field_mean": float(c[:, 2].mean()), "pixels": int(drawn.sum()), "terms": terms,
+           "iou": acc["iou"], "p99_voxels": acc["p99"] / voxel, "normal_deg": acc["normal_deg"]}
+    row["reads_mean"] = reads(row, terms)
+    return row
+
+
+def slice_cost(size: int, rounds: int) -> list[dict[str, Any]]:
+    """The paper's claim that GDM cost does not grow with depth resolution, against each mode, in
+    one run: per tile and base, the shells at 16 and 32 slices and the explicit meshes rendered
+    from the first view, interleaved round by round (the order rotated each round) so the machine's
+    load falls on all of them alike; frame ms (median of the rounds) and, from count_steps, the
+    work per pixel drawn, and each frame against embree on to_mesh() (IoU, depth p99 in voxels,
+    normal; first view only). Modes: the exact march, the paper's lookup (k = 8), the bounded march
+    with the conservative table at k = 8 and at k = 2 (fewer values per lookup, a larger margin)."""
+    tables: dict[tuple[str, int], tuple[gdm.Volume, dict[str, gdm.CompressedGDM]]] = {}
+    for pattern in ("chain", "weave"):
+        for nz in (16, 32):
+            vol = gdm.Volume.procedural(pattern, (64, 64, nz))  # type: ignore[arg-type]
+            lower = vol.distance_function((16, 32), lower_bound=True)
+            tables[pattern, nz] = vol, {"lookup": vol.distance_function((16, 32)).compress(K),
+                                        "bound": lower.compress(K), "bound_k2": lower.compress(2)}
+    renderer = gt.Renderer(size, size)
+    out = []
+    for base in ("torus", "bunny"):
+        for pattern in ("chain", "weave"):
+            objs: dict[str, Any] = {}
+            counts: dict[str, dict[str, float]] = {}
+            cam: gt.Camera | None = None
+            for nz in (16, 32):
+                vol, t = tables[pattern, nz]
+                modes = {"exact": None, **t}
+                for name, table in modes.items():
+                    kw = {} if table is None else {"lookup": table}
+                    objs[f"{name}/{nz}"], thickness = shells_one(base, vol, **kw)
+                    if f"mesh/{nz}" not in objs:
+                        explicit = objs[f"{name}/{nz}"].to_mesh()
+                        # One camera for both slice counts (the 16-slice mesh frames it).
+                        cam = cam or cameras(explicit, 1, 2 if base == "torus" else 1)[0]
+                        objs[f"mesh/{nz}"] = gt.as_mesh(explicit)
+                        ref = reference.RayCaster(explicit).cast(cam, size, size)
+                    counted = shells_one(base, vol, count_steps=True, **kw)[0]
+                    terms = 0 if table is None else int(table.eigen.shape[0])
+                    counts[f"{name}/{nz}"] = mode_work(renderer, objs[f"{name}/{nz}"], counted, cam, ref,
+                                                       thickness / nz, terms)
+            names = list(objs)
+            for name in names:
+                renderer.render(objs[name], cam)  # warm-up: pipelines and uploads
+            ms: dict[str, list[float]] = {n: [] for n in names}
+            load = list(os.getloadavg())
+            for r in range(rounds):
+                for name in names[r % len(names):] + names[:r % len(names)]:
+                    ms[name].append(1000 * timed(renderer, objs[name], cam)[1])
+            out.append({"pattern": pattern, "base": base, "size": size, "rounds": rounds, "load_start": load,
+                        "load_end": list(os.getloadavg()), "ms": ms,
+                        "ms_median": {n: float(np.median(v)) for n, v in ms.items()}, "counts": counts})
+            med = out[-1]["ms_median"]
+            print(f"slices {base:6} {pattern:6}: " + ", ".join(f"{n} {med[n]:.0f} ms" for n in names)
+                  + " | reads/px, IoU, p99 vox " + ", ".join(f"{n} {v['reads_mean']:.0f} {v['iou']:.4f} "
+                                                            f"{v['p99_voxels']:.2f}" for n, v in counts.items()), flush=True)
+    return out
+
+
 def plot(results: dict[str, Any], path: Path) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, (a, c, b) = plt.subplots(1, 3, figsize=(16, 4))
+    fig, (a, c, b, e) = plt.subplots(1, 4, figsize=(21, 4))
     for dirs in ((8, 16), (16, 32)):
         rows = [r for r in results["svd"] if r["directions"] == list(dirs)]
         a.plot([r["k"] for r in rows], [r["rms"] for r in rows], "o-", label=f"{dirs[0]}x{dirs[1]} directions")
@@ -288,6 +378,19 @@ def plot(results: dict[str, Any], path: Path) -> None:
     b.set_ylabel("frame ms (whole call)")
     b.set_yscale("log")
     b.legend(fontsize=7)
+    slices = results.get("slices", [])
+    if slices:
+        modes = [("exact", "exact march"), ("lookup", "GDM lookup k=8"), ("bound", "bounded march k=8"),
+                 ("bound_k2", "bounded march k=2"), ("mesh", "to_mesh() rasterized")]
+        x = np.arange(len(slices))
+        for i, (key, name) in enumerate(modes):
+            ratio = [s["ms_median"][f"{key}/32"] / s["ms_median"][f"{key}/16"] for s in slices]
+            e.bar(x + (i - 2) * 0.16, ratio, 0.16, label=name)
+        e.axhline(1.0, color="k", lw=0.5)
+        e.set_xticks(x, [f"{s['pattern']}\n{s['base']}" for s in slices], fontsize=7)
+        e.set_ylabel("frame ms at 32 slices / at 16 (interleaved)")
+        e.set_title("cost against depth resolution")
+        e.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
 
@@ -296,11 +399,22 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--size", type=int, default=512)
     ap.add_argument("--views", type=int, default=5)
+    ap.add_argument("--rounds", type=int, default=3, help="interleaved rounds of the slice-count timing")
+    ap.add_argument("--slices-size", type=int, default=256, help="frame size of the slice-count timing")
+    ap.add_argument("--slices-only", action="store_true", help="rerun only the slice-count section "
+                    "(slice_cost) into the existing gdm.json, its cases and SVD trade kept")
     ap.add_argument("--cases", default="", help="only these, e.g. bunny/chain/16,bunny/chain/32: rerun and "
                     "replaced in the existing gdm.json, its other cases and SVD trade kept")
     args = ap.parse_args()
     only = {tuple(c.split("/")) for c in args.cases.split(",") if c}
     path = OUT / "gdm.json"
+    if args.slices_only:
+        slices = slice_cost(args.slices_size, args.rounds)
+        results = json.loads(path.read_text())  # read again: another run may have written it since
+        results["slices"] = slices
+        path.write_text(json.dumps(results, indent=1, default=str))
+        plot(results, OUT / "gdm.png")
+        return
     old = json.loads(path.read_text()) if only and path.exists() else None
     if old is not None and (old["size"], old["views"]) != (args.size, args.views):
         raise SystemExit("--cases must use the size and views of the existing gdm.json")
@@ -337,6 +451,10 @@ def main() -> None:
                "bound_svd": old["bound_svd"] if old is not None and "bound_svd" in old else bound_trade()}
     if old is not None:
         results["rerun"] = sorted("/".join(c) for c in only)
+        if "slices" in old:
+            results["slices"] = old["slices"]
+    else:
+        results["slices"] = slice_cost(args.slices_size, args.rounds)
     results["inverted"] = inverted_cost(args.size, args.views)
     print(f"inverted prisms (bunny): {results['inverted']}")
     for r in results["svd"]:

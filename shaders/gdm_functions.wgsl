@@ -304,6 +304,8 @@ fn gdm_march(a: vec3<f32>, dir: vec3<f32>, len: f32) -> f32 {
 // E_k(theta, z) bilinearly, whose products sum to the table's own 5D interpolation. (The nearest
 // sampled direction instead, up to 6 degrees off at 16 x 32, landed on other links.)
 fn gdm_lookup(t: vec3<f32>, dir: vec3<f32>) -> f32 {
+    // Counted here, so the paper's one lookup per piece and the bounded march's steps count alike.
+    gdm_counts.x += 1u;
     let n = vec3<i32>(shell.size.xyz);
     let counts = shell.lookup;
     let pi = 3.14159265;
@@ -381,7 +383,6 @@ fn gdm_bound_piece(a: vec3<f32>, dir: vec3<f32>, len: f32) -> f32 {
             return -1.0;
         }
         let p = a + dir * s;
-        gdm_counts.x += 1u;
         let b = gdm_lookup(vec3<f32>(p.xy, clamp(p.z, 0.0, nz)), dir);
         if (b < GDM_HANDOVER) {
             break;

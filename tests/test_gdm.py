@@ -384,6 +384,26 @@ def test_conservative_lookup_renders_the_march_image(torus_chain: tuple) -> None
     assert 1.0 <= counts[:, 0].mean() < 8.4 and counts[:, 1].mean() < 15
 
 
+def test_march_work_per_pixel_barely_grows_with_depth_resolution() -> None:
+    """The paper's claim for its lookup, that the cost does not grow with the slice count, holds
+    for the exact march's work too: the radius grid's boxes span the empty space whatever the
+    slices, so doubling them adds little of the steps and field samples per pixel drawn (a march
+    that skipped nothing would double its steps)."""
+    tor, uv = gdm.uv_torus(1.0, 0.35, (48, 24))
+    cam = gt.Camera.look_at((0.0, -2.2, 1.6), (0, 0, 0), up=(0, 0, 1), yfov_deg=45)
+    r = gt.Renderer(RENDER_SIZE, RENDER_SIZE)
+    work = {}
+    for nz in (16, 32):
+        shell = gdm.Shell(tor, gdm.Volume.procedural("weave", (64, 64, nz)), thickness=0.08, uv=uv * [12, 4],
+                          count_steps=True)
+        frame = r.render(shell, cam)
+        work[nz] = frame.normal[np.isfinite(frame.depth)].mean(axis=0)
+    steps, field = work[32][1] / work[16][1], work[32][2] / work[16][2]
+    # Measured: march steps 5.76 -> 6.98 per pixel (1.21x), field samples 19.4 -> 20.7 (1.07x).
+    # A march stepping voxel by voxel (the boxes' reach set to 0) measured 9.41 -> 14.24 (1.51x).
+    assert steps < 1.35 and work[32][1] < 9.0 and field < 1.3
+
+
 def test_shell_composites_with_a_mesh_in_one_depth_buffer(torus_chain: tuple) -> None:
     shell, cam, ref = torus_chain
     scene = gt.Scene()
