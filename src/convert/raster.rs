@@ -213,6 +213,57 @@ struct TexelSpan {
     j1: usize,
 }
 
+/// The texel corners (columns, rows: ci0..=ci1, cj0..=cj1) whose distance a face with texel
+/// span `span` measures: two texels past its texels and one before (a corner (i, j) sits at
+/// the texel-unit point (i, j)), within the map's (w + 1) x (h + 1) corners.
+fn corner_range(span: TexelSpan, w: usize, h: usize) -> (usize, usize, usize, usize) {
+    (
+        span.i0.saturating_sub(1),
+        span.j0.saturating_sub(1),
+        (span.i1 + 3).min(w),
+        (span.j1 + 3).min(h),
+    )
+}
+
+/// A grid's cells that satisfy a test, as running counts (a summed-area table), so whether a
+/// rectangle holds any costs four reads however large it is.
+struct Counts {
+    w: usize,
+    h: usize,
+    /// (w + 1) x (h + 1): the cells (i', j') with i' < i and j' < j at (i, j).
+    sums: Vec<u32>,
+}
+
+impl Counts {
+    fn new(w: usize, h: usize, test: impl Fn(usize) -> bool) -> Counts {
+        let mut sums = vec![0u32; (w + 1) * (h + 1)];
+        for j in 0..h {
+            let mut row = 0;
+            for i in 0..w {
+                row += test(j * w + i) as u32;
+                sums[(j + 1) * (w + 1) + i + 1] = sums[j * (w + 1) + i + 1] + row;
+            }
+        }
+        Counts { w, h, sums }
+    }
+
+    /// Whether any cell in columns i0..=i1, rows j0..=j1 (clipped to the grid) passed.
+    fn any(&self, (i0, j0, i1, j1): (usize, usize, usize, usize)) -> bool {
+        let (i1, j1) = ((i1 + 1).min(self.w), (j1 + 1).min(self.h));
+        if i0 >= i1 || j0 >= j1 {
+            return false;
+        }
+        let at = |i: usize, j: usize| self.sums[j * (self.w + 1) + i] as i64;
+        at(i1, j1) - at(i0, j1) - at(i1, j0) + at(i0, j0) > 0
+    }
+}
+
+/// The texels and corners no face covers after `rasterize`'s first pass.
+struct OpenCells {
+    texels: Counts,
+    corners: Counts,
+}
+
 /// The maps while faces are drawn into them, with what conservative coverage and the overhang
 /// figures need to know about each texel and texel corner.
 struct Canvas<'a> {
@@ -292,24 +343,108 @@ impl<'a> Canvas<'a> {
         })
     }
 
-    fn draw_face(&mut self, mesh: &Mesh, corner_normals: &CornerNormals, f: u32, lips: bool) {
+    /// The face in texel units, and the texels its bounds touch; None for a face seen edge-on
+    /// or wholly before the map.
+    fn place(&self, mesh: &Mesh, f: u32) -> Option<(LocalFace, TexelSpan)> {
         let corners = mesh.faces[f as usize].map(|v| self.to_local(mesh.positions[v as usize]));
-        let Some(face) = LocalFace::new(corners) else {
+        let face = LocalFace::new(corners)?;
+        let span = self.span(&face)?;
+        Some((face, span))
+    }
+
+    /// The first pass over the faces: the texel centres and texel corners each face covers.
+    /// Only the texels within its own bounds are tested (one or none when faces are smaller
+    /// than texels, as at the coarse levels the resolution search draws), not the margin
+    /// around them that lips and corner distances need: those only matter where no face
+    /// covers the centre or the corner, which the second pass finds.
+    fn draw_centres(
+        &mut self,
+        mesh: &Mesh,
+        corner_normals: &CornerNormals,
+        f: u32,
+        face: &LocalFace,
+    ) {
+        // Centres a hair outside the bounds still pass `coverage`'s tolerance (1e-9 of the
+        // area): test them too.
+        const HAIR: f64 = 1e-3;
+        let (lo, hi) = (face.lo, face.hi);
+        let first = |v: f64| (v - 0.5 - HAIR).ceil().max(0.0) as usize;
+        let last = |v: f64, n: usize| (v - 0.5 + HAIR).floor().min(n as f64 - 1.0);
+        let (i1, j1) = (last(hi.x, self.w), last(hi.y, self.h));
+        let mut shading = None;
+        if i1 >= 0.0 && j1 >= 0.0 {
+            for j in first(lo.y)..=j1 as usize {
+                let py = j as f64 + 0.5;
+                for i in first(lo.x)..=i1 as usize {
+                    let px = i as f64 + 0.5;
+                    if let Some((here, l)) = face.coverage(px, py, false) {
+                        let shading = shading
+                            .get_or_insert_with(|| FaceShading::new(mesh, corner_normals, f, face));
+                        self.cover(j * self.w + i, (px, py), face, here, l, shading);
+                    }
+                }
+            }
+        }
+        // Corners inside the face are at distance zero from it.
+        let (ci1, cj1) = (
+            hi.x.floor().min(self.w as f64),
+            hi.y.floor().min(self.h as f64),
+        );
+        if ci1 < 0.0 || cj1 < 0.0 {
             return;
-        };
-        let Some(span) = self.span(&face) else {
+        }
+        for cj in lo.y.ceil().max(0.0) as usize..=cj1 as usize {
+            for ci in lo.x.ceil().max(0.0) as usize..=ci1 as usize {
+                if face.contains(DVec2::new(ci as f64, cj as f64)) {
+                    self.corner_distance[cj * (self.w + 1) + ci] = 0.0;
+                }
+            }
+        }
+    }
+
+    /// The second pass: a face's lips (`lips`: one of the chart's own faces) on the texels no
+    /// face covers the centre of, and its distance to the corners no face covers, each done
+    /// only when its margin holds such a texel or corner (`open`). Covered centres and
+    /// corners are final after the first pass (a centre beats any lip; a covered corner is at
+    /// distance zero), so the maps are the same as drawing each face's margin in one pass.
+    fn draw_margins(
+        &mut self,
+        (mesh, corner_normals): (&Mesh, &CornerNormals),
+        f: u32,
+        (face, span): (&LocalFace, TexelSpan),
+        lips: bool,
+        open: &OpenCells,
+    ) {
+        let corners = corner_range(span, self.w, self.h);
+        if open.corners.any(corners) {
+            self.measure_corners(face, span);
+        }
+        if !lips || !open.texels.any((span.i0, span.j0, span.i1, span.j1)) {
             return;
-        };
-        self.measure_corners(&face, span);
-        let shading = FaceShading::new(mesh, corner_normals, f, &face);
+        }
+        let mut shading = None;
         for j in span.j0..=span.j1 {
             let py = j as f64 + 0.5;
             for i in span.i0..=span.i1 {
+                let t = j * self.w + i;
+                if self.coverage[t] == Coverage::Centre {
+                    continue;
+                }
                 let px = i as f64 + 0.5;
-                if let Some((here, l)) = face.coverage(px, py, lips) {
-                    self.cover(j * self.w + i, (px, py), &face, here, l, &shading);
+                if let Some((here, l)) = face.coverage(px, py, true) {
+                    let shading = shading
+                        .get_or_insert_with(|| FaceShading::new(mesh, corner_normals, f, face));
+                    self.cover(t, (px, py), face, here, l, shading);
                 }
             }
+        }
+    }
+
+    /// Which texels and corners no face covers after the first pass.
+    fn open_cells(&self) -> OpenCells {
+        OpenCells {
+            texels: Counts::new(self.w, self.h, |t| self.coverage[t] != Coverage::Centre),
+            corners: Counts::new(self.w + 1, self.h + 1, |k| self.corner_distance[k] != 0.0),
         }
     }
 
@@ -359,9 +494,10 @@ impl<'a> Canvas<'a> {
         let (lo, hi, texel) = (face.lo, face.hi, self.texel);
         // World distance from a corner to the face's bounds: no nearer than that to the face.
         let outside = |v: f64, lo: f64, hi: f64| (lo - v).max(v - hi).max(0.0);
-        for cj in span.j0.saturating_sub(1)..=(span.j1 + 3).min(self.h) {
+        let (ci0, cj0, ci1, cj1) = corner_range(span, self.w, self.h);
+        for cj in cj0..=cj1 {
             let dy = outside(cj as f64, lo.y, hi.y) * texel.y;
-            for ci in span.i0.saturating_sub(1)..=(span.i1 + 3).min(self.w) {
+            for ci in ci0..=ci1 {
                 let q = DVec2::new(ci as f64, cj as f64);
                 let k = cj * (self.w + 1) + ci;
                 let known = self.corner_distance[k];
@@ -492,12 +628,29 @@ pub fn rasterize(
     outline: &[[u32; 2]],
     bx: &PatchBox,
 ) -> Maps {
+    use super::profile::{timed, Phase};
     let mut canvas = Canvas::new(bx, mesh.has_colors());
-    for (n, &f) in faces.iter().enumerate() {
-        canvas.draw_face(mesh, corner_normals, f, n < chart_faces);
-    }
-    let distance = canvas.outline_distance(mesh, outline);
-    canvas.into_maps(&distance)
+    let placed: Vec<_> = faces.iter().map(|&f| canvas.place(mesh, f)).collect();
+    timed(Phase::Centres, || {
+        for (&f, p) in faces.iter().zip(&placed) {
+            if let Some((face, _)) = p {
+                canvas.draw_centres(mesh, corner_normals, f, face);
+            }
+        }
+    });
+    timed(Phase::Margins, || {
+        let open = canvas.open_cells();
+        for (n, (&f, p)) in faces.iter().zip(&placed).enumerate() {
+            if let Some((face, span)) = p {
+                let lips = n < chart_faces;
+                canvas.draw_margins((mesh, corner_normals), f, (face, *span), lips, &open);
+            }
+        }
+    });
+    let distance = timed(Phase::OutlineDistance, || {
+        canvas.outline_distance(mesh, outline)
+    });
+    timed(Phase::IntoMaps, || canvas.into_maps(&distance))
 }
 
 /// The edges of `faces` that only one of them uses (as vertex pairs): their outline.
