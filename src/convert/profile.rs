@@ -19,11 +19,12 @@ pub enum Phase {
     Quantile,
     Centres,
     Margins,
+    Corners,
     OutlineDistance,
     IntoMaps,
 }
 
-const PHASES: [&str; 9] = [
+const PHASES: [&str; 10] = [
     "samples",
     "rasterize",
     "gaps",
@@ -31,12 +32,13 @@ const PHASES: [&str; 9] = [
     "quantile",
     "centres",
     "margins",
+    "corners",
     "outline_distance",
     "into_maps",
 ];
 
-static NANOS: [AtomicU64; 9] = [const { AtomicU64::new(0) }; 9];
-static COUNTS: [AtomicU64; 9] = [const { AtomicU64::new(0) }; 9];
+static NANOS: [AtomicU64; 10] = [const { AtomicU64::new(0) }; 10];
+static COUNTS: [AtomicU64; 10] = [const { AtomicU64::new(0) }; 10];
 
 fn enabled() -> bool {
     static ON: OnceLock<bool> = OnceLock::new();

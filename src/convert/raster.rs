@@ -258,12 +258,6 @@ impl Counts {
     }
 }
 
-/// The texels and corners no face covers after `rasterize`'s first pass.
-struct OpenCells {
-    texels: Counts,
-    corners: Counts,
-}
-
 /// The maps while faces are drawn into them, with what conservative coverage and the overhang
 /// figures need to know about each texel and texel corner.
 struct Canvas<'a> {
@@ -402,24 +396,18 @@ impl<'a> Canvas<'a> {
         }
     }
 
-    /// The second pass: a face's lips (`lips`: one of the chart's own faces) on the texels no
-    /// face covers the centre of, and its distance to the corners no face covers, each done
-    /// only when its margin holds such a texel or corner (`open`). Covered centres and
-    /// corners are final after the first pass (a centre beats any lip; a covered corner is at
-    /// distance zero), so the maps are the same as drawing each face's margin in one pass.
-    fn draw_margins(
+    /// The second pass: a chart face's lips on the texels no face covers the centre of, done
+    /// only when its margin holds such a texel (`open`). A covered centre is final after the
+    /// first pass (it beats any lip), so the maps are the same as drawing each face's margin
+    /// in one pass.
+    fn draw_lips(
         &mut self,
         (mesh, corner_normals): (&Mesh, &CornerNormals),
         f: u32,
         (face, span): (&LocalFace, TexelSpan),
-        lips: bool,
-        open: &OpenCells,
+        open: &Counts,
     ) {
-        let corners = corner_range(span, self.w, self.h);
-        if open.corners.any(corners) {
-            self.measure_corners(face, span);
-        }
-        if !lips || !open.texels.any((span.i0, span.j0, span.i1, span.j1)) {
+        if !open.any((span.i0, span.j0, span.i1, span.j1)) {
             return;
         }
         let mut shading = None;
@@ -437,14 +425,6 @@ impl<'a> Canvas<'a> {
                     self.cover(t, (px, py), face, here, l, shading);
                 }
             }
-        }
-    }
-
-    /// Which texels and corners no face covers after the first pass.
-    fn open_cells(&self) -> OpenCells {
-        OpenCells {
-            texels: Counts::new(self.w, self.h, |t| self.coverage[t] != Coverage::Centre),
-            corners: Counts::new(self.w + 1, self.h + 1, |k| self.corner_distance[k] != 0.0),
         }
     }
 
@@ -488,8 +468,8 @@ impl<'a> Canvas<'a> {
         }
     }
 
-    /// Lowers the distance of the corners within two texels of the face to the face's.
-    fn measure_corners(&mut self, face: &LocalFace, span: TexelSpan) {
+    /// Lowers the distance of the `wanted` corners within two texels of the face to the face's.
+    fn measure_corners(&mut self, face: &LocalFace, span: TexelSpan, wanted: &[bool]) {
         let tri = face.flat();
         let (lo, hi, texel) = (face.lo, face.hi, self.texel);
         // World distance from a corner to the face's bounds: no nearer than that to the face.
@@ -500,6 +480,9 @@ impl<'a> Canvas<'a> {
             for ci in ci0..=ci1 {
                 let q = DVec2::new(ci as f64, cj as f64);
                 let k = cj * (self.w + 1) + ci;
+                if !wanted[k] {
+                    continue;
+                }
                 let known = self.corner_distance[k];
                 let dx = outside(ci as f64, lo.x, hi.x) * texel.x;
                 // Skipped where the face cannot come nearer (a margin over rounding): the
@@ -520,17 +503,21 @@ impl<'a> Canvas<'a> {
         }
     }
 
-    /// Corners where the surface reaches past every face: those whose four neighbouring texels
-    /// (the bilinear rule's blend around them, clamped at the map's border) are all filled and
-    /// whose blend of outline codes is not negative.
-    fn overhangs(&self, outline: &[i8]) -> Vec<f64> {
+    /// Corners where the surface may reach past every face: those whose four neighbouring
+    /// texels (the bilinear rule's blend around them, clamped at the map's border) are all
+    /// filled, whose blend of outline codes is not negative, and that no face covers. Only
+    /// their distances to the faces are measured: no other corner's is ever read.
+    fn overhang_corners(&self, outline: &[i8]) -> Vec<bool> {
         let (w, h) = (self.w, self.h);
         let texel = |i: usize, j: usize| j.min(h - 1) * w + i.min(w - 1);
         let filled = |i: usize, j: usize| self.depth[texel(i, j)] > f64::NEG_INFINITY;
-        let far = 2.0 * self.texel.x.max(self.texel.y);
-        let mut overhangs = Vec::new();
+        let mut wanted = vec![false; (w + 1) * (h + 1)];
         for cj in 0..=h {
             for ci in 0..=w {
+                let k = cj * (w + 1) + ci;
+                if self.corner_distance[k] == 0.0 {
+                    continue;
+                }
                 let (i0, j0) = (ci.saturating_sub(1), cj.saturating_sub(1));
                 let around = [(i0, j0), (ci, j0), (i0, cj), (ci, cj)];
                 let inside = around
@@ -538,15 +525,22 @@ impl<'a> Canvas<'a> {
                     .map(|&(i, j)| outline[texel(i, j)] as i32)
                     .sum::<i32>()
                     >= 0;
-                if inside && around.iter().all(|&(i, j)| filled(i, j)) {
-                    let d = self.corner_distance[cj * (w + 1) + ci];
-                    if d > 0.0 {
-                        overhangs.push(d.min(far));
-                    }
-                }
+                wanted[k] = inside && around.iter().all(|&(i, j)| filled(i, j));
             }
         }
-        overhangs
+        wanted
+    }
+
+    /// How far the surface reaches past every face at the `wanted` corners it does (at most two
+    /// texels: larger gaps are not searched).
+    fn overhangs(&self, wanted: &[bool]) -> Vec<f64> {
+        let far = 2.0 * self.texel.x.max(self.texel.y);
+        wanted
+            .iter()
+            .zip(&self.corner_distance)
+            .filter(|&(&want, &d)| want && d > 0.0)
+            .map(|(_, &d)| d.min(far))
+            .collect()
     }
 
     /// Outline codes from the in-plane distance of each texel centre to the drawn faces'
@@ -564,7 +558,7 @@ impl<'a> Canvas<'a> {
             .collect()
     }
 
-    fn into_maps(self, outline_distance: &[f64]) -> Maps {
+    fn into_maps(self, outline: Vec<i8>, wanted: &[bool]) -> Maps {
         let heights = self
             .depth
             .iter()
@@ -576,8 +570,7 @@ impl<'a> Canvas<'a> {
                 }
             })
             .collect();
-        let outline = self.outline_codes(outline_distance);
-        let overhangs = self.overhangs(&outline);
+        let overhangs = self.overhangs(wanted);
         let lips = (0..self.w * self.h)
             .filter(|&t| self.coverage[t] == Coverage::Lip && outline[t] >= 0)
             .map(|t| Lip {
@@ -638,19 +631,33 @@ pub fn rasterize(
             }
         }
     });
+    // Then the margins: lips where no centre is covered, and the distances to the faces of
+    // the corners the overhang figures read.
     timed(Phase::Margins, || {
-        let open = canvas.open_cells();
-        for (n, (&f, p)) in faces.iter().zip(&placed).enumerate() {
+        let open = Counts::new(canvas.w, canvas.h, |t| {
+            canvas.coverage[t] != Coverage::Centre
+        });
+        for (&f, p) in faces[..chart_faces].iter().zip(&placed) {
             if let Some((face, span)) = p {
-                let lips = n < chart_faces;
-                canvas.draw_margins((mesh, corner_normals), f, (face, *span), lips, &open);
+                canvas.draw_lips((mesh, corner_normals), f, (face, *span), &open);
             }
         }
     });
     let distance = timed(Phase::OutlineDistance, || {
         canvas.outline_distance(mesh, outline)
     });
-    timed(Phase::IntoMaps, || canvas.into_maps(&distance))
+    let outline = canvas.outline_codes(&distance);
+    let wanted = timed(Phase::Corners, || {
+        let wanted = canvas.overhang_corners(&outline);
+        let open = Counts::new(canvas.w + 1, canvas.h + 1, |k| wanted[k]);
+        for (face, span) in placed.iter().flatten() {
+            if open.any(corner_range(*span, canvas.w, canvas.h)) {
+                canvas.measure_corners(face, *span, &wanted);
+            }
+        }
+        wanted
+    });
+    timed(Phase::IntoMaps, || canvas.into_maps(outline, &wanted))
 }
 
 /// The edges of `faces` that only one of them uses (as vertex pairs): their outline.
