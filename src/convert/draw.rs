@@ -94,6 +94,22 @@ impl ChartDrawer<'_> {
     /// Draws a chart (its own faces first, then its ring) at texel size `texel` and measures
     /// its reconstruction error against `samples` of its own faces and its lips.
     pub fn draw(&self, job: &ChartJob, texel: f64, samples: &[AreaSample]) -> Drawn {
+        self.draw_maps(job, texel, samples, Some(self.corner_normals))
+    }
+
+    /// `draw` without the normal and color maps (left empty): what the resolution search
+    /// measures at each level it tries, as the error and the bytes do not depend on them.
+    pub fn measure(&self, job: &ChartJob, texel: f64, samples: &[AreaSample]) -> Drawn {
+        self.draw_maps(job, texel, samples, None)
+    }
+
+    fn draw_maps(
+        &self,
+        job: &ChartJob,
+        texel: f64,
+        samples: &[AreaSample],
+        corner_normals: Option<&CornerNormals>,
+    ) -> Drawn {
         let opts = self.opts;
         let bx = job
             .frame
@@ -101,7 +117,7 @@ impl ChartDrawer<'_> {
         let mut maps = timed(Phase::Rasterize, || {
             raster::rasterize(
                 self.mesh,
-                self.corner_normals,
+                corner_normals,
                 (&job.faces, job.chart_faces),
                 &job.outline,
                 &bx,

@@ -213,6 +213,12 @@ struct TexelSpan {
     j1: usize,
 }
 
+/// How far `v` lies outside [lo, hi] (0 inside): a point's distance from a face's bounds along
+/// one axis, so no nearer than that to the face.
+fn outside(v: f64, lo: f64, hi: f64) -> f64 {
+    (lo - v).max(v - hi).max(0.0)
+}
+
 /// The texel corners (columns, rows: ci0..=ci1, cj0..=cj1) whose distance a face with texel
 /// span `span` measures: two texels past its texels and one before (a corner (i, j) sits at
 /// the texel-unit point (i, j)), within the map's (w + 1) x (h + 1) corners.
@@ -281,7 +287,8 @@ struct Canvas<'a> {
 }
 
 impl<'a> Canvas<'a> {
-    fn new(bx: &'a PatchBox, colored: bool) -> Canvas<'a> {
+    /// Without `shaded` no normal or color map is drawn (heights and outline only).
+    fn new(bx: &'a PatchBox, shaded: bool, colored: bool) -> Canvas<'a> {
         let (w, h) = (bx.width as usize, bx.height as usize);
         Canvas {
             bx,
@@ -292,8 +299,8 @@ impl<'a> Canvas<'a> {
             coverage: vec![Coverage::Empty; w * h],
             lip_distance: vec![f64::INFINITY; w * h],
             corner_distance: vec![f64::INFINITY; (w + 1) * (h + 1)],
-            normals: vec![DVec3::ZERO; w * h],
-            colors: if colored {
+            normals: vec![DVec3::ZERO; if shaded { w * h } else { 0 }],
+            colors: if shaded && colored {
                 vec![[0; 4]; w * h]
             } else {
                 Vec::new()
@@ -354,7 +361,7 @@ impl<'a> Canvas<'a> {
     fn draw_centres(
         &mut self,
         mesh: &Mesh,
-        corner_normals: &CornerNormals,
+        corner_normals: Option<&CornerNormals>,
         f: u32,
         face: &LocalFace,
     ) {
@@ -372,9 +379,10 @@ impl<'a> Canvas<'a> {
                 for i in first(lo.x)..=i1 as usize {
                     let px = i as f64 + 0.5;
                     if let Some((here, l)) = face.coverage(px, py, false) {
-                        let shading = shading
-                            .get_or_insert_with(|| FaceShading::new(mesh, corner_normals, f, face));
-                        self.cover(j * self.w + i, (px, py), face, here, l, shading);
+                        if shading.is_none() {
+                            shading = corner_normals.map(|n| FaceShading::new(mesh, n, f, face));
+                        }
+                        self.cover(j * self.w + i, (px, py), face, here, l, shading.as_ref());
                     }
                 }
             }
@@ -402,7 +410,7 @@ impl<'a> Canvas<'a> {
     /// in one pass.
     fn draw_lips(
         &mut self,
-        (mesh, corner_normals): (&Mesh, &CornerNormals),
+        (mesh, corner_normals): (&Mesh, Option<&CornerNormals>),
         f: u32,
         (face, span): (&LocalFace, TexelSpan),
         open: &Counts,
@@ -410,19 +418,31 @@ impl<'a> Canvas<'a> {
         if !open.any((span.i0, span.j0, span.i1, span.j1)) {
             return;
         }
+        let (lo, hi, texel) = (face.lo, face.hi, self.texel);
         let mut shading = None;
         for j in span.j0..=span.j1 {
             let py = j as f64 + 0.5;
             for i in span.i0..=span.i1 {
                 let t = j * self.w + i;
-                if self.coverage[t] == Coverage::Centre {
+                let px = i as f64 + 0.5;
+                // Skipped where a centre is covered or the face cannot come nearer than the
+                // lip already there (its bounds are farther; a margin over rounding): the
+                // nearest lip wins, so the maps are the same at a fraction of the cost.
+                let known = self.lip_distance[t];
+                let (dx, dy) = (
+                    outside(px, lo.x, hi.x) * texel.x,
+                    outside(py, lo.y, hi.y) * texel.y,
+                );
+                if self.coverage[t] == Coverage::Centre
+                    || dx * dx + dy * dy > known * known * (1.0 + 1e-9)
+                {
                     continue;
                 }
-                let px = i as f64 + 0.5;
                 if let Some((here, l)) = face.coverage(px, py, true) {
-                    let shading = shading
-                        .get_or_insert_with(|| FaceShading::new(mesh, corner_normals, f, face));
-                    self.cover(t, (px, py), face, here, l, shading);
+                    if shading.is_none() {
+                        shading = corner_normals.map(|n| FaceShading::new(mesh, n, f, face));
+                    }
+                    self.cover(t, (px, py), face, here, l, shading.as_ref());
                 }
             }
         }
@@ -438,7 +458,7 @@ impl<'a> Canvas<'a> {
         face: &LocalFace,
         here: Coverage,
         l: [f64; 3],
-        shading: &FaceShading<'_>,
+        shading: Option<&FaceShading<'_>>,
     ) {
         let [a, b, c] = face.corners;
         let [la, lb, lc] = l;
@@ -462,9 +482,11 @@ impl<'a> Canvas<'a> {
         if here == Coverage::Lip {
             self.lip_distance[t] = lip_distance;
         }
-        self.normals[t] = shading.normal(l);
-        if let Some(c) = self.colors.get_mut(t) {
-            *c = shading.color(l);
+        if let Some(shading) = shading {
+            self.normals[t] = shading.normal(l);
+            if let Some(c) = self.colors.get_mut(t) {
+                *c = shading.color(l);
+            }
         }
     }
 
@@ -472,8 +494,6 @@ impl<'a> Canvas<'a> {
     fn measure_corners(&mut self, face: &LocalFace, span: TexelSpan, wanted: &[bool]) {
         let tri = face.flat();
         let (lo, hi, texel) = (face.lo, face.hi, self.texel);
-        // World distance from a corner to the face's bounds: no nearer than that to the face.
-        let outside = |v: f64, lo: f64, hi: f64| (lo - v).max(v - hi).max(0.0);
         let (ci0, cj0, ci1, cj1) = corner_range(span, self.w, self.h);
         for cj in cj0..=cj1 {
             let dy = outside(cj as f64, lo.y, hi.y) * texel.y;
@@ -578,7 +598,7 @@ impl<'a> Canvas<'a> {
                 distance: self.lip_distance[t],
             })
             .collect();
-        let normals = (0..self.w * self.h)
+        let normals = (0..self.normals.len())
             .map(|t| match self.coverage[t] {
                 Coverage::Empty => NO_NORMAL,
                 _ => encode_normal(self.to_patch_dir(self.normals[t]).normalize_or(DVec3::Z)),
@@ -609,20 +629,21 @@ impl<'a> Canvas<'a> {
 /// Without lips, patches meeting at a sharp crease (where the overlap ring cannot reach, its
 /// faces pointing down) would leave a crack of up to a texel that rays fall through. Normals are
 /// interpolated from each face's `corner_normals` (`MeshGeometry::corner_normals`, indexed by
-/// face).
+/// face); without them only heights and outline are drawn (the normal and color maps are
+/// empty), which is all the resolution search measures.
 ///
 /// The outline map then cuts the surface back to the faces: the signed distance from each
 /// texel centre to the outline of all drawn faces (their edges used by one drawn face only).
 /// `outline` is `boundary_edges(mesh, faces)`, found once for every texel size a chart is drawn at.
 pub fn rasterize(
     mesh: &Mesh,
-    corner_normals: &CornerNormals,
+    corner_normals: Option<&CornerNormals>,
     (faces, chart_faces): (&[u32], usize),
     outline: &[[u32; 2]],
     bx: &PatchBox,
 ) -> Maps {
     use super::profile::{timed, Phase};
-    let mut canvas = Canvas::new(bx, mesh.has_colors());
+    let mut canvas = Canvas::new(bx, corner_normals.is_some(), mesh.has_colors());
     let placed: Vec<_> = faces.iter().map(|&f| canvas.place(mesh, f)).collect();
     timed(Phase::Centres, || {
         for (&f, p) in faces.iter().zip(&placed) {
@@ -791,7 +812,13 @@ mod tests {
 
     /// `faces` of `m` (flat corner normals `flat`) rasterized into `bx`, with their outline.
     fn draw_flat(m: &Mesh, flat: &CornerNormals, faces: &[u32], bx: &PatchBox) -> Maps {
-        rasterize(m, flat, (faces, faces.len()), &boundary_edges(m, faces), bx)
+        rasterize(
+            m,
+            Some(flat),
+            (faces, faces.len()),
+            &boundary_edges(m, faces),
+            bx,
+        )
     }
 
     #[test]
