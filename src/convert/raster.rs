@@ -821,6 +821,93 @@ mod tests {
         )
     }
 
+    /// A 40 x 40 grid of triangles over [0, 4]² on the bump z = 0.3 sin x cos y: 3,200 faces.
+    fn bumpy_grid() -> Mesh {
+        let n = 40;
+        let mut pos = Vec::new();
+        for j in 0..=n {
+            for i in 0..=n {
+                let (x, y) = (4.0 * i as f64 / n as f64, 4.0 * j as f64 / n as f64);
+                pos.extend_from_slice(&[x, y, 0.3 * x.sin() * y.cos()]);
+            }
+        }
+        let v = |i: usize, j: usize| (j * (n + 1) + i) as i64;
+        let mut faces = Vec::new();
+        for j in 0..n {
+            for i in 0..n {
+                faces.extend_from_slice(&[v(i, j), v(i + 1, j), v(i + 1, j + 1)]);
+                faces.extend_from_slice(&[v(i, j), v(i + 1, j + 1), v(i, j + 1)]);
+            }
+        }
+        Mesh::from_flat(&pos, &faces, None).unwrap()
+    }
+
+    #[test]
+    fn heights_and_outline_alone_are_those_of_the_shaded_maps() {
+        // The resolution search draws without normals (`corner_normals` None): its heights,
+        // outline, lips and overhangs must be the maps the final raster keeps, at levels from
+        // many faces a texel to many texels a face. The box is offset so the grid's rim falls
+        // inside texels (lips and overhangs, the second pass).
+        let m = bumpy_grid();
+        let flat = flat_corners(&m);
+        // The lower-left 3,000 faces (a ragged rim), the rest as their ring.
+        let faces: Vec<u32> = (0..m.faces.len() as u32).collect();
+        let mut margins = (0, 0);
+        // The last box puts its first row and column of centres 0.005 texel outside the rim,
+        // which the outline codes still count as inside: lips there.
+        let t = 4.04 / 50.0;
+        let boxes = [(2, 2, -0.13, 4.3), (3, 5, -0.13, 4.3), (16, 16, -0.07, 4.2)];
+        for (w, h, o, e) in boxes.into_iter().chain([(50, 50, -0.505 * t, 4.04)]) {
+            let bx = PatchBox {
+                origin: DVec3::new(o, o, -0.5),
+                axes: [DVec3::X, DVec3::Y, DVec3::Z],
+                extent: DVec3::new(e, e, 1.0),
+                width: w,
+                height: h,
+                height_bits: 16,
+            };
+            let outline = boundary_edges(&m, &faces);
+            let shaded = rasterize(&m, Some(&flat), (&faces, 3000), &outline, &bx);
+            let bare = rasterize(&m, None, (&faces, 3000), &outline, &bx);
+            assert_eq!(shaded.heights, bare.heights, "{w} x {h}");
+            assert_eq!(shaded.outline, bare.outline, "{w} x {h}");
+            assert_eq!(shaded.lips, bare.lips, "{w} x {h}");
+            assert_eq!(shaded.overhangs, bare.overhangs, "{w} x {h}");
+            assert!(bare.normals.is_empty() && bare.colors.is_empty());
+            assert_eq!(shaded.normals.len(), (w * h) as usize);
+            margins.0 += shaded.lips.len();
+            margins.1 += shaded.overhangs.len();
+        }
+        // The second pass had work: the rim passes between texel centres.
+        assert!(
+            margins.0 > 0 && margins.1 > 0,
+            "lips and overhangs {margins:?}"
+        );
+    }
+
+    #[test]
+    fn counts_find_a_passing_cell_in_any_rectangle() {
+        // Against a scan of the rectangle, on a sparse pseudo-random pattern.
+        let (w, h) = (13, 9);
+        let pass = |t: usize| (t * 7919 + 13) % 17 == 0;
+        let counts = Counts::new(w, h, pass);
+        for j0 in 0..h + 2 {
+            for j1 in j0.saturating_sub(1)..h + 2 {
+                for i0 in 0..w + 2 {
+                    for i1 in i0.saturating_sub(1)..w + 2 {
+                        let scan = (j0..=j1.min(h - 1))
+                            .any(|j| (i0..=i1.min(w - 1)).any(|i| pass(j * w + i)));
+                        assert_eq!(
+                            counts.any((i0, j0, i1, j1)),
+                            scan,
+                            "{i0}..{i1} x {j0}..{j1}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
     #[test]
     fn a_tilted_plane_is_sampled_exactly_and_dilated() {
         // Plane z = 0.25 x over [0, 4] x [0, 2], two triangles, drawn into a 8 x 4 texel box.
