@@ -889,7 +889,7 @@ mod tests {
     fn counts_find_a_passing_cell_in_any_rectangle() {
         // Against a scan of the rectangle, on a sparse pseudo-random pattern.
         let (w, h) = (13, 9);
-        let pass = |t: usize| (t * 7919 + 13) % 17 == 0;
+        let pass = |t: usize| (t * 7919 + 13).is_multiple_of(17);
         let counts = Counts::new(w, h, pass);
         for j0 in 0..h + 2 {
             for j1 in j0.saturating_sub(1)..h + 2 {
