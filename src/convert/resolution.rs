@@ -39,121 +39,30 @@ pub fn chart_texels(
                 drawer.measure(j, j.texel_for(r), &s)
             })
         })?,
-        ErrorScope::Set => set_levels(jobs, drawer, &levels, max_error, progress)?,
+        ErrorScope::Set => {
+            let budget = drawer.opts.max_bytes.map(|b| b as f64);
+            let areas: Vec<f64> = jobs.iter().map(|j| chart_area(drawer, j)).collect();
+            let total: f64 = areas.iter().sum::<f64>().max(f64::MIN_POSITIVE);
+            let with_area: Vec<_> = jobs.iter().zip(&areas).collect();
+            let colored = drawer.mesh.has_colors();
+            let costs = each_chart(&with_area, progress, "resolution", |&(j, &area)| {
+                let s = drawer.samples(j);
+                // A chart's levels dearer than its share of a budget, several times over,
+                // would never be chosen: not worth drawing (a rough mesh's charts never get
+                // within a tight bound, and the search had drawn them all at 1024²).
+                let cap = budget.map_or(f64::INFINITY, |b| SHARE_MEASURED * b * area / total);
+                level_costs(&levels, (max_error, cap), colored, |r| {
+                    drawer.measure(j, j.texel_for(r), &s)
+                })
+            })?;
+            allocate(&costs, ERROR_QUANTILE, budget)
+        }
     };
     Ok(jobs
         .iter()
         .zip(picks)
         .map(|(j, r)| j.texel_for(r))
         .collect())
-}
-
-/// Each chart's level for `ErrorScope::Set`. First every other level is measured, coarse to
-/// fine (half-octave steps), and the levels chosen among those; then the quarter-octave levels
-/// next to each chart's choice are measured too and the choice made again among all, until no
-/// choice has an unmeasured neighbour (at most `REFINEMENTS` rounds). Only levels next to a
-/// chart's choice change it as the price moves a little, so this comes close to the choice of
-/// measuring every level at little more than half the draws (the
-/// levels are drawn from scratch, and the coarse ones cost about their faces, not their texels).
-fn set_levels(
-    jobs: &[ChartJob],
-    drawer: &ChartDrawer,
-    levels: &[u32],
-    max_error: f64,
-    progress: Progress,
-) -> Result<Vec<u32>> {
-    let budget = drawer.opts.max_bytes.map(|b| b as f64);
-    let areas: Vec<f64> = jobs.iter().map(|j| chart_area(drawer, j)).collect();
-    let total: f64 = areas.iter().sum::<f64>().max(f64::MIN_POSITIVE);
-    let colored = drawer.mesh.has_colors();
-    // A chart's levels dearer than its share of a budget, several times over, would never be
-    // chosen: not worth drawing (a rough mesh's charts never get within a tight bound, and the
-    // search had drawn them all at 1024²).
-    let cap = |area: f64| budget.map_or(f64::INFINITY, |b| SHARE_MEASURED * b * area / total);
-    // Coarsest first; every other level from the coarsest, and the finest.
-    let coarse_first: Vec<u32> = levels.iter().rev().copied().collect();
-    let mut halves: Vec<u32> = coarse_first.iter().step_by(2).copied().collect();
-    if halves.last() != coarse_first.last() {
-        halves.extend(coarse_first.last()); // the finest, for charts that need it
-    }
-    // The first round reports the stage's first 80%, the second the rest.
-    let first_part = |stage: &str, f: f64| (progress.callback)(stage, 0.8 * f);
-    let with_area: Vec<_> = jobs.iter().zip(&areas).collect();
-    let mut costs = each_chart(
-        &with_area,
-        Progress::new(&first_part, progress.cancel),
-        "resolution",
-        |&(j, &area)| {
-            let s = drawer.samples(j);
-            level_costs(&halves, (max_error, cap(area)), colored, |r| {
-                drawer.measure(j, j.texel_for(r), &s)
-            })
-        },
-    )?;
-    let mut picks = allocate(&costs, ERROR_QUANTILE, budget);
-    for round in 0..REFINEMENTS {
-        let around = unmeasured_around(&costs, &picks, &coarse_first);
-        if around.iter().all(Vec::is_empty) {
-            break;
-        }
-        let part = |stage: &str, f: f64| {
-            let done = (round as f64 + f) / REFINEMENTS as f64;
-            (progress.callback)(stage, 0.8 + 0.2 * done)
-        };
-        let jobs_around: Vec<_> = jobs.iter().zip(&around).collect();
-        let more = each_chart(
-            &jobs_around,
-            Progress::new(&part, progress.cancel),
-            "resolution",
-            |&(j, around)| {
-                if around.is_empty() {
-                    return Vec::new();
-                }
-                let s = drawer.samples(j);
-                let cost = |&r: &u32| {
-                    level_cost(
-                        r,
-                        colored,
-                        max_error,
-                        &drawer.measure(j, j.texel_for(r), &s),
-                    )
-                };
-                around.iter().map(cost).collect::<Vec<_>>()
-            },
-        )?;
-        for (measured, extra) in costs.iter_mut().zip(more) {
-            measured.extend(extra);
-            measured.sort_by_key(|c| c.resolution);
-        }
-        picks = allocate(&costs, ERROR_QUANTILE, budget);
-    }
-    Ok(picks)
-}
-
-/// Rounds of measuring the levels next to each chart's choice and choosing again: the choice
-/// moves by a level or two as the price settles.
-const REFINEMENTS: usize = 3;
-
-/// Per chart, the quarter-octave levels on either side of its choice `pick` not yet measured,
-/// within the finest it measured (`coarse_first`: every level, coarsest first).
-fn unmeasured_around(
-    costs: &[Vec<LevelCost>],
-    picks: &[u32],
-    coarse_first: &[u32],
-) -> Vec<Vec<u32>> {
-    costs
-        .iter()
-        .zip(picks)
-        .map(|(measured, &pick)| {
-            let finest = measured.last().map_or(0, |c| c.resolution);
-            let k = coarse_first.iter().position(|&r| r == pick).unwrap_or(0);
-            [k.wrapping_sub(1), k + 1]
-                .into_iter()
-                .filter_map(|n| coarse_first.get(n).copied())
-                .filter(|&r| r <= finest && !measured.iter().any(|c| c.resolution == r))
-                .collect()
-        })
-        .collect()
 }
 
 /// Long-side resolutions the error-driven search tries, finest first: `max` down to 2 in
@@ -212,27 +121,8 @@ fn chart_area(drawer: &ChartDrawer, job: &ChartJob) -> f64 {
         .sum()
 }
 
-/// A chart's cost at one level, as drawn there (`colored`: whether its maps would carry a
-/// color map).
-fn level_cost(resolution: u32, colored: bool, max_error: f64, d: &Drawn) -> LevelCost {
-    let over: f64 = d
-        .errors
-        .iter()
-        .filter(|e| e.value > max_error)
-        .map(|e| e.area)
-        .sum();
-    let area: f64 = d.errors.iter().map(|e| e.area).sum();
-    let texels = d.bx.width as usize * d.bx.height as usize;
-    LevelCost {
-        resolution,
-        bytes: crate::gtex::map_bytes(texels, d.bx.height_bits, colored) as f64,
-        over,
-        area,
-    }
-}
-
-/// A chart's costs at `levels` (coarsest first) up to the first that has next to nothing over
-/// the bound, the first dearer than `cap` bytes, or the last; `colored`: whether its maps would
+/// A chart's costs from its coarsest level up to the first that has next to nothing over the
+/// bound, the first dearer than `cap` bytes, or the finest; `colored`: whether its maps would
 /// carry a color map (the search draws none).
 fn level_costs(
     levels: &[u32],
@@ -241,12 +131,23 @@ fn level_costs(
     draw: impl Fn(u32) -> Drawn,
 ) -> Vec<LevelCost> {
     let mut costs = Vec::new();
-    for &resolution in levels {
-        let cost = level_cost(resolution, colored, max_error, &draw(resolution));
-        let LevelCost {
-            bytes, over, area, ..
-        } = cost;
-        costs.push(cost);
+    for &resolution in levels.iter().rev() {
+        let d = draw(resolution);
+        let over: f64 = d
+            .errors
+            .iter()
+            .filter(|e| e.value > max_error)
+            .map(|e| e.area)
+            .sum();
+        let area: f64 = d.errors.iter().map(|e| e.area).sum();
+        let texels = d.bx.width as usize * d.bx.height as usize;
+        let bytes = crate::gtex::map_bytes(texels, d.bx.height_bits, colored) as f64;
+        costs.push(LevelCost {
+            resolution,
+            bytes,
+            over,
+            area,
+        });
         // Finer levels could lower this chart's share of the set's budget by a tenth of its
         // density at most: not worth measuring.
         if over <= 0.1 * (1.0 - ERROR_QUANTILE) * area || bytes > cap {
