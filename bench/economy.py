@@ -112,6 +112,31 @@ def rss_child(name: str) -> None:
     print(json.dumps(out))
 
 
+def vm_kib(field: str) -> int:
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith(field + ":"):
+            return int(line.split()[1])
+    raise RuntimeError(f"no {field}")
+
+
+def peak_child(name: str) -> None:
+    """In a fresh process: the peak resident memory a default ``convert`` of ``name`` adds over
+    the loaded mesh (VmHWM reset through /proc/self/clear_refs before converting), as JSON."""
+    mesh = load_any(name)
+    before = vm_kib("VmRSS")
+    Path("/proc/self/clear_refs").write_text("5")  # VmHWM := VmRSS
+    gts = gt.convert(mesh)
+    peak = (vm_kib("VmHWM") - before) * 1024
+    faces = int(gts.stats["faces"])
+    print(json.dumps({"faces": faces, "peak_bytes": peak, "peak_bytes_per_face": peak / faces}))
+
+
+def peak_row(name: str) -> dict[str, Any]:
+    done = subprocess.run([sys.executable, __file__, "--peak-child", name], capture_output=True, text=True, check=True)
+    last = done.stdout.strip().splitlines()[-1]
+    return json.loads(last[last.index("{"):])
+
+
 def rss_row(name: str) -> dict[str, Any]:
     done = subprocess.run([sys.executable, __file__, "--rss-child", name], capture_output=True, text=True, check=True)
     # pymeshlab prints "[MARCHING CUBES] Building mesh..." without a newline before it.
@@ -394,6 +419,9 @@ def measure_default() -> dict[str, Any]:
     for name in names + ["noisy-isosurface", "displaced-icosphere", "bunny-loop-subdivided"]:
         out["table"][name] = default_row(name, fixed_seconds=name != "bunny-loop-subdivided")
         print(name, out["table"][name], flush=True)
+    # Peak memory of the conversion alone, in a fresh process (the table's process has rendered).
+    out["table"]["bunny-loop-subdivided"].update(peak_row("bunny-loop-subdivided"))
+    print(out["table"]["bunny-loop-subdivided"], flush=True)
     out["same_bound"] = {"stanford-bunny": same_bound("stanford-bunny")}
     print(out["same_bound"], flush=True)
     out["curves"] = {name: curve(name) for name in ["stanford-bunny", "noisy-isosurface"]}
@@ -456,6 +484,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--label", default="now", help="'main' writes economy_main.json")
     parser.add_argument("--rss-child", help=argparse.SUPPRESS)
+    parser.add_argument("--peak-child", help=argparse.SUPPRESS)
     parser.add_argument("--plot-only", action="store_true", help="redraw the PNG from economy.json")
     parser.add_argument("--default", action="store_true",
                         help="the default (error-driven) convert: table, curves; into economy.json['default']")
@@ -471,6 +500,9 @@ def main() -> None:
     if args.plot_only:
         saved = json.loads((RESULTS / "economy.json").read_text())
         plot(saved["now"], saved["main"], RESULTS / "economy.png")
+        return
+    if args.peak_child:
+        peak_child(args.peak_child)
         return
     if args.rss_child:
         rss_child(args.rss_child)

@@ -6,6 +6,7 @@
 use super::accuracy::{self, AreaSample, WeightedError, ERROR_QUANTILE, SAMPLES_PER_CHART};
 use super::frame::ChartFrame;
 use super::options::ConvertOptions;
+use super::profile::{timed, Phase};
 use super::raster::{self, Maps, PatchBox};
 use rayon::prelude::*;
 
@@ -80,28 +81,48 @@ impl ChartDrawer<'_> {
         } else {
             self.texel
         };
-        accuracy::surface_samples(
-            self.mesh,
-            &job.faces[..job.chart_faces],
-            spacing,
-            SAMPLES_PER_CHART,
-        )
+        timed(Phase::Samples, || {
+            accuracy::surface_samples(
+                self.mesh,
+                &job.faces[..job.chart_faces],
+                spacing,
+                SAMPLES_PER_CHART,
+            )
+        })
     }
 
     /// Draws a chart (its own faces first, then its ring) at texel size `texel` and measures
     /// its reconstruction error against `samples` of its own faces and its lips.
     pub fn draw(&self, job: &ChartJob, texel: f64, samples: &[AreaSample]) -> Drawn {
+        self.draw_maps(job, texel, samples, Some(self.corner_normals))
+    }
+
+    /// `draw` without the normal and color maps (left empty): what the resolution search
+    /// measures at each level it tries, as the error and the bytes do not depend on them.
+    pub fn measure(&self, job: &ChartJob, texel: f64, samples: &[AreaSample]) -> Drawn {
+        self.draw_maps(job, texel, samples, None)
+    }
+
+    fn draw_maps(
+        &self,
+        job: &ChartJob,
+        texel: f64,
+        samples: &[AreaSample],
+        corner_normals: Option<&CornerNormals>,
+    ) -> Drawn {
         let opts = self.opts;
         let bx = job
             .frame
             .patch_box(texel, opts.resolution_cap(), opts.height_bits);
-        let mut maps = raster::rasterize(
-            self.mesh,
-            self.corner_normals,
-            (&job.faces, job.chart_faces),
-            &job.outline,
-            &bx,
-        );
+        let mut maps = timed(Phase::Rasterize, || {
+            raster::rasterize(
+                self.mesh,
+                corner_normals,
+                (&job.faces, job.chart_faces),
+                &job.outline,
+                &bx,
+            )
+        });
         // The height field as a patch for the error lookups; its heights go back to the maps.
         let probe = bx.into_patch(
             Maps {
@@ -112,12 +133,18 @@ impl ChartDrawer<'_> {
             Vec::new(),
             Vec::new(),
         );
-        let mut errors = accuracy::gaps(&probe, &accuracy::thinned(samples, texel));
+        let mut errors = timed(Phase::Gaps, || {
+            accuracy::gaps(&probe, &accuracy::thinned(samples, texel))
+        });
         maps.heights = probe.heights;
         maps.outline = probe.outline;
         let texel_len = ((bx.extent.x / bx.width as f64) * (bx.extent.y / bx.height as f64)).sqrt();
-        errors.extend(accuracy::past_the_mesh(&maps, texel_len));
-        let error = accuracy::quantile(&mut errors, ERROR_QUANTILE);
+        timed(Phase::PastTheMesh, || {
+            errors.extend(accuracy::past_the_mesh(&maps, texel_len))
+        });
+        let error = timed(Phase::Quantile, || {
+            accuracy::quantile(&mut errors, ERROR_QUANTILE)
+        });
         Drawn {
             bx,
             maps,

@@ -11,6 +11,7 @@ pub mod figures;
 pub mod frame;
 pub mod options;
 pub mod overlap;
+pub mod profile;
 pub mod progress;
 pub mod raster;
 pub mod repair;
@@ -427,6 +428,7 @@ fn convert_once(
     set.stats.seconds = stages.into_seconds();
     set.validate()
         .map_err(|e| GeomtexError::Internal(format!("conversion made an impossible set: {e}")))?;
+    profile::report();
     progress.report("done", 1.0)?;
     Ok(set)
 }

@@ -213,6 +213,57 @@ struct TexelSpan {
     j1: usize,
 }
 
+/// How far `v` lies outside [lo, hi] (0 inside): a point's distance from a face's bounds along
+/// one axis, so no nearer than that to the face.
+fn outside(v: f64, lo: f64, hi: f64) -> f64 {
+    (lo - v).max(v - hi).max(0.0)
+}
+
+/// The texel corners (columns, rows: ci0..=ci1, cj0..=cj1) whose distance a face with texel
+/// span `span` measures: two texels past its texels and one before (a corner (i, j) sits at
+/// the texel-unit point (i, j)), within the map's (w + 1) x (h + 1) corners.
+fn corner_range(span: TexelSpan, w: usize, h: usize) -> (usize, usize, usize, usize) {
+    (
+        span.i0.saturating_sub(1),
+        span.j0.saturating_sub(1),
+        (span.i1 + 3).min(w),
+        (span.j1 + 3).min(h),
+    )
+}
+
+/// A grid's cells that satisfy a test, as running counts (a summed-area table), so whether a
+/// rectangle holds any costs four reads however large it is.
+struct Counts {
+    w: usize,
+    h: usize,
+    /// (w + 1) x (h + 1): the cells (i', j') with i' < i and j' < j at (i, j).
+    sums: Vec<u32>,
+}
+
+impl Counts {
+    fn new(w: usize, h: usize, test: impl Fn(usize) -> bool) -> Counts {
+        let mut sums = vec![0u32; (w + 1) * (h + 1)];
+        for j in 0..h {
+            let mut row = 0;
+            for i in 0..w {
+                row += test(j * w + i) as u32;
+                sums[(j + 1) * (w + 1) + i + 1] = sums[j * (w + 1) + i + 1] + row;
+            }
+        }
+        Counts { w, h, sums }
+    }
+
+    /// Whether any cell in columns i0..=i1, rows j0..=j1 (clipped to the grid) passed.
+    fn any(&self, (i0, j0, i1, j1): (usize, usize, usize, usize)) -> bool {
+        let (i1, j1) = ((i1 + 1).min(self.w), (j1 + 1).min(self.h));
+        if i0 >= i1 || j0 >= j1 {
+            return false;
+        }
+        let at = |i: usize, j: usize| self.sums[j * (self.w + 1) + i] as i64;
+        at(i1, j1) - at(i0, j1) - at(i1, j0) + at(i0, j0) > 0
+    }
+}
+
 /// The maps while faces are drawn into them, with what conservative coverage and the overhang
 /// figures need to know about each texel and texel corner.
 struct Canvas<'a> {
@@ -236,7 +287,8 @@ struct Canvas<'a> {
 }
 
 impl<'a> Canvas<'a> {
-    fn new(bx: &'a PatchBox, colored: bool) -> Canvas<'a> {
+    /// Without `shaded` no normal or color map is drawn (heights and outline only).
+    fn new(bx: &'a PatchBox, shaded: bool, colored: bool) -> Canvas<'a> {
         let (w, h) = (bx.width as usize, bx.height as usize);
         Canvas {
             bx,
@@ -247,8 +299,8 @@ impl<'a> Canvas<'a> {
             coverage: vec![Coverage::Empty; w * h],
             lip_distance: vec![f64::INFINITY; w * h],
             corner_distance: vec![f64::INFINITY; (w + 1) * (h + 1)],
-            normals: vec![DVec3::ZERO; w * h],
-            colors: if colored {
+            normals: vec![DVec3::ZERO; if shaded { w * h } else { 0 }],
+            colors: if shaded && colored {
                 vec![[0; 4]; w * h]
             } else {
                 Vec::new()
@@ -292,22 +344,105 @@ impl<'a> Canvas<'a> {
         })
     }
 
-    fn draw_face(&mut self, mesh: &Mesh, corner_normals: &CornerNormals, f: u32, lips: bool) {
+    /// The face in texel units, and the texels its bounds touch; None for a face seen edge-on
+    /// or wholly before the map.
+    fn place(&self, mesh: &Mesh, f: u32) -> Option<(LocalFace, TexelSpan)> {
         let corners = mesh.faces[f as usize].map(|v| self.to_local(mesh.positions[v as usize]));
-        let Some(face) = LocalFace::new(corners) else {
+        let face = LocalFace::new(corners)?;
+        let span = self.span(&face)?;
+        Some((face, span))
+    }
+
+    /// The first pass over the faces: the texel centres and texel corners each face covers.
+    /// Only the texels within its own bounds are tested (one or none when faces are smaller
+    /// than texels, as at the coarse levels the resolution search draws), not the margin
+    /// around them that lips and corner distances need: those only matter where no face
+    /// covers the centre or the corner, which the second pass finds.
+    fn draw_centres(
+        &mut self,
+        mesh: &Mesh,
+        corner_normals: Option<&CornerNormals>,
+        f: u32,
+        face: &LocalFace,
+    ) {
+        // Centres a hair outside the bounds still pass `coverage`'s tolerance (1e-9 of the
+        // area): test them too.
+        const HAIR: f64 = 1e-3;
+        let (lo, hi) = (face.lo, face.hi);
+        let first = |v: f64| (v - 0.5 - HAIR).ceil().max(0.0) as usize;
+        let last = |v: f64, n: usize| (v - 0.5 + HAIR).floor().min(n as f64 - 1.0);
+        let (i1, j1) = (last(hi.x, self.w), last(hi.y, self.h));
+        let mut shading = None;
+        if i1 >= 0.0 && j1 >= 0.0 {
+            for j in first(lo.y)..=j1 as usize {
+                let py = j as f64 + 0.5;
+                for i in first(lo.x)..=i1 as usize {
+                    let px = i as f64 + 0.5;
+                    if let Some((here, l)) = face.coverage(px, py, false) {
+                        if shading.is_none() {
+                            shading = corner_normals.map(|n| FaceShading::new(mesh, n, f, face));
+                        }
+                        self.cover(j * self.w + i, (px, py), face, here, l, shading.as_ref());
+                    }
+                }
+            }
+        }
+        // Corners inside the face are at distance zero from it.
+        let (ci1, cj1) = (
+            hi.x.floor().min(self.w as f64),
+            hi.y.floor().min(self.h as f64),
+        );
+        if ci1 < 0.0 || cj1 < 0.0 {
             return;
-        };
-        let Some(span) = self.span(&face) else {
+        }
+        for cj in lo.y.ceil().max(0.0) as usize..=cj1 as usize {
+            for ci in lo.x.ceil().max(0.0) as usize..=ci1 as usize {
+                if face.contains(DVec2::new(ci as f64, cj as f64)) {
+                    self.corner_distance[cj * (self.w + 1) + ci] = 0.0;
+                }
+            }
+        }
+    }
+
+    /// The second pass: a chart face's lips on the texels no face covers the centre of, done
+    /// only when its margin holds such a texel (`open`). A covered centre is final after the
+    /// first pass (it beats any lip), so the maps are the same as drawing each face's margin
+    /// in one pass.
+    fn draw_lips(
+        &mut self,
+        (mesh, corner_normals): (&Mesh, Option<&CornerNormals>),
+        f: u32,
+        (face, span): (&LocalFace, TexelSpan),
+        open: &Counts,
+    ) {
+        if !open.any((span.i0, span.j0, span.i1, span.j1)) {
             return;
-        };
-        self.measure_corners(&face, span);
-        let shading = FaceShading::new(mesh, corner_normals, f, &face);
+        }
+        let (lo, hi, texel) = (face.lo, face.hi, self.texel);
+        let mut shading = None;
         for j in span.j0..=span.j1 {
             let py = j as f64 + 0.5;
             for i in span.i0..=span.i1 {
+                let t = j * self.w + i;
                 let px = i as f64 + 0.5;
-                if let Some((here, l)) = face.coverage(px, py, lips) {
-                    self.cover(j * self.w + i, (px, py), &face, here, l, &shading);
+                // Skipped where a centre is covered or the face cannot come nearer than the
+                // lip already there (its bounds are farther; a margin over rounding): the
+                // nearest lip wins, so the maps are the same at a fraction of the cost.
+                let known = self.lip_distance[t];
+                let (dx, dy) = (
+                    outside(px, lo.x, hi.x) * texel.x,
+                    outside(py, lo.y, hi.y) * texel.y,
+                );
+                if self.coverage[t] == Coverage::Centre
+                    || dx * dx + dy * dy > known * known * (1.0 + 1e-9)
+                {
+                    continue;
+                }
+                if let Some((here, l)) = face.coverage(px, py, true) {
+                    if shading.is_none() {
+                        shading = corner_normals.map(|n| FaceShading::new(mesh, n, f, face));
+                    }
+                    self.cover(t, (px, py), face, here, l, shading.as_ref());
                 }
             }
         }
@@ -323,7 +458,7 @@ impl<'a> Canvas<'a> {
         face: &LocalFace,
         here: Coverage,
         l: [f64; 3],
-        shading: &FaceShading<'_>,
+        shading: Option<&FaceShading<'_>>,
     ) {
         let [a, b, c] = face.corners;
         let [la, lb, lc] = l;
@@ -347,23 +482,27 @@ impl<'a> Canvas<'a> {
         if here == Coverage::Lip {
             self.lip_distance[t] = lip_distance;
         }
-        self.normals[t] = shading.normal(l);
-        if let Some(c) = self.colors.get_mut(t) {
-            *c = shading.color(l);
+        if let Some(shading) = shading {
+            self.normals[t] = shading.normal(l);
+            if let Some(c) = self.colors.get_mut(t) {
+                *c = shading.color(l);
+            }
         }
     }
 
-    /// Lowers the distance of the corners within two texels of the face to the face's.
-    fn measure_corners(&mut self, face: &LocalFace, span: TexelSpan) {
+    /// Lowers the distance of the `wanted` corners within two texels of the face to the face's.
+    fn measure_corners(&mut self, face: &LocalFace, span: TexelSpan, wanted: &[bool]) {
         let tri = face.flat();
         let (lo, hi, texel) = (face.lo, face.hi, self.texel);
-        // World distance from a corner to the face's bounds: no nearer than that to the face.
-        let outside = |v: f64, lo: f64, hi: f64| (lo - v).max(v - hi).max(0.0);
-        for cj in span.j0.saturating_sub(1)..=(span.j1 + 3).min(self.h) {
+        let (ci0, cj0, ci1, cj1) = corner_range(span, self.w, self.h);
+        for cj in cj0..=cj1 {
             let dy = outside(cj as f64, lo.y, hi.y) * texel.y;
-            for ci in span.i0.saturating_sub(1)..=(span.i1 + 3).min(self.w) {
+            for ci in ci0..=ci1 {
                 let q = DVec2::new(ci as f64, cj as f64);
                 let k = cj * (self.w + 1) + ci;
+                if !wanted[k] {
+                    continue;
+                }
                 let known = self.corner_distance[k];
                 let dx = outside(ci as f64, lo.x, hi.x) * texel.x;
                 // Skipped where the face cannot come nearer (a margin over rounding): the
@@ -384,17 +523,21 @@ impl<'a> Canvas<'a> {
         }
     }
 
-    /// Corners where the surface reaches past every face: those whose four neighbouring texels
-    /// (the bilinear rule's blend around them, clamped at the map's border) are all filled and
-    /// whose blend of outline codes is not negative.
-    fn overhangs(&self, outline: &[i8]) -> Vec<f64> {
+    /// Corners where the surface may reach past every face: those whose four neighbouring
+    /// texels (the bilinear rule's blend around them, clamped at the map's border) are all
+    /// filled, whose blend of outline codes is not negative, and that no face covers. Only
+    /// their distances to the faces are measured: no other corner's is ever read.
+    fn overhang_corners(&self, outline: &[i8]) -> Vec<bool> {
         let (w, h) = (self.w, self.h);
         let texel = |i: usize, j: usize| j.min(h - 1) * w + i.min(w - 1);
         let filled = |i: usize, j: usize| self.depth[texel(i, j)] > f64::NEG_INFINITY;
-        let far = 2.0 * self.texel.x.max(self.texel.y);
-        let mut overhangs = Vec::new();
+        let mut wanted = vec![false; (w + 1) * (h + 1)];
         for cj in 0..=h {
             for ci in 0..=w {
+                let k = cj * (w + 1) + ci;
+                if self.corner_distance[k] == 0.0 {
+                    continue;
+                }
                 let (i0, j0) = (ci.saturating_sub(1), cj.saturating_sub(1));
                 let around = [(i0, j0), (ci, j0), (i0, cj), (ci, cj)];
                 let inside = around
@@ -402,15 +545,22 @@ impl<'a> Canvas<'a> {
                     .map(|&(i, j)| outline[texel(i, j)] as i32)
                     .sum::<i32>()
                     >= 0;
-                if inside && around.iter().all(|&(i, j)| filled(i, j)) {
-                    let d = self.corner_distance[cj * (w + 1) + ci];
-                    if d > 0.0 {
-                        overhangs.push(d.min(far));
-                    }
-                }
+                wanted[k] = inside && around.iter().all(|&(i, j)| filled(i, j));
             }
         }
-        overhangs
+        wanted
+    }
+
+    /// How far the surface reaches past every face at the `wanted` corners it does (at most two
+    /// texels: larger gaps are not searched).
+    fn overhangs(&self, wanted: &[bool]) -> Vec<f64> {
+        let far = 2.0 * self.texel.x.max(self.texel.y);
+        wanted
+            .iter()
+            .zip(&self.corner_distance)
+            .filter(|&(&want, &d)| want && d > 0.0)
+            .map(|(_, &d)| d.min(far))
+            .collect()
     }
 
     /// Outline codes from the in-plane distance of each texel centre to the drawn faces'
@@ -428,7 +578,7 @@ impl<'a> Canvas<'a> {
             .collect()
     }
 
-    fn into_maps(self, outline_distance: &[f64]) -> Maps {
+    fn into_maps(self, outline: Vec<i8>, wanted: &[bool]) -> Maps {
         let heights = self
             .depth
             .iter()
@@ -440,8 +590,7 @@ impl<'a> Canvas<'a> {
                 }
             })
             .collect();
-        let outline = self.outline_codes(outline_distance);
-        let overhangs = self.overhangs(&outline);
+        let overhangs = self.overhangs(wanted);
         let lips = (0..self.w * self.h)
             .filter(|&t| self.coverage[t] == Coverage::Lip && outline[t] >= 0)
             .map(|t| Lip {
@@ -449,7 +598,7 @@ impl<'a> Canvas<'a> {
                 distance: self.lip_distance[t],
             })
             .collect();
-        let normals = (0..self.w * self.h)
+        let normals = (0..self.normals.len())
             .map(|t| match self.coverage[t] {
                 Coverage::Empty => NO_NORMAL,
                 _ => encode_normal(self.to_patch_dir(self.normals[t]).normalize_or(DVec3::Z)),
@@ -480,24 +629,56 @@ impl<'a> Canvas<'a> {
 /// Without lips, patches meeting at a sharp crease (where the overlap ring cannot reach, its
 /// faces pointing down) would leave a crack of up to a texel that rays fall through. Normals are
 /// interpolated from each face's `corner_normals` (`MeshGeometry::corner_normals`, indexed by
-/// face).
+/// face); without them only heights and outline are drawn (the normal and color maps are
+/// empty), which is all the resolution search measures.
 ///
 /// The outline map then cuts the surface back to the faces: the signed distance from each
 /// texel centre to the outline of all drawn faces (their edges used by one drawn face only).
 /// `outline` is `boundary_edges(mesh, faces)`, found once for every texel size a chart is drawn at.
 pub fn rasterize(
     mesh: &Mesh,
-    corner_normals: &CornerNormals,
+    corner_normals: Option<&CornerNormals>,
     (faces, chart_faces): (&[u32], usize),
     outline: &[[u32; 2]],
     bx: &PatchBox,
 ) -> Maps {
-    let mut canvas = Canvas::new(bx, mesh.has_colors());
-    for (n, &f) in faces.iter().enumerate() {
-        canvas.draw_face(mesh, corner_normals, f, n < chart_faces);
-    }
-    let distance = canvas.outline_distance(mesh, outline);
-    canvas.into_maps(&distance)
+    use super::profile::{timed, Phase};
+    let mut canvas = Canvas::new(bx, corner_normals.is_some(), mesh.has_colors());
+    let placed: Vec<_> = faces.iter().map(|&f| canvas.place(mesh, f)).collect();
+    timed(Phase::Centres, || {
+        for (&f, p) in faces.iter().zip(&placed) {
+            if let Some((face, _)) = p {
+                canvas.draw_centres(mesh, corner_normals, f, face);
+            }
+        }
+    });
+    // Then the margins: lips where no centre is covered, and the distances to the faces of
+    // the corners the overhang figures read.
+    timed(Phase::Margins, || {
+        let open = Counts::new(canvas.w, canvas.h, |t| {
+            canvas.coverage[t] != Coverage::Centre
+        });
+        for (&f, p) in faces[..chart_faces].iter().zip(&placed) {
+            if let Some((face, span)) = p {
+                canvas.draw_lips((mesh, corner_normals), f, (face, *span), &open);
+            }
+        }
+    });
+    let distance = timed(Phase::OutlineDistance, || {
+        canvas.outline_distance(mesh, outline)
+    });
+    let outline = canvas.outline_codes(&distance);
+    let wanted = timed(Phase::Corners, || {
+        let wanted = canvas.overhang_corners(&outline);
+        let open = Counts::new(canvas.w + 1, canvas.h + 1, |k| wanted[k]);
+        for (face, span) in placed.iter().flatten() {
+            if open.any(corner_range(*span, canvas.w, canvas.h)) {
+                canvas.measure_corners(face, *span, &wanted);
+            }
+        }
+        wanted
+    });
+    timed(Phase::IntoMaps, || canvas.into_maps(outline, &wanted))
 }
 
 /// The edges of `faces` that only one of them uses (as vertex pairs): their outline.
@@ -631,7 +812,100 @@ mod tests {
 
     /// `faces` of `m` (flat corner normals `flat`) rasterized into `bx`, with their outline.
     fn draw_flat(m: &Mesh, flat: &CornerNormals, faces: &[u32], bx: &PatchBox) -> Maps {
-        rasterize(m, flat, (faces, faces.len()), &boundary_edges(m, faces), bx)
+        rasterize(
+            m,
+            Some(flat),
+            (faces, faces.len()),
+            &boundary_edges(m, faces),
+            bx,
+        )
+    }
+
+    /// A 40 x 40 grid of triangles over [0, 4]² on the bump z = 0.3 sin x cos y: 3,200 faces.
+    fn bumpy_grid() -> Mesh {
+        let n = 40;
+        let mut pos = Vec::new();
+        for j in 0..=n {
+            for i in 0..=n {
+                let (x, y) = (4.0 * i as f64 / n as f64, 4.0 * j as f64 / n as f64);
+                pos.extend_from_slice(&[x, y, 0.3 * x.sin() * y.cos()]);
+            }
+        }
+        let v = |i: usize, j: usize| (j * (n + 1) + i) as i64;
+        let mut faces = Vec::new();
+        for j in 0..n {
+            for i in 0..n {
+                faces.extend_from_slice(&[v(i, j), v(i + 1, j), v(i + 1, j + 1)]);
+                faces.extend_from_slice(&[v(i, j), v(i + 1, j + 1), v(i, j + 1)]);
+            }
+        }
+        Mesh::from_flat(&pos, &faces, None).unwrap()
+    }
+
+    #[test]
+    fn heights_and_outline_alone_are_those_of_the_shaded_maps() {
+        // The resolution search draws without normals (`corner_normals` None): its heights,
+        // outline, lips and overhangs must be the maps the final raster keeps, at levels from
+        // many faces a texel to many texels a face. The box is offset so the grid's rim falls
+        // inside texels (lips and overhangs, the second pass).
+        let m = bumpy_grid();
+        let flat = flat_corners(&m);
+        // The lower-left 3,000 faces (a ragged rim), the rest as their ring.
+        let faces: Vec<u32> = (0..m.faces.len() as u32).collect();
+        let mut margins = (0, 0);
+        // The last box puts its first row and column of centres 0.005 texel outside the rim,
+        // which the outline codes still count as inside: lips there.
+        let t = 4.04 / 50.0;
+        let boxes = [(2, 2, -0.13, 4.3), (3, 5, -0.13, 4.3), (16, 16, -0.07, 4.2)];
+        for (w, h, o, e) in boxes.into_iter().chain([(50, 50, -0.505 * t, 4.04)]) {
+            let bx = PatchBox {
+                origin: DVec3::new(o, o, -0.5),
+                axes: [DVec3::X, DVec3::Y, DVec3::Z],
+                extent: DVec3::new(e, e, 1.0),
+                width: w,
+                height: h,
+                height_bits: 16,
+            };
+            let outline = boundary_edges(&m, &faces);
+            let shaded = rasterize(&m, Some(&flat), (&faces, 3000), &outline, &bx);
+            let bare = rasterize(&m, None, (&faces, 3000), &outline, &bx);
+            assert_eq!(shaded.heights, bare.heights, "{w} x {h}");
+            assert_eq!(shaded.outline, bare.outline, "{w} x {h}");
+            assert_eq!(shaded.lips, bare.lips, "{w} x {h}");
+            assert_eq!(shaded.overhangs, bare.overhangs, "{w} x {h}");
+            assert!(bare.normals.is_empty() && bare.colors.is_empty());
+            assert_eq!(shaded.normals.len(), (w * h) as usize);
+            margins.0 += shaded.lips.len();
+            margins.1 += shaded.overhangs.len();
+        }
+        // The second pass had work: the rim passes between texel centres.
+        assert!(
+            margins.0 > 0 && margins.1 > 0,
+            "lips and overhangs {margins:?}"
+        );
+    }
+
+    #[test]
+    fn counts_find_a_passing_cell_in_any_rectangle() {
+        // Against a scan of the rectangle, on a sparse pseudo-random pattern.
+        let (w, h) = (13, 9);
+        let pass = |t: usize| (t * 7919 + 13).is_multiple_of(17);
+        let counts = Counts::new(w, h, pass);
+        for j0 in 0..h + 2 {
+            for j1 in j0.saturating_sub(1)..h + 2 {
+                for i0 in 0..w + 2 {
+                    for i1 in i0.saturating_sub(1)..w + 2 {
+                        let scan = (j0..=j1.min(h - 1))
+                            .any(|j| (i0..=i1.min(w - 1)).any(|i| pass(j * w + i)));
+                        assert_eq!(
+                            counts.any((i0, j0, i1, j1)),
+                            scan,
+                            "{i0}..{i1} x {j0}..{j1}"
+                        );
+                    }
+                }
+            }
+        }
     }
 
     #[test]

@@ -35,21 +35,24 @@ pub fn chart_texels(
     let picks = match drawer.opts.error_scope {
         ErrorScope::Chart => each_chart(jobs, progress, "resolution", |j| {
             let s = drawer.samples(j);
-            coarsest_within(&levels, max_error, |r| drawer.draw(j, j.texel_for(r), &s))
+            coarsest_within(&levels, max_error, |r| {
+                drawer.measure(j, j.texel_for(r), &s)
+            })
         })?,
         ErrorScope::Set => {
             let budget = drawer.opts.max_bytes.map(|b| b as f64);
             let areas: Vec<f64> = jobs.iter().map(|j| chart_area(drawer, j)).collect();
             let total: f64 = areas.iter().sum::<f64>().max(f64::MIN_POSITIVE);
             let with_area: Vec<_> = jobs.iter().zip(&areas).collect();
+            let colored = drawer.mesh.has_colors();
             let costs = each_chart(&with_area, progress, "resolution", |&(j, &area)| {
                 let s = drawer.samples(j);
                 // A chart's levels dearer than its share of a budget, several times over,
                 // would never be chosen: not worth drawing (a rough mesh's charts never get
                 // within a tight bound, and the search had drawn them all at 1024²).
                 let cap = budget.map_or(f64::INFINITY, |b| SHARE_MEASURED * b * area / total);
-                level_costs(&levels, max_error, cap, |r| {
-                    drawer.draw(j, j.texel_for(r), &s)
+                level_costs(&levels, (max_error, cap), colored, |r| {
+                    drawer.measure(j, j.texel_for(r), &s)
                 })
             })?;
             allocate(&costs, ERROR_QUANTILE, budget)
@@ -119,11 +122,12 @@ fn chart_area(drawer: &ChartDrawer, job: &ChartJob) -> f64 {
 }
 
 /// A chart's costs from its coarsest level up to the first that has next to nothing over the
-/// bound, the first dearer than `cap` bytes, or the finest.
+/// bound, the first dearer than `cap` bytes, or the finest; `colored`: whether its maps would
+/// carry a color map (the search draws none).
 fn level_costs(
     levels: &[u32],
-    max_error: f64,
-    cap: f64,
+    (max_error, cap): (f64, f64),
+    colored: bool,
     draw: impl Fn(u32) -> Drawn,
 ) -> Vec<LevelCost> {
     let mut costs = Vec::new();
@@ -137,7 +141,6 @@ fn level_costs(
             .sum();
         let area: f64 = d.errors.iter().map(|e| e.area).sum();
         let texels = d.bx.width as usize * d.bx.height as usize;
-        let colored = !d.maps.colors.is_empty();
         let bytes = crate::gtex::map_bytes(texels, d.bx.height_bits, colored) as f64;
         costs.push(LevelCost {
             resolution,
