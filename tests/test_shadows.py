@@ -169,3 +169,24 @@ def test_kept_light_space_tiles_follow_the_light_and_the_set(bunny: Converted) -
         # build that kept the first light's tiles for every frame failed the mask equality at
         # the second light.
         assert agreement >= 0.996 and off_edge <= 6, (agreement, off_edge)
+
+
+@pytest.mark.parametrize("direction", [(0.3, -1.0, 0.2), (-0.5, -1.0, 0.8)])
+def test_attached_shadows_agree_with_embree(bunny: Converted, direction: tuple[float, float, float]) -> None:
+    """Pixels whose surface faces away from the light are shadowed without a ray (shadow.rs
+    ATTACHED_BELOW, n.l < -0.1 with the frame's shading normal): embree's shadow rays, from its
+    own hits with geometric normals, must find those pixels in shadow too."""
+    scene, whole, camera, diag = bunny_on_ground(bunny)
+    lit = gt.Renderer(SIZE, SIZE).render(scene, camera, light=gt.DirectionalLight(direction))
+    hit, ref = embree_shadow(whole, camera, np.asarray(direction, float), diag)
+    o, d = (a.reshape(SIZE, SIZE, 3) for a in camera.rays(SIZE, SIZE))
+    n = np.asarray(lit.normal, float).reshape(SIZE, SIZE, 3)
+    n = np.where(((n * d).sum(-1) > 0)[..., None], -n, n)
+    facing_away = hit & np.isfinite(lit.depth) & (n @ (-np.asarray(direction) / np.linalg.norm(direction)) < -0.1)
+    assert lit.stats["shadow_attached_pixels"] == int(facing_away.sum()), facing_away.sum()
+    assert np.all(lit.shadow[facing_away])
+    # Measured (Stanford bunny, 128²): 485 / 581 pixels face away, of them embree finds 0 / 1
+    # lit, none off a shadow edge.
+    assert facing_away.sum() >= 200
+    assert int((facing_away & ~ref).sum()) <= 3
+    assert int((facing_away & ~ref & ~near_edge(ref)).sum()) <= 1

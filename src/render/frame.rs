@@ -49,6 +49,8 @@ pub struct Frame {
     /// Of `shadow_ms`, the tracing (upload, dispatches and read-back of the rays); the rest is
     /// building the rays and darkening the frame on the CPU.
     pub shadow_trace_ms: Option<f64>,
+    /// With a light: pixels shadowed without a ray, their surface facing away from the light.
+    pub shadow_attached: Option<u64>,
     /// With surfel objects in the scene: what their passes drew.
     pub surfels: Option<SurfelCounts>,
     /// With an inverse geometric texture in the scene (kinds/igt.rs): per pixel the detailed
@@ -146,6 +148,10 @@ impl Frame {
                     StatValue::Float(self.shadow_trace_ms.unwrap_or(0.0)),
                 ),
                 ("shadowed_pixels", count(shadowed)),
+                (
+                    "shadow_attached_pixels",
+                    count(self.shadow_attached.unwrap_or(0) as usize),
+                ),
             ]);
         }
         if let Some(s) = &self.surfels {
@@ -209,6 +215,7 @@ mod tests {
             shadow: None,
             shadow_ms: None,
             shadow_trace_ms: None,
+            shadow_attached: None,
             surfels: None,
             face_id: None,
             barycentric: None,

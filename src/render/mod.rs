@@ -323,6 +323,7 @@ impl Renderer {
             shadow: None,
             shadow_ms: None,
             shadow_trace_ms: None,
+            shadow_attached: None,
             surfels,
             face_id: None,
             barycentric: None,
