@@ -16,9 +16,10 @@ coverage. This script measures, in one run and on one wgpu adapter:
 * the same sweep for a denser mesh (the bunny after two Loop subdivisions, ~1.1 M faces) to
   show how the crossover moves with the mesh's size.
 
-Timings are medians of ``--repeats`` renders after one warm-up (trimesh: median of 3). Each
-timing block first waits (up to ``--wait-idle`` s) for other processes to leave the CPU and
-records the CPU seconds they used during the block, so contaminated numbers can be spotted.
+Timings are medians of ``--repeats`` renders after one warm-up (trimesh: median of 3 after three
+warm-up casts). Each timing block first waits (up to ``--wait-idle`` s) for other processes to
+leave the CPU and records the CPU seconds they used during the block, so contaminated numbers can
+be spotted.
 
 Results: ``bench/results/render.json`` and ``bench/results/render_coverage.png``.
 
@@ -241,10 +242,19 @@ def ray_caster(mesh: gt.Mesh) -> tuple[reference.RayCaster, float]:
     return caster, time.perf_counter() - t0
 
 
+# Untimed trimesh casts before each view's timed ones (see time_trimesh).
+WARM_CASTS = 3
+
+
 def time_trimesh(caster: reference.RayCaster, cam: gt.Camera, size: int, repeats: int) -> tuple[dict, dict]:
-    """``RayCaster.cast``: first hits, z-depth and normals of every pixel ray (BVH kept)."""
+    """``RayCaster.cast``: first hits, z-depth and normals of every pixel ray (BVH kept), after
+    untimed casts of the same view (WARM_CASTS), as geomtex gets a warm-up render: embree's first
+    full-frame casts in a process were 2-5x its later ones (front view, idle: 329, 234, then 86
+    ms; with one warm-up cast 220, 137, 67)."""
     walls: list[float] = []
     ref: Any = None
+    for _ in range(WARM_CASTS):
+        caster.cast(cam, size, size)
     for _ in range(repeats):
         t0 = time.perf_counter()
         ref = caster.cast(cam, size, size)
