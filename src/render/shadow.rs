@@ -6,8 +6,9 @@
 //! Spaces: world (f64): hit points are rebuilt from each pixel's world ray and its z-depth, the
 //! light is given in world space, and normals are the frame's world normals.
 
+use std::sync::atomic::{AtomicBool, Ordering};
+
 use glam::DVec3;
-use rayon::prelude::*;
 
 use super::{Camera, Frame, Object, Renderer, Scene, SearchOptions};
 use crate::cancel::Cancel;
@@ -148,10 +149,20 @@ impl Renderer {
             };
             let eye = camera.world_from_camera.w_axis.truncate();
             let n = frame.depth.len();
-            shadow = (0..n).into_par_iter().map(|i| rays.attached(i)).collect();
+            // Each pixel's surface is rebuilt once, as the tracer makes its ray: an attached
+            // pixel is marked there (the tracer calls in parallel, hence atomics) and gets none.
+            let marked: Vec<AtomicBool> = (0..n).map(|_| AtomicBool::new(false)).collect();
+            let ray = |i: usize| match rays.pixel(i)? {
+                PixelShadow::Attached => {
+                    marked[i].store(true, Ordering::Relaxed);
+                    None
+                }
+                PixelShadow::Ray(ray) => Some(ray),
+            };
+            let occluded = self.occluded(&casters, eye, parallel, n, ray, search, cancel)?;
+            shadow = marked.into_iter().map(AtomicBool::into_inner).collect();
             let attached = shadow.iter().filter(|&&s| s).count();
-            let ray = |i| if shadow[i] { None } else { rays.ray(i) };
-            for i in self.occluded(&casters, eye, parallel, n, ray, search, cancel)? {
+            for i in occluded {
                 shadow[i] = true;
             }
             frame.shadow_attached = Some(attached as u64);
@@ -180,6 +191,12 @@ struct ShadowRays<'a> {
     offset: f64,
 }
 
+/// A hit pixel's shadow: attached (its surface faces away from the light) or decided by a ray.
+enum PixelShadow {
+    Attached,
+    Ray(super::query::RangedRay),
+}
+
 impl<'a> ShadowRays<'a> {
     fn new(
         camera: &'a Camera,
@@ -197,21 +214,17 @@ impl<'a> ShadowRays<'a> {
         })
     }
 
-    /// Pixel `i`'s ray (start, unit direction toward the light) and the stretch that counts,
-    /// or `None` where the frame hit nothing.
-    fn ray(&self, i: usize) -> Option<super::query::RangedRay> {
+    /// What pixel `i` needs: nothing where the frame hit nothing (`None`), no ray where its
+    /// surface faces away from the light (`ATTACHED_BELOW`), else its ray (start, unit direction
+    /// toward the light) and the stretch that counts.
+    fn pixel(&self, i: usize) -> Option<PixelShadow> {
         let (point, n) = self.surface(i)?;
+        if n.dot(self.light.toward(point).0) < ATTACHED_BELOW {
+            return Some(PixelShadow::Attached);
+        }
         let start = point + n * self.offset;
         let (toward, distance) = self.light.toward(start);
-        Some(((start, toward), (self.offset, distance)))
-    }
-
-    /// Whether pixel `i` shows a surface facing away from the light (`ATTACHED_BELOW`).
-    fn attached(&self, i: usize) -> bool {
-        self.surface(i).is_some_and(|(point, n)| {
-            let (toward, _) = self.light.toward(point);
-            n.dot(toward) < ATTACHED_BELOW
-        })
+        Some(PixelShadow::Ray(((start, toward), (self.offset, distance))))
     }
 
     /// The world point pixel `i` shows and its normal on the side the camera sees, or `None`
