@@ -1,8 +1,9 @@
 """What a set costs and that no cap is silent: the default convert is error-driven within the
-mesh's bytes, maps hold only what the mesh has (see also test_gtex_file.py), max_bytes coarsens
-the texel until the maps fit (or, with max_error, chooses levels within it), a hit cap is a
-CapWarning and a stat, and a set far past one storage binding's worth of min-max pyramid
-(128 MiB on lavapipe) still renders, against trimesh."""
+mesh's bytes (an allowance under 50k faces), at a bound that tightens for thin meshes, maps
+hold only what the mesh has (see also test_gtex_file.py), max_bytes coarsens the texel until
+the maps fit (or, with max_error, chooses levels within it), a hit cap is a CapWarning and a
+stat, and a set far past one storage binding's worth of min-max pyramid (128 MiB on lavapipe)
+still renders, against trimesh."""
 
 from __future__ import annotations
 
