@@ -17,6 +17,7 @@ pub mod raster;
 pub mod repair;
 pub mod resolution;
 pub mod sheets;
+pub mod silhouette;
 pub mod vsa;
 
 use std::borrow::Cow;
@@ -52,8 +53,16 @@ pub fn convert(
     progress: Progress,
 ) -> Result<GeometryTextureSet> {
     opts.validate()?;
-    let opts = &opts.resolved(12 * (mesh.positions.len() + mesh.faces.len()) as u64);
+    let outline = std::cell::Cell::new(None);
+    let bytes = 12 * (mesh.positions.len() + mesh.faces.len()) as u64;
+    let opts = &opts.resolved((bytes, mesh.faces.len()), || {
+        outline.set(silhouette::outline_ratio(mesh));
+        outline.get()
+    });
     let mut set = convert_any(mesh, opts, progress)?;
+    if let Some(ratio) = outline.get() {
+        set.stats.set("outline_ratio", ratio);
+    }
     match opts.max_bytes {
         Some(limit) if !opts.error_driven() => fit_bytes(mesh, opts, progress, set, limit),
         Some(limit) => {

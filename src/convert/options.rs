@@ -44,17 +44,55 @@ pub const DEFAULT_CHART_ERROR: f64 = 0.1;
 pub const ERROR_DRIVEN_CHART_ERRORS: [f64; 3] = [0.1, 0.2, 0.3];
 
 /// The bound of a `convert` given no keyword that sets the resolution (`max_resolution`,
-/// `texel_size`, `max_error`, `max_error_rel`, `max_bytes`), as a fraction of the diagonal: the
-/// reconstruction p99 at which the default sets render as close to trimesh as the mesh itself
-/// would at 512² (README "Error-driven conversion", bench/economy.py).
+/// `texel_size`, `max_error`, `max_error_rel`, `max_bytes`), as a fraction of the diagonal, for
+/// a mesh that shows no more outline for its area than the Stanford bunny: the reconstruction
+/// p99 at which the bunny's default set renders as close to trimesh as the mesh itself would at
+/// 512² (README "The default", bench/economy.py). A mesh with more outline gets a tighter bound
+/// (`default_error_rel`).
 pub const DEFAULT_MAX_ERROR_REL: f64 = 2e-4;
 
-/// The byte budget of a `convert` given no keyword that sets the resolution: the mesh's own
-/// bytes (float32 positions, uint32 faces) or this many, whichever is more. A rough mesh
-/// (noise at the scale of its faces) never gets within `DEFAULT_MAX_ERROR_REL` at any
-/// resolution a height map can afford, so its set stops at the mesh's bytes; small meshes may
-/// take up to this much to be within the bound.
-pub const DEFAULT_MIN_BUDGET: u64 = 1_000_000;
+/// The outline ratio (`silhouette::outline_ratio`) of the Stanford bunny, on which
+/// `DEFAULT_MAX_ERROR_REL` was chosen, rounded up to a half (it measures 10.35; fandisk 9.8,
+/// spot 11.1, the teapot 11.3, the rocker arm 12.4, homer 15.9).
+pub const REFERENCE_OUTLINE_RATIO: f64 = 10.5;
+
+/// The tightest default bound, as a fraction of `DEFAULT_MAX_ERROR_REL`: a mesh of hair-thin
+/// parts would otherwise be drawn at ever finer levels (its budget still stops it).
+pub const MIN_BOUND_SCALE: f64 = 0.25;
+
+/// The default bound for a mesh whose outline ratio is `outline`: `DEFAULT_MAX_ERROR_REL`
+/// scaled by `REFERENCE_OUTLINE_RATIO / outline` where that is below 1. A set whose outline lies
+/// `e` off the mesh loses about `e` times the outline's length over the projected area in IoU, so
+/// this keeps a thin mesh's IoU loss at the bunny's.
+pub fn default_error_rel(outline: Option<f64>) -> f64 {
+    let scale = outline.map_or(1.0, |r| {
+        (REFERENCE_OUTLINE_RATIO / r).clamp(MIN_BOUND_SCALE, 1.0)
+    });
+    DEFAULT_MAX_ERROR_REL * scale
+}
+
+/// The byte budget of a `convert` given no keyword that sets the resolution is the mesh's own
+/// bytes (float32 positions, uint32 faces) or an allowance, whichever is more. A rough mesh
+/// (noise at the scale of its faces) never gets within the bound at any resolution a height map
+/// can afford, so its set stops there. The allowance lets a small mesh reach the bound: this
+/// many bytes for a mesh of no faces, shrinking linearly to none at `BUDGET_OWN_FACES`, and
+/// scaled by `DEFAULT_MAX_ERROR_REL` over the mesh's bound (a height map's error goes as its
+/// texel squared, so its bytes as one over the bound). Measured need within the bound
+/// (bench/economy.py): the rocker arm (20k faces) 2.5 MB at its 1.69e-4, homer (12k) 2.1 MB
+/// at 1.32e-4, spot (6k) 1.7 MB at 1.89e-4; at 1 MB they lost IoU (0.9958, 0.9971, 0.9985).
+pub const DEFAULT_ALLOWANCE: f64 = 4e6;
+
+/// Faces from which a default set's budget is the mesh's own bytes, the line for maps
+/// no larger than the mesh.
+pub const BUDGET_OWN_FACES: f64 = 50_000.0;
+
+/// The default budget of a mesh of `mesh_bytes` bytes and `faces` faces under the bound `bound`
+/// (a fraction of the diagonal).
+pub fn default_budget(mesh_bytes: u64, faces: usize, bound: f64) -> u64 {
+    let share = (1.0 - faces as f64 / BUDGET_OWN_FACES).max(0.0);
+    let allowance = DEFAULT_ALLOWANCE * share * DEFAULT_MAX_ERROR_REL / bound;
+    mesh_bytes.max(allowance.round() as u64)
+}
 
 /// How the mesh is cut into charts.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -121,7 +159,7 @@ pub struct ConvertOptions {
     /// Most bytes the maps may take: at a fixed resolution the texel is coarsened until they
     /// fit; with `max_error` the charts' levels are chosen within them (the bound is met if it
     /// fits, else the least area over it). `None`: no budget, or with no keyword that sets the
-    /// resolution the mesh's bytes (at least `DEFAULT_MIN_BUDGET`).
+    /// resolution `default_budget`.
     pub max_bytes: Option<u64>,
 }
 
@@ -200,16 +238,22 @@ impl ConvertOptions {
 
     /// These options with the defaults that depend on other keywords made explicit: the
     /// default bound and budget when no keyword sets the resolution (`mesh_bytes`: the mesh's
-    /// float32/uint32 bytes), and the partition.
-    pub fn resolved(&self, mesh_bytes: u64) -> ConvertOptions {
-        let default = self.default_bound();
+    /// float32/uint32 bytes, and its faces; `outline`: its outline ratio, asked for only then),
+    /// and the partition.
+    pub fn resolved(
+        &self,
+        (mesh_bytes, faces): (u64, usize),
+        outline: impl FnOnce() -> Option<f64>,
+    ) -> ConvertOptions {
+        let (max_error_rel, max_bytes) = if self.default_bound() {
+            let bound = default_error_rel(outline());
+            (Some(bound), Some(default_budget(mesh_bytes, faces, bound)))
+        } else {
+            (self.max_error_rel, self.max_bytes)
+        };
         ConvertOptions {
-            max_error_rel: self
-                .max_error_rel
-                .or(default.then_some(DEFAULT_MAX_ERROR_REL)),
-            max_bytes: self
-                .max_bytes
-                .or(default.then_some(mesh_bytes.max(DEFAULT_MIN_BUDGET))),
+            max_error_rel,
+            max_bytes,
             partition: Some(self.partition_method()),
             ..self.clone()
         }
@@ -498,14 +542,31 @@ mod tests {
 
     #[test]
     fn no_resolution_keyword_resolves_to_the_default_bound_and_budget() {
-        let resolved = ConvertOptions::default().resolved(5_000_000);
+        let bunny = || Some(10.0);
+        let default = ConvertOptions::default();
+        // 50k faces or more: the mesh's bytes.
+        let resolved = default.resolved((5_000_000, 50_000), bunny);
         assert_eq!(resolved.max_error_rel, Some(DEFAULT_MAX_ERROR_REL));
         assert_eq!(resolved.max_bytes, Some(5_000_000));
         assert_eq!(resolved.partition, Some(PartitionMethod::Cone));
         assert_eq!(resolved.resolution_cap(), ERROR_DRIVEN_MAX_RESOLUTION);
-        // A small mesh's budget is the floor.
-        let small = ConvertOptions::default().resolved(1000);
-        assert_eq!(small.max_bytes, Some(DEFAULT_MIN_BUDGET));
+        let at_line = default.resolved((900_000, 50_000), bunny);
+        assert_eq!(at_line.max_bytes, Some(900_000));
+        // A small mesh's budget is the allowance, the more the smaller the mesh.
+        let small = default.resolved((1000, 10_000), bunny);
+        assert_eq!(small.max_bytes, Some(3_200_000));
+        // Twice the bunny's outline for its area: half the bound, twice the allowance.
+        let thin = default.resolved((1000, 10_000), || Some(21.0));
+        assert_eq!(thin.max_error_rel, Some(DEFAULT_MAX_ERROR_REL / 2.0));
+        assert_eq!(thin.max_bytes, Some(6_400_000));
+        // Hair-thin: the tightest bound; no outline (a point): the bunny's.
+        let hair = default.resolved((1000, 10_000), || Some(1e6));
+        assert_eq!(
+            hair.max_error_rel,
+            Some(DEFAULT_MAX_ERROR_REL * MIN_BOUND_SCALE)
+        );
+        let point = default.resolved((1000, 10_000), || None);
+        assert_eq!(point.max_error_rel, Some(DEFAULT_MAX_ERROR_REL));
         // Any resolution keyword: as before, VSA at one texel.
         for opts in [
             ConvertOptions {
@@ -517,7 +578,7 @@ mod tests {
                 ..Default::default()
             },
         ] {
-            let r = opts.resolved(5_000_000);
+            let r = opts.resolved((5_000_000, 90_000), || panic!("asked for the outline"));
             assert!(!r.error_driven(), "{r:?}");
             assert_eq!(r.partition, Some(PartitionMethod::Vsa));
         }
@@ -526,13 +587,13 @@ mod tests {
             charts: Some(12),
             ..Default::default()
         };
-        let r = charts.resolved(5_000_000);
+        let r = charts.resolved((5_000_000, 90_000), bunny);
         assert!(r.error_driven() && r.partition == Some(PartitionMethod::Vsa));
         let bound = ConvertOptions {
             max_error_rel: Some(1e-3),
             ..Default::default()
         };
-        let r = bound.resolved(5_000_000);
+        let r = bound.resolved((5_000_000, 90_000), || panic!("asked for the outline"));
         assert_eq!(
             (r.max_bytes, r.partition),
             (None, Some(PartitionMethod::Cone))
