@@ -220,9 +220,11 @@ fn chart_stages(
     stages.begin("partition")?;
     let partition = match opts.partition_method() {
         PartitionMethod::Cone => {
-            cone::partition_mesh(geo, &prepared.active, opts, stages.progress)?
+            cone::partition_mesh(mesh, geo, &prepared.active, opts, stages.progress)?
         }
-        PartitionMethod::Vsa => vsa::partition_mesh(geo, &prepared.active, opts, stages.progress)?,
+        PartitionMethod::Vsa => {
+            vsa::partition_mesh(mesh, geo, &prepared.active, opts, stages.progress)?
+        }
     };
     stages.end("partition");
 
