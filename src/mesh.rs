@@ -430,8 +430,8 @@ impl EdgeAdjacency {
         let mut neighbors = CsrBuilder::with_capacity(nf, 3 * nf);
         let mut manifold = CsrBuilder::with_capacity(nf, 3 * nf);
         let (mut on_edge, mut row) = (Vec::new(), Vec::new());
-        for f in 0..nf {
-            if degenerate[f] {
+        for (f, &degenerate) in degenerate.iter().enumerate() {
+            if degenerate {
                 neighbors.end_row();
                 manifold.end_row();
                 continue;
