@@ -23,6 +23,11 @@ VSA error-driven) on the bunny and the noisy isosurface, with the reported p99 a
 rendered one. Into ``economy.json["default"]`` (with ``os.getloadavg()`` before and after) and
 ``economy_default.png``; ~20 min.
 
+``--peak-only``: the peak resident memory of the 1.1 M-face bunny's default ``convert`` alone
+(VmHWM reset after the mesh is loaded, three fresh processes, worst and median bytes per face, and
+their seconds) and one profiled run's peak by stage (``GEOMTEX_PROFILE=1``), into
+``bench/results/peak.json`` and ``peak.png``; ~2 min.
+
 Before/after: ``--label main`` (run on a build of main) writes
 ``bench/results/economy_main.json``; a plain run writes ``bench/results/economy.json`` with main's
 figures beside this build's (ratios) and ``bench/results/economy.png``.
@@ -32,6 +37,7 @@ Run from the repository root::
     nice python bench/economy.py                 # ~3 min on 2 cores
     nice python bench/economy.py --label main    # on a build of main
     nice python bench/economy.py --default       # the default, error-driven convert
+    nice python bench/economy.py --peak-only     # the 1.1 M-face bunny's peak memory alone
 """
 
 from __future__ import annotations
@@ -126,16 +132,77 @@ def peak_child(name: str) -> None:
     mesh = load_any(name)
     before = vm_kib("VmRSS")
     Path("/proc/self/clear_refs").write_text("5")  # VmHWM := VmRSS
+    t0 = time.perf_counter()
     gts = gt.convert(mesh)
+    seconds = time.perf_counter() - t0
     peak = (vm_kib("VmHWM") - before) * 1024
     faces = int(gts.stats["faces"])
-    print(json.dumps({"faces": faces, "peak_bytes": peak, "peak_bytes_per_face": peak / faces}))
+    print(json.dumps({"faces": faces, "peak_bytes": peak, "peak_bytes_per_face": peak / faces,
+                      "peak_child_seconds": seconds}))
 
 
-def peak_row(name: str) -> dict[str, Any]:
-    done = subprocess.run([sys.executable, __file__, "--peak-child", name], capture_output=True, text=True, check=True)
+def peak_row(name: str, env: dict[str, str] | None = None) -> dict[str, Any]:
+    done = subprocess.run([sys.executable, __file__, "--peak-child", name], capture_output=True, text=True,
+                          check=True, env=env)
     last = done.stdout.strip().splitlines()[-1]
-    return json.loads(last[last.index("{"):])
+    out = json.loads(last[last.index("{"):])
+    if env is not None:
+        out["stderr"] = done.stderr
+    return out
+
+
+def stage_memory(name: str) -> list[dict[str, Any]]:
+    """Resident memory by stage of a default convert of ``name`` (``GEOMTEX_PROFILE=1`` in a fresh
+    process, which resets VmHWM as each stage ends, so each stage's peak is its own; the child's
+    whole-conversion peak is then not a measurement and is dropped)."""
+    import os
+
+    err = peak_row(name, env={**os.environ, "GEOMTEX_PROFILE": "1"})["stderr"]
+    rows = []
+    for line in err.splitlines():
+        if " memory " in line and " rss " in line:
+            stage = line.split(" memory ", 1)[1].split(" rss ")[0].strip()
+            rss, peak = line.split(" rss ")[1].split(" MB  peak ")
+            rows.append({"stage": stage, "rss_mb": float(rss), "peak_mb": float(peak.split()[0])})
+    return rows
+
+
+def measure_peak(name: str, runs: int) -> dict[str, Any]:
+    """``--peak-only``: the peak of ``runs`` fresh conversions of ``name`` and one profiled."""
+    import os
+
+    out: dict[str, Any] = {"mesh": name, "loadavg_before": os.getloadavg(), "bar_bytes_per_face": 150,
+                           "runs": [peak_row(name) for _ in range(runs)]}
+    out["stages"] = stage_memory(name)
+    out["loadavg_after"] = os.getloadavg()
+    per_face = [r["peak_bytes_per_face"] for r in out["runs"]]
+    out["peak_bytes_per_face_max"] = max(per_face)
+    out["peak_bytes_per_face_median"] = float(np.median(per_face))
+    out["seconds_median"] = float(np.median([r["peak_child_seconds"] for r in out["runs"]]))
+    return out
+
+
+def plot_peak(d: dict[str, Any], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    stages = d["stages"]
+    faces = d["runs"][0]["faces"]
+    base = stages[0]["rss_mb"]
+    per_face = [(s["peak_mb"] - base) * 2**20 / faces for s in stages]
+    fig, ax = plt.subplots(figsize=(8, 4))
+    ax.bar(range(len(stages)), per_face, color="tab:blue", label="peak resident memory in the stage (profiled run)")
+    ax.axhline(d["bar_bytes_per_face"], color="tab:red", ls="--", label="bar: 150 bytes per face")
+    ax.axhline(d["peak_bytes_per_face_max"], color="black", ls=":",
+               label=f"whole conversion, worst of {len(d['runs'])} runs: {d['peak_bytes_per_face_max']:.0f}")
+    ax.set_xticks(range(len(stages)), [s["stage"] for s in stages], rotation=60, ha="right", fontsize=7)
+    ax.set_ylabel("bytes per face above the loaded mesh")
+    ax.set_title(f"{d['mesh']} ({faces:,} faces), default convert: peak memory by stage")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
 
 
 def rss_row(name: str) -> dict[str, Any]:
@@ -490,7 +557,15 @@ def main() -> None:
     parser.add_argument("--plot-only", action="store_true", help="redraw the PNG from economy.json")
     parser.add_argument("--default", action="store_true",
                         help="the default (error-driven) convert: table, curves; into economy.json['default']")
+    parser.add_argument("--peak-only", action="store_true",
+                        help="peak memory of the 1.1 M-face bunny's default convert alone: into peak.json + PNG")
     args = parser.parse_args()
+    if args.peak_only:
+        d = measure_peak("bunny-loop-subdivided", runs=3)
+        (RESULTS / "peak.json").write_text(json.dumps(d, indent=1))
+        plot_peak(d, RESULTS / "peak.png")
+        print({k: v for k, v in d.items() if k != "stages"})
+        return
     if args.default:
         path = RESULTS / "economy.json"
         saved = json.loads(path.read_text()) if path.exists() else {}

@@ -130,6 +130,14 @@ impl Mesh {
         (lo, hi)
     }
 
+    /// Face `f`'s centroid, computed when asked: kept for every face it took 24 bytes a face
+    /// through the whole conversion.
+    #[inline]
+    pub fn centroid(&self, f: usize) -> DVec3 {
+        let [a, b, c] = self.faces[f].map(|v| self.positions[v as usize]);
+        (a + b + c) / 3.0
+    }
+
     /// Length of the bounding-box diagonal, the yardstick for every relative tolerance.
     pub fn diagonal(&self) -> f64 {
         let (lo, hi) = self.bounds();
@@ -287,7 +295,6 @@ pub struct MeshGeometry {
     /// Unit face normals (zero for degenerate faces).
     pub face_normals: Vec<DVec3>,
     pub face_areas: Vec<f64>,
-    pub centroids: Vec<DVec3>,
     /// Faces with (near) zero area or a repeated vertex: no normal, left out of every chart.
     pub degenerate: Vec<bool>,
     /// Unit vertex normals weighted by corner angle, as trimesh weights them (shared by vertices
@@ -332,12 +339,11 @@ fn weld(mesh: &Mesh) -> (Vec<u32>, usize) {
     (weld, duplicate_vertices)
 }
 
-/// Normals, areas, centroids and corner angles of the faces, which are degenerate, and the
+/// Normals, areas and corner angles of the faces, which are degenerate, and the
 /// vertex normals.
 struct FaceGeometry {
     normals: Vec<DVec3>,
     areas: Vec<f64>,
-    centroids: Vec<DVec3>,
     degenerate: Vec<bool>,
     vertex_normals: Vec<DVec3>,
 }
@@ -359,7 +365,6 @@ impl FaceGeometry {
         let mut g = FaceGeometry {
             normals: vec![DVec3::ZERO; nf],
             areas: vec![0.0; nf],
-            centroids: vec![DVec3::ZERO; nf],
             degenerate: vec![false; nf],
             vertex_normals: vec![DVec3::ZERO; nv],
         };
@@ -368,7 +373,6 @@ impl FaceGeometry {
             // Edges from the centroid-free form keep precision for far-from-origin models.
             let cross = (b - a).cross(c - a);
             let twice_area = cross.length();
-            g.centroids[f] = (a + b + c) / 3.0;
             if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] || twice_area * 0.5 <= area_eps {
                 g.degenerate[f] = true;
                 continue;
@@ -395,101 +399,185 @@ struct EdgeAdjacency {
     edge_counts: EdgeCounts,
 }
 
+/// A face's corners by welded vertex.
+fn welded_corners(mesh: &Mesh, weld: &[u32], f: usize) -> [u32; 3] {
+    mesh.faces[f].map(|v| weld[v as usize])
+}
+
+/// The items of two ascending rows that both hold, ascending, into `out` (cleared first): each
+/// item of the shorter row looked up in the longer, so a fan of thousands of faces around one
+/// vertex costs its neighbours' few lookups, not thousands each.
+fn common_items(a: &[u32], b: &[u32], out: &mut Vec<u32>) {
+    let (short, long) = if a.len() <= b.len() { (a, b) } else { (b, a) };
+    out.clear();
+    out.extend(
+        short
+            .iter()
+            .copied()
+            .filter(|x| long.binary_search(x).is_ok()),
+    );
+}
+
 impl EdgeAdjacency {
-    /// By sorting (min, max, face, direction) keys: O(M log M), no hash map.
-    fn new(mesh: &Mesh, weld: &[u32], degenerate: &[bool]) -> EdgeAdjacency {
+    /// Through the faces around each welded vertex: the faces on an edge are those around both
+    /// of its ends. Linear in the faces, holding nothing beyond the rows it builds (a sort of
+    /// every (edge, face) pair held 48 bytes per face, then 48 more of face pairs: the peak of a
+    /// 1.1 M-face conversion). Rows are as that sort made them: face neighbours ascending,
+    /// manifold neighbours by their shared edge's (lower, higher) welded vertex.
+    fn new(mesh: &Mesh, weld: &[u32], degenerate: &[bool], vertex_faces: &Csr) -> EdgeAdjacency {
         let nf = mesh.faces.len();
-        let mut edges: Vec<(u32, u32, u32, bool)> = Vec::with_capacity(nf * 3);
-        for (f, t) in mesh.faces.iter().enumerate() {
-            if degenerate[f] {
+        let mut edge_counts = EdgeCounts::default();
+        let mut neighbors = CsrBuilder::with_capacity(nf, 3 * nf);
+        let mut manifold = CsrBuilder::with_capacity(nf, 3 * nf);
+        let (mut on_edge, mut row) = (Vec::new(), Vec::new());
+        for (f, &degenerate) in degenerate.iter().enumerate() {
+            if degenerate {
+                neighbors.end_row();
+                manifold.end_row();
                 continue;
             }
+            let w = welded_corners(mesh, weld, f);
+            // (edge key, the face across | AGREE_BIT) of each manifold edge.
+            let mut across: [Option<((u32, u32), u32)>; 3] = [None; 3];
+            row.clear();
             for k in 0..3 {
-                let (a, b) = (weld[t[k] as usize], weld[t[(k + 1) % 3] as usize]);
-                edges.push((a.min(b), a.max(b), f as u32, a < b));
-            }
-        }
-        // Parallel sorts: equal keys are identical, so the order is the serial sort's.
-        edges.par_sort_unstable();
-        // Two faces per manifold edge, each seeing the other: one pair per entry.
-        let mut pairs = Vec::with_capacity(edges.len());
-        let mut edge_counts = EdgeCounts::default();
-        // Across each manifold edge: (face, other face | AGREE_BIT if the two agree on
-        // orientation).
-        let mut manifold = Vec::with_capacity(edges.len());
-        let mut i = 0;
-        while i < edges.len() {
-            let mut j = i + 1;
-            while j < edges.len() && edges[j].0 == edges[i].0 && edges[j].1 == edges[i].1 {
-                j += 1;
-            }
-            match j - i {
-                1 => edge_counts.boundary += 1,
-                // Two faces agreeing on orientation walk their shared edge in opposite
-                // directions.
-                2 => {
-                    let agree = edges[i].3 != edges[i + 1].3;
-                    edge_counts.inconsistent += usize::from(!agree);
-                    let bit = if agree { AGREE_BIT } else { 0 };
-                    manifold.push((edges[i].2, edges[i + 1].2 | bit));
-                    manifold.push((edges[i + 1].2, edges[i].2 | bit));
-                }
-                _ => edge_counts.nonmanifold += 1,
-            }
-            for p in i..j {
-                for q in i..j {
-                    if p != q && edges[p].2 != edges[q].2 {
-                        pairs.push((edges[p].2, edges[q].2));
+                let (a, b) = (w[k], w[(k + 1) % 3]);
+                let key = (a.min(b), a.max(b));
+                common_items(
+                    vertex_faces.row(a as usize),
+                    vertex_faces.row(b as usize),
+                    &mut on_edge,
+                );
+                row.extend(on_edge.iter().copied().filter(|&g| g as usize != f));
+                // Each edge is counted once, by the lowest face on it.
+                let first = on_edge.first() == Some(&(f as u32));
+                match on_edge.len() {
+                    1 => edge_counts.boundary += usize::from(first),
+                    2 => {
+                        let g = on_edge[usize::from(first)];
+                        // Two faces agreeing on orientation walk their shared edge in opposite
+                        // directions.
+                        let agree = !walks(welded_corners(mesh, weld, g as usize), a, b);
+                        edge_counts.inconsistent += usize::from(first && !agree);
+                        let bit = if agree { AGREE_BIT } else { 0 };
+                        across[k] = Some((key, g | bit));
                     }
+                    _ => edge_counts.nonmanifold += usize::from(first),
                 }
             }
-            i = j;
+            row.sort_unstable();
+            row.dedup();
+            neighbors.push_row(&row);
+            let mut across: Vec<_> = across.into_iter().flatten().collect();
+            across.sort_unstable_by_key(|&(key, _)| key);
+            manifold.push_row_iter(across.into_iter().map(|(_, g)| g));
         }
-        pairs.par_sort_unstable();
-        pairs.dedup();
         EdgeAdjacency {
-            face_neighbors: Csr::from_pairs(nf, &pairs),
-            manifold_neighbors: Csr::from_pairs(nf, &manifold),
+            face_neighbors: neighbors.finish(),
+            manifold_neighbors: manifold.finish(),
             edge_counts,
         }
     }
 }
 
-/// Faces around each vertex (welded vertices list the same faces).
+/// Whether a face with welded corners `w` walks from `a` to `b` along one of its edges.
+fn walks(w: [u32; 3], a: u32, b: u32) -> bool {
+    (0..3).any(|k| w[k] == a && w[(k + 1) % 3] == b)
+}
+
+/// A `Csr` built row after row, in row order.
+struct CsrBuilder {
+    csr: Csr,
+}
+
+impl CsrBuilder {
+    fn with_capacity(rows: usize, items: usize) -> CsrBuilder {
+        let mut offsets = Vec::with_capacity(rows + 1);
+        offsets.push(0);
+        CsrBuilder {
+            csr: Csr {
+                offsets,
+                items: Vec::with_capacity(items),
+            },
+        }
+    }
+
+    fn end_row(&mut self) {
+        self.csr.offsets.push(self.csr.items.len() as u32);
+    }
+
+    fn push_row(&mut self, row: &[u32]) {
+        self.csr.items.extend_from_slice(row);
+        self.end_row();
+    }
+
+    fn push_row_iter(&mut self, row: impl Iterator<Item = u32>) {
+        self.csr.items.extend(row);
+        self.end_row();
+    }
+
+    /// The rows, their items' spare capacity given back.
+    fn finish(mut self) -> Csr {
+        self.csr.items.shrink_to_fit();
+        self.csr
+    }
+}
+
+/// Faces around each vertex (welded vertices list the same faces), ascending: counted then
+/// filled per welded vertex, with no list of (vertex, face) pairs.
 fn vertex_faces(mesh: &Mesh, weld: &[u32], degenerate: &[bool], duplicates: usize) -> Csr {
     let (nf, nv) = (mesh.faces.len(), mesh.positions.len());
-    let mut vf = Vec::with_capacity(nf * 3);
-    for (f, t) in mesh.faces.iter().enumerate() {
-        if !degenerate[f] {
-            for &v in t {
-                vf.push((weld[v as usize], f as u32));
-            }
+    // Each face once around each of its distinct welded corners (a face's corners are distinct
+    // unless it is degenerate, but a repeat must not list it twice).
+    let corners = |f: usize| {
+        let w = welded_corners(mesh, weld, f);
+        (0..3)
+            .filter(move |&k| !w[..k].contains(&w[k]))
+            .map(move |k| w[k])
+    };
+    let mut offsets = vec![0u32; nv + 1];
+    for f in (0..nf).filter(|&f| !degenerate[f]) {
+        for w in corners(f) {
+            offsets[w as usize + 1] += 1;
         }
     }
-    vf.par_sort_unstable();
-    vf.dedup();
-    let welded_faces = Csr::from_pairs(nv, &vf);
+    for v in 0..nv {
+        offsets[v + 1] += offsets[v];
+    }
+    let mut items = vec![0u32; offsets[nv] as usize];
+    let mut fill: Vec<u32> = offsets[..nv].to_vec();
+    for f in (0..nf).filter(|&f| !degenerate[f]) {
+        for w in corners(f) {
+            items[fill[w as usize] as usize] = f as u32;
+            fill[w as usize] += 1;
+        }
+    }
+    let welded = Csr { offsets, items };
+    if duplicates == 0 {
+        return welded; // every vertex is its own weld
+    }
     // Every vertex lists its weld group's faces.
-    let mut all = Vec::with_capacity(vf.len() + duplicates * 6);
-    for (v, &w) in weld.iter().enumerate() {
-        for &f in welded_faces.row(w as usize) {
-            all.push((v as u32, f));
-        }
+    let mut all = CsrBuilder::with_capacity(nv, welded.items.len() + duplicates * 6);
+    for &w in weld {
+        all.push_row(welded.row(w as usize));
     }
-    Csr::from_pairs(nv, &all)
+    all.finish()
 }
 
 impl MeshGeometry {
     pub fn new(mesh: &Mesh) -> MeshGeometry {
         let diagonal = mesh.diagonal();
         let (weld, duplicate_vertices) = weld(mesh);
+        crate::convert::profile::memory("geometry: weld");
         let faces = FaceGeometry::new(mesh, &weld, diagonal);
-        let edges = EdgeAdjacency::new(mesh, &weld, &faces.degenerate);
+        crate::convert::profile::memory("geometry: faces");
         let vertex_faces = vertex_faces(mesh, &weld, &faces.degenerate, duplicate_vertices);
+        crate::convert::profile::memory("geometry: vertex faces");
+        let edges = EdgeAdjacency::new(mesh, &weld, &faces.degenerate, &vertex_faces);
+        crate::convert::profile::memory("geometry: edges");
         MeshGeometry {
             face_normals: faces.normals,
             face_areas: faces.areas,
-            centroids: faces.centroids,
             degenerate: faces.degenerate,
             vertex_normals: faces.vertex_normals,
             weld,
@@ -546,6 +634,23 @@ impl MeshGeometry {
         flip
     }
 
+    /// `corner_normals`, the geometry consumed: every array they are not made from is freed
+    /// first, so they are allocated in its place rather than on top of it (the frame stage of a
+    /// 1.1 M-face conversion held both), and flat or smooth normals are moved, not copied.
+    pub fn into_corner_normals(mut self, mesh: &Mesh, rule: NormalRule) -> CornerNormals {
+        self.face_areas = Vec::new();
+        self.face_neighbors = Csr::default();
+        self.vertex_faces = Csr::default();
+        match rule.source {
+            NormalSource::Flat => CornerNormals::flat(mesh, self.face_normals),
+            NormalSource::Smooth => CornerNormals::smooth(mesh, self.vertex_normals),
+            NormalSource::Crease => {
+                self.vertex_normals = Vec::new();
+                self.crease_normals(mesh, rule.crease_angle.to_radians().cos())
+            }
+        }
+    }
+
     /// Per face, the unit normal at each of its corners under `rule` (zero for degenerate
     /// faces). `Crease`: each corner averages, weighted by corner angle as trimesh weights its
     /// vertex normals, the faces around its vertex that are reachable from its own face across
@@ -553,14 +658,8 @@ impl MeshGeometry {
     /// same edges. Union-find over the corners: linear in the faces (inverse Ackermann aside).
     pub fn corner_normals(&self, mesh: &Mesh, rule: NormalRule) -> CornerNormals {
         match rule.source {
-            NormalSource::Flat => CornerNormals {
-                fan: (0..3 * mesh.faces.len() as u32).map(|c| c / 3).collect(),
-                normals: self.face_normals.clone(),
-            },
-            NormalSource::Smooth => CornerNormals {
-                fan: mesh.faces.iter().flatten().copied().collect(),
-                normals: self.vertex_normals.clone(),
-            },
+            NormalSource::Flat => CornerNormals::flat(mesh, self.face_normals.clone()),
+            NormalSource::Smooth => CornerNormals::smooth(mesh, self.vertex_normals.clone()),
             NormalSource::Crease => self.crease_normals(mesh, rule.crease_angle.to_radians().cos()),
         }
     }
@@ -590,18 +689,8 @@ impl MeshGeometry {
         // One normal per fan, summed then normalized, and each corner's fan: 24 bytes per face
         // and 8 per fan instead of 72 per face (corner normals were the largest allocation of a
         // 1.1 M-face conversion). Angles are recomputed here rather than kept per face.
-        let mut fan = vec![0u32; 3 * mesh.faces.len()];
-        let mut normals = Vec::new();
-        for c in 0..fan.len() {
-            let root = fans.find(c);
-            // A root is the lowest corner of its fan (`union`): met before the fan's others.
-            fan[c] = if root == c {
-                normals.push(DVec3::ZERO);
-                (normals.len() - 1) as u32
-            } else {
-                fan[root]
-            };
-        }
+        let (fan, fan_count) = fans.into_sets();
+        let mut normals = vec![DVec3::ZERO; fan_count];
         for (f, t) in mesh.faces.iter().enumerate() {
             if self.degenerate[f] {
                 continue;
@@ -625,6 +714,22 @@ pub struct CornerNormals {
 }
 
 impl CornerNormals {
+    /// Each corner takes its face's normal.
+    fn flat(mesh: &Mesh, face_normals: Vec<DVec3>) -> CornerNormals {
+        CornerNormals {
+            fan: (0..3 * mesh.faces.len() as u32).map(|c| c / 3).collect(),
+            normals: face_normals,
+        }
+    }
+
+    /// Each corner takes its vertex's normal.
+    fn smooth(mesh: &Mesh, vertex_normals: Vec<DVec3>) -> CornerNormals {
+        CornerNormals {
+            fan: mesh.faces.iter().flatten().copied().collect(),
+            normals: vertex_normals,
+        }
+    }
+
     /// The normals at face `f`'s three corners.
     pub fn face(&self, f: usize) -> [DVec3; 3] {
         std::array::from_fn(|k| self.normals[self.fan[3 * f + k] as usize])
@@ -662,6 +767,27 @@ impl UnionFind {
         let (ra, rb) = (self.find(a), self.find(b));
         let (lo, hi) = (ra.min(rb), ra.max(rb));
         self.parent[hi] = lo as u32;
+    }
+
+    /// Each element's set, numbered 0, 1, ... in the order of their lowest elements, written
+    /// over the parents (no second array as large), and how many sets there are. A root is the lowest element of its set
+    /// (`union`), so every parent is at most its child: in ascending order each element's
+    /// parent already holds its root, then its root already holds the set's number.
+    fn into_sets(mut self) -> (Vec<u32>, usize) {
+        for x in 0..self.parent.len() {
+            self.parent[x] = self.parent[self.parent[x] as usize];
+        }
+        let mut sets = 0;
+        for x in 0..self.parent.len() {
+            let root = self.parent[x] as usize;
+            self.parent[x] = if root == x {
+                sets += 1;
+                sets - 1
+            } else {
+                self.parent[root]
+            };
+        }
+        (self.parent, sets as usize)
     }
 }
 
@@ -754,6 +880,82 @@ mod tests {
         let welded = MeshGeometry::new(&soup);
         assert_eq!(welded.duplicate_vertices, 96 - 25);
         assert_eq!(welded.edge_counts, clean.edge_counts);
+    }
+
+    /// The adjacency by brute force over a map from each welded edge to the faces on it (in
+    /// face order, with the direction each walks it): what `EdgeAdjacency` must equal.
+    fn adjacency_by_edge_map(mesh: &Mesh, g: &MeshGeometry) -> (Vec<Vec<u32>>, Vec<Vec<u32>>) {
+        let nf = mesh.faces.len();
+        let mut on_edge: std::collections::HashMap<(u32, u32), Vec<(u32, bool)>> =
+            Default::default();
+        for f in (0..nf).filter(|&f| !g.degenerate[f]) {
+            let w = mesh.faces[f].map(|v| g.weld[v as usize]);
+            for k in 0..3 {
+                let (a, b) = (w[k], w[(k + 1) % 3]);
+                on_edge
+                    .entry((a.min(b), a.max(b)))
+                    .or_default()
+                    .push((f as u32, a < b));
+            }
+        }
+        let mut neighbors = vec![Vec::new(); nf];
+        let mut manifold: Vec<Vec<((u32, u32), u32)>> = vec![Vec::new(); nf];
+        for (&key, faces) in &on_edge {
+            for &(f, _) in faces {
+                neighbors[f as usize].extend(faces.iter().map(|p| p.0).filter(|&x| x != f));
+            }
+            if let [(f, df), (h, dh)] = faces[..] {
+                let bit = if df != dh { AGREE_BIT } else { 0 };
+                manifold[f as usize].push((key, h | bit));
+                manifold[h as usize].push((key, f | bit));
+            }
+        }
+        for n in &mut neighbors {
+            n.sort_unstable();
+            n.dedup();
+        }
+        let manifold = manifold
+            .into_iter()
+            .map(|mut m| {
+                m.sort_unstable();
+                m.into_iter().map(|(_, x)| x).collect()
+            })
+            .collect();
+        (neighbors, manifold)
+    }
+
+    #[test]
+    fn adjacency_matches_an_edge_map() {
+        // Winding flips, a non-manifold fin, a duplicated face, a degenerate one and a soup.
+        let mut mesh = grid();
+        for f in [0, 7, 20] {
+            mesh.faces[f].swap(1, 2);
+        }
+        mesh.positions.push(DVec3::new(1.5, 1.5, 1.0));
+        mesh.faces.push([6, 12, 25]);
+        mesh.faces.push(mesh.faces[9]);
+        mesh.faces.push([3, 3, 4]);
+        let soup = Mesh {
+            positions: mesh
+                .faces
+                .iter()
+                .flatten()
+                .map(|&v| mesh.positions[v as usize])
+                .collect(),
+            faces: (0..mesh.faces.len() as u32)
+                .map(|f| [3 * f, 3 * f + 1, 3 * f + 2])
+                .collect(),
+            colors: None,
+            appearance: Appearance::default(),
+        };
+        for m in [&mesh, &soup, &cube()] {
+            let g = MeshGeometry::new(m);
+            let (neighbors, manifold) = adjacency_by_edge_map(m, &g);
+            for f in 0..m.faces.len() {
+                assert_eq!(g.face_neighbors.row(f), &neighbors[f][..], "face {f}");
+                assert_eq!(g.manifold_neighbors.row(f), &manifold[f][..], "face {f}");
+            }
+        }
     }
 
     #[test]

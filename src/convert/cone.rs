@@ -23,7 +23,7 @@ use super::options::ConvertOptions;
 use super::progress::Progress;
 use super::vsa::{Candidate, MeshPartition, NONE};
 use crate::error::Result;
-use crate::mesh::MeshGeometry;
+use crate::mesh::{Mesh, MeshGeometry};
 
 /// A ball holding points (centroids), merged as the smallest ball holding both.
 #[derive(Clone, Copy, Debug)]
@@ -130,6 +130,7 @@ impl Sheet {
 
 /// Charts as they grow: a label per mesh face and each chart's axis and ball.
 struct Grower<'a> {
+    mesh: &'a Mesh,
     geo: &'a MeshGeometry,
     limits: ConeLimits,
     /// cos of `limits.half_angle`: a face fits an axis if normal·axis is at least this.
@@ -148,7 +149,7 @@ struct Grower<'a> {
 
 impl Grower<'_> {
     fn cost(&self, f: usize, origin: DVec3, axis: DVec3) -> f64 {
-        let d2 = (self.geo.centroids[f] - origin).length_squared() / self.limits.radius.powi(2);
+        let d2 = (self.mesh.centroid(f) - origin).length_squared() / self.limits.radius.powi(2);
         d2 + (self.geo.face_normals[f] - axis).length_squared()
     }
 
@@ -185,7 +186,7 @@ impl Grower<'_> {
     /// Grows chart `id` from `seed` until no neighbouring face fits; returns its face count.
     fn grow(&mut self, seed: u32, id: u32) -> usize {
         let geo = self.geo;
-        let origin = geo.centroids[seed as usize];
+        let origin = self.mesh.centroid(seed as usize);
         let axis = self.seed_axis(seed);
         let mut ball = Ball {
             centre: origin,
@@ -203,7 +204,7 @@ impl Grower<'_> {
             if self.labels[f] != NONE {
                 continue;
             }
-            let c = geo.centroids[f];
+            let c = self.mesh.centroid(f);
             if geo.face_normals[f].dot(axis) < self.min_cos
                 || (c - origin).length() > self.limits.radius
                 || !sheet.fits(c)
@@ -242,6 +243,7 @@ impl Grower<'_> {
 /// The cone partition of the mesh's `active` faces (see the module's comment), reporting the
 /// faces placed as progress of stage "partition".
 pub fn partition_mesh(
+    mesh: &Mesh,
     geo: &MeshGeometry,
     active: &[u32],
     opts: &ConvertOptions,
@@ -250,6 +252,7 @@ pub fn partition_mesh(
     let n = geo.degenerate.len();
     let limits = ConeLimits::of(opts, geo.diagonal);
     let mut g = Grower {
+        mesh,
         geo,
         limits,
         min_cos: limits.half_angle.cos(),
@@ -403,7 +406,6 @@ fn merge(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::Mesh;
 
     /// A unit square of n x n quads whose heights are a fixed pseudo-random pattern of up to
     /// `amplitude` (a rough height field: slopes up to about 2 * amplitude * n).
@@ -432,12 +434,12 @@ mod tests {
         let mesh = rough_square(40, 0.0125);
         let geo = MeshGeometry::new(&mesh);
         let active: Vec<u32> = (0..mesh.faces.len() as u32).collect();
-        let p = partition_mesh(&geo, &active, &opts, Progress::silent()).unwrap();
+        let p = partition_mesh(&mesh, &geo, &active, &opts, Progress::silent()).unwrap();
         assert_eq!(p.groups.len(), 1);
         // Up to ~80 degrees: more charts, every face in one, none folding.
         let mesh = rough_square(40, 0.08);
         let geo = MeshGeometry::new(&mesh);
-        let p = partition_mesh(&geo, &active, &opts, Progress::silent()).unwrap();
+        let p = partition_mesh(&mesh, &geo, &active, &opts, Progress::silent()).unwrap();
         assert!(p.groups.len() > 1);
         let placed: usize = p.groups.iter().map(Vec::len).sum();
         assert_eq!(placed, mesh.faces.len());

@@ -7,13 +7,16 @@ use super::accuracy::SetError;
 use super::options::ConvertOptions;
 use super::repair::Folding;
 use crate::gtex::{GeometryTextureSet, Patch, Stats};
-use crate::mesh::{Mesh, MeshGeometry};
+use crate::mesh::{EdgeCounts, Mesh};
 
 /// What the stages counted on their way, for the stats table.
 pub struct StageFigures {
     pub inconsistent_edges: usize,
     pub flipped_faces: usize,
     pub degenerate_faces: usize,
+    /// Vertices that repeat an earlier vertex's position (`MeshGeometry`).
+    pub duplicate_vertices: usize,
+    pub edge_counts: EdgeCounts,
     pub vsa_charts: usize,
     pub vsa_mean_error: f64,
     /// The chart cap stopped the partition before its target.
@@ -22,6 +25,8 @@ pub struct StageFigures {
     /// Of those, charts split because they lay in two sheets (`sheets`), not because they folded.
     pub sheet_splits: usize,
     pub folding_before: Folding,
+    /// Counted in the charts' frames, as the patches keep them.
+    pub folding_after: Folding,
     pub ring_faces_skipped: usize,
     pub reconstruction: SetError,
     /// Each patch's reconstruction error.
@@ -30,13 +35,14 @@ pub struct StageFigures {
     pub max_error: Option<f64>,
 }
 
-/// The stats of `set`, converted from `mesh` (wound consistently; `geo` is its geometry).
+/// The stats of `set`, converted from `mesh` (wound consistently; `diagonal` is its bounding
+/// box's).
 pub fn stats(
     mesh: &Mesh,
-    geo: &MeshGeometry,
     opts: &ConvertOptions,
     set: &GeometryTextureSet,
     figures: StageFigures,
+    diagonal: f64,
 ) -> Stats {
     let mut stats = Stats::default();
     if let Some(e) = figures.max_error {
@@ -45,14 +51,10 @@ pub fn stats(
         stats.set("max_error", e);
         stats.set("charts_over_max_error", over as f64);
     }
-    let after = Folding::count(
-        geo,
-        set.patches.iter().map(|p| (p.faces.as_slice(), p.axes[2])),
-    );
-    for (name, v) in mesh_figures(mesh, geo, &figures)
+    for (name, v) in mesh_figures(mesh, &figures)
         .into_iter()
-        .chain(chart_figures(opts, set, &figures, after))
-        .chain(map_figures(opts, set, &figures, geo.diagonal))
+        .chain(chart_figures(opts, set, &figures))
+        .chain(map_figures(opts, set, &figures, diagonal))
     {
         stats.set(name, v);
     }
@@ -74,18 +76,14 @@ pub fn stats(
 }
 
 /// What the input mesh was like.
-fn mesh_figures(
-    mesh: &Mesh,
-    geo: &MeshGeometry,
-    figures: &StageFigures,
-) -> [(&'static str, f64); 8] {
+fn mesh_figures(mesh: &Mesh, figures: &StageFigures) -> [(&'static str, f64); 8] {
     [
         ("faces", mesh.faces.len() as f64),
         ("vertices", mesh.positions.len() as f64),
         ("degenerate_faces", figures.degenerate_faces as f64),
-        ("duplicate_vertices", geo.duplicate_vertices as f64),
-        ("boundary_edges", geo.edge_counts.boundary as f64),
-        ("nonmanifold_edges", geo.edge_counts.nonmanifold as f64),
+        ("duplicate_vertices", figures.duplicate_vertices as f64),
+        ("boundary_edges", figures.edge_counts.boundary as f64),
+        ("nonmanifold_edges", figures.edge_counts.nonmanifold as f64),
         ("inconsistent_edges", figures.inconsistent_edges as f64),
         ("flipped_faces", figures.flipped_faces as f64),
     ]
@@ -96,9 +94,8 @@ fn chart_figures(
     opts: &ConvertOptions,
     set: &GeometryTextureSet,
     figures: &StageFigures,
-    after: Folding,
 ) -> [(&'static str, f64); 15] {
-    let before = figures.folding_before;
+    let (before, after) = (figures.folding_before, figures.folding_after);
     let ring_faces: usize = set.patches.iter().map(|p| p.ring_faces.len()).sum();
     [
         ("charts", set.patches.len() as f64),

@@ -32,7 +32,7 @@ pub use progress::Progress;
 
 use crate::error::{GeomtexError, Result};
 use crate::gtex::{GeometryTextureSet, Patch};
-use crate::mesh::{Mesh, MeshGeometry};
+use crate::mesh::{CornerNormals, EdgeCounts, Mesh, MeshGeometry};
 use accuracy::SetError;
 use draw::{ChartDrawer, Drawn};
 use figures::StageFigures;
@@ -229,9 +229,11 @@ fn chart_stages(
     stages.begin("partition")?;
     let partition = match opts.partition_method() {
         PartitionMethod::Cone => {
-            cone::partition_mesh(geo, &prepared.active, opts, stages.progress)?
+            cone::partition_mesh(mesh, geo, &prepared.active, opts, stages.progress)?
         }
-        PartitionMethod::Vsa => vsa::partition_mesh(geo, &prepared.active, opts, stages.progress)?,
+        PartitionMethod::Vsa => {
+            vsa::partition_mesh(mesh, geo, &prepared.active, opts, stages.progress)?
+        }
     };
     stages.end("partition");
 
@@ -266,16 +268,28 @@ struct Rastered {
     texel: f64,
 }
 
-/// The frame, resolution, raster and dilation stages.
-fn raster_stages(
-    prepared: &Prepared,
+/// The frame stage's output: what drawing needs, and what the stats need of the mesh's
+/// geometry, which is dropped here.
+struct Framed {
+    frames: Vec<ChartFrame>,
+    corner_normals: CornerNormals,
+    duplicate_vertices: usize,
+    edge_counts: EdgeCounts,
+    diagonal: f64,
+    /// Charts whose faces do not all face their frame's z.
+    folding_after: Folding,
+}
+
+/// The frame stage: axes and the tight box of everything each chart draws, relative to a chart
+/// vertex, and the corner normals. Takes the mesh's geometry and drops it: nothing after needs
+/// its per-face arrays (most of a large mesh's memory), so the maps are drawn without them.
+fn frame_stage(
+    mesh: &Mesh,
+    geo: MeshGeometry,
     charted: &Charted,
     opts: &ConvertOptions,
-    max_error: Option<f64>,
     stages: &mut Stages,
-) -> Result<Rastered> {
-    let (mesh, geo) = (prepared.mesh.as_ref(), &prepared.geo);
-    // Frames: axes and the tight box of everything each chart draws, relative to a chart vertex.
+) -> Result<Framed> {
     stages.begin("frame")?;
     let (charts, rings) = (&charted.charts, &charted.rings);
     let frames: Vec<ChartFrame> = charts
@@ -283,21 +297,50 @@ fn raster_stages(
         .zip(rings)
         .map(|(c, ring)| ChartFrame::new(mesh, &c.faces, &ring.faces, c.z, opts.in_plane))
         .collect();
-    let corner_normals = geo.corner_normals(mesh, opts.normals);
+    let folding_after = Folding::count(
+        &geo,
+        charts
+            .iter()
+            .zip(&frames)
+            .map(|(c, f)| (c.faces.as_slice(), f.axes[2])),
+    );
+    let (duplicate_vertices, edge_counts, diagonal) =
+        (geo.duplicate_vertices, geo.edge_counts, geo.diagonal);
+    let corner_normals = geo.into_corner_normals(mesh, opts.normals);
+    stages.end("frame");
+    Ok(Framed {
+        frames,
+        corner_normals,
+        duplicate_vertices,
+        edge_counts,
+        diagonal,
+        folding_after,
+    })
+}
+
+/// The resolution, raster and dilation stages.
+fn raster_stages(
+    mesh: &Mesh,
+    charted: &Charted,
+    framed: &Framed,
+    opts: &ConvertOptions,
+    max_error: Option<f64>,
+    stages: &mut Stages,
+) -> Result<Rastered> {
+    let (charts, rings, frames) = (&charted.charts, &charted.rings, &framed.frames);
     let drawer = ChartDrawer {
         mesh,
-        corner_normals: &corner_normals,
+        corner_normals: &framed.corner_normals,
         opts,
-        texel: resolution::common_texel(&frames, opts, geo.diagonal),
+        texel: resolution::common_texel(frames, opts, framed.diagonal),
         per_chart_texel: max_error.is_some(),
     };
-    stages.end("frame");
-
     let own_and_ring = charts
         .iter()
         .zip(rings)
         .map(|(c, r)| (c.faces.as_slice(), r.faces.as_slice()));
-    let jobs = drawer.jobs(own_and_ring, &frames);
+    let jobs = drawer.jobs(own_and_ring, frames);
+    profile::memory("jobs");
     let texels: Vec<f64> = match max_error {
         None => vec![drawer.texel; jobs.len()],
         Some(e) => {
@@ -380,15 +423,24 @@ fn convert_once(
     let mut stages = Stages::new(progress);
     stages.begin("geometry")?;
     let prepared = prepare(mesh, progress)?;
-    let (mesh, geo) = (prepared.mesh.as_ref(), &prepared.geo);
     stages.end("geometry");
 
     let charted = chart_stages(&prepared, opts, &mut stages)?;
     let max_error = opts
         .max_error
-        .or(opts.max_error_rel.map(|r| r * geo.diagonal));
+        .or(opts.max_error_rel.map(|r| r * prepared.geo.diagonal));
+    let Prepared {
+        mesh,
+        geo,
+        active,
+        inconsistent_edges,
+        flipped_faces,
+    } = prepared;
+    let degenerate_faces = mesh.faces.len() - active.len();
+    drop(active);
+    let framed = frame_stage(&mesh, geo, &charted, opts, &mut stages)?;
     let Rastered { mut drawn, texel } =
-        raster_stages(&prepared, &charted, opts, max_error, &mut stages)?;
+        raster_stages(&mesh, &charted, &framed, opts, max_error, &mut stages)?;
 
     let patch_errors: Vec<f64> = drawn.iter().map(|d| d.error).collect();
     let reconstruction = SetError::of(
@@ -399,9 +451,12 @@ fn convert_once(
     );
     let ring_faces_skipped = charted.rings.iter().map(|r| r.skipped).sum();
     let figures = StageFigures {
-        inconsistent_edges: prepared.inconsistent_edges,
-        flipped_faces: prepared.flipped_faces,
-        degenerate_faces: mesh.faces.len() - prepared.active.len(),
+        inconsistent_edges,
+        flipped_faces,
+        degenerate_faces,
+        duplicate_vertices: framed.duplicate_vertices,
+        edge_counts: framed.edge_counts,
+        folding_after: framed.folding_after,
         vsa_charts: charted.vsa_charts,
         vsa_mean_error: charted.vsa_mean_error,
         charts_capped: charted.charts_capped,
@@ -433,10 +488,12 @@ fn convert_once(
         texel_size,
         stats: Default::default(),
     };
-    set.stats = figures::stats(mesh, geo, opts, &set, figures);
+    profile::memory("patches");
+    set.stats = figures::stats(&mesh, opts, &set, figures, framed.diagonal);
     set.stats.seconds = stages.into_seconds();
     set.validate()
         .map_err(|e| GeomtexError::Internal(format!("conversion made an impossible set: {e}")))?;
+    profile::memory("stats");
     profile::report();
     progress.report("done", 1.0)?;
     Ok(set)

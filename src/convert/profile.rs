@@ -3,6 +3,11 @@
 //! stderr when a conversion ends. The stage seconds in `stats["seconds"]` say which stage is
 //! slow; these say which part of it, without a profiler on the loaded CI machines.
 //!
+//! With profiling on, each stage's end also prints the process's resident memory (VmRSS) and
+//! its peak over the stage (VmHWM, reset through /proc/self/clear_refs when the stage ends, so
+//! each line is that stage's own peak; the largest is printed with the totals). Linux only;
+//! elsewhere the memory lines are left out.
+//!
 //! Space: none.
 
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -58,11 +63,45 @@ pub fn timed<T>(phase: Phase, work: impl FnOnce() -> T) -> T {
     out
 }
 
+/// Largest VmHWM a stage's line printed since the last `report`, KiB.
+static PEAK_KIB: AtomicU64 = AtomicU64::new(0);
+
+/// A field of /proc/self/status in KiB, if there is one.
+fn status_kib(field: &str) -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with(field))?;
+    line[field.len()..].split_whitespace().next()?.parse().ok()
+}
+
+/// When profiling is on: prints the resident memory now and its peak since the last mark
+/// (`what` names the interval that ended), then starts the next interval's peak from here.
+pub fn memory(what: &str) {
+    if !enabled() {
+        return;
+    }
+    let (Some(rss), Some(hwm)) = (status_kib("VmRSS:"), status_kib("VmHWM:")) else {
+        return;
+    };
+    PEAK_KIB.fetch_max(hwm, Ordering::Relaxed);
+    eprintln!(
+        "geomtex profile: memory {what:18} rss {:8.1} MB  peak {:8.1} MB",
+        rss as f64 / 1024.0,
+        hwm as f64 / 1024.0
+    );
+    // "5" resets VmHWM to VmRSS (proc(5)); without it each line shows the running maximum.
+    let _ = std::fs::write("/proc/self/clear_refs", "5");
+}
+
 /// Prints and clears the totals when profiling is on.
 pub fn report() {
     if !enabled() {
         return;
     }
+    let peak = PEAK_KIB.swap(0, Ordering::Relaxed);
+    eprintln!(
+        "geomtex profile: memory peak of the stages {:8.1} MB",
+        peak as f64 / 1024.0
+    );
     for (k, name) in PHASES.iter().enumerate() {
         let nanos = NANOS[k].swap(0, Ordering::Relaxed);
         let count = COUNTS[k].swap(0, Ordering::Relaxed);

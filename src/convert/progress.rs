@@ -103,6 +103,7 @@ pub struct Stages<'a> {
 
 impl<'a> Stages<'a> {
     pub fn new(progress: Progress<'a>) -> Stages<'a> {
+        super::profile::memory("before");
         let now = Instant::now();
         Stages {
             progress,
@@ -123,6 +124,7 @@ impl<'a> Stages<'a> {
         self.seconds
             .push((stage.into(), (now - self.lap_start).as_secs_f64()));
         self.lap_start = now;
+        super::profile::memory(stage);
     }
 
     /// Every stage's seconds and the total.

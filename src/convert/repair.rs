@@ -99,11 +99,11 @@ pub fn repair(mesh: &Mesh, geo: &MeshGeometry, groups: Vec<Vec<u32>>) -> Repaire
             match verdict {
                 Verdict::Fine(z) => charts.push(Chart { faces, z }),
                 Verdict::Folds(z) => {
-                    next.extend(split(geo, &faces, z, &mut scratch));
+                    next.extend(split(mesh, geo, &faces, z, &mut scratch));
                     splits += 1;
                 }
                 Verdict::Sheets(a, b) => {
-                    next.extend(sheets::split_between(geo, &faces, [a, b]));
+                    next.extend(sheets::split_between(mesh, geo, &faces, [a, b]));
                     splits += 1;
                     sheet_splits += 1;
                 }
@@ -126,8 +126,14 @@ pub fn repair(mesh: &Mesh, geo: &MeshGeometry, groups: Vec<Vec<u32>>) -> Repaire
 }
 
 /// A folding chart's two (rarely more) parts.
-fn split(geo: &MeshGeometry, faces: &[u32], z: DVec3, scratch: &mut [u32]) -> Vec<Vec<u32>> {
-    let sub = FaceSet::new(geo, faces, scratch);
+fn split(
+    mesh: &Mesh,
+    geo: &MeshGeometry,
+    faces: &[u32],
+    z: DVec3,
+    scratch: &mut [u32],
+) -> Vec<Vec<u32>> {
+    let sub = FaceSet::new(mesh, geo, faces, scratch);
     let parts = vsa::split_in_two(&sub, z).groups(&sub);
     if parts.len() >= 2 {
         return parts;

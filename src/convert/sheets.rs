@@ -153,7 +153,12 @@ fn height_at(t: &Flat, p: DVec2) -> Option<f64> {
 
 /// `faces` in two parts: each face goes to the seed it is nearer to along the chart's surface
 /// (centroid to centroid across shared edges). Faces no path reaches join the first part.
-pub fn split_between(geo: &MeshGeometry, faces: &[u32], seeds: [u32; 2]) -> Vec<Vec<u32>> {
+pub fn split_between(
+    mesh: &Mesh,
+    geo: &MeshGeometry,
+    faces: &[u32],
+    seeds: [u32; 2],
+) -> Vec<Vec<u32>> {
     let n = faces.len();
     let mut faces_sorted = faces.to_vec();
     faces_sorted.sort_unstable();
@@ -181,7 +186,7 @@ pub fn split_between(geo: &MeshGeometry, faces: &[u32], seeds: [u32; 2]) -> Vec<
         let f = faces_sorted[k] as usize;
         for &nb in geo.face_neighbors.row(f) {
             let Some(m) = index(nb) else { continue };
-            let step = (geo.centroids[nb as usize] - geo.centroids[f]).length();
+            let step = (mesh.centroid(nb as usize) - mesh.centroid(f)).length();
             if d + step < distance[m] {
                 distance[m] = d + step;
                 owner[m] = owner[k];
@@ -239,7 +244,7 @@ mod tests {
         let geo = MeshGeometry::new(&mesh);
         let (a, b) = overlapping_faces(&mesh, &geo, &all(&mesh), DVec3::Z).expect("two sheets");
         // The two faces lie a turn apart: 0.5 in height.
-        let dz = (geo.centroids[a as usize].z - geo.centroids[b as usize].z).abs();
+        let dz = (mesh.centroid(a as usize).z - mesh.centroid(b as usize).z).abs();
         assert!((dz - 0.5).abs() < 0.1, "{dz}");
 
         let repaired = repair::repair(&mesh, &geo, vec![all(&mesh)]);

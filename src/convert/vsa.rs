@@ -17,7 +17,7 @@ use super::options::ConvertOptions;
 use super::progress::Progress;
 use crate::cancel::{Cancel, NEVER};
 use crate::error::Result;
-use crate::mesh::{Csr, MeshGeometry};
+use crate::mesh::{Csr, Mesh, MeshGeometry};
 
 pub const NONE: u32 = u32::MAX;
 
@@ -38,7 +38,7 @@ pub struct FaceSet {
 
 impl FaceSet {
     /// `local_of` is scratch of one entry per mesh face, all NONE on entry and on return.
-    pub fn new(geo: &MeshGeometry, faces: &[u32], local_of: &mut [u32]) -> FaceSet {
+    pub fn new(mesh: &Mesh, geo: &MeshGeometry, faces: &[u32], local_of: &mut [u32]) -> FaceSet {
         for (l, &g) in faces.iter().enumerate() {
             local_of[g as usize] = l as u32;
         }
@@ -62,7 +62,7 @@ impl FaceSet {
                 .map(|&g| geo.face_normals[g as usize])
                 .collect(),
             areas: faces.iter().map(|&g| geo.face_areas[g as usize]).collect(),
-            centroids: faces.iter().map(|&g| geo.centroids[g as usize]).collect(),
+            centroids: faces.iter().map(|&g| mesh.centroid(g as usize)).collect(),
             neighbors,
             spread: Vec::new(),
         }
@@ -165,13 +165,14 @@ pub struct MeshPartition {
 
 /// Partitions the mesh's `active` (non-degenerate) faces as the options say.
 pub fn partition_mesh(
+    mesh: &Mesh,
     geo: &MeshGeometry,
     active: &[u32],
     opts: &ConvertOptions,
     progress: Progress,
 ) -> Result<MeshPartition> {
     let mut scratch = vec![NONE; geo.degenerate.len()];
-    let set = FaceSet::new(geo, active, &mut scratch);
+    let set = FaceSet::new(mesh, geo, active, &mut scratch);
     drop(scratch);
     let target = match opts.charts {
         Some(n) => ChartTarget::Count(n),
@@ -844,7 +845,7 @@ mod tests {
         let geo = MeshGeometry::new(&m);
         let all: Vec<u32> = (0..m.faces.len() as u32).collect();
         let mut scratch = vec![NONE; m.faces.len()];
-        let set = FaceSet::new(&geo, &all, &mut scratch);
+        let set = FaceSet::new(&m, &geo, &all, &mut scratch);
         let p = partition(&set, ChartTarget::Count(6), 10, 0.0, Progress::silent()).unwrap();
         assert_eq!(p.proxies.len(), 6);
         for (f, &l) in p.labels.iter().enumerate() {
@@ -865,7 +866,7 @@ mod tests {
         }
         let geo = MeshGeometry::new(&m);
         let all: Vec<u32> = (0..m.faces.len() as u32).collect();
-        let set = FaceSet::new(&geo, &all, &mut vec![NONE; m.faces.len()]);
+        let set = FaceSet::new(&m, &geo, &all, &mut vec![NONE; m.faces.len()]);
         let target = ChartTarget::MeanError {
             tolerance: 0.05,
             max_charts: 4096,
@@ -909,7 +910,7 @@ mod tests {
         let geo = MeshGeometry::new(&m);
         let all: Vec<u32> = (0..m.faces.len() as u32).collect();
         let mut scratch = vec![NONE; m.faces.len()];
-        let set = FaceSet::new(&geo, &all, &mut scratch);
+        let set = FaceSet::new(&m, &geo, &all, &mut scratch);
         let p = partition(
             &set,
             ChartTarget::MeanError {

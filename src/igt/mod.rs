@@ -255,8 +255,8 @@ fn map_grid(mesh: &Mesh, primary: Primary, resolution: u32) -> Result<Grid> {
             "every face is degenerate: the mesh has no area to map".into(),
         ));
     }
-    let centroid = (geo.centroids.iter().zip(&geo.face_areas))
-        .map(|(c, a)| *c * *a)
+    let centroid = (0..mesh.faces.len())
+        .map(|f| mesh.centroid(f) * geo.face_areas[f])
         .sum::<DVec3>()
         / total;
     let (lo, hi) = mesh.bounds();
