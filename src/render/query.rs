@@ -190,7 +190,8 @@ impl Renderer {
         })
     }
 
-    /// Which of `count` rays hit anything (any hit), their indices in order, where `ray(i)`
+    /// Which of `count` rays hit anything (any hit), their indices in order, and how many rays
+    /// were traced on the device, where `ray(i)`
     /// makes ray i (world-space start, unit direction, the stretch of t that counts) or `None`
     /// for no ray. Rays are made on the fly in parallel, and only those some object's test keeps
     /// become records: a frame's shadow rays are most of its pixels, and most pass beside every
@@ -208,15 +209,17 @@ impl Renderer {
         ray: F,
         search: &SearchOptions,
         cancel: &Cancel,
-    ) -> Result<Vec<usize>>
+    ) -> Result<(Vec<usize>, usize)>
     where
         F: Fn(usize) -> Option<RangedRay> + Sync,
     {
         search.validate()?;
         let device = self.gpu.device.clone();
         guarded(&device, || {
+            let mut t = std::time::Instant::now();
             let view_from_world = DMat4::from_translation(-origin);
             let traces = self.prepare_query(scene, view_from_world, search, parallel)?;
+            super::shadow::mark("prepare_query", &mut t);
             let kept: Vec<(usize, RangedRay)> = (0..count)
                 .into_par_iter()
                 .filter_map(|i| {
@@ -225,6 +228,7 @@ impl Renderer {
                     reached.then_some((i, ((o, d), range)))
                 })
                 .collect();
+            super::shadow::mark(&format!("make+reach ({} kept)", kept.len()), &mut t);
             let batch = self.largest_batch();
             let mut hit = Vec::new();
             for chunk in kept.chunks(batch) {
@@ -235,7 +239,8 @@ impl Renderer {
                 let ids = chunk.iter().zip(found).filter(|(_, h)| h.id != -1);
                 hit.extend(ids.map(|(k, _)| k.0));
             }
-            Ok(hit)
+            super::shadow::mark(&format!("batches ({} hit)", hit.len()), &mut t);
+            Ok((hit, kept.len()))
         })
     }
 
@@ -278,6 +283,7 @@ impl Renderer {
         any_hit: bool,
     ) -> Result<Vec<QueryHitGpu>> {
         let device = &self.gpu.device;
+        let mut t = std::time::Instant::now();
         let range = |i: usize| ranges.map_or((0.0, f64::from(f32::MAX)), |r| r[i]);
         let reached: Vec<Vec<u32>> = (traces.iter())
             .map(|trace| {
@@ -290,6 +296,8 @@ impl Renderer {
                     .collect()
             })
             .collect();
+        let counts: Vec<usize> = reached.iter().map(Vec::len).collect();
+        super::shadow::mark(&format!("  reach again {counts:?}"), &mut t);
         let compact = Compact::new(rays.len(), &reached);
         let gpu_rays: Vec<QueryRayGpu> = (compact.kept.par_iter())
             .map(|&i| {
@@ -312,6 +320,7 @@ impl Renderer {
         if gpu_rays.is_empty() {
             return Ok(vec![MISS; rays.len()]);
         }
+        super::shadow::mark("  records", &mut t);
         let storage = wgpu::BufferUsages::STORAGE;
         let rays_buffer = storage_buffer(device, "query rays", bytemuck::cast_slice(&gpu_rays));
         let hits = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -344,7 +353,13 @@ impl Renderer {
                 pass.dispatch_workgroups(per_row, rows, 1);
             }
         }
+        super::shadow::mark("  encode", &mut t);
         let bytes = super::targets::read_buffer(&self.gpu, encoder, &hits)?;
+        super::shadow::mark("  submit+wait+read", &mut t);
+        let found: &[QueryHitGpu] = bytemuck::cast_slice(&bytes);
+        let mesh_hits = found.iter().filter(|h| h.id < -1).count();
+        let set_hits = found.iter().filter(|h| h.id >= 0).count();
+        super::shadow::mark(&format!("  hits: set {set_hits} mesh {mesh_hits}"), &mut t);
         Ok(compact.expand(bytemuck::cast_slice(&bytes), rays.len()))
     }
 
