@@ -56,11 +56,11 @@ const ATTACHED_BELOW: f64 = -0.1;
 
 /// Phase timers of a shadow pass, printed to stderr with `GEOMTEX_PROFILE=1` (as conversions'
 /// are): milliseconds since the last mark.
-pub(crate) fn mark(what: &str, since: &mut std::time::Instant) {
+pub(crate) fn mark(what: std::fmt::Arguments, since: &mut std::time::Instant) {
     static ON: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
     if *ON.get_or_init(|| std::env::var_os("GEOMTEX_PROFILE").is_some_and(|v| v != "0")) {
         eprintln!(
-            "geomtex shadow: {what:24} {:8.2} ms",
+            "geomtex shadow: {:8.2} ms {what}",
             since.elapsed().as_secs_f64() * 1e3
         );
     }
@@ -151,7 +151,7 @@ impl Renderer {
                 .collect(),
         };
         let offset = start_offset(scene);
-        mark("casters+offset", &mut t);
+        mark(format_args!("casters+offset"), &mut t);
         let mut shadow = vec![false; frame.depth.len()];
         if !casters.objects.is_empty() {
             let traced = std::time::Instant::now();
@@ -176,7 +176,7 @@ impl Renderer {
             };
             let (occluded, traced_rays) =
                 self.occluded(&casters, eye, parallel, n, ray, search, cancel)?;
-            mark("occluded", &mut t);
+            mark(format_args!("occluded"), &mut t);
             shadow = marked.into_iter().map(AtomicBool::into_inner).collect();
             let attached = shadow.iter().filter(|&&s| s).count();
             for i in occluded {
@@ -192,7 +192,7 @@ impl Renderer {
             }
         }
         mark(
-            &format!(
+            format_args!(
                 "mark+darken ({} attached)",
                 frame.shadow_attached.unwrap_or(0)
             ),
@@ -213,6 +213,8 @@ struct ShadowRays<'a> {
     forward: DVec3,
     frame: &'a Frame,
     light: &'a Light,
+    /// A directional light's unit direction toward it, normalized once rather than per pixel.
+    toward_parallel: Option<DVec3>,
     offset: f64,
 }
 
@@ -235,6 +237,10 @@ impl<'a> ShadowRays<'a> {
             forward: camera.forward(),
             frame,
             light,
+            toward_parallel: match *light {
+                Light::Directional { .. } => Some(light.toward(DVec3::ZERO).0),
+                Light::Point { .. } => None,
+            },
             offset,
         })
     }
@@ -244,11 +250,15 @@ impl<'a> ShadowRays<'a> {
     /// toward the light) and the stretch that counts.
     fn pixel(&self, i: usize) -> Option<PixelShadow> {
         let (point, n) = self.surface(i)?;
-        if n.dot(self.light.toward(point).0) < ATTACHED_BELOW {
+        let toward = |p| match self.toward_parallel {
+            Some(d) => (d, f64::MAX),
+            None => self.light.toward(p),
+        };
+        if n.dot(toward(point).0) < ATTACHED_BELOW {
             return Some(PixelShadow::Attached);
         }
         let start = point + n * self.offset;
-        let (toward, distance) = self.light.toward(start);
+        let (toward, distance) = toward(start);
         Some(PixelShadow::Ray(((start, toward), (self.offset, distance))))
     }
 
