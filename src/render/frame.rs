@@ -51,6 +51,9 @@ pub struct Frame {
     pub shadow_trace_ms: Option<f64>,
     /// With a light: pixels shadowed without a ray, their surface facing away from the light.
     pub shadow_attached: Option<u64>,
+    /// With a light: shadow rays traced on the device (those some caster's test kept: the rest
+    /// pass beside every caster, or are attached).
+    pub shadow_traced: Option<u64>,
     /// With surfel objects in the scene: what their passes drew.
     pub surfels: Option<SurfelCounts>,
     /// With an inverse geometric texture in the scene (kinds/igt.rs): per pixel the detailed
@@ -152,6 +155,10 @@ impl Frame {
                     "shadow_attached_pixels",
                     count(self.shadow_attached.unwrap_or(0) as usize),
                 ),
+                (
+                    "shadow_rays_traced",
+                    count(self.shadow_traced.unwrap_or(0) as usize),
+                ),
             ]);
         }
         if let Some(s) = &self.surfels {
@@ -216,6 +223,7 @@ mod tests {
             shadow_ms: None,
             shadow_trace_ms: None,
             shadow_attached: None,
+            shadow_traced: None,
             surfels: None,
             face_id: None,
             barycentric: None,

@@ -324,6 +324,7 @@ impl Renderer {
             shadow_ms: None,
             shadow_trace_ms: None,
             shadow_attached: None,
+            shadow_traced: None,
             surfels,
             face_id: None,
             barycentric: None,

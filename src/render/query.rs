@@ -124,6 +124,51 @@ fn checked_rays(rays: &[(DVec3, DVec3)]) -> Result<Vec<(DVec3, DVec3)>> {
     Ok(rays.par_iter().map(|&(o, d)| (o, d / d.length())).collect())
 }
 
+/// The traces whose test keeps a ray (query frame): bit k for trace k below 63, bit 63 for any
+/// of the rest (`masked_reach` tests those again).
+fn reach_mask(traces: &[TraceCall], o: DVec3, d: DVec3, range: (f64, f64)) -> u64 {
+    (traces.iter().enumerate())
+        .filter(|(_, t)| (t.reaches)(o, d, range))
+        .fold(0, |mask, (k, _)| mask | 1 << k.min(63))
+}
+
+/// Per trace, the rays (indices into `count` rays, `ray(i)` in world space) its test keeps.
+fn reached_by<F>(traces: &[TraceCall], count: usize, ray: F, centre: DVec3) -> Vec<Vec<u32>>
+where
+    F: Fn(usize) -> RangedRay + Sync,
+{
+    let masks: Vec<u64> = (0..count)
+        .into_par_iter()
+        .map(|i| {
+            let ((o, d), range) = ray(i);
+            reach_mask(traces, o - centre, d, range)
+        })
+        .collect();
+    masked_reach(traces, &masks, ray, centre)
+}
+
+/// `reached_by` from each ray's `reach_mask`: traces past the 63rd test the rays of bit 63 again.
+fn masked_reach<F>(traces: &[TraceCall], masks: &[u64], ray: F, centre: DVec3) -> Vec<Vec<u32>>
+where
+    F: Fn(usize) -> RangedRay + Sync,
+{
+    (traces.iter().enumerate())
+        .map(|(k, trace)| {
+            (0..masks.len() as u32)
+                .into_par_iter()
+                .filter(|&i| {
+                    let mask = masks[i as usize];
+                    if k < 63 {
+                        return mask >> k & 1 == 1;
+                    }
+                    let ((o, d), range) = ray(i as usize);
+                    mask >> 63 == 1 && (trace.reaches)(o - centre, d, range)
+                })
+                .collect()
+        })
+        .collect()
+}
+
 impl Renderer {
     /// The nearest hit of each ray (origin, direction) against the scene's texture sets and
     /// meshes, or with `any_hit` whether it hits anything (its first hit found, not the nearest).
@@ -177,7 +222,10 @@ impl Renderer {
             for (k, chunk) in rays.chunks(batch).enumerate() {
                 cancel.check("tracing rays")?;
                 let chunk_ranges = ranges.map(|r| &r[k * batch..k * batch + chunk.len()]);
-                let found = self.run_batch(&traces, chunk, chunk_ranges, centre, any_hit)?;
+                let range = |i: usize| chunk_ranges.map_or((0.0, f64::from(f32::MAX)), |r| r[i]);
+                let reached = reached_by(&traces, chunk.len(), |i| (chunk[i], range(i)), centre);
+                let found =
+                    self.run_batch(&traces, &reached, chunk, chunk_ranges, centre, any_hit)?;
                 for h in found {
                     let hit = h.id != -1;
                     hits.distance
@@ -190,7 +238,8 @@ impl Renderer {
         })
     }
 
-    /// Which of `count` rays hit anything (any hit), their indices in order, where `ray(i)`
+    /// Which of `count` rays hit anything (any hit), their indices in order, and how many rays
+    /// were traced on the device, where `ray(i)`
     /// makes ray i (world-space start, unit direction, the stretch of t that counts) or `None`
     /// for no ray. Rays are made on the fly in parallel, and only those some object's test keeps
     /// become records: a frame's shadow rays are most of its pixels, and most pass beside every
@@ -208,34 +257,44 @@ impl Renderer {
         ray: F,
         search: &SearchOptions,
         cancel: &Cancel,
-    ) -> Result<Vec<usize>>
+    ) -> Result<(Vec<usize>, usize)>
     where
         F: Fn(usize) -> Option<RangedRay> + Sync,
     {
         search.validate()?;
         let device = self.gpu.device.clone();
         guarded(&device, || {
+            let mut t = std::time::Instant::now();
             let view_from_world = DMat4::from_translation(-origin);
             let traces = self.prepare_query(scene, view_from_world, search, parallel)?;
-            let kept: Vec<(usize, RangedRay)> = (0..count)
+            super::shadow::mark(format_args!("prepare_query"), &mut t);
+            // Each kept ray with the traces it reaches (`reach_mask`), so that no test runs twice.
+            let kept: Vec<(usize, RangedRay, u64)> = (0..count)
                 .into_par_iter()
                 .filter_map(|i| {
                     let ((o, d), range) = ray(i)?;
-                    let reached = traces.iter().any(|t| (t.reaches)(o - origin, d, range));
-                    reached.then_some((i, ((o, d), range)))
+                    let mask = reach_mask(&traces, o - origin, d, range);
+                    (mask != 0).then_some((i, ((o, d), range), mask))
                 })
                 .collect();
+            super::shadow::mark(format_args!("make+reach ({} kept)", kept.len()), &mut t);
             let batch = self.largest_batch();
             let mut hit = Vec::new();
             for chunk in kept.chunks(batch) {
                 cancel.check("tracing rays")?;
                 let rays: Vec<(DVec3, DVec3)> = chunk.iter().map(|k| k.1 .0).collect();
                 let ranges: Vec<(f64, f64)> = chunk.iter().map(|k| k.1 .1).collect();
-                let found = self.run_batch(&traces, &rays, Some(&ranges), origin, true)?;
+                let masks: Vec<u64> = chunk.iter().map(|k| k.2).collect();
+                let reached = masked_reach(&traces, &masks, |i| chunk[i].1, origin);
+                let counts: Vec<usize> = reached.iter().map(Vec::len).collect();
+                super::shadow::mark(format_args!("  rays per trace {counts:?}"), &mut t);
+                let found =
+                    self.run_batch(&traces, &reached, &rays, Some(&ranges), origin, true)?;
                 let ids = chunk.iter().zip(found).filter(|(_, h)| h.id != -1);
                 hit.extend(ids.map(|(k, _)| k.0));
             }
-            Ok(hit)
+            super::shadow::mark(format_args!("batches ({} hit)", hit.len()), &mut t);
+            Ok((hit, kept.len()))
         })
     }
 
@@ -264,7 +323,7 @@ impl Renderer {
     }
 
     /// Traces one batch through every object's dispatch in turn (each no further than the
-    /// nearest hit so far, and each only for the rays its test says may reach it) and reads the
+    /// nearest hit so far, and each only for the rays `reached` lists for it) and reads the
     /// hits back. Only the rays some object's test keeps go to the device (`Compact`): the
     /// others are misses already, and on a software adapter uploading, clearing and reading
     /// back their records cost more than the dispatches they skip (most of a frame's shadow
@@ -272,25 +331,16 @@ impl Renderer {
     fn run_batch(
         &self,
         traces: &[TraceCall],
+        reached: &[Vec<u32>],
         rays: &[(DVec3, DVec3)],
         ranges: Option<&[(f64, f64)]>,
         centre: DVec3,
         any_hit: bool,
     ) -> Result<Vec<QueryHitGpu>> {
         let device = &self.gpu.device;
+        let mut t = std::time::Instant::now();
         let range = |i: usize| ranges.map_or((0.0, f64::from(f32::MAX)), |r| r[i]);
-        let reached: Vec<Vec<u32>> = (traces.iter())
-            .map(|trace| {
-                (0..rays.len() as u32)
-                    .into_par_iter()
-                    .filter(|&i| {
-                        let (o, d) = rays[i as usize];
-                        (trace.reaches)(o - centre, d, range(i as usize))
-                    })
-                    .collect()
-            })
-            .collect();
-        let compact = Compact::new(rays.len(), &reached);
+        let compact = Compact::new(rays.len(), reached);
         let gpu_rays: Vec<QueryRayGpu> = (compact.kept.par_iter())
             .map(|&i| {
                 let (o, d) = rays[i as usize];
@@ -312,6 +362,7 @@ impl Renderer {
         if gpu_rays.is_empty() {
             return Ok(vec![MISS; rays.len()]);
         }
+        super::shadow::mark(format_args!("  records"), &mut t);
         let storage = wgpu::BufferUsages::STORAGE;
         let rays_buffer = storage_buffer(device, "query rays", bytemuck::cast_slice(&gpu_rays));
         let hits = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -323,7 +374,7 @@ impl Renderer {
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());
             pass.set_bind_group(0, &self.frame_bindings.group, &[]);
-            for (trace, reached) in traces.iter().zip(&reached) {
+            for (trace, reached) in traces.iter().zip(reached) {
                 if reached.is_empty() {
                     continue;
                 }
@@ -344,7 +395,9 @@ impl Renderer {
                 pass.dispatch_workgroups(per_row, rows, 1);
             }
         }
+        super::shadow::mark(format_args!("  encode"), &mut t);
         let bytes = super::targets::read_buffer(&self.gpu, encoder, &hits)?;
+        super::shadow::mark(format_args!("  submit+wait+read"), &mut t);
         Ok(compact.expand(bytemuck::cast_slice(&bytes), rays.len()))
     }
 

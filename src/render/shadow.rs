@@ -54,6 +54,19 @@ const OFFSET_MESH_DIAGONAL: f64 = 1e-5;
 /// 7.8k-9.3k of the ~29k rays that reach the bunny, the ones that run through its body.
 const ATTACHED_BELOW: f64 = -0.1;
 
+/// Phase timers of a shadow pass, printed to stderr with `GEOMTEX_PROFILE=1` (as conversions'
+/// are): milliseconds since the last mark.
+pub(crate) fn mark(what: std::fmt::Arguments, since: &mut std::time::Instant) {
+    static ON: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    if *ON.get_or_init(|| std::env::var_os("GEOMTEX_PROFILE").is_some_and(|v| v != "0")) {
+        eprintln!(
+            "geomtex shadow: {:8.2} ms {what}",
+            since.elapsed().as_secs_f64() * 1e3
+        );
+    }
+    *since = std::time::Instant::now();
+}
+
 impl Light {
     pub fn validate(&self) -> Result<()> {
         let (what, v) = match self {
@@ -128,6 +141,7 @@ impl Renderer {
     ) -> Result<()> {
         light.validate()?;
         let start = std::time::Instant::now();
+        let mut t = start;
         // Surfels and shaded simplified meshes receive shadows but do not cast them: the tracer
         // does not trace them.
         let casters = Scene {
@@ -137,6 +151,7 @@ impl Renderer {
                 .collect(),
         };
         let offset = start_offset(scene);
+        mark(format_args!("casters+offset"), &mut t);
         let mut shadow = vec![false; frame.depth.len()];
         if !casters.objects.is_empty() {
             let traced = std::time::Instant::now();
@@ -159,13 +174,16 @@ impl Renderer {
                 }
                 PixelShadow::Ray(ray) => Some(ray),
             };
-            let occluded = self.occluded(&casters, eye, parallel, n, ray, search, cancel)?;
+            let (occluded, traced_rays) =
+                self.occluded(&casters, eye, parallel, n, ray, search, cancel)?;
+            mark(format_args!("occluded"), &mut t);
             shadow = marked.into_iter().map(AtomicBool::into_inner).collect();
             let attached = shadow.iter().filter(|&&s| s).count();
             for i in occluded {
                 shadow[i] = true;
             }
             frame.shadow_attached = Some(attached as u64);
+            frame.shadow_traced = Some(traced_rays as u64);
             frame.shadow_trace_ms = Some(traced.elapsed().as_secs_f64() * 1e3);
         }
         for (i, _) in shadow.iter().enumerate().filter(|(_, s)| **s) {
@@ -173,6 +191,13 @@ impl Renderer {
                 *c = (f64::from(*c) * SHADOW_BRIGHTNESS).round() as u8;
             }
         }
+        mark(
+            format_args!(
+                "mark+darken ({} attached)",
+                frame.shadow_attached.unwrap_or(0)
+            ),
+            &mut t,
+        );
         frame.shadow = Some(shadow);
         frame.shadow_ms = Some(start.elapsed().as_secs_f64() * 1e3);
         Ok(())
@@ -188,6 +213,8 @@ struct ShadowRays<'a> {
     forward: DVec3,
     frame: &'a Frame,
     light: &'a Light,
+    /// A directional light's unit direction toward it, normalized once rather than per pixel.
+    toward_parallel: Option<DVec3>,
     offset: f64,
 }
 
@@ -210,6 +237,10 @@ impl<'a> ShadowRays<'a> {
             forward: camera.forward(),
             frame,
             light,
+            toward_parallel: match *light {
+                Light::Directional { .. } => Some(light.toward(DVec3::ZERO).0),
+                Light::Point { .. } => None,
+            },
             offset,
         })
     }
@@ -219,11 +250,15 @@ impl<'a> ShadowRays<'a> {
     /// toward the light) and the stretch that counts.
     fn pixel(&self, i: usize) -> Option<PixelShadow> {
         let (point, n) = self.surface(i)?;
-        if n.dot(self.light.toward(point).0) < ATTACHED_BELOW {
+        let toward = |p| match self.toward_parallel {
+            Some(d) => (d, f64::MAX),
+            None => self.light.toward(p),
+        };
+        if n.dot(toward(point).0) < ATTACHED_BELOW {
             return Some(PixelShadow::Attached);
         }
         let start = point + n * self.offset;
-        let (toward, distance) = self.light.toward(start);
+        let (toward, distance) = toward(start);
         Some(PixelShadow::Ray(((start, toward), (self.offset, distance))))
     }
 

@@ -13,11 +13,12 @@
 //! relative to their bounding box centre ("local", f32) so f32 keeps their detail, for drawing
 //! and tracing alike; view (camera-relative); a query's frame (world translated near its rays).
 
-use std::sync::OnceLock;
+use std::sync::{Arc, Mutex, OnceLock};
 
 use glam::{DMat3, DMat4, DVec3};
 use wgpu::util::DeviceExt;
 
+use super::footprint::Footprint;
 use super::{
     bind_buffers, storage_buffer, DrawCall, FrameView, Kind, Tally, TraceCall, UploadCache,
 };
@@ -60,12 +61,14 @@ struct TracedMesh {
 
 /// Everything kept of one mesh: its uploads under each normal rule it was drawn with, its
 /// texture image (uploaded with the first of them), and its triangles for tracing, uploaded the
-/// first time it is traced.
+/// first time it is traced, and its footprint along the last direction parallel rays were
+/// traced along (the next frame's shadow rays toward the same light reuse it).
 #[derive(Default)]
 struct MeshUploads {
     drawn: Vec<(NormalRule, UploadedMesh)>,
     image: Option<wgpu::TextureView>,
     traced: OnceLock<TracedMesh>,
+    footprint: Mutex<Option<Arc<Footprint>>>,
 }
 
 pub(crate) struct MeshKind {
@@ -428,6 +431,49 @@ impl Kind for MeshKind {
             group,
             &[Aabb::of_points(corners)],
         )))
+    }
+
+    /// Parallel rays also pass the mesh's footprint along their direction (footprint.rs): one
+    /// whose line misses every triangle's projection is not traced.
+    fn trace_parallel(
+        &self,
+        gpu: &Gpu,
+        view_from_world: DMat4,
+        placed: &SceneObject,
+        ids: &mut Tally,
+        direction: DVec3,
+    ) -> Result<Option<TraceCall>> {
+        let Some(mut call) = self.trace(gpu, view_from_world, placed, ids)? else {
+            return Ok(None);
+        };
+        // `trace` made a call, so the object is an uploaded mesh.
+        let Object::Mesh(mesh, _) = &placed.object else {
+            return Ok(Some(call));
+        };
+        let Some(uploads) = self.uploads.get(mesh) else {
+            return Ok(Some(call));
+        };
+        // Lines along `direction` map to lines along its object-space image under the
+        // placement (affine), so the footprint is built and looked up in object space.
+        let object_from_query = (view_from_world * placed.world_from_object).inverse();
+        let along = object_from_query.transform_vector3(direction).normalize();
+        let footprint = {
+            let mut kept = uploads.footprint.lock().unwrap_or_else(|e| e.into_inner());
+            match &*kept {
+                Some(f) if f.direction == along => f.clone(),
+                _ => {
+                    let triangles =
+                        (mesh.faces.iter()).map(|t| t.map(|k| mesh.positions[k as usize]));
+                    kept.insert(Arc::new(Footprint::new(triangles, along)))
+                        .clone()
+                }
+            }
+        };
+        let within_box = call.reaches;
+        call.reaches = Box::new(move |o, d, range| {
+            within_box(o, d, range) && footprint.covers(object_from_query.transform_point3(o))
+        });
+        Ok(Some(call))
     }
 
     fn purge(&mut self) {

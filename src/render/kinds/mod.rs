@@ -9,6 +9,7 @@
 //! Spaces: world (f64), each object's own (placed by `world_from_object`) and view
 //! (camera-relative); every matrix a kind gives the GPU is composed in f64 as view_from_*.
 
+mod footprint;
 pub(crate) mod gdm;
 pub(crate) mod gtex;
 pub(crate) mod igt;
