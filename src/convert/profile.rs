@@ -45,7 +45,8 @@ const PHASES: [&str; 10] = [
 static NANOS: [AtomicU64; 10] = [const { AtomicU64::new(0) }; 10];
 static COUNTS: [AtomicU64; 10] = [const { AtomicU64::new(0) }; 10];
 
-fn enabled() -> bool {
+/// Whether `GEOMTEX_PROFILE` asks for timers (read once; the render's shadow pass asks too).
+pub(crate) fn enabled() -> bool {
     static ON: OnceLock<bool> = OnceLock::new();
     *ON.get_or_init(|| std::env::var_os("GEOMTEX_PROFILE").is_some_and(|v| v != "0"))
 }

@@ -57,8 +57,7 @@ const ATTACHED_BELOW: f64 = -0.1;
 /// Phase timers of a shadow pass, printed to stderr with `GEOMTEX_PROFILE=1` (as conversions'
 /// are): milliseconds since the last mark.
 pub(crate) fn mark(what: std::fmt::Arguments, since: &mut std::time::Instant) {
-    static ON: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-    if *ON.get_or_init(|| std::env::var_os("GEOMTEX_PROFILE").is_some_and(|v| v != "0")) {
+    if crate::convert::profile::enabled() {
         eprintln!(
             "geomtex shadow: {:8.2} ms {what}",
             since.elapsed().as_secs_f64() * 1e3
@@ -213,8 +212,9 @@ struct ShadowRays<'a> {
     forward: DVec3,
     frame: &'a Frame,
     light: &'a Light,
-    /// A directional light's unit direction toward it, normalized once rather than per pixel.
-    toward_parallel: Option<DVec3>,
+    /// A directional light's `Light::toward` (the same at every point), made once rather than
+    /// per pixel.
+    toward_parallel: Option<(DVec3, f64)>,
     offset: f64,
 }
 
@@ -238,7 +238,7 @@ impl<'a> ShadowRays<'a> {
             frame,
             light,
             toward_parallel: match *light {
-                Light::Directional { .. } => Some(light.toward(DVec3::ZERO).0),
+                Light::Directional { .. } => Some(light.toward(DVec3::ZERO)),
                 Light::Point { .. } => None,
             },
             offset,
@@ -250,10 +250,7 @@ impl<'a> ShadowRays<'a> {
     /// toward the light) and the stretch that counts.
     fn pixel(&self, i: usize) -> Option<PixelShadow> {
         let (point, n) = self.surface(i)?;
-        let toward = |p| match self.toward_parallel {
-            Some(d) => (d, f64::MAX),
-            None => self.light.toward(p),
-        };
+        let toward = |p| self.toward_parallel.unwrap_or_else(|| self.light.toward(p));
         if n.dot(toward(point).0) < ATTACHED_BELOW {
             return Some(PixelShadow::Attached);
         }
