@@ -23,6 +23,11 @@ VSA error-driven) on the bunny and the noisy isosurface, with the reported p99 a
 rendered one. Into ``economy.json["default"]`` (with ``os.getloadavg()`` before and after) and
 ``economy_default.png``; ~20 min.
 
+``--budget-scan``: the noisy isosurface and the displaced icosphere converted within 1, 2, 4, 8
+and 16 times their bytes (bound 1e-5 of the diagonal, so the budget binds), each rendered against
+trimesh over five views at 512²: worst IoU and depth p99, bytes per covered texel and covered
+texels per face, into ``bench/results/budget_scan.json`` and ``budget_scan.png``; ~15 min.
+
 ``--peak-only``: the peak resident memory of the 1.1 M-face bunny's default ``convert`` alone
 (VmHWM reset after the mesh is loaded, three fresh processes, worst and median bytes per face, and
 their seconds) and one profiled run's peak by stage (``GEOMTEX_PROFILE=1``), into
@@ -38,6 +43,7 @@ Run from the repository root::
     nice python bench/economy.py --label main    # on a build of main
     nice python bench/economy.py --default       # the default, error-driven convert
     nice python bench/economy.py --peak-only     # the 1.1 M-face bunny's peak memory alone
+    nice python bench/economy.py --budget-scan   # the rough meshes at 1-16x their bytes
 """
 
 from __future__ import annotations
@@ -549,6 +555,79 @@ def plot_default(d: dict[str, Any], path: Path) -> None:
     fig.savefig(path, dpi=100)
 
 
+# -- How many bytes the rough meshes need (``--budget-scan``) -------------------------------------
+
+SCAN_FACTORS = (1.0, 2.0, 4.0, 8.0, 16.0)
+
+
+def budget_scan_row(name: str, mesh: gt.Mesh, factor: float) -> dict[str, Any]:
+    """One rough mesh converted within ``factor`` times its bytes, under a bound (1e-5 of the
+    diagonal) tight enough that the budget binds, rendered as the issue measures: five views at
+    512² against trimesh."""
+    budget = int(factor * mesh_bytes(mesh))
+    gts, seconds = converted(mesh, max_error_rel=1e-5, max_bytes=budget)
+    s = gts.stats
+    covered = int(s["texels"]) - int(s["empty_texels"])
+    row = {"factor": factor, "map_bytes": int(s["bytes"]), "ratio": s["bytes"] / mesh_bytes(mesh),
+           "budget_binding": bool(s["max_bytes_binding"]), "seconds": seconds, "texels": int(s["texels"]),
+           "covered_texels": covered, "bytes_per_covered_texel": s["bytes"] / covered,
+           "covered_texels_per_face": covered / int(s["faces"]), "reported_p99": s["reconstruction_error_p99"] / s["diagonal"]}
+    row.update(rendered(mesh, gts))
+    return row
+
+
+def measure_budget_scan() -> dict[str, Any]:
+    import os
+
+    out: dict[str, Any] = {"loadavg_before": os.getloadavg(), "factors": list(SCAN_FACTORS), "meshes": {}}
+    for name in ["noisy-isosurface", "displaced-icosphere"]:
+        mesh = load_any(name)
+        rows = []
+        for factor in SCAN_FACTORS:
+            rows.append(budget_scan_row(name, mesh, factor))
+            print(name, rows[-1], flush=True)
+        out["meshes"][name] = rows
+    out["loadavg_after"] = os.getloadavg()
+    return out
+
+
+def budget_scan_table(d: dict[str, Any]) -> str:
+    lines = [f"{'mesh':20} {'budget':>6} {'maps/mesh':>9} {'s':>6} {'B/covered':>9} {'covered/face':>12} "
+             f"{'IoU':>7} {'p99 1px':>8}"]
+    for name, rows in d["meshes"].items():
+        for r in rows:
+            lines.append(f"{name:20} {r['factor']:6.0f} {r['ratio']:9.3f} {r['seconds']:6.1f} "
+                         f"{r['bytes_per_covered_texel']:9.2f} {r['covered_texels_per_face']:12.2f} "
+                         f"{r['iou']:7.4f} {r['depth_p99_1px']:8.1e}")
+    lines.append(f"load average before {d['loadavg_before']}, after {d['loadavg_after']}")
+    return "\n".join(lines)
+
+
+def plot_budget_scan(d: dict[str, Any], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
+    for name, rows in d["meshes"].items():
+        x = [r["ratio"] for r in rows]
+        axes[0].plot(x, [1.0 - r["iou"] for r in rows], "o-", label=name)
+        axes[1].plot(x, [r["depth_p99_1px"] for r in rows], "o-", label=name)
+    for ax, bar, label in [(axes[0], 1.0 - 0.998, "1 - IoU (worst of five views, 512²)"),
+                           (axes[1], 1e-3, "depth p99 (1 px) / diagonal, worst of five views")]:
+        ax.axhline(bar, color="red", ls="--", lw=0.8, label="issue 15's bar")
+        ax.axvline(1.0, color="gray", ls="--", lw=0.8)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("maps / mesh bytes (float32/uint32)")
+        ax.set_ylabel(label)
+        ax.legend(fontsize=7)
+    fig.suptitle("rough meshes: rendered accuracy against the bytes a height-field set is given")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--label", default="now", help="'main' writes economy_main.json")
@@ -559,7 +638,15 @@ def main() -> None:
                         help="the default (error-driven) convert: table, curves; into economy.json['default']")
     parser.add_argument("--peak-only", action="store_true",
                         help="peak memory of the 1.1 M-face bunny's default convert alone: into peak.json + PNG")
+    parser.add_argument("--budget-scan", action="store_true",
+                        help="the rough meshes at 1-16x their bytes: into budget_scan.json + PNG")
     args = parser.parse_args()
+    if args.budget_scan:
+        d = measure_budget_scan()
+        (RESULTS / "budget_scan.json").write_text(json.dumps(d, indent=1))
+        plot_budget_scan(d, RESULTS / "budget_scan.png")
+        print(budget_scan_table(d))
+        return
     if args.peak_only:
         d = measure_peak("bunny-loop-subdivided", runs=3)
         (RESULTS / "peak.json").write_text(json.dumps(d, indent=1))

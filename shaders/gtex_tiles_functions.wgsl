@@ -8,12 +8,18 @@
 // patch the ray enters before the nearest hit starts one search of that patch's whole box, from
 // the piece's entry on (the height-field search of gtex_piece_functions.wgsl, counted in
 // `searches`; an exact one descends from SEARCH_START_LEVEL), and the patch's later pieces start
-// none.
+// none. An any-hit walk (shadow rays) that crosses a piece whose surface spans its column from
+// one face of its slab to the other has its hit there: only that stretch is searched, for where.
 //
 // Spaces: the ray and the pieces' records in one space (view space for frames, the query's frame
 // for queries); depths along the tiles' view direction, where the ray's origin lies at
 // `origin_depth` and a unit of t moves one unit of depth (the ray runs along the view direction;
 // camera rays' directions have z = -1).
+
+// The bit of an entry's piece index set where the piece's surface spans its whole column
+// (tiles.rs, SPANS_COLUMN).
+const SPANS_COLUMN: u32 = 0x80000000u;
+const NO_PIECE: u32 = 0xffffffffu;
 
 // Pieces a walk orders by where its ray enters them, at most this many at a time.
 const BATCH: u32 = 8u;
@@ -40,15 +46,22 @@ fn normal_f16(h: u32) -> f32 {
 // Where ray o + t d is inside tile piece `piece` (src/render/kinds/gtex/boxes.rs, tile_pieces):
 // its column of patch-local u/v, lo.xy to hi.xy, and across it the slab
 // lo.z <= z - a u - b v <= hi.z along the plane of slopes (a, b) (two f16 in `level`). In the
-// sheared coordinates (u, v, z - a u - b v) that is a box. (enter, exit), enter > exit on a miss.
-fn tile_piece_span(piece: PatchBox, o: vec3<f32>, d: vec3<f32>) -> vec2<f32> {
+// sheared coordinates (u, v, z - a u - b v) that is a box. (enter, exit, through), enter > exit on
+// a miss; through = 1 where the ray enters and leaves by the slab's faces, not the column's sides.
+fn tile_piece_span(piece: PatchBox, o: vec3<f32>, d: vec3<f32>) -> vec3<f32> {
     let patch_from_view = patches[piece.patch_index].patch_from_view;
     let o_p = (patch_from_view * vec4<f32>(o, 1.0)).xyz;
     let d_p = (patch_from_view * vec4<f32>(d, 0.0)).xyz;
     let slope = vec2<f32>(normal_f16(piece.level & 0xffffu), normal_f16(piece.level >> 16u));
     let o_s = vec3<f32>(o_p.xy, o_p.z - dot(slope, o_p.xy));
     let d_s = vec3<f32>(d_p.xy, d_p.z - dot(slope, d_p.xy));
-    return slab(piece.lo, piece.hi, o_s, safe_inverse(d_s));
+    let inv = safe_inverse(d_s);
+    let ta = (piece.lo - o_s) * inv;
+    let tb = (piece.hi - o_s) * inv;
+    let t0 = min(ta, tb);
+    let t1 = max(ta, tb);
+    let through = t0.z >= max(t0.x, t0.y) && t1.z <= min(t1.x, t1.y);
+    return vec3<f32>(max(max(t0.x, t0.y), t0.z), min(min(t1.x, t1.y), t1.z), select(0.0, 1.0, through));
 }
 
 struct TileHit {
@@ -67,6 +80,9 @@ fn tile_walk(range: vec2<u32>, pixel: vec2<u32>, o: vec3<f32>, d: vec3<f32>, ori
     var n_searched = 0u;
     var k = range.x;
     let end = range.x + range.y;
+    // A piece the ray surely hits (any hit), once one is met, and its stretch (enter, exit).
+    var sure_piece = NO_PIECE;
+    var sure = vec2<f32>(0.0);
     loop {
         var enter: array<f32, BATCH>;
         var piece_at: array<u32, BATCH>;
@@ -87,8 +103,20 @@ fn tile_walk(range: vec2<u32>, pixel: vec2<u32>, o: vec3<f32>, d: vec3<f32>, ori
             if (COUNT_FETCHES) {
                 piece_tests += 1u;
             }
-            let span = tile_piece_span(pieces[entry.x], o, d);
+            let piece = entry.x & ~SPANS_COLUMN;
+            let span = tile_piece_span(pieces[piece], o, d);
             let t0 = max(span.x, t_lo);
+            // From one face of the slab to the other across a whole sheet of surface: a hit
+            // inside that stretch, the only one an any-hit walk still searches (for where).
+            if (any_hit && (entry.x & SPANS_COLUMN) != 0u && span.z > 0.5 && span.x >= t_lo && span.y < best.t) {
+                enter[0] = span.x;
+                piece_at[0] = piece;
+                n = 1u;
+                k = end;
+                sure_piece = piece;
+                sure = span.xy;
+                break;
+            }
             if (!(min(span.y, best.t) > t0)) {
                 continue;
             }
@@ -99,7 +127,7 @@ fn tile_walk(range: vec2<u32>, pixel: vec2<u32>, o: vec3<f32>, d: vec3<f32>, ori
                 j -= 1u;
             }
             enter[j] = t0;
-            piece_at[j] = entry.x;
+            piece_at[j] = piece;
             n += 1u;
         }
         for (var i = 0u; i < n && enter[i] < best.t; i += 1u) {
@@ -107,7 +135,7 @@ fn tile_walk(range: vec2<u32>, pixel: vec2<u32>, o: vec3<f32>, d: vec3<f32>, ori
             // A patch is searched once, from the first of its pieces the ray enters to its box's
             // exit (or the nearest hit): its other pieces lie on that stretch. Only a piece met
             // later in the list that the ray enters earlier opens the stretch before it.
-            var t_end = best.t;
+            var t_end = select(best.t, sure.y, sure_piece != NO_PIECE);
             var slot = SEARCHED;
             for (var s = 0u; s < min(n_searched, SEARCHED); s += 1u) {
                 if (searched_patch[s] == owner) {
@@ -138,6 +166,10 @@ fn tile_walk(range: vec2<u32>, pixel: vec2<u32>, o: vec3<f32>, d: vec3<f32>, ori
         if (k >= end) {
             break;
         }
+    }
+    // The sure hit's search lost it to rounding: its entry stands in.
+    if (sure_piece != NO_PIECE && best.t >= t_hi) {
+        return TileHit(sure.x, pieces[sure_piece].patch_index);
     }
     return best;
 }

@@ -80,7 +80,8 @@ pub(crate) fn patch_boxes(
 /// thick as it curves, so a ray enters far fewer pieces it does not hit. Each slab is at least
 /// `min_thickness` of the node's world width thick: one as thin as a flat chart's few codes,
 /// entered from a far origin in patch-local units (where one unit is the box's height), would
-/// lose the surface to f32 rounding.
+/// lose the surface to f32 rounding. Beside each piece: whether its surface spans its whole
+/// column (`spans_column`).
 pub(crate) fn tile_pieces(
     index: u32,
     p: &Patch,
@@ -88,7 +89,7 @@ pub(crate) fn tile_pieces(
     pyramid: &[(u32, u32, Vec<u32>)],
     level: u32,
     min_thickness: f64,
-) -> Vec<PatchBoxGpu> {
+) -> Vec<(PatchBoxGpu, bool)> {
     let level = level.min(pyramid.len().saturating_sub(1) as u32);
     let (nw, nh, values) = &pyramid[level as usize];
     let cells = 1i64 << level;
@@ -156,16 +157,39 @@ pub(crate) fn tile_pieces(
                 .fold((h, -1), |(l, u), t| (l.min(t.1), u.max(t.1)));
             let (u0, u1) = column(c, cells, w, (i0, i1));
             let (v0, v1) = column(r, cells, h, (j0, j1));
-            pieces.push(PatchBoxGpu {
+            let piece = PatchBoxGpu {
                 lo: [u0, v0, lo - grow].map(|x| x as f32),
                 patch_index: index,
                 hi: [u1, v1, hi + grow].map(|x| x as f32),
                 level: u32::from(half::f16::from_f64(a).to_bits())
                     | (u32::from(half::f16::from_f64(b).to_bits()) << 16),
-            });
+            };
+            pieces.push((piece, spans_column(p, heights, (c, r), cells)));
         }
     }
     pieces
+}
+
+/// Whether the surface of patch `p` is one sheet across the whole column of the pyramid node
+/// `(c, r)` (`cells` cells a side) and a texel past it (the column is a hair wider than the
+/// node): every texel from one before the node's first corner texel to one past its last has a
+/// height in `heights` (so the piece's slab was fitted to all of them) and lies inside the
+/// outline (so every bilinear cell there is surface). A ray that crosses such a piece's slab from
+/// one face to the other then crosses the surface: an any-hit walk needs no search to know it
+/// (gtex_tiles_functions.wgsl). Nodes at the map's sides never span (their cells reach past it).
+fn spans_column(p: &Patch, heights: &[u16], (c, r): (i64, i64), cells: i64) -> bool {
+    let (w, h) = (i64::from(p.width), i64::from(p.height));
+    let (i0, i1) = (c * cells - 2, (c + 1) * cells);
+    let (j0, j1) = (r * cells - 2, (r + 1) * cells);
+    if i0 < 0 || j0 < 0 || i1 >= w || j1 >= h {
+        return false;
+    }
+    (j0..=j1).all(|j| {
+        (i0..=i1).all(|i| {
+            let t = (j * w + i) as usize;
+            heights[t] != 0 && p.outline[t] >= 0
+        })
+    })
 }
 
 /// Patch-local height of the surface at texel (i, j) (si = sj = 0), or where its cell meets the
@@ -308,13 +332,58 @@ mod tests {
         }
     }
 
+    /// A tile piece said to span its column has surface at every point of the column (a hair
+    /// wider than its node), inside its slab, so a ray through the slab from face to face
+    /// crosses it; the pieces by the empty corner and by a cut in the outline (texels with
+    /// heights outside it) do not span.
+    #[test]
+    fn spanning_pieces_have_surface_across_their_columns() {
+        let mut p = wavy_patch(200, 150);
+        for j in 0..150 {
+            for i in 100..103 {
+                p.outline[j * 200 + i] = -20;
+            }
+        }
+        let pyramid = min_max_pyramid(&p);
+        let pieces = tile_pieces(3, &p, &p.heights, &pyramid, BOX_LEVEL, 0.0);
+        let spanning: Vec<&PatchBoxGpu> = pieces.iter().filter(|x| x.1).map(|x| &x.0).collect();
+        // Measured: 77 of 127 pieces span (none at the map's sides, the corner or the cut).
+        assert!(
+            (60..=90).contains(&spanning.len()),
+            "{} of {} pieces span",
+            spanning.len(),
+            pieces.len()
+        );
+        for b in spanning {
+            let (a, s) = tile_piece_slopes(b);
+            for k in 0..=24 {
+                for l in 0..=24 {
+                    let at = |axis: usize, f: f64| {
+                        f64::from(b.lo[axis]) + f * f64::from(b.hi[axis] - b.lo[axis])
+                    };
+                    let (u, v) = (at(0, f64::from(k) / 24.0), at(1, f64::from(l) / 24.0));
+                    let h = height_at(&p, u, v)
+                        .unwrap_or_else(|| panic!("no surface at ({u}, {v}) of a spanning piece"));
+                    let across = h - a * u - s * v;
+                    assert!(
+                        f64::from(b.lo[2]) - 1e-6 <= across && across <= f64::from(b.hi[2]) + 1e-6,
+                        "surface at ({u}, {v}) leaves the slab"
+                    );
+                }
+            }
+        }
+    }
+
     /// Every surface point of a patch lies in one of its tile pieces (columns with slabs along
     /// fitted slopes), and the slabs are thinner than boxes cut to the heights at that level.
     #[test]
     fn tile_pieces_hold_the_surface() {
         let p = wavy_patch(200, 150);
         let pyramid = min_max_pyramid(&p);
-        let pieces = tile_pieces(3, &p, &p.heights, &pyramid, BOX_LEVEL, 0.0);
+        let pieces: Vec<PatchBoxGpu> = tile_pieces(3, &p, &p.heights, &pyramid, BOX_LEVEL, 0.0)
+            .into_iter()
+            .map(|(piece, _)| piece)
+            .collect();
         let boxes = patch_boxes(3, &p, &pyramid);
         let thickness = |b: &PatchBoxGpu| f64::from(b.hi[2] - b.lo[2]);
         let mean =

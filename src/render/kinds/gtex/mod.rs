@@ -80,6 +80,9 @@ struct ParallelTiles {
 /// Pieces of a set's boxes at one pyramid level (boxes.rs), here and on the GPU.
 struct Pieces {
     list: Vec<PatchBoxGpu>,
+    /// Tile pieces: whether each one's surface spans its whole column (boxes.rs,
+    /// `spans_column`); empty for the tracer's pieces.
+    spans_column: Vec<bool>,
     buffer: wgpu::Buffer,
 }
 
@@ -166,7 +169,7 @@ impl Pieces {
             .zip(&set.patches)
             .flat_map(|(i, p)| patch_boxes(i, p, &min_max_pyramid(p)))
             .collect();
-        Self::upload(gpu, list)
+        Self::upload(gpu, list, Vec::new())
     }
 
     /// The tiles' pieces (boxes.rs, `tile_pieces`): TILE_LEVEL nodes of each patch's pyramid
@@ -175,7 +178,7 @@ impl Pieces {
     /// 1.24-1.31 in about 0.8x the frame time (shorter lists), level 6 1.8-2.0.
     fn for_tiles(gpu: &Gpu, set: &GeometryTextureSet) -> Pieces {
         let owned = owners::owned_heights(set);
-        let list: Vec<PatchBoxGpu> = (0..)
+        let (list, spans_column): (Vec<PatchBoxGpu>, Vec<bool>) = (0..)
             .zip(set.patches.iter().zip(&owned))
             .flat_map(|(i, (p, heights))| {
                 let pyramid = min_max_pyramid(&Patch {
@@ -184,11 +187,11 @@ impl Pieces {
                 });
                 tile_pieces(i, p, heights, &pyramid, TILE_LEVEL, TILE_MIN_THICKNESS)
             })
-            .collect();
-        Self::upload(gpu, list)
+            .unzip();
+        Self::upload(gpu, list, spans_column)
     }
 
-    fn upload(gpu: &Gpu, list: Vec<PatchBoxGpu>) -> Pieces {
+    fn upload(gpu: &Gpu, list: Vec<PatchBoxGpu>, spans_column: Vec<bool>) -> Pieces {
         // A set with no surface at all still binds one (empty) piece; it is never searched.
         let contents: &[PatchBoxGpu] = if list.is_empty() {
             &[PatchBoxGpu::zeroed()]
@@ -200,7 +203,11 @@ impl Pieces {
             "patch box pieces",
             bytemuck::cast_slice(contents),
         );
-        Pieces { list, buffer }
+        Pieces {
+            list,
+            spans_column,
+            buffer,
+        }
     }
 }
 
@@ -514,8 +521,9 @@ fn piece_corners<'a>(
 ) -> impl Iterator<Item = (u32, [DVec3; 8])> + 'a {
     (0..).zip(&pieces.list).filter_map(|(k, b)| {
         let view_from_patch = placements[b.patch_index as usize]?;
+        let spans = pieces.spans_column.get(k as usize) == Some(&true);
         Some((
-            k,
+            k | if spans { tiles::SPANS_COLUMN } else { 0 },
             tile_piece_corners(b).map(|c| view_from_patch.transform_point3(c)),
         ))
     })

@@ -22,12 +22,17 @@ use crate::render::gpu_types::gpu_matrix;
 /// (4,096 tiles at 512²).
 pub(crate) const TILE: u32 = 8;
 
-/// One entry of a tile's list: the index of a piece (boxes.rs), its nearest view depth (f32
-/// bits; no hit in it can be nearer), and its pixel rectangle [x0, y0, x1, y1) as x0 | y0 << 16,
+/// One entry of a tile's list: the index of a piece (boxes.rs; with `SPANS_COLUMN` set where
+/// its surface spans its column), its nearest view depth (f32 bits; no hit in it can be nearer), and its pixel rectangle [x0, y0, x1, y1) as x0 | y0 << 16,
 /// x1 | y1 << 16. A pixel outside the rectangle passes beside the piece: that test needs no
 /// record of the piece, where the slab test reads its patch's matrix (on the bunny's headline
 /// views a pixel slab-tested 56-78 pieces before this test, for 1.15-1.18 searches).
 pub(crate) type Entry = [u32; 4];
+
+/// The bit of an entry's piece index that says the piece's surface spans its whole column
+/// (boxes.rs, `spans_column`): an any-hit walk that crosses its slab from face to face has a
+/// hit without a search (gtex_tiles_functions.wgsl).
+pub(crate) const SPANS_COLUMN: u32 = 1 << 31;
 
 /// gtex_tiles_bindings.wgsl's `Tiles`.
 #[repr(C)]
