@@ -21,7 +21,7 @@ fn fs_main(in: VsOut) -> FsOut {
     let tile = pixel / tiles.size.z;
     let range = tile_ranges[tile.y * tiles.size.x + tile.x];
     let ray = camera_ray(camera, in.position.xy);
-    let found = tile_walk(range, pixel, ray.origin, ray.dir, 0.0, camera.params.y, 3.0e38, false);
+    let found = tile_walk(range, pixel, ray.origin, ray.dir, 0.0, camera.params.y, 3.0e38, ASK_NEAREST);
     count_work();
     if (found.t >= 3.0e38) {
         discard;

@@ -9,7 +9,8 @@
 // the piece's entry on (the height-field search of gtex_piece_functions.wgsl, counted in
 // `searches`; an exact one descends from SEARCH_START_LEVEL), and the patch's later pieces start
 // none. An any-hit walk (shadow rays) that crosses a piece whose surface spans its column from
-// one face of its slab to the other has its hit there: only that stretch is searched, for where.
+// one face of its slab to the other has its hit there: only that stretch is searched, for where
+// (and not even that when only whether the ray is blocked is read).
 //
 // Spaces: the ray and the pieces' records in one space (view space for frames, the query's frame
 // for queries); depths along the tiles' view direction, where the ray's origin lies at
@@ -20,6 +21,11 @@
 // (tiles.rs, SPANS_COLUMN).
 const SPANS_COLUMN: u32 = 0x80000000u;
 const NO_PIECE: u32 = 0xffffffffu;
+
+// What a walk asks (tile_walk's `ask`): the nearest hit, any hit, or only whether a ray is blocked.
+const ASK_NEAREST: u32 = 0u;
+const ASK_ANY: u32 = 1u;
+const ASK_BLOCKED: u32 = 2u;
 
 // Pieces a walk orders by where its ray enters them, at most this many at a time.
 const BATCH: u32 = 8u;
@@ -71,9 +77,11 @@ struct TileHit {
 }
 
 // The nearest hit in [t_lo, t_hi) among the pieces of list `range` (first, count) whose pixel
-// rectangles hold `pixel`, or with `any_hit` the first hit found; t = t_hi for none.
+// rectangles hold `pixel`, or with `ask` ASK_ANY the first hit found, with ASK_BLOCKED the first
+// found where only whether there is one is read (its t may be a piece's entry); t = t_hi for none.
 fn tile_walk(range: vec2<u32>, pixel: vec2<u32>, o: vec3<f32>, d: vec3<f32>, origin_depth: f32, t_lo: f32,
-             t_hi: f32, any_hit: bool) -> TileHit {
+             t_hi: f32, ask: u32) -> TileHit {
+    let any_hit = ask != ASK_NEAREST;
     var best = TileHit(t_hi, 0u);
     var searched_patch: array<u32, SEARCHED>;
     var searched_from: array<f32, SEARCHED>;
@@ -109,6 +117,9 @@ fn tile_walk(range: vec2<u32>, pixel: vec2<u32>, o: vec3<f32>, d: vec3<f32>, ori
             // From one face of the slab to the other across a whole sheet of surface: a hit
             // inside that stretch, the only one an any-hit walk still searches (for where).
             if (any_hit && (entry.x & SPANS_COLUMN) != 0u && span.z > 0.5 && span.x >= t_lo && span.y < best.t) {
+                if (ask == ASK_BLOCKED) {
+                    return TileHit(span.x, pieces[piece].patch_index);
+                }
                 enter[0] = span.x;
                 piece_at[0] = piece;
                 n = 1u;

@@ -44,10 +44,14 @@ fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
     let tile = at / tiles.size.z;
     let range = entries_ahead(tile_ranges[tile.y * tiles.size.x + tile.x], -p.z);
     let t_hi = hits[i].t;
-    let found = tile_walk(range, at, ray.origin, ray.dir, -p.z, ray.t_min, t_hi, query.counts.y == 1u);
+    let found = tile_walk(range, at, ray.origin, ray.dir, -p.z, ray.t_min, t_hi,
+                           select(select(ASK_NEAREST, ASK_ANY, query.counts.y == 1u), ASK_BLOCKED, query.counts.w == 1u));
     if (found.t >= t_hi) {
         return;
     }
-    let surface = gtex_surface(found.patch_index, ray.origin, ray.dir, found.t);
-    hits[i] = QueryHit(surface.normal, found.t, patches[found.patch_index].maps.ids.y, 0u, 0u, 0u);
+    var normal = vec3<f32>(0.0);
+    if (query.counts.w == 0u) {
+        normal = gtex_surface(found.patch_index, ray.origin, ray.dir, found.t).normal;
+    }
+    hits[i] = QueryHit(normal, found.t, patches[found.patch_index].maps.ids.y, 0u, 0u, 0u);
 }

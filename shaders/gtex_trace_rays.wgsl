@@ -12,6 +12,9 @@ fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let index = pieces[q.found.item].patch_index;
-    let surface = gtex_surface(index, q.ray.origin, q.ray.dir, q.found.t);
-    hits[q.index] = QueryHit(surface.normal, q.found.t, patches[index].maps.ids.y, 0u, 0u, 0u);
+    var normal = vec3<f32>(0.0);
+    if (query.counts.w == 0u) {
+        normal = gtex_surface(index, q.ray.origin, q.ray.dir, q.found.t).normal;
+    }
+    hits[q.index] = QueryHit(normal, q.found.t, patches[index].maps.ids.y, 0u, 0u, 0u);
 }

@@ -25,6 +25,7 @@ struct QueryHit {
 
 struct Query {
     // x: rays this dispatch traces (the length of `traced_rays`), y: 1 to stop at any hit (shadow
-    // rays), z: invocations per row of the dispatch.
+    // rays), z: invocations per row of the dispatch, w: 1 where only whether a ray is blocked is
+    // read (shadow rays: a hit's normal is not worked out).
     counts: vec4<u32>,
 }

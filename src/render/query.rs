@@ -72,6 +72,17 @@ impl Compact {
     }
 }
 
+/// What a batch asks of each ray (query_types.wgsl's `counts.y` and `counts.w`).
+#[derive(Clone, Copy, PartialEq)]
+enum Ask {
+    /// The nearest hit, its distance, patch and normal.
+    Nearest,
+    /// The first hit found, its distance, patch and normal.
+    AnyHit,
+    /// Whether anything is hit (shadow rays): the first hit found, its normal left unread.
+    Blocked,
+}
+
 /// A ray (world-space start, unit direction) and the stretch of t along it that counts.
 pub(crate) type RangedRay = ((DVec3, DVec3), (f64, f64));
 
@@ -224,8 +235,8 @@ impl Renderer {
                 let chunk_ranges = ranges.map(|r| &r[k * batch..k * batch + chunk.len()]);
                 let range = |i: usize| chunk_ranges.map_or((0.0, f64::from(f32::MAX)), |r| r[i]);
                 let reached = reached_by(&traces, chunk.len(), |i| (chunk[i], range(i)), centre);
-                let found =
-                    self.run_batch(&traces, &reached, chunk, chunk_ranges, centre, any_hit)?;
+                let ask = if any_hit { Ask::AnyHit } else { Ask::Nearest };
+                let found = self.run_batch(&traces, &reached, chunk, chunk_ranges, centre, ask)?;
                 for h in found {
                     let hit = h.id != -1;
                     hits.distance
@@ -288,8 +299,14 @@ impl Renderer {
                 let reached = masked_reach(&traces, &masks, |i| chunk[i].1, origin);
                 let counts: Vec<usize> = reached.iter().map(Vec::len).collect();
                 super::shadow::mark(format_args!("  rays per trace {counts:?}"), &mut t);
-                let found =
-                    self.run_batch(&traces, &reached, &rays, Some(&ranges), origin, true)?;
+                let found = self.run_batch(
+                    &traces,
+                    &reached,
+                    &rays,
+                    Some(&ranges),
+                    origin,
+                    Ask::Blocked,
+                )?;
                 let ids = chunk.iter().zip(found).filter(|(_, h)| h.id != -1);
                 hit.extend(ids.map(|(k, _)| k.0));
             }
@@ -335,7 +352,7 @@ impl Renderer {
         rays: &[(DVec3, DVec3)],
         ranges: Option<&[(f64, f64)]>,
         centre: DVec3,
-        any_hit: bool,
+        ask: Ask,
     ) -> Result<Vec<QueryHitGpu>> {
         let device = &self.gpu.device;
         let mut t = std::time::Instant::now();
@@ -379,7 +396,7 @@ impl Renderer {
                     continue;
                 }
                 let active: Vec<u32> = reached.iter().map(|&i| compact.slot[i as usize]).collect();
-                let (settings, per_row, rows) = self.dispatch_settings(active.len(), any_hit);
+                let (settings, per_row, rows) = self.dispatch_settings(active.len(), ask);
                 let settings = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                     label: Some("query"),
                     contents: bytemuck::bytes_of(&settings),
@@ -402,7 +419,7 @@ impl Renderer {
     }
 
     /// A dispatch of `rays` invocations in rows under the adapter's per-dimension limit.
-    fn dispatch_settings(&self, rays: usize, any_hit: bool) -> (QueryGpu, u32, u32) {
+    fn dispatch_settings(&self, rays: usize, ask: Ask) -> (QueryGpu, u32, u32) {
         let workgroups = (rays as u32).div_ceil(WORKGROUP);
         let limit = self
             .gpu
@@ -412,7 +429,12 @@ impl Renderer {
         let per_row = workgroups.min(limit);
         let rows = workgroups.div_ceil(per_row.max(1));
         let settings = QueryGpu {
-            counts: [rays as u32, any_hit as u32, per_row * WORKGROUP, 0],
+            counts: [
+                rays as u32,
+                (ask != Ask::Nearest) as u32,
+                per_row * WORKGROUP,
+                (ask == Ask::Blocked) as u32,
+            ],
         };
         (settings, per_row, rows)
     }
