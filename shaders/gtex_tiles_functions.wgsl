@@ -62,12 +62,9 @@ fn tile_piece_span(piece: PatchBox, o: vec3<f32>, d: vec3<f32>) -> vec3<f32> {
     let o_s = vec3<f32>(o_p.xy, o_p.z - dot(slope, o_p.xy));
     let d_s = vec3<f32>(d_p.xy, d_p.z - dot(slope, d_p.xy));
     let inv = safe_inverse(d_s);
-    let ta = (piece.lo - o_s) * inv;
-    let tb = (piece.hi - o_s) * inv;
-    let t0 = min(ta, tb);
-    let t1 = max(ta, tb);
-    let through = t0.z >= max(t0.x, t0.y) && t1.z <= min(t1.x, t1.y);
-    return vec3<f32>(max(max(t0.x, t0.y), t0.z), min(min(t1.x, t1.y), t1.z), select(0.0, 1.0, through));
+    let s = axis_spans(piece.lo, piece.hi, o_s, inv);
+    let through = s.enter.z >= max(s.enter.x, s.enter.y) && s.exit.z <= min(s.exit.x, s.exit.y);
+    return vec3<f32>(box_span(s), select(0.0, 1.0, through));
 }
 
 struct TileHit {

@@ -118,6 +118,11 @@ fn shared_direction(rays: &[(DVec3, DVec3)]) -> Option<DVec3> {
     rays.iter().all(|r| r.1 == first).then_some(first)
 }
 
+/// The stretch of t that counts for ray `i`: its own where `ranges` are given, else all of it.
+fn stretch(ranges: Option<&[(f64, f64)]>, i: usize) -> (f64, f64) {
+    ranges.map_or((0.0, f64::from(f32::MAX)), |r| r[i])
+}
+
 /// Unit directions, or an error naming the first ray that has no direction or is not finite.
 /// Checked in parallel: a million rays is a common query, and a real GPU traces them in less
 /// time than one core takes to prepare them.
@@ -233,7 +238,7 @@ impl Renderer {
             for (k, chunk) in rays.chunks(batch).enumerate() {
                 cancel.check("tracing rays")?;
                 let chunk_ranges = ranges.map(|r| &r[k * batch..k * batch + chunk.len()]);
-                let range = |i: usize| chunk_ranges.map_or((0.0, f64::from(f32::MAX)), |r| r[i]);
+                let range = |i| stretch(chunk_ranges, i);
                 let reached = reached_by(&traces, chunk.len(), |i| (chunk[i], range(i)), centre);
                 let ask = if any_hit { Ask::AnyHit } else { Ask::Nearest };
                 let found = self.run_batch(&traces, &reached, chunk, chunk_ranges, centre, ask)?;
@@ -356,7 +361,7 @@ impl Renderer {
     ) -> Result<Vec<QueryHitGpu>> {
         let device = &self.gpu.device;
         let mut t = std::time::Instant::now();
-        let range = |i: usize| ranges.map_or((0.0, f64::from(f32::MAX)), |r| r[i]);
+        let range = |i| stretch(ranges, i);
         let compact = Compact::new(rays.len(), reached);
         let gpu_rays: Vec<QueryRayGpu> = (compact.kept.par_iter())
             .map(|&i| {

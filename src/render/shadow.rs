@@ -157,10 +157,7 @@ impl Renderer {
             let rays = ShadowRays::new(camera, frame, light, offset)?;
             // Shadow rays toward a directional light share one direction (the tracer tiles
             // texture sets along it); the query frame is the camera's, as the frame's own.
-            let parallel = match *light {
-                Light::Directional { direction } => Some(-direction.normalize()),
-                Light::Point { .. } => None,
-            };
+            let parallel = rays.toward_parallel.map(|(toward, _)| toward);
             let eye = camera.world_from_camera.w_axis.truncate();
             let n = frame.depth.len();
             // Each pixel's surface is rebuilt once, as the tracer makes its ray: an attached
