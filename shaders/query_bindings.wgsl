@@ -3,7 +3,8 @@
 //
 // Space: the query's frame (see query_types.wgsl).
 
-@group(2) @binding(0) var<uniform> query: Query;
+// Storage, not a uniform, as frame_bindings.wgsl's search settings.
+@group(2) @binding(0) var<storage, read> query: Query;
 @group(2) @binding(1) var<storage, read> rays: array<QueryRay>;
 @group(2) @binding(2) var<storage, read_write> hits: array<QueryHit>;
 @group(2) @binding(3) var<storage, read> traced_rays: array<u32>;

@@ -1,5 +1,5 @@
-//! Group 0 of every raster pass (frame_bindings.wgsl): the camera and search uniforms and the
-//! counters (box searches, and height fetches in the counting build), written once per frame and
+//! Group 0 of every raster pass and tracer (frame_bindings.wgsl): the camera (a uniform), the
+//! search settings (a read-only storage buffer: see frame_bindings.wgsl) and the counters (box searches, and height fetches in the counting build), written once per frame and
 //! shared by all objects of every kind.
 //!
 //! Spaces: the camera record is camera-relative view space (see gpu_types.rs).
@@ -30,7 +30,7 @@ impl FrameBindings {
             label: Some("frame"),
             entries: &[
                 uniform_entry(0, FRAME_STAGES),
-                uniform_entry(1, FRAME_STAGES),
+                storage_entry(1, FRAME_STAGES, true),
                 // Writable storage is not allowed in vertex shaders (without a feature).
                 storage_entry(
                     2,
@@ -39,16 +39,24 @@ impl FrameBindings {
                 ),
             ],
         });
-        let uniform = |label, size| {
+        let written = |label, size, usage| {
             device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
                 size,
-                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                usage: usage | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             })
         };
-        let camera = uniform("camera", size_of::<CameraGpu>() as u64);
-        let search = uniform("search", size_of::<SearchGpu>() as u64);
+        let camera = written(
+            "camera",
+            size_of::<CameraGpu>() as u64,
+            wgpu::BufferUsages::UNIFORM,
+        );
+        let search = written(
+            "search",
+            size_of::<SearchGpu>() as u64,
+            wgpu::BufferUsages::STORAGE,
+        );
         let counters = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("counters"),
             size: COUNTERS_BYTES,

@@ -15,7 +15,7 @@ use wgpu::util::DeviceExt;
 use super::device::guarded;
 use super::gpu_types::{QueryGpu, QueryHitGpu, QueryRayGpu};
 use super::kinds::{bind_buffers, storage_buffer, Tally, TraceCall};
-use super::pipelines::{storage_entry, uniform_entry};
+use super::pipelines::storage_entry;
 use super::{Renderer, Scene, SearchOptions};
 use crate::cancel::Cancel;
 use crate::error::{GeomtexError, Result};
@@ -103,7 +103,7 @@ pub(crate) fn query_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("ray query"),
         entries: &[
-            uniform_entry(0, compute),
+            storage_entry(0, compute, true),
             storage_entry(1, compute, true),
             storage_entry(2, compute, false),
             storage_entry(3, compute, true),
@@ -405,7 +405,7 @@ impl Renderer {
                 let settings = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                     label: Some("query"),
                     contents: bytemuck::bytes_of(&settings),
-                    usage: wgpu::BufferUsages::UNIFORM,
+                    usage: wgpu::BufferUsages::STORAGE,
                 });
                 let active =
                     storage_buffer(device, "query rays traced", bytemuck::cast_slice(&active));
