@@ -37,13 +37,17 @@ impl Aabb {
         hi: DVec3::NEG_INFINITY,
     };
 
-    /// Whether the ray o + t d meets the box for some t in [t0, t1] (slab test; a zero
-    /// direction component is an infinite inverse, which the comparisons handle).
-    pub fn meets(&self, o: DVec3, d: DVec3, (t0, t1): (f64, f64)) -> bool {
+    /// Whether the ray o + t d meets the box for some t in [t0, t1].
+    pub fn meets(&self, o: DVec3, d: DVec3, range: (f64, f64)) -> bool {
+        self.meets_inverse(o, d.recip(), range)
+    }
+
+    /// `meets` for a direction given by its inverse (slab test; a zero direction component is
+    /// an infinite inverse, which the comparisons handle): rays that share a direction share it.
+    pub fn meets_inverse(&self, o: DVec3, inverse: DVec3, (t0, t1): (f64, f64)) -> bool {
         if self.lo.cmpgt(self.hi).any() {
             return false;
         }
-        let inverse = d.recip();
         let (a, b) = ((self.lo - o) * inverse, (self.hi - o) * inverse);
         let near = a.min(b).max_element().max(t0);
         let far = a.max(b).min_element().min(t1);

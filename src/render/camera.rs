@@ -38,6 +38,21 @@ pub struct Camera {
 /// World rays through pixel centres: origins and unit directions, one per pixel.
 pub type PixelRays = (Vec<[f64; 3]>, Vec<[f64; 3]>);
 
+/// A camera's world rays as affine functions of the pixel centre (`Camera::pixel_lines`): at
+/// (x, y), `v[0] + x v[1] + y v[2]` for the origin and for the direction (not of unit length).
+pub struct PixelLines {
+    origin: [DVec3; 3],
+    direction: [DVec3; 3],
+}
+
+impl PixelLines {
+    /// The world origin and direction (not unit) of the ray through pixel centre (x, y).
+    pub fn at(&self, x: f64, y: f64) -> (DVec3, DVec3) {
+        let affine = |v: &[DVec3; 3]| v[0] + x * v[1] + y * v[2];
+        (affine(&self.origin), affine(&self.direction))
+    }
+}
+
 /// Per-render projection numbers derived from a camera and an image size.
 #[derive(Clone, Copy, Debug)]
 pub struct Lens {
@@ -341,14 +356,30 @@ impl Camera {
     /// World-space ray through the centre of pixel (x, y): (origin, unit direction). The one
     /// definition the shader mirrors and the reference ray caster uses.
     pub fn pixel_ray(&self, lens: &Lens, x: f64, y: f64) -> (DVec3, DVec3) {
-        let a = (x * lens.ray[0] + lens.ray[2], y * lens.ray[1] + lens.ray[3]);
-        let (o, d) = if lens.orthographic {
-            (DVec3::new(a.0, a.1, 0.0), DVec3::NEG_Z)
-        } else {
-            (DVec3::ZERO, DVec3::new(a.0, a.1, -1.0))
-        };
+        let (o, d) = self.pixel_lines(lens).at(x, y);
+        (o, d.normalize())
+    }
+
+    /// The pixel rays as affine functions of the pixel centre (for making many: no matrix per
+    /// pixel). Camera space a = (x * ray[0] + ray[2], y * ray[1] + ray[3]) is the ray's origin
+    /// (a, 0) along -Z (orthographic) or its direction (a, -1) from the eye (perspective), and
+    /// world space is one affine map away.
+    pub fn pixel_lines(&self, lens: &Lens) -> PixelLines {
         let m = self.world_from_camera;
-        (m.transform_point3(o), m.transform_vector3(d).normalize())
+        let [sx, sy, ox, oy] = lens.ray;
+        let per_x = m.transform_vector3(DVec3::new(sx, 0.0, 0.0));
+        let per_y = m.transform_vector3(DVec3::new(0.0, sy, 0.0));
+        if lens.orthographic {
+            PixelLines {
+                origin: [m.transform_point3(DVec3::new(ox, oy, 0.0)), per_x, per_y],
+                direction: [m.transform_vector3(DVec3::NEG_Z), DVec3::ZERO, DVec3::ZERO],
+            }
+        } else {
+            PixelLines {
+                origin: [m.transform_point3(DVec3::ZERO), DVec3::ZERO, DVec3::ZERO],
+                direction: [m.transform_vector3(DVec3::new(ox, oy, -1.0)), per_x, per_y],
+            }
+        }
     }
 
     /// World rays through every pixel centre of a `width` x `height` image: origins and unit

@@ -14,7 +14,7 @@ use wgpu::util::DeviceExt;
 
 use super::device::guarded;
 use super::gpu_types::{QueryGpu, QueryHitGpu, QueryRayGpu};
-use super::kinds::{bind_buffers, storage_buffer, Tally, TraceCall};
+use super::kinds::{bind_buffers, storage_buffer, Tally, TestRay, TraceCall};
 use super::pipelines::storage_entry;
 use super::{Renderer, Scene, SearchOptions};
 use crate::cancel::Cancel;
@@ -142,9 +142,9 @@ fn checked_rays(rays: &[(DVec3, DVec3)]) -> Result<Vec<(DVec3, DVec3)>> {
 
 /// The traces whose test keeps a ray (query frame): bit k for trace k below 63, bit 63 for any
 /// of the rest (`masked_reach` tests those again).
-fn reach_mask(traces: &[TraceCall], o: DVec3, d: DVec3, range: (f64, f64)) -> u64 {
+fn reach_mask(traces: &[TraceCall], ray: &TestRay) -> u64 {
     (traces.iter().enumerate())
-        .filter(|(_, t)| (t.reaches)(o, d, range))
+        .filter(|(_, t)| (t.reaches)(ray))
         .fold(0, |mask, (k, _)| mask | 1 << k.min(63))
 }
 
@@ -157,7 +157,7 @@ where
         .into_par_iter()
         .map(|i| {
             let ((o, d), range) = ray(i);
-            reach_mask(traces, o - centre, d, range)
+            reach_mask(traces, &TestRay::new(o - centre, d, range))
         })
         .collect();
     masked_reach(traces, &masks, ray, centre)
@@ -178,7 +178,7 @@ where
                         return mask >> k & 1 == 1;
                     }
                     let ((o, d), range) = ray(i as usize);
-                    mask >> 63 == 1 && (trace.reaches)(o - centre, d, range)
+                    mask >> 63 == 1 && (trace.reaches)(&TestRay::new(o - centre, d, range))
                 })
                 .collect()
         })
@@ -285,11 +285,19 @@ impl Renderer {
             let traces = self.prepare_query(scene, view_from_world, search, parallel)?;
             super::shadow::mark(format_args!("prepare_query"), &mut t);
             // Each kept ray with the traces it reaches (`reach_mask`), so that no test runs twice.
+            // Rays that share a direction share its inverse.
+            let inverse = parallel.map(DVec3::recip);
             let kept: Vec<(usize, RangedRay, u64)> = (0..count)
                 .into_par_iter()
                 .filter_map(|i| {
                     let ((o, d), range) = ray(i)?;
-                    let mask = reach_mask(&traces, o - origin, d, range);
+                    debug_assert!(parallel.is_none_or(|p| p == d));
+                    let test_ray = TestRay {
+                        origin: o - origin,
+                        inverse: inverse.unwrap_or_else(|| d.recip()),
+                        range,
+                    };
+                    let mask = reach_mask(&traces, &test_ray);
                     (mask != 0).then_some((i, ((o, d), range), mask))
                 })
                 .collect();

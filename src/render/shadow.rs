@@ -204,8 +204,8 @@ impl Renderer {
 /// surface (along the normal, to the side the camera sees) toward the light, counting hits
 /// between `offset` and the light. Made per pixel, in parallel, by the tracer (`occluded`).
 struct ShadowRays<'a> {
-    camera: &'a Camera,
-    lens: crate::render::Lens,
+    /// The frame's pixel rays (no matrix per pixel: a frame has ~10^5 of them).
+    lines: crate::render::camera::PixelLines,
     forward: DVec3,
     frame: &'a Frame,
     light: &'a Light,
@@ -229,8 +229,7 @@ impl<'a> ShadowRays<'a> {
         offset: f64,
     ) -> Result<ShadowRays<'a>> {
         Ok(ShadowRays {
-            camera,
-            lens: camera.lens(frame.width, frame.height, 1.0, 2.0)?,
+            lines: camera.pixel_lines(&camera.lens(frame.width, frame.height, 1.0, 2.0)?),
             forward: camera.forward(),
             frame,
             light,
@@ -265,7 +264,8 @@ impl<'a> ShadowRays<'a> {
             return None;
         }
         let (x, y) = (i % frame.width as usize, i / frame.width as usize);
-        let (o, d) = (self.camera).pixel_ray(&self.lens, x as f64 + 0.5, y as f64 + 0.5);
+        // d is not of unit length: the division makes the step one of z-depth all the same.
+        let (o, d) = self.lines.at(x as f64 + 0.5, y as f64 + 0.5);
         let point = o + d * (f64::from(depth) / d.dot(self.forward));
         let [nx, ny, nz] = [0, 1, 2].map(|k| f64::from(frame.normal[3 * i + k]));
         let n = DVec3::new(nx, ny, nz);

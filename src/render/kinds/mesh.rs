@@ -470,8 +470,8 @@ impl Kind for MeshKind {
             }
         };
         let within_box = call.reaches;
-        call.reaches = Box::new(move |o, d, range| {
-            within_box(o, d, range) && footprint.covers(object_from_query.transform_point3(o))
+        call.reaches = Box::new(move |ray| {
+            within_box(ray) && footprint.covers(object_from_query.transform_point3(ray.origin))
         });
         Ok(Some(call))
     }

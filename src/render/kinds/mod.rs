@@ -147,7 +147,27 @@ pub(crate) fn bind_buffers(
 /// costs ~0.5 µs (its bindings and size, not its work; a mesh's costs ~0.1 µs), and most shadow
 /// rays of a scene pass beside any one object.
 /// Shared across threads: the test runs over a batch's rays in parallel.
-pub(crate) type RayTest = Box<dyn Fn(DVec3, DVec3, (f64, f64)) -> bool + Send + Sync>;
+pub(crate) type RayTest = Box<dyn Fn(&TestRay) -> bool + Send + Sync>;
+
+/// A ray as the CPU-side tests (`RayTest`) take it, in the query's frame: origin, the inverse of
+/// its unit direction (made once for rays that share a direction, as a directional light's shadow
+/// rays do) and the stretch of t that counts.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct TestRay {
+    pub origin: DVec3,
+    pub inverse: DVec3,
+    pub range: (f64, f64),
+}
+
+impl TestRay {
+    pub fn new(origin: DVec3, direction: DVec3, range: (f64, f64)) -> TestRay {
+        TestRay {
+            origin,
+            inverse: direction.recip(),
+            range,
+        }
+    }
+}
 
 /// One object's ray-query dispatch, after groups 0 and 2 are bound.
 pub(crate) struct TraceCall {
@@ -169,7 +189,7 @@ impl TraceCall {
         TraceCall {
             pipeline,
             group,
-            reaches: Box::new(move |o, d, range| all.meets(o, d, range)),
+            reaches: Box::new(move |ray| all.meets_inverse(ray.origin, ray.inverse, ray.range)),
         }
     }
 }

@@ -199,10 +199,10 @@ impl TileLists {
         let [sx, sy, ox, oy] = header.grid.map(f64::from);
         let [across, down, tile, _] = header.size;
         let listed: Vec<bool> = self.ranges.iter().map(|r| r[1] > 0).collect();
-        Box::new(move |o, _, _| {
-            let p = grid_from_view.transform_point3(o);
+        let (w, h) = (f64::from(across * tile), f64::from(down * tile));
+        Box::new(move |ray| {
+            let p = grid_from_view.transform_point3(ray.origin);
             let (x, y) = ((p.x - ox) / sx, (p.y - oy) / sy);
-            let (w, h) = (f64::from(across * tile), f64::from(down * tile));
             if !(x >= 0.0 && y >= 0.0 && x < w && y < h) {
                 return false;
             }
@@ -275,6 +275,7 @@ mod tests {
     use super::*;
     use crate::render::camera::Camera;
     use crate::render::cull::unit_cube_corners;
+    use crate::render::kinds::TestRay;
     use glam::DMat4;
 
     /// The view-space corners of the unit cube under each of `view_from_box`, numbered in order.
@@ -436,12 +437,9 @@ mod tests {
             assert!(tile_of(&tiles, p).is_some());
         }
         let test = tiles.reaches(&moved.header);
-        assert!(test(DVec3::splat(0.5) - shift, direction, (0.0, 1.0)));
-        assert!(!test(
-            DVec3::new(0.5, 0.5, 40.0) - shift,
-            direction,
-            (0.0, 1.0)
-        ));
+        let from = |o| TestRay::new(o, direction, (0.0, 1.0));
+        assert!(test(&from(DVec3::splat(0.5) - shift)));
+        assert!(!test(&from(DVec3::new(0.5, 0.5, 40.0) - shift)));
     }
 
     #[test]
