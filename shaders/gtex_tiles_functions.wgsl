@@ -99,10 +99,8 @@ fn tile_walk(range: vec2<u32>, pixel: vec2<u32>, o: vec3<f32>, d: vec3<f32>, ori
                 break;
             }
             k += 1u;
-            // The piece's footprint misses this pixel (the cheap test: no record read).
-            let lo = vec2<u32>(entry.z & 0xffffu, entry.z >> 16u);
-            let hi = vec2<u32>(entry.w & 0xffffu, entry.w >> 16u);
-            if (any(pixel < lo) || any(pixel >= hi)) {
+            // The piece's footprint misses this pixel.
+            if (!entry_holds(entry, pixel)) {
                 continue;
             }
             if (COUNT_FETCHES) {

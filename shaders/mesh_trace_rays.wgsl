@@ -13,8 +13,5 @@ fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
     if (q.index < 0) {
         return;
     }
-    let tri = triangles[q.found.item];
-    let local = cross(tri.b - tri.a, tri.c - tri.a);
-    let normal = normalize((traced.world_normal_from_local * vec4<f32>(local, 0.0)).xyz);
-    hits[q.index] = QueryHit(normal, q.found.t, traced.ids.x, 0u, 0u, 0u);
+    hits[q.index] = mesh_query_hit(u32(q.found.item), q.found.t);
 }

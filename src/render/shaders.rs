@@ -34,7 +34,8 @@ const GTEX_BINDINGS: &str = shader!("gtex_bindings.wgsl");
 const MESH_BINDINGS: &str = shader!("mesh_bindings.wgsl");
 const QUERY_BINDINGS: &str = shader!("query_bindings.wgsl");
 const GTEX_PIECES_BINDINGS: &str = shader!("gtex_pieces_bindings.wgsl");
-const GTEX_TILES_BINDINGS: &str = shader!("gtex_tiles_bindings.wgsl");
+const TILES_BINDINGS: &str = shader!("tiles_bindings.wgsl");
+const TILES_FUNCTIONS: &str = shader!("tiles_functions.wgsl");
 const GTEX_TRACE_BINDINGS: &str = shader!("gtex_trace_bindings.wgsl");
 const MESH_TRACE_BINDINGS: &str = shader!("mesh_trace_bindings.wgsl");
 const DEPTH_COPY_BINDINGS: &str = shader!("depth_copy_bindings.wgsl");
@@ -64,6 +65,7 @@ const GTEX_TILES: &str = shader!("gtex_tiles.wgsl");
 const GTEX_TILES_RAYS: &str = shader!("gtex_tiles_rays.wgsl");
 const GTEX_TRACE_RAYS: &str = shader!("gtex_trace_rays.wgsl");
 const MESH_TRACE_RAYS: &str = shader!("mesh_trace_rays.wgsl");
+const MESH_TILES_RAYS: &str = shader!("mesh_tiles_rays.wgsl");
 const MESH_RASTER: &str = shader!("mesh_raster.wgsl");
 const DEPTH_COPY: &str = shader!("depth_copy.wgsl");
 const SURFELS_CULL: &str = shader!("surfels_cull.wgsl");
@@ -104,8 +106,12 @@ pub fn gtex_raycast() -> String {
 
 /// The tiled geometry-texture pass, boxes front to back per pixel (kinds/gtex/tiles.rs).
 pub fn gtex_tiles() -> String {
-    let bindings = [GTEX_PIECES_BINDINGS, GTEX_TILES_BINDINGS];
-    gtex_primary(&bindings, &[GTEX_TILES_FUNCTIONS], GTEX_TILES)
+    let bindings = [GTEX_PIECES_BINDINGS, TILES_BINDINGS];
+    gtex_primary(
+        &bindings,
+        &[TILES_FUNCTIONS, GTEX_TILES_FUNCTIONS],
+        GTEX_TILES,
+    )
 }
 
 /// Parallel ray queries (shadow rays toward a directional light) through geometry-texture sets,
@@ -119,11 +125,12 @@ pub fn gtex_tiles_rays() -> String {
         FRAME_BINDINGS,
         GTEX_BINDINGS,
         GTEX_PIECES_BINDINGS,
-        GTEX_TILES_BINDINGS,
+        TILES_BINDINGS,
         QUERY_BINDINGS,
         HEIGHTFIELD_FUNCTIONS,
         RAY_BOX_FUNCTIONS,
         GTEX_PIECE_FUNCTIONS,
+        TILES_FUNCTIONS,
         GTEX_TILES_FUNCTIONS,
         QUERY_INDEX_FUNCTIONS,
         GTEX_TILES_RAYS,
@@ -172,6 +179,27 @@ pub fn mesh_trace_rays() -> String {
         RAY_TRIANGLE_FUNCTIONS,
         MESH_TRACE_FUNCTIONS,
         MESH_TRACE_RAYS,
+    ])
+}
+
+/// Parallel ray queries (shadow rays toward a directional light) through meshes, their triangles
+/// tiled as seen along the rays (kinds/mesh.rs, kinds/tiles.rs, query.rs).
+pub fn mesh_tiles_rays() -> String {
+    assemble(&[
+        CAMERA_TYPES,
+        SEARCH_TYPES,
+        MESH_TYPES,
+        TRACE_TYPES,
+        QUERY_TYPES,
+        FRAME_BINDINGS,
+        MESH_TRACE_BINDINGS,
+        TILES_BINDINGS,
+        QUERY_BINDINGS,
+        QUERY_INDEX_FUNCTIONS,
+        TILES_FUNCTIONS,
+        RAY_TRIANGLE_FUNCTIONS,
+        MESH_TRACE_FUNCTIONS,
+        MESH_TILES_RAYS,
     ])
 }
 
@@ -302,7 +330,7 @@ pub fn surfels_resolve() -> String {
 }
 
 /// Every assembled pipeline module, by name.
-pub fn all() -> [(&'static str, String); 17] {
+pub fn all() -> [(&'static str, String); 18] {
     [
         ("igt_raster", igt_raster(false)),
         ("igt_surface", igt_raster(true)),
@@ -313,6 +341,7 @@ pub fn all() -> [(&'static str, String); 17] {
         ("gtex_tiles_rays", gtex_tiles_rays()),
         ("gtex_trace_rays", gtex_trace_rays()),
         ("mesh_trace_rays", mesh_trace_rays()),
+        ("mesh_tiles_rays", mesh_tiles_rays()),
         ("mesh_raster", mesh_raster()),
         ("depth_copy", depth_copy()),
         ("surfels_cull", surfels_compute(SurfelPass::Cull)),
@@ -387,7 +416,10 @@ mod tests {
                 checked += 1;
             }
         }
-        assert_eq!(checked, 4, "gdm, gtex tiles, gtex and mesh tracers");
+        assert_eq!(
+            checked, 5,
+            "gdm, gtex tiles, gtex, mesh tiles and mesh tracers"
+        );
     }
 
     /// No file in shaders/ is left out of every pipeline.

@@ -10,7 +10,7 @@
 //! touches, widened by one cell, far above the rounding of the projection (f64) and of the rays'
 //! f32 origins on the device.
 //!
-//! Spaces: the mesh's object space; the grid's (u, v) are coordinates along two unit axes
+//! Spaces: the mesh's local space (object space less its bounding box centre, kinds/mesh.rs); the grid's (u, v) are coordinates along two unit axes
 //! perpendicular to the direction in that space, so a line along the direction keeps one (u, v).
 
 use glam::DVec3;
@@ -20,8 +20,6 @@ use glam::DVec3;
 const CELLS: usize = 512;
 
 pub(crate) struct Footprint {
-    /// The object-space direction (unit) it was built along.
-    pub direction: DVec3,
     axes: [DVec3; 2],
     /// (u, v) of the grid's corner, and cells per unit of u and v.
     origin: [f64; 2],
@@ -30,7 +28,7 @@ pub(crate) struct Footprint {
 }
 
 impl Footprint {
-    /// The footprint of `triangles` (object space) along `direction` (object space, unit).
+    /// The footprint of `triangles` along `direction` (unit), both in one space.
     pub fn new(triangles: impl Iterator<Item = [DVec3; 3]> + Clone, direction: DVec3) -> Footprint {
         let (x, y) = direction.any_orthonormal_pair();
         let axes = [x, y];
@@ -60,7 +58,6 @@ impl Footprint {
             }
         }
         Footprint {
-            direction,
             axes,
             origin,
             scale,

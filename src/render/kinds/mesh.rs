@@ -19,8 +19,9 @@ use glam::{DMat3, DMat4, DVec3};
 use wgpu::util::DeviceExt;
 
 use super::footprint::Footprint;
+use super::tiles::{self, TileLists};
 use super::{
-    bind_buffers, storage_buffer, DrawCall, FrameView, Kind, Tally, TraceCall, UploadCache,
+    bind_buffers, storage_buffer, DrawCall, FrameView, Kind, RayTest, Tally, TraceCall, UploadCache,
 };
 use crate::appearance::{Image, Texture, TextureCoords};
 use crate::error::Result;
@@ -61,14 +62,68 @@ struct TracedMesh {
 
 /// Everything kept of one mesh: its uploads under each normal rule it was drawn with, its
 /// texture image (uploaded with the first of them), and its triangles for tracing, uploaded the
-/// first time it is traced, and its footprint along the last direction parallel rays were
-/// traced along (the next frame's shadow rays toward the same light reuse it).
+/// first time it is traced, and what parallel rays along the last direction they were traced
+/// along used (the next frame's shadow rays toward the same light reuse it).
 #[derive(Default)]
 struct MeshUploads {
     drawn: Vec<(NormalRule, UploadedMesh)>,
     image: Option<wgpu::TextureView>,
     traced: OnceLock<TracedMesh>,
-    footprint: Mutex<Option<Arc<Footprint>>>,
+    along: Mutex<Option<Arc<MeshAlong>>>,
+}
+
+/// A mesh as parallel rays along one direction see it, in its local space: its footprint (the
+/// CPU's test of each ray) and its triangles tiled along the direction, nearest first per tile,
+/// with the lists on the device (the GPU's walk); `None` where no triangle covers the grid.
+struct MeshAlong {
+    /// Local-space unit direction.
+    direction: DVec3,
+    footprint: Footprint,
+    tiles: Option<(TileLists, wgpu::Buffer, wgpu::Buffer)>,
+}
+
+impl MeshAlong {
+    fn new(gpu: &Gpu, mesh: &Mesh, direction: DVec3) -> MeshAlong {
+        let (lo, hi) = mesh.bounds();
+        let centre = 0.5 * (lo + hi);
+        let triangles = (mesh.faces.iter()).map(|t| t.map(|k| mesh.positions[k as usize] - centre));
+        // A triangle is a box whose eight corners repeat its three.
+        let boxes = (0..)
+            .zip(triangles.clone())
+            .map(|(k, [a, b, c])| (k, [a, b, c, c, c, c, c, c]));
+        let tiles = tiles::parallel(boxes, direction).map(|lists| {
+            let device = &gpu.device;
+            let ranges = storage_buffer(
+                device,
+                "mesh tile ranges",
+                bytemuck::cast_slice(&lists.ranges),
+            );
+            let entries = storage_buffer(
+                device,
+                "mesh tile entries",
+                bytemuck::cast_slice(&lists.entries),
+            );
+            (lists, ranges, entries)
+        });
+        MeshAlong {
+            direction,
+            footprint: Footprint::new(triangles, direction),
+            tiles,
+        }
+    }
+}
+
+/// What both tracers of one mesh in one query share.
+struct MeshQuery<'a> {
+    mesh: &'a Mesh,
+    uploads: &'a MeshUploads,
+    traced: &'a TracedMesh,
+    /// mesh_types.wgsl's `MeshTrace`.
+    settings: wgpu::Buffer,
+    /// The placed bounding box (query frame): no tighter than the placed triangles' boxes, so
+    /// its test may keep a few more rays, never drop one that reaches a triangle.
+    bounds: Aabb,
+    local_from_query: DMat4,
 }
 
 pub(crate) struct MeshKind {
@@ -80,6 +135,10 @@ pub(crate) struct MeshKind {
     white: wgpu::TextureView,
     trace_layout: wgpu::BindGroupLayout,
     trace_pipeline: wgpu::ComputePipeline,
+    /// Group 1 of parallel ray queries (mesh_trace_bindings.wgsl's settings and triangles,
+    /// tiles_bindings.wgsl) and their pipeline.
+    tiles_trace_layout: wgpu::BindGroupLayout,
+    tiles_trace_pipeline: wgpu::ComputePipeline,
     uploads: UploadCache<Mesh, MeshUploads>,
 }
 
@@ -105,6 +164,22 @@ impl MeshKind {
             "mesh_trace_rays",
             &shaders::mesh_trace_rays(),
             &[Some(frame_layout), Some(&trace_layout), Some(query_layout)],
+            &[],
+        );
+        let tiles_trace_layout =
+            device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("mesh (tiled tracer)"),
+                entries: &[0, 2, 9, 10, 11].map(|binding| storage_entry(binding, compute, true)),
+            });
+        let tiles_trace_pipeline = compute_pipeline(
+            device,
+            "mesh_tiles_rays",
+            &shaders::mesh_tiles_rays(),
+            &[
+                Some(frame_layout),
+                Some(&tiles_trace_layout),
+                Some(query_layout),
+            ],
             &[],
         );
         // Group 1 of mesh_bindings.wgsl.
@@ -161,8 +236,61 @@ impl MeshKind {
             white: image_texture(device, queue, &[(1, 1, &[[255u8; 4]])]),
             trace_layout,
             trace_pipeline,
+            tiles_trace_layout,
+            tiles_trace_pipeline,
             uploads: UploadCache::default(),
         }
+    }
+
+    /// What a query of `placed` (a mesh, uploaded) in the query frame `view_from_world` needs of
+    /// it, its triangles uploaded the first time; its hits get the id its pixels get in a frame.
+    fn query<'a>(
+        &'a self,
+        gpu: &Gpu,
+        view_from_world: DMat4,
+        placed: &'a SceneObject,
+        ids: &mut Tally,
+    ) -> Option<MeshQuery<'a>> {
+        let Object::Mesh(mesh, _) = &placed.object else {
+            return None;
+        };
+        let id = -2 - ids.meshes_drawn as i32;
+        ids.meshes_drawn += 1;
+        let uploads = self.uploads.get(mesh)?;
+        let traced = uploads.traced.get_or_init(|| upload_traced(gpu, mesh));
+        let centre = 0.5 * (traced.lo + traced.hi);
+        let view_from_object = view_from_world * placed.world_from_object;
+        let view_from_local = view_from_object * DMat4::from_translation(centre);
+        // Rays move into local space by the inverse placement, their directions unnormalized,
+        // so t stays the distance along the query's unit direction (in world units) under any
+        // scale. Normals come back by the cofactor matrix (det M times M^-T): it turns the
+        // local face normal into that of the placed triangle, mirrored placements included.
+        let linear = DMat3::from_mat4(placed.world_from_object);
+        let cofactor = linear.inverse().transpose() * linear.determinant();
+        let local_from_query = view_from_local.inverse();
+        let settings = MeshTraceGpu {
+            local_from_query: gpu_matrix(local_from_query),
+            world_normal_from_local: gpu_matrix(DMat4::from_mat3(cofactor)),
+            ids: [id, 0, 0, 0],
+        };
+        let (lo, hi) = (traced.lo, traced.hi);
+        let corners = (0..8).map(|k| {
+            let pick = |bit: usize, a: f64, b: f64| if k >> bit & 1 == 1 { b } else { a };
+            let corner = DVec3::new(
+                pick(0, lo.x, hi.x),
+                pick(1, lo.y, hi.y),
+                pick(2, lo.z, hi.z),
+            );
+            view_from_object.transform_point3(corner)
+        });
+        Some(MeshQuery {
+            mesh,
+            uploads,
+            traced,
+            settings: storage_buffer(&gpu.device, "mesh trace", bytemuck::bytes_of(&settings)),
+            bounds: Aabb::of_points(corners),
+            local_from_query,
+        })
     }
 }
 
@@ -386,55 +514,25 @@ impl Kind for MeshKind {
         placed: &SceneObject,
         ids: &mut Tally,
     ) -> Result<Option<TraceCall>> {
-        let Object::Mesh(mesh, _) = &placed.object else {
+        let Some(query) = self.query(gpu, view_from_world, placed, ids) else {
             return Ok(None);
         };
-        // Hits get the id the mesh's pixels get in a frame.
-        let id = -2 - ids.meshes_drawn as i32;
-        ids.meshes_drawn += 1;
-        let Some(uploads) = self.uploads.get(mesh) else {
-            return Ok(None);
-        };
-        let traced = uploads.traced.get_or_init(|| upload_traced(gpu, mesh));
-        let centre = 0.5 * (traced.lo + traced.hi);
-        let view_from_object = view_from_world * placed.world_from_object;
-        let view_from_local = view_from_object * DMat4::from_translation(centre);
-        // Rays move into local space by the inverse placement, their directions unnormalized,
-        // so t stays the distance along the query's unit direction (in world units) under any
-        // scale. Normals come back by the cofactor matrix (det M times M^-T): it turns the
-        // local face normal into that of the placed triangle, mirrored placements included.
-        let linear = DMat3::from_mat4(placed.world_from_object);
-        let cofactor = linear.inverse().transpose() * linear.determinant();
-        let settings = MeshTraceGpu {
-            local_from_query: gpu_matrix(view_from_local.inverse()),
-            world_normal_from_local: gpu_matrix(DMat4::from_mat3(cofactor)),
-            ids: [id, 0, 0, 0],
-        };
-        let device = &gpu.device;
-        let settings = storage_buffer(device, "mesh trace", bytemuck::bytes_of(&settings));
-        let buffers = [&settings, &traced.nodes, &traced.triangles];
-        let group = bind_buffers(device, "mesh (tracer)", &self.trace_layout, &buffers);
-        // The rays' test takes the placed bounding box: no tighter than the placed triangles'
-        // boxes, so it may keep a few more rays, never drop one that reaches a triangle.
-        let (lo, hi) = (traced.lo, traced.hi);
-        let corners = (0..8).map(|k| {
-            let pick = |bit: usize, a: f64, b: f64| if k >> bit & 1 == 1 { b } else { a };
-            let corner = DVec3::new(
-                pick(0, lo.x, hi.x),
-                pick(1, lo.y, hi.y),
-                pick(2, lo.z, hi.z),
-            );
-            view_from_object.transform_point3(corner)
-        });
+        let buffers = [
+            &query.settings,
+            &query.traced.nodes,
+            &query.traced.triangles,
+        ];
+        let group = bind_buffers(&gpu.device, "mesh (tracer)", &self.trace_layout, &buffers);
         Ok(Some(TraceCall::within(
             self.trace_pipeline.clone(),
             group,
-            &[Aabb::of_points(corners)],
+            &[query.bounds],
         )))
     }
 
-    /// Parallel rays also pass the mesh's footprint along their direction (footprint.rs): one
-    /// whose line misses every triangle's projection is not traced.
+    /// Parallel rays walk the mesh's triangles tiled along their direction (kinds/tiles.rs,
+    /// mesh_tiles_rays.wgsl), and pass its footprint along it first (footprint.rs): one whose
+    /// line misses every triangle's projection is not traced.
     fn trace_parallel(
         &self,
         gpu: &Gpu,
@@ -443,37 +541,63 @@ impl Kind for MeshKind {
         ids: &mut Tally,
         direction: DVec3,
     ) -> Result<Option<TraceCall>> {
-        let Some(mut call) = self.trace(gpu, view_from_world, placed, ids)? else {
+        let Some(query) = self.query(gpu, view_from_world, placed, ids) else {
             return Ok(None);
         };
-        // `trace` made a call, so the object is an uploaded mesh.
-        let Object::Mesh(mesh, _) = &placed.object else {
-            return Ok(Some(call));
-        };
-        let Some(uploads) = self.uploads.get(mesh) else {
-            return Ok(Some(call));
-        };
-        // Lines along `direction` map to lines along its object-space image under the
-        // placement (affine), so the footprint is built and looked up in object space.
-        let object_from_query = (view_from_world * placed.world_from_object).inverse();
-        let along = object_from_query.transform_vector3(direction).normalize();
-        let footprint = {
-            let mut kept = uploads.footprint.lock().unwrap_or_else(|e| e.into_inner());
+        // Lines along `direction` map to lines along its local image under the placement
+        // (affine), so the footprint and tiles are built and looked up in local space.
+        let along = query
+            .local_from_query
+            .transform_vector3(direction)
+            .normalize();
+        let kept = {
+            let mut kept = query
+                .uploads
+                .along
+                .lock()
+                .unwrap_or_else(|e| e.into_inner());
             match &*kept {
-                Some(f) if f.direction == along => f.clone(),
-                _ => {
-                    let triangles =
-                        (mesh.faces.iter()).map(|t| t.map(|k| mesh.positions[k as usize]));
-                    kept.insert(Arc::new(Footprint::new(triangles, along)))
-                        .clone()
-                }
+                Some(a) if a.direction == along => a.clone(),
+                _ => kept
+                    .insert(Arc::new(MeshAlong::new(gpu, query.mesh, along)))
+                    .clone(),
             }
         };
-        let within_box = call.reaches;
-        call.reaches = Box::new(move |ray| {
-            within_box(ray) && footprint.covers(object_from_query.transform_point3(ray.origin))
+        let box_test = query.bounds;
+        let local_from_query = query.local_from_query;
+        let footprint = kept.clone();
+        let reaches: RayTest = Box::new(move |ray| {
+            box_test.meets_inverse(ray.origin, ray.inverse, ray.range)
+                && footprint
+                    .footprint
+                    .covers(local_from_query.transform_point3(ray.origin))
         });
-        Ok(Some(call))
+        let Some((tiles, ranges, entries)) = &kept.tiles else {
+            return Ok(None);
+        };
+        let header = tiles.header_for(local_from_query);
+        let device = &gpu.device;
+        let header = storage_buffer(device, "mesh tiles", bytemuck::bytes_of(&header));
+        let bound = [
+            (0, &query.settings),
+            (2, &query.traced.triangles),
+            (9, &header),
+            (10, ranges),
+            (11, entries),
+        ];
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("mesh (tiled tracer)"),
+            layout: &self.tiles_trace_layout,
+            entries: &bound.map(|(binding, buffer)| wgpu::BindGroupEntry {
+                binding,
+                resource: buffer.as_entire_binding(),
+            }),
+        });
+        Ok(Some(TraceCall {
+            pipeline: self.tiles_trace_pipeline.clone(),
+            group,
+            reaches,
+        }))
     }
 
     fn purge(&mut self) {

@@ -15,6 +15,7 @@ pub(crate) mod gtex;
 pub(crate) mod igt;
 pub(crate) mod mesh;
 pub(crate) mod surfels;
+pub(crate) mod tiles;
 
 use std::collections::HashMap;
 use std::sync::{Arc, Weak};

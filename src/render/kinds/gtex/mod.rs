@@ -14,7 +14,6 @@
 
 mod boxes;
 mod owners;
-mod tiles;
 
 use std::sync::{Arc, Mutex, OnceLock};
 
@@ -37,8 +36,8 @@ use crate::render::scene::{Object, SceneObject};
 use crate::render::search::Primary;
 use crate::render::shaders;
 
+use super::tiles::{self, TileLists};
 use boxes::{patch_boxes, placed as placed_box, tile_piece_corners, tile_pieces, PatchBoxGpu};
-use tiles::TileLists;
 
 /// The unit cube as 12 triangles (gtex_raycast.wgsl's CUBE), one instance per drawn patch.
 const CUBE_VERTICES: u32 = 36;
@@ -236,13 +235,13 @@ impl PrimaryPipelines {
 pub(crate) struct GtexKind {
     /// Group 1 of the box pass (gtex_bindings.wgsl).
     layout: wgpu::BindGroupLayout,
-    /// Group 1 of the tiled pass (gtex_bindings.wgsl + gtex_tiles_bindings.wgsl).
+    /// Group 1 of the tiled pass (gtex_bindings.wgsl + tiles_bindings.wgsl).
     tiles_layout: wgpu::BindGroupLayout,
     /// Group 1 of ray queries (gtex_bindings.wgsl + gtex_pieces_bindings.wgsl +
     /// gtex_trace_bindings.wgsl).
     trace_layout: wgpu::BindGroupLayout,
     /// Group 1 of parallel ray queries (gtex_bindings.wgsl + gtex_pieces_bindings.wgsl +
-    /// gtex_tiles_bindings.wgsl).
+    /// tiles_bindings.wgsl).
     tiles_trace_layout: wgpu::BindGroupLayout,
     sampler: wgpu::Sampler,
     boxes: PrimaryPipelines,
@@ -529,7 +528,7 @@ fn piece_corners<'a>(
     })
 }
 
-/// The buffers of `tiles` (gtex_tiles_bindings.wgsl).
+/// The buffers of `tiles` (tiles_bindings.wgsl).
 fn tile_buffers(device: &wgpu::Device, tiles: &TileLists) -> [wgpu::Buffer; 3] {
     [
         storage_buffer(device, "tiles", bytemuck::bytes_of(&tiles.header)),
@@ -540,7 +539,7 @@ fn tile_buffers(device: &wgpu::Device, tiles: &TileLists) -> [wgpu::Buffer; 3] {
 }
 
 /// Group-1 entries binding `pieces` and the tiles' `buffers` (gtex_pieces_bindings.wgsl,
-/// gtex_tiles_bindings.wgsl).
+/// tiles_bindings.wgsl).
 fn tile_entries<'a>(
     pieces: &'a Pieces,
     buffers: &'a [wgpu::Buffer; 3],

@@ -1,6 +1,7 @@
-// Group 1 of the tiled passes (frames, parallel ray queries), after gtex_bindings.wgsl's and
-// gtex_pieces_bindings.wgsl's: the tiles' lists of pieces
-// (src/render/kinds/gtex/tiles.rs).
+// Group 1's tile lists (src/render/kinds/tiles.rs), after the kind's own bindings: a texture
+// set's pieces in its tiled frames and parallel ray queries (after gtex_bindings.wgsl's and
+// gtex_pieces_bindings.wgsl's), a mesh's triangles in parallel ray queries (after
+// mesh_trace_bindings.wgsl's).
 //
 // Spaces: the tiles' pixels (framebuffer pixels, row 0 at the top, for frames; the grid's for
 // parallel rays), normalized device coordinates for the rectangle; entry depths are depths along
@@ -24,6 +25,7 @@ struct Tiles {
 @group(1) @binding(9) var<storage, read> tiles: Tiles;
 // Per tile (row-major): first entry, entry count.
 @group(1) @binding(10) var<storage, read> tile_ranges: array<vec2<u32>>;
-// Per entry: index of a piece in `pieces`, the nearest view depth of its box (f32 bits), its
-// pixel rectangle [x0, y0, x1, y1) as x0 | y0 << 16, x1 | y1 << 16; nearest first.
+// Per entry: index of a piece in `pieces` (or of a triangle in `triangles`), the nearest view
+// depth of its box (f32 bits), its pixel rectangle [x0, y0, x1, y1) as x0 | y0 << 16,
+// x1 | y1 << 16; nearest first.
 @group(1) @binding(11) var<storage, read> tile_entries: array<vec4<u32>>;

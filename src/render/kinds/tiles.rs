@@ -34,7 +34,7 @@ pub(crate) type Entry = [u32; 4];
 /// hit without a search (gtex_tiles_functions.wgsl).
 pub(crate) const SPANS_COLUMN: u32 = 1 << 31;
 
-/// gtex_tiles_bindings.wgsl's `Tiles`.
+/// tiles_bindings.wgsl's `Tiles`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 pub(crate) struct TilesHeader {
@@ -53,7 +53,7 @@ pub(crate) struct TilesHeader {
 /// Pixels on a side of the grid parallel rays are tiled on (64 x 64 tiles).
 const GRID_PIXELS: u32 = 512;
 
-/// The tiles of one set in one frame, as gtex_tiles_bindings.wgsl reads them.
+/// The tiles of one set in one frame, as tiles_bindings.wgsl reads them.
 pub(crate) struct TileLists {
     pub header: TilesHeader,
     /// Per tile (row-major): first entry, entry count.
