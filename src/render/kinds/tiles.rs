@@ -1,17 +1,24 @@
-//! Screen tiles for primary frames: each tile of the image lists the pieces of the patches'
-//! boxes (boxes.rs, tile_pieces) that may cover it, nearest first, so a pixel enters pieces front
-//! to back, searches each patch once from the first of its pieces it enters, and stops once the
-//! next piece starts behind its nearest hit (gtex_tiles_functions.wgsl). Drawing every box and
-//! searching each fragment started 4.8–6.1 searches per covered pixel on the bunny, since
-//! writing frag_depth switches early depth testing off; listing whole boxes here started
-//! 2.4–2.7 (a ray entered about one more thick box of a neighbouring chart, or an overlap ring's
-//! copy of the surface, before the box it hit); the pieces start 1.15–1.18. Camera rays through
-//! the tracer's hierarchy cost more per ray on lavapipe (bench/README.md). A camera's rays share
-//! one origin and sweep the image in order, so sorting pieces once per tile replaces the per-ray
-//! walk.
+//! Tile lists: a grid of tiles over an image, each listing the boxes (or triangles) that may
+//! cover it, nearest first, so that a ray through one tile enters them front to back and stops
+//! once the next starts behind its nearest hit.
+//!
+//! Primary frames of texture sets (kinds/gtex): the image's tiles list the pieces of the
+//! patches' boxes (boxes.rs, tile_pieces); a pixel searches each patch once from the first of its
+//! pieces it enters (gtex_tiles_functions.wgsl). Drawing every box and searching each fragment
+//! started 4.8–6.1 searches per covered pixel on the bunny, since writing frag_depth switches
+//! early depth testing off; listing whole boxes here started 2.4–2.7 (a ray entered about one
+//! more thick box of a neighbouring chart, or an overlap ring's copy of the surface, before the
+//! box it hit); the pieces start 1.15–1.18. Camera rays through the tracer's hierarchy cost more
+//! per ray on lavapipe (bench/README.md). A camera's rays share one origin and sweep the image in
+//! order, so sorting pieces once per tile replaces the per-ray walk.
+//!
+//! Parallel rays (`parallel`: shadow rays toward a directional light) through a set's pieces or
+//! a mesh's triangles (kinds/mesh.rs): an orthographic grid seen along their direction, where
+//! each ray stays in one tile (gtex_tiles_rays.wgsl, mesh_tiles_rays.wgsl, tiles_functions.wgsl).
 //!
 //! Spaces: view (camera-relative, OpenGL-style: depth along the view is -z, which is also the ray
-//! parameter t of camera_ray's rays) and framebuffer pixels (row 0 at the top, centres at +0.5).
+//! parameter t of camera_ray's rays) and framebuffer pixels (row 0 at the top, centres at +0.5);
+//! for parallel rays, the grid's frame (its -Z along the rays) and its pixels.
 
 use glam::{DMat3, DMat4, DVec3};
 use rayon::prelude::*;
