@@ -8,16 +8,13 @@
 
 @compute @workgroup_size(64)
 fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
-    let index = query_ray_index(id);
-    if (index < 0) {
+    let q = tiled_query_ray(id);
+    if (q.index < 0) {
         return;
     }
-    let i = u32(index);
-    let ray = rays[i];
-    let at = ray_tile(ray.origin);
-    if (at.range.x == 0xffffffffu) {
-        return;
-    }
+    let i = u32(q.index);
+    let ray = q.ray;
+    let at = q.at;
     let t_hi = hits[i].t;
     let found = tile_walk(at.range, at.pixel, ray.origin, ray.dir, at.depth, ray.t_min, t_hi,
                            select(select(ASK_NEAREST, ASK_ANY, query.counts.y == 1u), ASK_BLOCKED, query.counts.w == 1u));

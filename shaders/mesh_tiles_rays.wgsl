@@ -9,16 +9,13 @@
 
 @compute @workgroup_size(64)
 fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
-    let index = query_ray_index(id);
-    if (index < 0) {
+    let q = tiled_query_ray(id);
+    if (q.index < 0) {
         return;
     }
-    let i = u32(index);
-    let ray = rays[i];
-    let at = ray_tile(ray.origin);
-    if (at.range.x == 0xffffffffu) {
-        return;
-    }
+    let i = u32(q.index);
+    let ray = q.ray;
+    let at = q.at;
     let o = (traced.local_from_query * vec4<f32>(ray.origin, 1.0)).xyz;
     let d = (traced.local_from_query * vec4<f32>(ray.dir, 0.0)).xyz;
     // Grid depth per unit of t: the placement's scale along the rays.

@@ -15,6 +15,16 @@ from conftest import Converted
 RAYS = 20_000
 
 
+def turned_scaled_mirrored_moved(diagonal: float) -> np.ndarray:
+    """A placement that turns about y, scales unevenly, mirrors z and moves by a fraction of
+    `diagonal`."""
+    c, s = np.cos(0.7), np.sin(0.7)
+    placement = np.eye(4)
+    placement[:3, :3] = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]]) @ np.diag([1.5, 0.6, -1.0])
+    placement[:3, 3] = np.array([0.4, -0.3, 0.2]) * diagonal
+    return placement
+
+
 def test_first_hits_agree_with_trimesh(bunny: Converted) -> None:
     origins, dirs = rays_around(bunny.mesh, RAYS)
     diag = bunny.mesh.diagonal
@@ -158,11 +168,7 @@ def test_a_mesh_kept_on_the_device_is_traced_where_each_query_places_it(bunny: C
     was. Against trimesh's ray casting of each placed copy."""
     origins, dirs = rays_around(bunny.mesh, 4000, seed=11)
     tm = bunny.mesh.to_trimesh()
-    c, s = np.cos(0.7), np.sin(0.7)
-    turn = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
-    moved = np.eye(4)
-    moved[:3, :3] = turn @ np.diag([1.5, 0.6, -1.0])
-    moved[:3, 3] = np.array([0.4, -0.3, 0.2]) * bunny.mesh.diagonal
+    moved = turned_scaled_mirrored_moved(bunny.mesh.diagonal)
     for placement in (np.eye(4), moved, np.eye(4)):
         scene = gt.Scene()
         scene.add(bunny.mesh, placement)
@@ -200,10 +206,7 @@ def test_parallel_rays_walk_a_meshs_tiles_wherever_it_is_placed(bunny: Converted
     rng = np.random.default_rng(5)
     origins = lo - 0.1 * (hi - lo) + rng.random((RAYS, 3)) * 1.2 * (hi - lo)
     direction = np.array([0.3, -1.0, 0.2]) / np.linalg.norm([0.3, -1.0, 0.2])
-    c, s = np.cos(0.7), np.sin(0.7)
-    moved = np.eye(4)
-    moved[:3, :3] = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]]) @ np.diag([1.5, 0.6, -1.0])
-    moved[:3, 3] = np.array([0.4, -0.3, 0.2]) * bunny.mesh.diagonal
+    moved = turned_scaled_mirrored_moved(bunny.mesh.diagonal)
     tm = bunny.mesh.to_trimesh()
     for placement in (np.eye(4), moved):
         scene = gt.Scene()

@@ -36,6 +36,7 @@ const QUERY_BINDINGS: &str = shader!("query_bindings.wgsl");
 const GTEX_PIECES_BINDINGS: &str = shader!("gtex_pieces_bindings.wgsl");
 const TILES_BINDINGS: &str = shader!("tiles_bindings.wgsl");
 const TILES_FUNCTIONS: &str = shader!("tiles_functions.wgsl");
+const TILES_QUERY_FUNCTIONS: &str = shader!("tiles_query_functions.wgsl");
 const GTEX_TRACE_BINDINGS: &str = shader!("gtex_trace_bindings.wgsl");
 const MESH_TRACE_BINDINGS: &str = shader!("mesh_trace_bindings.wgsl");
 const DEPTH_COPY_BINDINGS: &str = shader!("depth_copy_bindings.wgsl");
@@ -133,6 +134,7 @@ pub fn gtex_tiles_rays() -> String {
         TILES_FUNCTIONS,
         GTEX_TILES_FUNCTIONS,
         QUERY_INDEX_FUNCTIONS,
+        TILES_QUERY_FUNCTIONS,
         GTEX_TILES_RAYS,
     ])
 }
@@ -197,6 +199,7 @@ pub fn mesh_tiles_rays() -> String {
         QUERY_BINDINGS,
         QUERY_INDEX_FUNCTIONS,
         TILES_FUNCTIONS,
+        TILES_QUERY_FUNCTIONS,
         RAY_TRIANGLE_FUNCTIONS,
         MESH_TRACE_FUNCTIONS,
         MESH_TILES_RAYS,
