@@ -3,6 +3,8 @@ an independent reference: trimesh's ray casting on the original mesh (embree whe
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pytest
 
@@ -13,6 +15,23 @@ from geomtex.testing.views import rays_around
 from conftest import Converted
 
 RAYS = 20_000
+
+
+def against(hits: gt.RayHits, ref: np.ndarray, diag: float) -> tuple[float, np.ndarray, np.ndarray]:
+    """Our hits against trimesh's first distances `ref` (inf for a miss): the hit/miss agreement,
+    the rays both hit, and their distance errors as fractions of `diag`."""
+    both = hits.hit & np.isfinite(ref)
+    return float(np.mean(hits.hit == np.isfinite(ref))), both, np.abs(hits.distances[both] - ref[both]) / diag
+
+
+def placed(mesh: gt.Mesh, tm: Any, placement: np.ndarray, origins: np.ndarray) -> tuple[gt.Scene, np.ndarray, Any]:
+    """The mesh alone in a scene at `placement`, `origins` moved with it, and trimesh's copy of
+    the mesh (`tm`) placed the same."""
+    scene = gt.Scene()
+    scene.add(mesh, placement)
+    copy = tm.copy()
+    copy.apply_transform(placement)
+    return scene, origins @ placement[:3, :3].T + placement[:3, 3], copy
 
 
 def turned_scaled_mirrored_moved(diagonal: float) -> np.ndarray:
@@ -30,9 +49,7 @@ def test_first_hits_agree_with_trimesh(bunny: Converted) -> None:
     diag = bunny.mesh.diagonal
     hits = bunny.gts.intersects_first(origins, dirs)
     ref = reference.RayCaster(bunny.mesh).first_distances(origins, dirs)
-    agree = float(np.mean(hits.hit == np.isfinite(ref)))
-    both = hits.hit & np.isfinite(ref)
-    err = np.abs(hits.distances[both] - ref[both]) / diag
+    agree, both, err = against(hits, ref, diag)
     # Measured (20,000 rays, default conversion): agreement 1.0 on both bunnies (0.99991 over
     # 100,000: misses are rays grazing the silhouette within a texel); p99 5.5e-5 / 3.7e-5 and
     # median 1.5e-7 / 1.35e-7 of the diagonal (Stanford / pymeshlab bunny).
@@ -61,9 +78,7 @@ def test_parallel_rays_walk_tiles_and_agree_with_trimesh(bunny: Converted) -> No
     dirs = np.tile(direction, (RAYS, 1))
     hits = bunny.gts.intersects_first(origins, dirs)
     ref = reference.RayCaster(bunny.mesh).first_distances(origins, dirs)
-    agree = float(np.mean(hits.hit == np.isfinite(ref)))
-    both = hits.hit & np.isfinite(ref)
-    err = np.abs(hits.distances[both] - ref[both]) / diag
+    agree, both, err = against(hits, ref, diag)
     # Measured (20,000 rays from inside and around the box, ~6,600 hitting; Stanford / pymeshlab
     # bunny): agreement 0.99980 / 0.99995, p99 5.8e-5 / 3.8e-5 of the diagonal.
     assert both.sum() > 0.2 * RAYS
@@ -142,12 +157,10 @@ def test_meshes_are_traced_like_trimesh(bunny: Converted) -> None:
     ours = scene.intersects_first(origins, dirs)
     caster = reference.RayCaster(bunny.mesh)
     ref = caster.first_distances(origins, dirs)
-    agree = np.mean(ours.hit == np.isfinite(ref))
+    agree, both, err = against(ours, ref, diag)
     # Measured 1.0 on the Stanford and pymeshlab bunnies (20k rays); the bound leaves room for
     # f32 and embree's f32 picking different sides of an edge on 6 rays.
     assert agree >= 0.9997, agree
-    both = ours.hit & np.isfinite(ref)
-    err = np.abs(ours.distances[both] - ref[both]) / diag
     # Measured p99 2.1e-7 / 2.1e-7 and max 1.3e-6 / 1.1e-5 of the diagonal (Stanford / pymeshlab
     # bunny): f32 triangles in a frame centred on the rays.
     assert np.quantile(err, 0.99) <= 6e-7 and err.max() <= 3e-5, (np.quantile(err, 0.99), err.max())
@@ -170,26 +183,20 @@ def test_a_mesh_kept_on_the_device_is_traced_where_each_query_places_it(bunny: C
     tm = bunny.mesh.to_trimesh()
     moved = turned_scaled_mirrored_moved(bunny.mesh.diagonal)
     for placement in (np.eye(4), moved, np.eye(4)):
-        scene = gt.Scene()
-        scene.add(bunny.mesh, placement)
-        o = origins @ placement[:3, :3].T + placement[:3, 3]
+        scene, o, copy = placed(bunny.mesh, tm, placement, origins)
         d = dirs @ placement[:3, :3].T
         d /= np.linalg.norm(d, axis=1, keepdims=True)
         ours = scene.intersects_first(o, d)
-        placed = tm.copy()
-        placed.apply_transform(placement)
-        caster = reference.RayCaster(placed)
+        caster = reference.RayCaster(copy)
         ref = caster.first_distances(o, d)
-        agree = np.mean(ours.hit == np.isfinite(ref))
+        agree, both, err = against(ours, ref, reference.diagonal(copy))
         # Measured 1.0 in all three placements (4000 rays, 2467 hits; Stanford bunny).
         assert agree >= 0.9995, agree
-        both = ours.hit & np.isfinite(ref)
-        err = np.abs(ours.distances[both] - ref[both]) / reference.diagonal(placed)
         # Measured p99 2.2e-7 / 3.5e-7 and max 4.9e-7 / 8.4e-7 of the placed diagonal (in place /
         # moved): the rays' move into the mesh's space adds an f32 rounding or two.
         assert np.quantile(err, 0.99) <= 9e-7 and err.max() <= 2.5e-6, (np.quantile(err, 0.99), err.max())
         _, rays, tri = caster.first_hits(o, d)
-        cos = np.abs(np.sum(ours.normals[rays] * np.asarray(placed.face_normals)[tri], axis=1))
+        cos = np.abs(np.sum(ours.normals[rays] * np.asarray(copy.face_normals)[tri], axis=1))
         # Face normals of the placed triangles: measured |cos| 1st percentile 1 - 8e-8 in every
         # placement (up to sign: trimesh turns a mirrored copy's faces over, the tracer keeps the
         # corners' order).
@@ -209,32 +216,26 @@ def test_parallel_rays_walk_a_meshs_tiles_wherever_it_is_placed(bunny: Converted
     moved = turned_scaled_mirrored_moved(bunny.mesh.diagonal)
     tm = bunny.mesh.to_trimesh()
     for placement in (np.eye(4), moved):
-        scene = gt.Scene()
-        scene.add(bunny.mesh, placement)
-        o = origins @ placement[:3, :3].T + placement[:3, 3]
+        scene, o, copy = placed(bunny.mesh, tm, placement, origins)
         d = np.tile(direction, (RAYS, 1))
         walked, walked_any = scene.intersects_first(o, d), scene.intersects_any(o, d)
         ours = scene.intersects_first(o, d)
-        placed = tm.copy()
-        placed.apply_transform(placement)
-        caster = reference.RayCaster(placed)
+        caster = reference.RayCaster(copy)
         ref = caster.first_distances(o, d)
-        agree = np.mean(ours.hit == np.isfinite(ref))
-        both = ours.hit & np.isfinite(ref)
-        err = np.abs(ours.distances[both] - ref[both]) / reference.diagonal(placed)
+        agree, both, err = against(ours, ref, reference.diagonal(copy))
         # Measured (20,000 rays, 6,600-7,100 hits; Stanford / pymeshlab bunny, in place / moved):
         # agreement 1.0 in all four, p99 5.8e-8-7.7e-8, max 2.4e-7-1.1e-6 of the placed diagonal.
         assert both.sum() > 0.3 * RAYS
         assert agree >= 0.9997, agree
         assert np.quantile(err, 0.99) <= 2.3e-7 and err.max() <= 3.3e-6, (np.quantile(err, 0.99), err.max())
         _, rays, tri = caster.first_hits(o, d)
-        cos = np.abs(np.sum(ours.normals[rays] * np.asarray(placed.face_normals)[tri], axis=1))
+        cos = np.abs(np.sum(ours.normals[rays] * np.asarray(copy.face_normals)[tri], axis=1))
         # Measured |cos| 1st percentile 1 - 8.5e-8 in all four.
         assert np.quantile(cos, 0.01) >= 1 - 2.5e-7, np.quantile(cos, 0.01)
         # The same triangle test on the same rays: measured identical hits and distances.
         assert np.array_equal(walked.hit, ours.hit), int((walked.hit != ours.hit).sum())
         gap = np.abs(walked.distances[ours.hit] - ours.distances[ours.hit])
-        assert gap.max() <= 1e-6 * reference.diagonal(placed), gap.max()
+        assert gap.max() <= 1e-6 * reference.diagonal(copy), gap.max()
         assert np.array_equal(scene.intersects_any(o, d), walked_any)
 
 

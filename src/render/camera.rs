@@ -386,14 +386,14 @@ impl Camera {
     /// directions, row-major with row 0 at the top. The renderer's own rays.
     pub fn pixel_rays(&self, width: u32, height: u32) -> Result<PixelRays> {
         // Rays do not depend on the depth range; any valid one will do.
-        let lens = self.lens(width, height, 1.0, 2.0)?;
+        let lines = self.pixel_lines(&self.lens(width, height, 1.0, 2.0)?);
         let n = width as usize * height as usize;
         let (mut origins, mut directions) = (Vec::with_capacity(n), Vec::with_capacity(n));
         for y in 0..height {
             for x in 0..width {
-                let (o, d) = self.pixel_ray(&lens, x as f64 + 0.5, y as f64 + 0.5);
+                let (o, d) = lines.at(x as f64 + 0.5, y as f64 + 0.5);
                 origins.push(o.to_array());
-                directions.push(d.to_array());
+                directions.push(d.normalize().to_array());
             }
         }
         Ok((origins, directions))

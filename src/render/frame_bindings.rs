@@ -1,6 +1,7 @@
 //! Group 0 of every raster pass and tracer (frame_bindings.wgsl): the camera (a uniform), the
-//! search settings (a read-only storage buffer: see frame_bindings.wgsl) and the counters (box searches, and height fetches in the counting build), written once per frame and
-//! shared by all objects of every kind.
+//! search settings (a read-only storage buffer: see frame_bindings.wgsl) and the counters (box
+//! searches, and height fetches in the counting build), written once per frame and shared by all
+//! objects of every kind.
 //!
 //! Spaces: the camera record is camera-relative view space (see gpu_types.rs).
 

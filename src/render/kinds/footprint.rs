@@ -10,8 +10,9 @@
 //! touches, widened by one cell, far above the rounding of the projection (f64) and of the rays'
 //! f32 origins on the device.
 //!
-//! Spaces: the mesh's local space (object space less its bounding box centre, kinds/mesh.rs); the grid's (u, v) are coordinates along two unit axes
-//! perpendicular to the direction in that space, so a line along the direction keeps one (u, v).
+//! Spaces: the mesh's local space (object space less its bounding box centre, kinds/mesh.rs);
+//! the grid's (u, v) are coordinates along two unit axes perpendicular to the direction in that
+//! space, so a line along the direction keeps one (u, v).
 
 use glam::DVec3;
 

@@ -75,8 +75,9 @@ struct MeshUploads {
 /// A mesh as parallel rays along one direction see it, in its local space: its footprint (the
 /// CPU's test of each ray) and, from the second query along the direction on, its triangles
 /// tiled along it, nearest first per tile, with the lists on the device (the GPU's walk; `None`
-/// where no triangle covers the grid). A one-off query walks the hierarchy instead: the lists of
-/// a 1.1M-triangle mesh take 0.38 s to build (2 cores), more than such a query's whole walk.
+/// where no triangle covers the grid). A one-off query walks the hierarchy instead: on a
+/// 1.1M-triangle mesh (2 cores, 1000 rays) the query that builds the lists takes 0.25-0.27 s,
+/// twice a one-off query's whole 0.12 s.
 struct MeshAlong {
     /// Local-space unit direction.
     direction: DVec3,

@@ -61,7 +61,8 @@ pub(crate) struct TilesHeader {
 /// Pixels on a side of the grid parallel rays are tiled on (64 x 64 tiles).
 const GRID_PIXELS: u32 = 512;
 
-/// The tiles of one set in one frame, as tiles_bindings.wgsl reads them.
+/// The tiles of one set in one frame, or of a set's pieces or a mesh's triangles along one
+/// direction, as tiles_bindings.wgsl reads them.
 pub(crate) struct TileLists {
     pub header: TilesHeader,
     /// Per tile (row-major): first entry, entry count.
@@ -121,7 +122,8 @@ impl TileLists {
     /// The lists for `boxes` (each an index and its corners in view space: a box's eight, a
     /// triangle's three) seen through `lens` on an image of `size` pixels; `None` when no box
     /// covers a pixel. Footprints and the sort run in parallel, and each tile's list is counted
-    /// before it is filled: a 1.1M-triangle mesh's lists took 0.5 s built one push at a time.
+    /// before it is filled (with these and three corners a triangle, a 1000-ray query that built
+    /// a 1.1M-triangle mesh's footprint and lists took 0.38 s on 2 cores, not 0.56 s).
     pub fn build<const N: usize>(
         boxes: impl Iterator<Item = (u32, [DVec3; N])>,
         lens: &Lens,
@@ -235,7 +237,8 @@ impl TileLists {
 
 /// The lists for `boxes` (index and corners in the query's frame) tiled as seen along
 /// `direction` (unit): an orthographic grid whose -Z is the direction, over the boxes' extent,
-/// so that each ray along `direction` stays in one tile (gtex_tiles_rays.wgsl).
+/// so that each ray along `direction` stays in one tile (gtex_tiles_rays.wgsl,
+/// mesh_tiles_rays.wgsl).
 pub(crate) fn parallel<const N: usize>(
     boxes: impl Iterator<Item = (u32, [DVec3; N])>,
     direction: DVec3,
