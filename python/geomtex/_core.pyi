@@ -185,6 +185,10 @@ class GdmShell:
                 count_steps: bool = False) -> GdmShell: ...
     @property
     def prisms(self) -> int: ...
+    def _state(self) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.uint32],
+                              npt.NDArray[np.float64], float, GdmVolume, tuple[int, int, int, int], int,
+                              tuple[npt.NDArray[np.float32], npt.NDArray[np.float32], float, bool] | None,
+                              bool]: ...
 
 def gdm_explicit_mesh(positions: npt.NDArray[np.float64], normals: npt.NDArray[np.float64],
                       faces: npt.NDArray[np.uint32], uv: npt.NDArray[np.float64], thickness: float,

@@ -3,9 +3,11 @@
 Each object is stored as what it is made of, never as a pointer: a set as the bytes of its .gtex
 file (checksummed, exact), surfels as their .gtsurf bytes (the set and tile size), an inverse
 geometric texture as its .gtigt bytes, a mesh shaded through one as that texture, its arrays and
-its faces' grids, a mesh as its
-arrays, a camera as its pose and projection numbers, a
-scene as its objects and placements, a frame as its arrays. A renderer holds a GPU device, which
+its faces' grids, a mesh as its arrays, a displacement shell the renderer draws (the
+``_core.GdmShell`` a Scene holds) as its prisms' arrays, its volume and its lookup table, a
+volume as its occupancy and colors, a camera as its pose and projection numbers, a scene as its
+objects and placements, a frame as its arrays. (geomtex.gdm's Volume and Shell and the lights
+are plain Python objects that pickle by their own state.) A renderer holds a GPU device, which
 cannot travel: pickling one stores its image size and the other side makes a renderer of its own.
 
 The restore functions live here (a module pickle can name) and check what they are given as the
@@ -16,6 +18,8 @@ object.
 from __future__ import annotations
 
 from typing import Any, Literal
+
+import numpy as np
 
 from . import _core
 
@@ -43,6 +47,15 @@ def restore_mesh(*arrays: Any) -> Any:
     from ._mesh import Mesh
 
     return Mesh(*arrays)
+
+
+def restore_gdm_volume(occupancy: Any, colors: Any) -> _core.GdmVolume:
+    # Its seams were checked when it was first made.
+    return _core.GdmVolume(np.ascontiguousarray(occupancy, dtype=np.uint8), colors, False)
+
+
+def restore_gdm_shell(*state: Any) -> _core.GdmShell:
+    return _core.GdmShell(*state)
 
 
 def restore_camera(kind: str, world_from_camera: Any, numbers: list[float], near: float | None) -> _core.Camera:
@@ -92,6 +105,15 @@ def _reduce_mesh(self: _core.Mesh) -> tuple[Any, ...]:
     return restore_mesh, (self.vertices, self.faces, self.vertex_colors, self.face_colors, self.uv, self.texture)
 
 
+def _reduce_gdm_volume(self: _core.GdmVolume) -> tuple[Any, ...]:
+    colors = self.colors
+    return restore_gdm_volume, (self.occupancy, None if colors is None else colors.reshape(self.size + (4,)))
+
+
+def _reduce_gdm_shell(self: _core.GdmShell) -> tuple[Any, ...]:
+    return restore_gdm_shell, self._state()
+
+
 def _reduce_camera(self: _core.Camera) -> tuple[Any, ...]:
     return restore_camera, self._state()
 
@@ -115,5 +137,6 @@ def install() -> None:
                         (_core.Camera, _reduce_camera), (_core.Scene, _reduce_scene),
                         (_core.Renderer, _reduce_renderer), (_core.Frame, _reduce_frame),
                         (_core.Surfels, _reduce_surfels), (_core.InverseGeometricTexture, _reduce_igt),
-                        (_core.IgtMesh, _reduce_igt_mesh)]:
+                        (_core.IgtMesh, _reduce_igt_mesh), (_core.GdmVolume, _reduce_gdm_volume),
+                        (_core.GdmShell, _reduce_gdm_shell)]:
         setattr(cls, "__reduce__", reduce)

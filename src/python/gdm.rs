@@ -5,15 +5,16 @@
 use std::sync::Arc;
 
 use glam::{DVec2, DVec3};
-use numpy::ndarray::{Array3, Array5};
+use numpy::ndarray::{Array3, Array4, Array5};
 use numpy::{
     IntoPyArray, PyArray1, PyArray3, PyArray5, PyReadonlyArray1, PyReadonlyArray2,
     PyReadonlyArray3, PyReadonlyArray4, PyUntypedArrayMethods,
 };
 use pyo3::prelude::*;
+use pyo3::types::PyTuple;
 
 use super::args::{opt_text, real};
-use super::arrays::{flat, rows, ArrayPair};
+use super::arrays::{flat, image, rows, ArrayPair};
 use super::errors::heavy;
 use super::gtex::with_progress;
 use crate::error::{parse_choice, GeomtexError};
@@ -314,6 +315,55 @@ impl PyGdmShell {
     #[getter]
     fn prisms(&self) -> usize {
         self.inner.shell.faces.len()
+    }
+
+    /// What the shell was made of, as `GdmShell(*state)` takes it again (for pickling):
+    /// positions, normals, faces, uv, thickness, volume, color, pieces, lookup, count_steps.
+    fn _state<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyTuple>> {
+        let g = &self.inner;
+        let s = &g.shell;
+        let points = |v: &[DVec3]| rows(py, &v.iter().map(|p| p.to_array()).collect::<Vec<_>>());
+        let uv: Vec<f64> = s.uv.iter().flatten().flat_map(|c| c.to_array()).collect();
+        let uv = image(py, uv, (s.uv.len(), 3, 2));
+        let volume = Py::new(
+            py,
+            PyGdmVolume {
+                inner: g.volume.clone(),
+            },
+        )?;
+        let lookup = match &g.lookup {
+            None => py.None().into_bound(py),
+            Some(t) => {
+                let [nx, ny, nz] = g.volume.size;
+                let [n_theta, n_phi] = t.directions;
+                let weights = Array4::from_shape_vec((nx, ny, n_phi, t.k), t.weights.clone())
+                    .expect("sized")
+                    .into_pyarray(py);
+                let eigen = image(py, t.eigen.clone(), (t.k, n_theta, nz));
+                (weights, eigen, t.refine, t.bound)
+                    .into_pyobject(py)?
+                    .into_any()
+            }
+        };
+        PyTuple::new(
+            py,
+            [
+                points(&s.positions).into_any(),
+                points(&s.normals).into_any(),
+                rows(py, &s.faces).into_any(),
+                uv.into_any(),
+                s.thickness.into_pyobject(py)?.into_any(),
+                volume.into_bound(py).into_any(),
+                (g.color[0], g.color[1], g.color[2], g.color[3])
+                    .into_pyobject(py)?
+                    .into_any(),
+                g.pieces.into_pyobject(py)?.into_any(),
+                lookup,
+                pyo3::types::PyBool::new(py, g.count_steps)
+                    .to_owned()
+                    .into_any(),
+            ],
+        )
     }
 }
 
