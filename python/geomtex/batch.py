@@ -134,26 +134,99 @@ def _write_json_atomically(path: str, data: Any) -> None:
 
 def read_manifest(out_dir: str | os.PathLike[str]) -> dict[str, Any]:
     """The manifest of a `convert_many` job: ``{"version", "options", "rows"}``, rows keyed by
-    input key. An empty one where the folder holds none."""
-    path = os.path.join(os.fspath(out_dir), MANIFEST)
+    input key, with the journal of a job that did not finish replayed over it. An empty one where
+    the folder holds none.
+
+    Every row is checked as it is read (a key, a status of "done" or "failed", an output file
+    name beside the manifest, a byte count for a done row, ...): a damaged manifest or journal
+    raises FormatError naming the file and the line, rather than resuming a job from rows that
+    cannot be right. The one exception is a journal's last line without its newline, which a
+    crash mid-write leaves torn: it is skipped, and that input converted again."""
+    from ._errors import FileError
+
+    folder = os.fspath(out_dir)
+    path = os.path.join(folder, MANIFEST)
     manifest: dict[str, Any] = {"version": _MANIFEST_VERSION, "options": None, "rows": {}}
     try:
         if os.path.exists(path):
-            with open(path) as f:
-                manifest = json.load(f)
-            if manifest.get("version") != _MANIFEST_VERSION or not isinstance(manifest.get("rows"), dict):
-                raise ValueError("not a geomtex batch manifest of version 1")
-        _replay_journal(os.path.join(os.fspath(out_dir), JOURNAL), manifest["rows"])
-    except (ValueError, OSError) as e:
-        from ._errors import FormatError
-
-        raise FormatError(f"{path}: {e}") from None
+            with open(path, "rb") as f:
+                manifest = _parse_manifest(path, f.read())
+        _replay_journal(os.path.join(folder, JOURNAL), manifest["rows"])
+    except OSError as e:
+        raise FileError(f"cannot read the batch manifest in {folder}: {e}") from None
     return manifest
+
+
+def _format_error(path: str, line: int | None, message: str) -> Exception:
+    from ._errors import FormatError
+
+    return FormatError(f"{path}{'' if line is None else f' line {line}'}: {message}")
+
+
+def _parse_manifest(path: str, data: bytes) -> dict[str, Any]:
+    """manifest.json's content, checked: FormatError naming the file and line where it is wrong."""
+    try:
+        text = data.decode("utf-8")
+        manifest = json.loads(text)
+    except UnicodeDecodeError as e:
+        raise _format_error(path, data.count(b"\n", 0, e.start) + 1, "not UTF-8 text") from None
+    except json.JSONDecodeError as e:
+        raise _format_error(path, e.lineno, f"not JSON ({e.msg}, column {e.colno})") from None
+    except RecursionError:
+        raise _format_error(path, None, "not a manifest (nested too deeply)") from None
+    if not isinstance(manifest, dict) or manifest.get("version") != _MANIFEST_VERSION \
+            or not isinstance(manifest.get("rows"), dict):
+        raise _format_error(path, None, f"not a geomtex batch manifest of version {_MANIFEST_VERSION}")
+    if manifest.get("options") is not None and not isinstance(manifest["options"], dict):
+        raise _format_error(path, None, f"options must be an object, got {manifest['options']!r:.60}")
+    for key, row in manifest["rows"].items():
+        problem = _row_problem(row, key)
+        if problem:
+            # The manifest is written one field a line: the row's line is where its key is.
+            at = text.find(json.dumps(key) + ":")
+            raise _format_error(path, text.count("\n", 0, at) + 1 if at >= 0 else None,
+                                f"row {key!r:.60}: {problem}")
+    return manifest
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _row_problem(row: Any, key: str | None = None) -> str | None:
+    """What makes `row` no manifest row (as `_run_conversions` writes them), or None."""
+    if not isinstance(row, dict):
+        return f"a row must be an object, got {type(row).__name__}"
+    if not isinstance(row.get("key"), str) or not row["key"] or (key is not None and row["key"] != key):
+        return f"its key {row.get('key')!r:.60} is not a non-empty string" + (f" equal to {key!r:.60}" if key else "")
+    status, output = row.get("status"), row.get("output")
+    if status not in ("done", "failed"):
+        return f"status {status!r:.60}; expected 'done' or 'failed'"
+    if not isinstance(output, str) or not output.endswith(".gtex") or os.path.basename(output) != output \
+            or output.startswith(".") or "\\" in output:
+        return f"output {output!r:.60} is not a .gtex file name beside the manifest"
+    if not isinstance(row.get("fingerprint"), dict):
+        return "its fingerprint is not an object"
+    nbytes = row.get("bytes")
+    if status == "done" and (not isinstance(nbytes, int) or isinstance(nbytes, bool) or nbytes < 0):
+        return f"a done row's bytes {nbytes!r:.60} is not a byte count"
+    if status == "failed" and not isinstance(row.get("error"), str):
+        return "a failed row has no error message"
+    for name in ("stats", "stage_seconds"):
+        if row.get(name) is not None and not isinstance(row[name], dict):
+            return f"its {name} is not an object"
+    if row.get("seconds") is not None and not _is_number(row["seconds"]):
+        return f"its seconds {row['seconds']!r:.60} is not a number"
+    return None
 
 
 def _replay_journal(path: str, rows: dict[str, Any]) -> None:
     """Applies the rows a running (or killed) job appended after the manifest was last written.
-    A last line cut short by a crash is ignored: that result is simply converted again."""
+
+    Each line must be one whole manifest row (FormatError naming the journal and the line
+    otherwise), except the last line when it lacks its newline: a crash mid-write tears it, so
+    if it is not valid JSON it is skipped, silently by design (that input has no result on
+    record and is simply converted again)."""
     if not os.path.exists(path):
         return
     with open(path, "rb") as f:
@@ -163,10 +236,14 @@ def _replay_journal(path: str, rows: dict[str, Any]) -> None:
             continue
         try:
             row = json.loads(line)
-            rows[row["key"]] = row
-        except (ValueError, KeyError, TypeError):
-            if number < len(lines):  # only the last, unterminated line may be torn
-                raise ValueError(f"{JOURNAL} line {number} is not a manifest row") from None
+        except (ValueError, RecursionError):  # not JSON, not UTF-8, or nested past Python's stack
+            if number == len(lines):  # the last, unterminated line: torn by a crash
+                continue
+            raise _format_error(path, number, "not a manifest row (not JSON)") from None
+        problem = _row_problem(row)
+        if problem:
+            raise _format_error(path, number, problem)
+        rows[row["key"]] = row
 
 
 def _already_done(row: dict[str, Any] | None, fingerprint: dict[str, Any], out_dir: str) -> bool:

@@ -17,10 +17,11 @@
 //!          texture coordinates f32[faces * 6] (flag 2) | image width u32, height u32,
 //!          RGBA8 pixels (flag 4) | ambient occlusion u8[faces * 3] (flag 8)
 //! ```
-//! A file whose bytes pass the checksum must still hold a possible texture (`validate`: finite
-//! orthonormal grids of 1 to MAX_RESOLUTION cells a side, offsets that rise to the payload's
-//! length, indices within their tables, finite corners and attributes). The figures derived
-//! from the tables are recomputed on load; stage seconds are kept.
+//! A file whose bytes pass the checksum must still hold a possible texture: finite orthonormal
+//! right-handed grids of 1 to MAX_RESOLUTION cells a side whose cells are positive where the
+//! projection divides by them, offsets that rise to the payload's length, indices within their
+//! tables, finite corners and attributes. The figures derived from the tables are recomputed on
+//! load; stage seconds are kept.
 
 use std::path::Path;
 use std::sync::Arc;
@@ -132,7 +133,7 @@ fn f32s(r: &mut Reader, n: usize, what: &str) -> Text<Vec<f32>> {
     }
 }
 
-fn read_grid(r: &mut Reader, k: usize, first_cell: u64) -> Text<Grid> {
+fn read_grid(r: &mut Reader, k: usize, first_cell: u64, primary: Primary) -> Text<Grid> {
     let what = format!("grid {k}");
     let origin = r.vec3(&what)?;
     let axes = [r.vec3(&what)?, r.vec3(&what)?, r.vec3(&what)?];
@@ -143,6 +144,26 @@ fn read_grid(r: &mut Reader, k: usize, first_cell: u64) -> Text<Grid> {
         .all(|i| (0..3).all(|j| (axes[i].dot(axes[j]) - f64::from(u8::from(i == j))).abs() < 1e-6));
     if !finite || !orthonormal || cell.min_element() < 0.0 {
         return Err(format!("{what}: not a finite orthonormal frame"));
+    }
+    if axes[0].cross(axes[1]).dot(axes[2]) < 0.0 {
+        return Err(format!(
+            "{what}: axes are left-handed (x × y points away from z)"
+        ));
+    }
+    // The cell sizes the projection divides by (primary.rs): u and v for charts, v for a
+    // cylinder; a sphere's cells are angles and its cell sizes unused.
+    let used = match primary {
+        Primary::Charts => cell.min_element(),
+        Primary::Cylindrical => cell.y,
+        Primary::Spherical => 1.0,
+    };
+    if used <= 0.0 {
+        return Err(format!(
+            "{what}: a cell of {} x {} world units for a {} primary (it must be positive)",
+            cell.x,
+            cell.y,
+            primary.name()
+        ));
     }
     for (side, n) in [("width", width), ("height", height)] {
         if !(1..=MAX_RESOLUTION).contains(&n) {
@@ -313,7 +334,7 @@ pub fn decode(bytes: &[u8]) -> Text<InverseGeometricTexture> {
     let mut grids = Vec::with_capacity(n_grids.min(1 << 16));
     let mut cells = 0u64;
     for k in 0..n_grids {
-        let g = read_grid(&mut r, k, cells)?;
+        let g = read_grid(&mut r, k, cells, primary)?;
         cells += g.cells() as u64;
         grids.push(g);
     }
