@@ -146,3 +146,33 @@ def test_command_line_converts_and_reports(tmp_path, capsys) -> None:
     assert main([str(tmp_path / "bad.obj"), "-o", str(tmp_path / "o2"), "--quiet"]) == 2
     assert "MeshError" in capsys.readouterr().err
     assert pymeshlab_bunny_path().exists()  # the default the CLI falls back on
+
+
+def test_every_public_submodule_is_an_attribute_without_importing_optional_dependencies() -> None:
+    """``gt.batch``, ``gt.reference``, ``gt.testing`` and ``gt.viewer`` are reachable after a plain
+    ``import geomtex as gt`` (PEP 562, imported on first use), while ``import geomtex`` alone
+    imports none of them nor Dask, Zarr or ipywidgets. In a fresh interpreter: this one has
+    imported them already."""
+    import subprocess
+    import sys
+
+    script = """
+import sys
+import geomtex as gt
+optional = ("dask", "distributed", "zarr", "ipywidgets", "embreex")
+lazy = ("geomtex.batch", "geomtex.reference", "geomtex.testing", "geomtex.viewer")
+assert not [m for m in optional + lazy if m in sys.modules], [m for m in optional + lazy if m in sys.modules]
+assert {"batch", "reference", "testing", "viewer", "gdm", "igt"} <= set(dir(gt))
+assert callable(gt.batch.convert_many) and callable(gt.batch.read_manifest)
+assert callable(gt.reference.raycast) and callable(gt.viewer.show) and "sphere" in gt.testing.GENERATED
+assert gt.batch is sys.modules["geomtex.batch"]
+from geomtex import batch, reference, testing, viewer  # noqa: F401  (the usual form still works)
+assert not [m for m in ("dask", "distributed", "zarr", "ipywidgets") if m in sys.modules]
+try:
+    gt.no_such_thing
+except AttributeError as e:
+    assert "no attribute 'no_such_thing'" in str(e)
+else:
+    raise AssertionError("gt.no_such_thing did not raise AttributeError")
+"""
+    subprocess.run([sys.executable, "-c", script], check=True, timeout=120)

@@ -306,3 +306,22 @@ def load_surfels(path: str | os.PathLike[str]) -> Surfels:
     if not os.path.exists(p):
         raise FileError(f"no such file: {p}")
     return _core.load_surfels(p)
+
+
+#: Public submodules imported on first use (PEP 562): ``gt.batch.convert_many`` works after a
+#: plain ``import geomtex as gt``, while ``import geomtex`` stays fast and never imports their
+#: optional dependencies (Dask, Zarr, ipywidgets, embreex; each submodule imports those only
+#: when called).
+_LAZY_SUBMODULES = ("batch", "reference", "testing", "viewer")
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY_SUBMODULES:
+        import importlib
+
+        return importlib.import_module(f".{name}", __name__)  # also binds it here: asked once
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_LAZY_SUBMODULES})
