@@ -13,9 +13,9 @@ import pytest
 
 import geomtex as gt
 from geomtex import reference
-from geomtex.testing import look_from, noisy_isosurface
+from geomtex.testing import GENERATED, look_from, noisy_isosurface
 
-from conftest import Converted, converted, shared_mesh_path
+from conftest import Converted, converted, pymeshlab_bunny_path, shared_mesh_path
 
 
 @pytest.fixture(scope="module")
@@ -77,7 +77,9 @@ def test_the_default_is_error_driven_within_the_mesh_bytes(bunny: Converted) -> 
     """No keyword that sets the resolution: the cone partition, each chart's level for the bound
     max_error_rel=2e-4 within a budget of the mesh's own bytes, and a set that renders close to
     trimesh."""
-    gts = gt.convert(bunny.mesh)
+    # The budget binds (below): a CapWarning says so (measured: p99 1.24x the bound).
+    with pytest.warns(gt.CapWarning, match=r"missed its error bound: .* is 1\.\d\dx max_error"):
+        gts = gt.convert(bunny.mesh)
     s = gts.stats
     assert s["max_error"] == pytest.approx(2e-4 * s["diagonal"])
     # 69k faces, over the 50k from which the budget is the mesh's own bytes (1.25 MB); its
@@ -131,13 +133,58 @@ def test_max_bytes_with_max_error_chooses_levels_within_it(fandisk: Converted) -
     """A budget below what the bound needs: the least area over the bound within the budget."""
     free = gt.convert(fandisk.mesh, max_error_rel=5e-5)
     budget = int(free.stats["bytes"] // 3)
-    held = gt.convert(fandisk.mesh, max_error_rel=5e-5, max_bytes=budget)
+    # A CapWarning says by how much (measured 7.83x) and what meets it.
+    with pytest.warns(gt.CapWarning, match=r"missed its error bound: .* \d+\.\d\dx max_error .*max_bytes=None"):
+        held = gt.convert(fandisk.mesh, max_error_rel=5e-5, max_bytes=budget)
     s = held.stats
     # Measured: 1,745,875 bytes within the bound (p99 4.9e-5 of the diagonal); within a third of
     # them, 580,225 of 581,958 bytes and p99 4.9e-4.
     assert s["bytes"] <= budget and s["bytes"] >= 0.9 * budget, (s["bytes"], budget)
     assert s["max_bytes_binding"] == 1 and s["reconstruction_error_p99"] > s["max_error"]
     assert free.stats["reconstruction_error_p99"] <= free.stats["max_error"]
+
+
+def test_a_bound_missed_within_the_byte_budget_is_a_cap_warning(tmp_path, capsys) -> None:
+    """The default conversion of a rough mesh (or the bunny) cannot meet its bound within the
+    default budget: a CapWarning says by how much it missed and what meets it, and the command
+    line prints it; a conversion that meets its bound says nothing."""
+    rough = noisy_isosurface(32)
+    with pytest.warns(gt.CapWarning) as caught:
+        s = gt.convert(rough).stats
+    # Measured: p99 4.15e-4 against max_error 2.84e-4 (1.83e-4 of the diagonal), 1.46x, within
+    # the 3.6 MB allowance of a mesh of 8,776 faces.
+    ratio = s["reconstruction_error_p99"] / s["max_error"]
+    assert s["max_bytes_binding"] == 1 and 1.3 <= ratio <= 1.7, ratio
+    rel = s["max_error"] / s["diagonal"]
+    message = str(caught[0].message)
+    assert f"is {ratio:.2f}x max_error" in message and f"max_error_rel={rel:.6g})" in message, message
+    # What it says meets the bound does: p99 0.999 of it, in 4.35 MB, 1.21x the budget.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", gt.CapWarning)
+        free = gt.convert(rough, max_error_rel=float(f"{rel:.6g}")).stats
+    assert free["reconstruction_error_p99"] <= free["max_error"] and free["bytes"] > s["max_bytes"]
+    # pymeshlab's bunny misses by 5%: p99 2.10e-4 against 2.0e-4 (2e-4 of its diagonal) in
+    # 1,007,110 of 1,011,120 bytes (without the budget it meets it, p99 0.995 of the bound, in
+    # 1,016,200 bytes).
+    with pytest.warns(gt.CapWarning, match=r"is 1\.0\dx max_error"):
+        b = gt.convert(gt.load_mesh(pymeshlab_bunny_path())).stats
+    assert 1.0 < b["reconstruction_error_p99"] / b["max_error"] <= 1.15 and b["max_bytes_binding"] == 1
+    # A conversion within its bound (the open sheet: p99 0.983 of it, in 2.4% of its budget)
+    # says nothing.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        met = gt.convert(GENERATED["open_sheet"]()).stats
+    assert met["max_bytes_binding"] == 0 and met["reconstruction_error_p99"] <= met["max_error"]
+    # The command line prints the same warning.
+    from geomtex.__main__ import main
+
+    rough.to_trimesh().export(tmp_path / "rough.ply")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", gt.CapWarning)  # printed, not raised
+        assert main([str(tmp_path / "rough.ply"), "-o", str(tmp_path / "out"), "--quiet"]) == 0
+    out, err = capsys.readouterr()
+    assert "geomtex: CapWarning: the conversion missed its error bound: reconstruction_error_p99" in err, err
+    assert "missed within the byte budget: p99 1." in out, out
 
 
 def test_the_adapter_holds_about_the_maps(bunny: Converted) -> None:
@@ -174,7 +221,8 @@ def test_a_bound_far_below_the_budget_still_spends_it_on_the_roughest_charts() -
     reach."""
     mesh = noisy_isosurface(resolution=40)
     default = gt.convert(mesh, max_bytes=mesh_bytes(mesh))
-    tight = gt.convert(mesh, max_error_rel=1e-5, max_bytes=mesh_bytes(mesh))
+    with pytest.warns(gt.CapWarning, match=r"missed its error bound: .* \d+\.\d\dx max_error"):  # 735.6x
+        tight = gt.convert(mesh, max_error_rel=1e-5, max_bytes=mesh_bytes(mesh))
     d, t = default.stats, tight.stats
     assert t["max_bytes_binding"] == 1 and t["bytes"] <= t["max_bytes"]
     # Measured (16k faces): reported p99 1.13x the default's (counting the area over the bound

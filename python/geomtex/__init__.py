@@ -161,8 +161,9 @@ def convert(
     same error, homer: 15.9, 1.32e-4), at most 4x tighter; within ``max_bytes`` = the mesh's
     float32/uint32 bytes, or for a mesh under 50,000 faces an allowance of 4 MB x (1 - faces /
     50,000) x 2e-4 / bound if that is more. A rough mesh that cannot meet the bound within them
-    gets the least error the budget buys (``stats["max_bytes_binding"]`` is 1). Any of those
-    keywords converts as before.
+    gets the least error the budget buys (``stats["max_bytes_binding"]`` is 1, and a
+    :class:`CapWarning` says by how much it missed and how to meet it). Any of those keywords
+    converts as before.
 
     max_resolution: longest side of any patch in texels (default 256; 1024 with ``max_error``,
         where it only caps a chart's memory). Without ``max_error`` one texel size serves every
@@ -221,7 +222,8 @@ def convert(
         with a coarser texel (scaled by the square root of the excess) until they fit, at most
         6 times (``stats["max_bytes_coarsenings"]``). With ``max_error`` each chart's level is
         chosen within the budget instead: the bound where it fits, else the least area over it
-        (``stats["max_bytes_binding"]``; not with ``error_scope="chart"``). If they still do
+        (``stats["max_bytes_binding"]`` is 1 and a :class:`CapWarning` says by how much the
+        bound was missed; not with ``error_scope="chart"``). If they still do
         not fit, ``stats["max_bytes_exceeded"]`` is 1 and a :class:`CapWarning` says so, as it
         does when VSA stops at ``max_charts`` above its error target (``stats["charts_capped"]``).
     progress: True for a tqdm bar, or ``callback(stage, fraction)``; returning False cancels.
@@ -261,12 +263,14 @@ def convert(
     finally:
         if bar is not None:
             bar.close()
-    _warn_caps(gts.stats)
+    _warn_caps(gts.stats, default_budget=all(v is None for v in (
+        max_resolution, texel_size, max_error, max_error_rel, max_bytes)))
     return gts
 
 
-def _warn_caps(stats: dict[str, Any]) -> None:
-    """A CapWarning for each cap the conversion hit (never silent)."""
+def _warn_caps(stats: dict[str, Any], default_budget: bool = False) -> None:
+    """A CapWarning for each cap the conversion hit (never silent). `default_budget`: the
+    conversion ran with the default bound and budget (none of the keywords that choose them)."""
     if stats.get("charts_capped"):
         warnings.warn(f"the partition stopped at {stats['vsa_charts']:.0f} charts (max_charts) with mean "
                       f"L2,1 error {stats['vsa_mean_error']:.3g}, above its target {stats['chart_error']:.3g}; "
@@ -275,6 +279,23 @@ def _warn_caps(stats: dict[str, Any]) -> None:
         warnings.warn(f"the maps take {stats['bytes']} bytes, over max_bytes={stats['max_bytes']}, "
                       f"after {stats['max_bytes_coarsenings']} coarser texels; "
                       f"stats['max_bytes_exceeded'] is 1", CapWarning, stacklevel=3)
+    p99, bound = stats.get("reconstruction_error_p99", 0.0), stats.get("max_error", float("inf"))
+    if stats.get("max_bytes_binding") and p99 > bound:
+        # What would meet the bound is known (the same bound, no budget: each chart then takes
+        # the level that meets it, up to max_resolution); the bytes that takes are not, short of
+        # converting again.
+        rel = bound / stats["diagonal"]
+        if default_budget:
+            budget = "the default budget (the mesh's own float32/uint32 bytes, or its allowance)"
+            remedy = f"gt.convert(mesh, max_error_rel={rel:.6g}) meets it without a byte budget"
+        else:
+            budget = "max_bytes"
+            remedy = "a larger max_bytes, or max_bytes=None (no byte budget), meets it"
+        warnings.warn(f"the conversion missed its error bound: reconstruction_error_p99 {p99:.3g} is "
+                      f"{p99 / bound:.2f}x max_error {bound:.3g} ({rel:.3g} of the diagonal), as the maps had "
+                      f"to fit {budget}, {stats['max_bytes']:.0f} bytes; {remedy} (how many bytes that takes "
+                      "is not known without converting); stats['max_bytes_binding'] is 1", CapWarning,
+                      stacklevel=3)
 
 
 def show(obj: Any, **options: Any) -> Any:

@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import warnings
 from pathlib import Path
 
 import geomtex as gt
@@ -41,7 +42,10 @@ def stats_table(gts: gt.GeometryTextureSet) -> str:
                                  f"max {st['reconstruction_error_max'] / st['diagonal']:.2e} of the diagonal"),
         *([("error bound", f"{st['max_error'] / st['diagonal']:.2e} of the diagonal "
                             f"({st['charts_over_max_error']} charts over it at the resolution cap; "
-                            f"chart_error {st['chart_error']})")] if "max_error" in st else []),
+                            f"chart_error {st['chart_error']})"
+                            + ("; missed within the byte budget: p99 "
+                               f"{st['reconstruction_error_p99'] / st['max_error']:.2f}x it"
+                               if st.get("max_bytes_binding") else ""))] if "max_error" in st else []),
         ("mesh repairs", f"{st['duplicate_vertices']} duplicate vertices welded, {st['flipped_faces']} faces rewound"),
     ]
     rows += [(f"seconds: {k}", f"{v:.3f}") for k, v in st["seconds"].items()]
@@ -66,9 +70,18 @@ def main(argv: list[str] | None = None) -> int:
     path = Path(args.mesh) if args.mesh else default_mesh()
     try:
         mesh = gt.load_mesh(path)
-        gts = gt.convert(mesh, max_resolution=args.max_resolution, charts=args.charts,
-                         max_error_rel=args.max_error_rel,
-                         frame=args.frame, progress=not args.quiet)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", gt.CapWarning)
+            gts = gt.convert(mesh, max_resolution=args.max_resolution, charts=args.charts,
+                             max_error_rel=args.max_error_rel,
+                             frame=args.frame, progress=not args.quiet)
+        # A cap the conversion hit (a bound missed within the byte budget, a chart cap) is said
+        # as convert says it, on its own line, not as a Python warning's file and line.
+        for w in caught:
+            if issubclass(w.category, gt.CapWarning):
+                print(f"geomtex: CapWarning: {w.message}", file=sys.stderr)
+            else:
+                warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
         out = Path(args.out)
         os.makedirs(out, exist_ok=True)
         gtex, png = out / f"{path.stem}.gtex", out / f"{path.stem}.png"
