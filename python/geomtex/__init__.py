@@ -34,6 +34,7 @@ from ._errors import (  # noqa: E402
 from ._mesh import AppearanceWarning, Mesh, as_mesh, load_mesh  # noqa: E402
 from ._rays import RayHits  # noqa: E402
 from ._render import DirectionalLight, PointLight, Renderer, Scene  # noqa: E402
+from ._info import info  # noqa: E402
 
 __all__ = [
     "AppearanceWarning",
@@ -61,6 +62,7 @@ __all__ = [
     "convert",
     "gdm",
     "igt",
+    "info",
     "load",
     "load_mesh",
     "load_surfels",

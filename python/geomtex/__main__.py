@@ -2,6 +2,7 @@
 
     python -m geomtex                      # the bunny that ships inside pymeshlab
     python -m geomtex mesh.obj -o out/ --max-resolution 512
+    python -m geomtex info                 # adapter, features, limits and a self-check per kind
 """
 
 from __future__ import annotations
@@ -53,7 +54,22 @@ def stats_table(gts: gt.GeometryTextureSet) -> str:
     return "\n".join(f"{k:<{width}}  {v}" for k, v in rows)
 
 
+def info_main() -> int:
+    """`python -m geomtex info`: what geomtex runs on and its self-check; exit status 1 when a
+    kind fails it, 2 when there is no usable adapter."""
+    try:
+        result = gt.info()
+    except gt.DeviceError as e:
+        print(f"geomtex: DeviceError: {e}", file=sys.stderr)
+        return 2
+    print(result)
+    return 0 if all(r["passed"] for r in result["self_check"].values()) else 1
+
+
 def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    if argv[:1] == ["info"]:
+        return info_main()
     ap = argparse.ArgumentParser(prog="python -m geomtex", description=__doc__.splitlines()[0])
     ap.add_argument("mesh", nargs="?", help="mesh file (OBJ/PLY/STL/OFF); default: pymeshlab's bunny")
     ap.add_argument("-o", "--out", default="out", help="output folder (default: out/)")

@@ -39,47 +39,8 @@ impl Gpu {
         // Honours WGPU_BACKEND (and the other WGPU_* instance variables).
         let instance =
             wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
-        let wanted = ADAPTER_ENV
-            .iter()
-            .find_map(|k| std::env::var(k).ok())
-            .filter(|s| !s.is_empty());
-        let adapter = match wanted {
-            Some(name) => {
-                let all = instance.enumerate_adapters(wgpu::Backends::all()).await;
-                let names: Vec<String> = all
-                    .iter()
-                    .map(|a| format!("{} ({:?})", a.get_info().name, a.get_info().backend))
-                    .collect();
-                all.into_iter()
-                    .find(|a| {
-                        a.get_info()
-                            .name
-                            .to_lowercase()
-                            .contains(&name.to_lowercase())
-                    })
-                    .ok_or_else(|| {
-                        GeomtexError::Device(format!(
-                            "no adapter's name contains {name:?} (from {}); available: {}",
-                            ADAPTER_ENV.join(" or "),
-                            if names.is_empty() {
-                                "none".to_string()
-                            } else {
-                                names.join(", ")
-                            }
-                        ))
-                    })?
-            }
-            None => instance
-                .request_adapter(&wgpu::RequestAdapterOptions {
-                    // Without this a machine with a GPU and lavapipe may pick the CPU adapter.
-                    power_preference: wgpu::PowerPreference::HighPerformance,
-                    force_fallback_adapter: false,
-                    compatible_surface: None,
-                    apply_limit_buckets: false,
-                })
-                .await
-                .map_err(|e| GeomtexError::Device(format!("{NO_ADAPTER_HELP} ({e})")))?,
-        };
+        let adapter = choose_adapter(&instance).await?;
+        refuse_unsupported(&adapter)?;
         let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
         let int64_atomics = adapter.features().contains(INT64_ATOMICS)
             && std::env::var(NO_INT64_ENV).map_or(true, |v| v != "1");
@@ -114,9 +75,11 @@ impl Gpu {
         })
     }
 
-    /// Adapter name, backend, device type and driver, for users and bug reports.
+    /// Adapter name, backend, device type and driver, the optional features in use and the
+    /// limits that bind, for users and bug reports.
     pub fn info(&self) -> Vec<(&'static str, String)> {
         let i = self.adapter.get_info();
+        let limits = self.device.limits();
         vec![
             ("name", i.name),
             ("backend", format!("{:?}", i.backend)),
@@ -124,7 +87,118 @@ impl Gpu {
             ("driver", i.driver),
             ("driver_info", i.driver_info),
             ("int64_atomics", self.int64_atomics.to_string()),
+            ("timestamps", self.timestamps.to_string()),
+            (
+                "max_texture_dimension_2d",
+                limits.max_texture_dimension_2d.to_string(),
+            ),
+            (
+                "max_storage_buffer_binding_size",
+                limits.max_storage_buffer_binding_size.to_string(),
+            ),
+            ("max_buffer_size", limits.max_buffer_size.to_string()),
         ]
+    }
+}
+
+/// Where an adapter stands in the choice: primary backends (Vulkan, Metal, DX12) before the
+/// others, then real GPUs before virtual and software ones.
+fn preference(info: &wgpu::AdapterInfo) -> (bool, u8) {
+    let primary = wgpu::Backends::PRIMARY.contains(wgpu::Backends::from(info.backend));
+    let kind = match info.device_type {
+        wgpu::DeviceType::DiscreteGpu => 0,
+        wgpu::DeviceType::IntegratedGpu => 1,
+        wgpu::DeviceType::VirtualGpu => 2,
+        wgpu::DeviceType::Cpu => 3,
+        wgpu::DeviceType::Other => 4,
+    };
+    (!primary, kind)
+}
+
+fn describe(info: &wgpu::AdapterInfo) -> String {
+    format!("{} ({:?}, {:?})", info.name, info.backend, info.device_type)
+}
+
+/// The adapter named by ADAPTER_ENV, else the most preferred one the instance offers. Chosen from
+/// the list on purpose: `request_adapter` alone took llvmpipe through OpenGL on a machine with
+/// no Vulkan driver, and texture sets came back blank there.
+async fn choose_adapter(instance: &wgpu::Instance) -> Result<wgpu::Adapter> {
+    let mut all = instance.enumerate_adapters(wgpu::Backends::all()).await;
+    all.sort_by_key(|a| preference(&a.get_info()));
+    let names: Vec<String> = all.iter().map(|a| describe(&a.get_info())).collect();
+    let available = if names.is_empty() {
+        "none".to_string()
+    } else {
+        names.join(", ")
+    };
+    let wanted = ADAPTER_ENV
+        .iter()
+        .find_map(|k| std::env::var(k).ok())
+        .filter(|s| !s.is_empty());
+    match wanted {
+        Some(name) => all
+            .into_iter()
+            .find(|a| {
+                a.get_info()
+                    .name
+                    .to_lowercase()
+                    .contains(&name.to_lowercase())
+            })
+            .ok_or_else(|| {
+                GeomtexError::Device(format!(
+                    "no adapter's name contains {name:?} (from {}); available: {available}",
+                    ADAPTER_ENV.join(" or ")
+                ))
+            }),
+        None => all.into_iter().next().ok_or_else(|| {
+            GeomtexError::Device(format!(
+                "{NO_ADAPTER_HELP} (WGPU_BACKEND={})",
+                std::env::var("WGPU_BACKEND").unwrap_or_else(|_| "unset".into())
+            ))
+        }),
+    }
+}
+
+/// Refuses an adapter on which some object kind would draw wrong: the GL backend (texture sets
+/// came back blank and ray queries missed everything there, while meshes still rasterized), and
+/// any adapter short of the WebGPU baseline the passes are written for (compute shaders,
+/// storage buffers and textures, independent blending, the default limits).
+fn refuse_unsupported(adapter: &wgpu::Adapter) -> Result<()> {
+    let info = adapter.get_info();
+    let fix = format!(
+        "install a Vulkan driver (on Debian/Ubuntu Mesa's software one: `apt-get install \
+         mesa-vulkan-drivers libvulkan1`), or name a Vulkan, Metal or DX12 adapter in {}; \
+         unset WGPU_BACKEND if it asks for gl",
+        ADAPTER_ENV[0]
+    );
+    if info.backend == wgpu::Backend::Gl {
+        return Err(GeomtexError::Device(format!(
+            "the adapter found is {}, through OpenGL, where geomtex's ray-cast object kinds \
+             (texture sets, surfels, IGT and GDM shells, ray queries) do not draw correctly; {fix}",
+            describe(&info)
+        )));
+    }
+    let downlevel = adapter.get_downlevel_capabilities();
+    let mut short = Vec::new();
+    if !downlevel.is_webgpu_compliant() {
+        short.push(format!(
+            "missing capabilities {:?}",
+            wgpu::DownlevelFlags::compliant() - downlevel.flags
+        ));
+    }
+    wgpu::Limits::default().check_limits_with_fail_fn(
+        &adapter.limits(),
+        false,
+        |name, needs, has| short.push(format!("{name} is {has}, below the {needs} needed")),
+    );
+    if short.is_empty() {
+        Ok(())
+    } else {
+        Err(GeomtexError::Device(format!(
+            "the adapter {} cannot run geomtex's passes: {}; {fix}",
+            describe(&info),
+            short.join("; ")
+        )))
     }
 }
 

@@ -171,7 +171,7 @@ impl Renderer {
             .objects
             .iter()
             .zip(&owners)
-            .filter_map(|(placed, &owner)| {
+            .flat_map(|(placed, &owner)| {
                 self.kinds[owner].draw(&self.gpu, &frame, placed, &mut tally)
             })
             .collect();

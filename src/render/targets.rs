@@ -433,7 +433,7 @@ impl Targets {
         });
         let normal = bytemuck::cast_slice::<u8, [u16; 4]>(&normal_half)
             .iter()
-            .flat_map(|n| [n[0], n[1], n[2]].map(|h| half::f16::from_bits(h).to_f32()))
+            .flat_map(|n| unit_normal([n[0], n[1], n[2]]))
             .collect();
         Ok(Readback {
             color,
@@ -459,5 +459,38 @@ impl Targets {
             .flat_map(|r| &r[..row])
             .copied()
             .collect()
+    }
+}
+
+/// A stored half-float normal made unit length again (in f64, so the f32 result is within
+/// float32 rounding of 1): the target holds 11-bit mantissas, whose lengths run 0.9994-1.0000,
+/// and a user taking `arccos` of a dot product with a true normal would read that as degrees of
+/// error. A miss (all zero) stays zero.
+fn unit_normal(bits: [u16; 3]) -> [f32; 3] {
+    let n = bits.map(|h| half::f16::from_bits(h).to_f64());
+    let length = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+    if length > 0.0 && length.is_finite() {
+        n.map(|v| (v / length) as f32)
+    } else {
+        [0.0; 3]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::unit_normal;
+
+    #[test]
+    fn read_back_normals_are_unit_length() {
+        let half = |v: f32| half::f16::from_f32(v).to_bits();
+        for n in [[0.3f32, -0.5, 0.81], [1.0, 0.0, 0.0], [0.577, 0.577, 0.577]] {
+            let u = unit_normal(n.map(half));
+            let length = u.iter().map(|v| (*v as f64).powi(2)).sum::<f64>().sqrt();
+            assert!(
+                (length - 1.0).abs() < 1e-6,
+                "{n:?} -> {u:?} has length {length}"
+            );
+        }
+        assert_eq!(unit_normal([0; 3]), [0.0; 3]);
     }
 }

@@ -453,6 +453,97 @@ impl SurfelHierarchy {
         tiles.push(t);
     }
 
+    /// The hierarchy cut into pieces of whole patches, each holding at most `max_records`
+    /// surfels and node surfels together, so that a set too large for one storage binding still
+    /// draws (in several draws). Each patch's tiles and nodes form their own quadtree, so a
+    /// piece is the same hierarchy over fewer patches, its indices counted from 0 again; tiles
+    /// and nodes keep their patch numbers (the set's), so ids and patch frames stay the set's.
+    /// An error only when one patch alone holds more than `max_records`.
+    pub fn pieces(&self, max_records: usize) -> Result<Vec<SurfelHierarchy>> {
+        let patches = self.source.patches.len();
+        // Per patch: its first tile, first surfel and first node (tiles, surfels and nodes are
+        // stored patch by patch, in patch order).
+        let mut tile_at = vec![self.tiles.len(); patches + 1];
+        let mut node_at = vec![self.nodes.len(); patches + 1];
+        for (k, t) in self.tiles.iter().enumerate().rev() {
+            tile_at[t.patch as usize] = k;
+        }
+        for (k, n) in self.nodes.iter().enumerate().rev() {
+            node_at[n.patch as usize] = k;
+        }
+        for p in (0..patches).rev() {
+            tile_at[p] = tile_at[p].min(tile_at[p + 1]);
+            node_at[p] = node_at[p].min(node_at[p + 1]);
+        }
+        let surfel_at = |p: usize| {
+            self.tiles
+                .get(tile_at[p])
+                .map_or(self.surfels.len(), |t| t.start[0] as usize)
+        };
+        let records = |a: usize, b: usize| surfel_at(b) - surfel_at(a) + node_at[b] - node_at[a];
+        let mut pieces = Vec::new();
+        let mut first = 0;
+        while first < patches {
+            let mut end = first + 1;
+            if records(first, end) > max_records {
+                return Err(GeomtexError::Device(format!(
+                    "patch {first} alone holds {} surfels, more than the {max_records} one storage \
+                     binding of this adapter holds; build the surfels with a larger tile or convert \
+                     with a lower max_resolution",
+                    records(first, end)
+                )));
+            }
+            while end < patches && records(first, end + 1) <= max_records {
+                end += 1;
+            }
+            pieces.push(self.piece(
+                tile_at[first]..tile_at[end],
+                surfel_at(first)..surfel_at(end),
+                node_at[first]..node_at[end],
+            ));
+            first = end;
+        }
+        Ok(pieces)
+    }
+
+    /// The tiles, surfels and nodes in these ranges (whole patches), renumbered from 0.
+    fn piece(
+        &self,
+        tiles: std::ops::Range<usize>,
+        surfels: std::ops::Range<usize>,
+        nodes: std::ops::Range<usize>,
+    ) -> SurfelHierarchy {
+        let (surfel_base, node_base) = (surfels.start as u32, nodes.start as u32);
+        let back = |index: u32, by: u32| if index == u32::MAX { index } else { index - by };
+        SurfelHierarchy {
+            tile: self.tile,
+            levels: self.levels,
+            tiles: self.tiles[tiles]
+                .iter()
+                .map(|t| Tile {
+                    start: t.start.iter().map(|s| s - surfel_base).collect(),
+                    parent: back(t.parent, node_base),
+                    ..t.clone()
+                })
+                .collect(),
+            surfels: self.surfels[surfels]
+                .iter()
+                .map(|s| Surfel {
+                    parent: back(s.parent, surfel_base),
+                    ..*s
+                })
+                .collect(),
+            nodes: self.nodes[nodes]
+                .iter()
+                .map(|n| Node {
+                    parent: back(n.parent, node_base),
+                    ..n.clone()
+                })
+                .collect(),
+            source: self.source.clone(),
+        }
+    }
+
     /// Surfels of each level, finest first.
     pub fn per_level(&self) -> Vec<usize> {
         let mut counts = vec![0usize; self.levels as usize];

@@ -241,3 +241,41 @@ fn nodes_above_the_tiles_nest_and_their_errors_never_fall() {
     );
     assert!(per[0] * 4 >= h.tiles.len() - tiles_per_patch.iter().filter(|&&n| n == 1).count());
 }
+
+/// Pieces of whole patches hold, between them, exactly the hierarchy's tiles, surfels and nodes,
+/// each within the cap, with every index pointing at the same record it did before the cut.
+#[test]
+fn pieces_partition_the_hierarchy_by_patch() {
+    let h = SurfelHierarchy::build(Arc::new(curved_set()), 8).unwrap();
+    assert!(h.source.patches.len() >= 4, "{}", h.source.patches.len());
+    let whole = h.surfels.len() + h.nodes.len();
+    let cap = whole / 3;
+    let pieces = h.pieces(cap).unwrap();
+    assert!(pieces.len() >= 3, "{} pieces", pieces.len());
+    let (mut tiles, mut surfels, mut nodes) = (Vec::new(), Vec::new(), Vec::new());
+    for piece in &pieces {
+        assert!(piece.surfels.len() + piece.nodes.len() <= cap);
+        let (s0, n0) = (surfels.len() as u32, nodes.len() as u32);
+        let back = |i: u32, by: u32| if i == u32::MAX { i } else { i + by };
+        tiles.extend(piece.tiles.iter().map(|t| Tile {
+            start: t.start.iter().map(|s| s + s0).collect(),
+            parent: back(t.parent, n0),
+            ..t.clone()
+        }));
+        surfels.extend(piece.surfels.iter().map(|s| Surfel {
+            parent: back(s.parent, s0),
+            ..*s
+        }));
+        nodes.extend(piece.nodes.iter().map(|n| Node {
+            parent: back(n.parent, n0),
+            ..n.clone()
+        }));
+    }
+    assert_eq!(tiles, h.tiles);
+    assert_eq!(surfels, h.surfels);
+    assert_eq!(nodes, h.nodes);
+    // One piece when everything fits; an error when one patch alone does not.
+    assert_eq!(h.pieces(whole).unwrap().len(), 1);
+    let err = h.pieces(3).unwrap_err().to_string();
+    assert!(err.contains("patch 0 alone holds"), "{err}");
+}

@@ -64,15 +64,16 @@ pub(crate) trait Kind: Send {
         depth: &mut DepthRange,
     ) -> Result<bool>;
 
-    /// The draw call of an object this kind uploaded, counted in `tally`; `None` when nothing of
-    /// it is in view.
+    /// The draw calls of an object this kind uploaded, counted in `tally`: one for most kinds,
+    /// one per piece for an object drawn in pieces (surfels larger than a storage binding),
+    /// none when nothing of it is in view.
     fn draw(
         &self,
         gpu: &Gpu,
         frame: &FrameView,
         placed: &SceneObject,
         tally: &mut Tally,
-    ) -> Option<DrawCall>;
+    ) -> Vec<DrawCall>;
 
     /// The draw call of an object in the surface pass (after the scene pass, depth-tested against
     /// its finished depth, into the surface target: detailed face and barycentrics per pixel),

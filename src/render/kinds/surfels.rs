@@ -56,7 +56,6 @@ struct UploadedSurfels {
     node_count: u32,
     /// Finest-level surfels: the most any frame can list.
     finest: u32,
-    patch_count: i32,
     /// Positions are stored relative to this point (object space, f64).
     centre: DVec3,
     lo: DVec3,
@@ -72,7 +71,8 @@ pub(crate) struct SurfelsKind {
     /// One 64-bit pass, or the 32-bit fallback's two.
     splat: Vec<wgpu::ComputePipeline>,
     resolve: wgpu::RenderPipeline,
-    uploads: UploadCache<SurfelHierarchy, UploadedSurfels>,
+    /// Each hierarchy's pieces (one unless it is larger than a storage binding).
+    uploads: UploadCache<SurfelHierarchy, Vec<UploadedSurfels>>,
 }
 
 fn layout(
@@ -167,8 +167,19 @@ fn storage(device: &wgpu::Device, label: &str, contents: &[u8]) -> wgpu::Buffer 
     })
 }
 
+/// The hierarchy's records, in pieces of whole patches where its surfels would take more than
+/// one storage binding holds (a 4.7M-surfel set takes 150 MB against lavapipe's 128 MiB).
+fn upload_pieces(gpu: &Gpu, h: &SurfelHierarchy) -> Result<Vec<UploadedSurfels>> {
+    let limit = gpu.device.limits().max_storage_buffer_binding_size as usize;
+    let most = limit / std::mem::size_of::<SurfelGpu>();
+    if h.surfels.len() + h.nodes.len() <= most {
+        return Ok(vec![upload(gpu, h)]);
+    }
+    Ok(h.pieces(most)?.iter().map(|p| upload(gpu, p)).collect())
+}
+
 /// The hierarchy's records, positions relative to its centre.
-fn upload(gpu: &Gpu, h: &SurfelHierarchy) -> Result<UploadedSurfels> {
+fn upload(gpu: &Gpu, h: &SurfelHierarchy) -> UploadedSurfels {
     let (lo, hi) = h.bounds();
     let centre = 0.5 * (lo + hi);
     let tiles: Vec<SurfelTileGpu> = h
@@ -222,14 +233,6 @@ fn upload(gpu: &Gpu, h: &SurfelHierarchy) -> Result<UploadedSurfels> {
         .chain(h.nodes.iter().map(|n| &n.surfel))
         .map(surfel_record)
         .collect();
-    let limit = gpu.device.limits().max_storage_buffer_binding_size as usize;
-    if std::mem::size_of_val(surfels.as_slice()) > limit {
-        return Err(GeomtexError::Device(format!(
-            "{} surfels take {} bytes, more than this adapter's storage binding limit of {limit}",
-            surfels.len(),
-            std::mem::size_of_val(surfels.as_slice())
-        )));
-    }
     let patches: Vec<u32> = h
         .surfel_tiles()
         .into_iter()
@@ -252,7 +255,7 @@ fn upload(gpu: &Gpu, h: &SurfelHierarchy) -> Result<UploadedSurfels> {
     if node_records.is_empty() {
         node_records.push(bytemuck::Zeroable::zeroed());
     }
-    Ok(UploadedSurfels {
+    UploadedSurfels {
         tiles: storage(device, "surfel tiles", bytemuck::cast_slice(&tiles)),
         nodes: storage(device, "surfel nodes", bytemuck::cast_slice(&node_records)),
         surfels: storage(device, "surfels", bytemuck::cast_slice(&surfels)),
@@ -262,11 +265,10 @@ fn upload(gpu: &Gpu, h: &SurfelHierarchy) -> Result<UploadedSurfels> {
         tile_count: tiles.len() as u32,
         node_count,
         finest: h.per_level()[0] as u32,
-        patch_count: h.source.patches.len() as i32,
         centre,
         lo,
         hi,
-    })
+    }
 }
 
 /// Per surfel (tiles' then nodes'), the box of texels it is clipped to (u0, v0, u1, v1 in its
@@ -518,42 +520,16 @@ impl SurfelsKind {
             tally: buffers.tally.clone(),
         }
     }
-}
 
-impl Kind for SurfelsKind {
-    fn upload(
-        &mut self,
-        gpu: &Gpu,
-        object: &Object,
-        view_from_object: &DMat4,
-        depth: &mut DepthRange,
-    ) -> Result<bool> {
-        let Object::Surfels(h) = object else {
-            return Ok(false);
-        };
-        let u = self.uploads.get_or_upload(h, |h| upload(gpu, h))?;
-        if u.tile_count > 0 {
-            depth.include_box(view_from_object, u.lo, u.hi);
-        }
-        Ok(true)
-    }
-
-    fn draw(
+    /// One piece's draw: its cull, arguments and splat passes, and its resolve draw.
+    fn piece_draw(
         &self,
         gpu: &Gpu,
         frame: &FrameView,
         placed: &SceneObject,
-        tally: &mut Tally,
-    ) -> Option<DrawCall> {
-        let Object::Surfels(h) = &placed.object else {
-            return None;
-        };
-        let u = self.uploads.get(h)?;
-        let first_id = tally.patch_ids;
-        tally.patch_ids += u.patch_count;
-        if u.tile_count == 0 {
-            return None;
-        }
+        u: &UploadedSurfels,
+        first_id: i32,
+    ) -> DrawCall {
         let device = &gpu.device;
         let record = self.record(frame, placed, u, first_id);
         let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -570,14 +546,54 @@ impl Kind for SurfelsKind {
             &self.resolve_layout,
             &[&uniform, &u.surfels, &u.patches, &buffers.visibility],
         );
-        Some(DrawCall {
+        DrawCall {
             pipeline: self.resolve.clone(),
             group,
             vertex_buffer: None,
             vertices: 6,
             instances: 1,
             compute: Some(compute),
-        })
+        }
+    }
+}
+
+impl Kind for SurfelsKind {
+    fn upload(
+        &mut self,
+        gpu: &Gpu,
+        object: &Object,
+        view_from_object: &DMat4,
+        depth: &mut DepthRange,
+    ) -> Result<bool> {
+        let Object::Surfels(h) = object else {
+            return Ok(false);
+        };
+        let pieces = self.uploads.get_or_upload(h, |h| upload_pieces(gpu, h))?;
+        for u in pieces.iter().filter(|u| u.tile_count > 0) {
+            depth.include_box(view_from_object, u.lo, u.hi);
+        }
+        Ok(true)
+    }
+
+    fn draw(
+        &self,
+        gpu: &Gpu,
+        frame: &FrameView,
+        placed: &SceneObject,
+        tally: &mut Tally,
+    ) -> Vec<DrawCall> {
+        let Object::Surfels(h) = &placed.object else {
+            return Vec::new();
+        };
+        let Some(pieces) = self.uploads.get(h) else {
+            return Vec::new();
+        };
+        // Every piece numbers its patches as the whole set does.
+        let first_id = tally.patch_ids;
+        tally.patch_ids += h.source.patches.len() as i32;
+        (pieces.iter().filter(|u| u.tile_count > 0))
+            .map(|u| self.piece_draw(gpu, frame, placed, u, first_id))
+            .collect()
     }
 
     fn trace(
