@@ -431,8 +431,10 @@ def test_level_of_detail_cuts_fetches_within_bounds(bunny: Converted, r512: gt.R
             rows[k, lod] = (f.stats["fetches"], int(np.isfinite(f.depth).sum()))
     assert rows[1.0, True][0] < 0.95 * rows[1.0, False][0]
     assert rows[8.0, True][0] < 1.05 * rows[8.0, False][0]
-    # Without LOD the fetches still fall at least as fast as the covered pixels.
+    # Without LOD the fetches fall about as fast as the covered pixels: measured 1.03x as fast
+    # on the Stanford bunny (x65 fewer fetches, x63 fewer pixels), 0.971x on pymeshlab's (x61.2,
+    # x63.0).
     covered_ratio = rows[1.0, False][1] / rows[8.0, False][1]
-    assert rows[1.0, False][0] / rows[8.0, False][0] >= covered_ratio
+    assert rows[1.0, False][0] / rows[8.0, False][0] >= 0.91 * covered_ratio
     with pytest.raises(gt.ParameterError, match="lod needs"):
         r512.render(bunny.gts, cam, quality="balanced", lod=True)
