@@ -7,7 +7,7 @@ the bounding-box diagonal).
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -57,6 +57,42 @@ def mesh_to_points(mesh: Any, points: npt.ArrayLike, samples: int = 200_000, see
     return np.asarray(d, dtype=np.float64)
 
 
+#: Most (ray, candidate triangle) pairs one call to trimesh's numpy intersector (the one it uses
+#: without embreex) may hold. Its memory goes as those pairs, about 440 bytes each (measured: a
+#: 64² view of the 69k-face Stanford bunny, 6.4M pairs, 1,558 a ray, +2.8 GB peak RSS in one
+#: call; 256² was killed at 24 GB). A ray pairs with each triangle at most once, so chunks of
+#: ``_PAIR_BUDGET // faces`` rays hold at most this many whatever the view: about 0.9 GB.
+_PAIR_BUDGET = 2_000_000
+#: Rays per embree call: embree keeps nothing per candidate, so chunks only bound one call's
+#: arrays (a few hundred bytes a ray).
+_EMBREE_CHUNK = 1 << 20
+
+Intersector = Literal["auto", "embree", "numpy"]
+
+
+def _intersector(local: Any, kind: str) -> Any:
+    """trimesh's intersector of ``local``: its own choice (embree where embreex is installed,
+    else numpy), or the one named."""
+    if kind == "auto":
+        return local.ray
+    if kind == "numpy":
+        from trimesh.ray.ray_triangle import RayMeshIntersector
+
+        return RayMeshIntersector(local)
+    if kind == "embree":
+        from trimesh.ray.ray_pyembree import RayMeshIntersector as EmbreeIntersector  # needs embreex
+
+        return EmbreeIntersector(local)
+    raise ValueError(f"intersector must be 'auto', 'embree' or 'numpy', got {kind!r}")
+
+
+def _chunk_rays(intersector: Any, faces: int) -> int:
+    """Rays per call that bound an intersector's memory (see _PAIR_BUDGET)."""
+    if type(intersector).__module__.endswith("ray_pyembree"):
+        return _EMBREE_CHUNK
+    return max(1, _PAIR_BUDGET // max(faces, 1))
+
+
 class RayCaster:
     """trimesh ray casting of one mesh with its intersector kept, as a trimesh user runs it
     (``mesh.ray`` caches embree's BVH after the first call): build it once, cast many times.
@@ -65,22 +101,39 @@ class RayCaster:
     intersects in float32 with absolute epsilons, so a model far from the origin would lose its
     detail and one of micrometre size (diagonal 2.5e-5, say) would be missed altogether. Hits are
     invariant under this similarity; positions are mapped back.
+
+    ``intersector``: trimesh's own choice (``"auto"``: embree where embreex is installed, else
+    its numpy intersector), or ``"embree"`` / ``"numpy"``. Rays are cast ``chunk_rays`` at a
+    time (default: as many as keep the numpy intersector's (ray, candidate triangle) pairs
+    under 2M, about 0.9 GB, for any view; 2^20 with embree): each ray's hit does not depend on
+    the others, so the chunks change memory, not results.
     """
 
-    def __init__(self, mesh: Any) -> None:
+    def __init__(self, mesh: Any, *, intersector: Intersector = "auto", chunk_rays: int | None = None) -> None:
         self.mesh = _trimesh(mesh)
         self.centre = self.mesh.bounds.mean(axis=0)
         self.scale = _REFERENCE_DIAGONAL / max(diagonal(self.mesh), 1e-300)
         local = type(self.mesh)((self.mesh.vertices - self.centre) * self.scale, self.mesh.faces, process=False)
-        self.intersector = local.ray
+        self.intersector = _intersector(local, intersector)
+        if chunk_rays is not None and (isinstance(chunk_rays, bool) or not isinstance(chunk_rays, int)
+                                       or chunk_rays < 1):
+            raise ValueError(f"chunk_rays must be a positive integer or None, got {chunk_rays!r}")
+        self.chunk_rays = chunk_rays or _chunk_rays(self.intersector, len(self.mesh.faces))
 
     def first_hits(self, origins: npt.ArrayLike,
                    directions: npt.ArrayLike) -> tuple[npt.NDArray[Any], npt.NDArray[Any], npt.NDArray[Any]]:
-        """(hit locations in world units, ray indices, triangle indices) of the rays that hit."""
-        o = np.asarray(origins, dtype=np.float64)
-        locations, ray_index, tri_index = self.intersector.intersects_location(
-            (o - self.centre) * self.scale, np.asarray(directions, dtype=np.float64), multiple_hits=False)
-        return locations / self.scale + self.centre, ray_index, tri_index
+        """(hit locations in world units, ray indices, triangle indices) of the rays that hit,
+        cast ``chunk_rays`` at a time."""
+        o = (np.asarray(origins, dtype=np.float64).reshape(-1, 3) - self.centre) * self.scale
+        d = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
+        locations, rays, triangles = [np.zeros((0, 3))], [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
+        for start in range(0, len(o), self.chunk_rays):
+            stop = start + self.chunk_rays
+            loc, ray, tri = self.intersector.intersects_location(o[start:stop], d[start:stop], multiple_hits=False)
+            locations.append(np.asarray(loc, dtype=np.float64).reshape(-1, 3))
+            rays.append(np.asarray(ray, dtype=np.int64) + start)
+            triangles.append(np.asarray(tri, dtype=np.int64))
+        return np.concatenate(locations) / self.scale + self.centre, np.concatenate(rays), np.concatenate(triangles)
 
     def first_distances(self, origins: npt.ArrayLike, directions: npt.ArrayLike) -> npt.NDArray[np.float64]:
         """(N,) distance from each origin to its first hit along a unit direction; inf on a miss."""
@@ -115,8 +168,11 @@ class RayCaster:
         }
 
 
-def raycast(mesh: Any, camera: Any, width: int, height: int) -> dict[str, npt.NDArray[Any]]:
-    """First hits of the camera's pixel rays on the mesh, by trimesh (embreex when installed).
+def raycast(mesh: Any, camera: Any, width: int, height: int, *, intersector: Intersector = "auto",
+            chunk_rays: int | None = None) -> dict[str, npt.NDArray[Any]]:
+    """First hits of the camera's pixel rays on the mesh, by trimesh (embreex when installed;
+    ``intersector`` and ``chunk_rays`` as for ``RayCaster``: without embreex the rays go in
+    chunks that keep the numpy intersector's memory under about 1 GB at any image size).
 
     Same conventions as ``Renderer.render``: row 0 at the top, ``depth`` is z-depth along the
     camera's forward axis (+inf on a miss), ``normal`` the hit triangle's unit normal (0 on a
@@ -124,7 +180,7 @@ def raycast(mesh: Any, camera: Any, width: int, height: int) -> dict[str, npt.ND
     hit point (float64, 0 on a miss). Builds a new
     intersector each call; keep a ``RayCaster`` to cast many times.
     """
-    return RayCaster(mesh).cast(camera, width, height)
+    return RayCaster(mesh, intersector=intersector, chunk_rays=chunk_rays).cast(camera, width, height)
 
 
 def corner_normals(mesh: Any, normals: str = "crease", crease_angle: float = 20.0,
@@ -396,5 +452,8 @@ def occlusion(mesh: Any, vertices: npt.ArrayLike, rays: int, seed: int = 0) -> n
     # never count.
     lift = 1e-5 * float(np.linalg.norm(tm.extents))
     o = np.repeat(tm.vertices[vertices] + n * lift, rays, axis=0)
-    hit = tm.ray.intersects_any(o, d.reshape(-1, 3)).reshape(len(vertices), rays)
-    return 1.0 - hit.mean(axis=1)
+    d = d.reshape(-1, 3)
+    chunk = _chunk_rays(tm.ray, len(tm.faces))
+    hit = np.concatenate([np.zeros(0, bool)] + [np.asarray(tm.ray.intersects_any(o[k:k + chunk], d[k:k + chunk]))
+                                                for k in range(0, len(o), chunk)])
+    return 1.0 - hit.reshape(len(vertices), rays).mean(axis=1)
