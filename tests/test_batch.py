@@ -19,7 +19,7 @@ import geomtex as gt
 from geomtex import batch
 from geomtex.testing import GENERATED, look_from
 
-from conftest import SHARED_MESHES
+from conftest import SHARED_MESHES, pymeshlab_bunny_path
 
 distributed = pytest.importorskip("dask.distributed")
 zarr = pytest.importorskip("zarr")
@@ -35,8 +35,9 @@ def client():
 
 
 def inputs(tmp: Path) -> list:
-    """At least 20 inputs: generated meshes in memory, generated meshes written to files, and the
-    shared scans where they are beside this checkout."""
+    """At least 20 inputs: generated meshes in memory, generated meshes written to files, the
+    cow scan that ships inside the pymeshlab wheel (every install has it), and the shared scans
+    where they are beside this checkout."""
     made = [trimesh.creation.icosphere(subdivisions=s, radius=r) for s in (2, 3, 4) for r in (1.0, 2.5)]
     made += [trimesh.creation.torus(1.0, minor, major_sections=48, minor_sections=24) for minor in (0.2, 0.35, 0.5)]
     made += [trimesh.creation.box(extents=e) for e in ((1, 1, 1), (2, 1, 0.5))]
@@ -49,7 +50,8 @@ def inputs(tmp: Path) -> list:
         (mesh if isinstance(mesh, trimesh.Trimesh) else mesh.to_trimesh()).export(path)
         files.append(str(path))
     shared = [str(SHARED_MESHES / f"{n}.obj") for n in ("fandisk", "teapot") if (SHARED_MESHES / f"{n}.obj").exists()]
-    return made[4:] + files + shared
+    cow = str(pymeshlab_bunny_path().with_name("cow.obj"))
+    return made[4:] + files + [cow] + shared
 
 
 def kill_a_busy_worker(c, killed: dict) -> None:
@@ -154,7 +156,7 @@ def test_render_views_matches_the_renderer_frame_by_frame(client, tmp_path) -> N
 
 
 def test_bad_batch_arguments_are_refused(tmp_path) -> None:
-    with pytest.raises(gt.ParameterError, match="cannot read"):
+    with pytest.raises(gt.FileError, match="cannot read"):
         batch.convert_many([tmp_path / "missing.obj"], tmp_path, progress=False)
     with pytest.raises(gt.ParameterError, match="twice"):
         batch.convert_many([trimesh.creation.box()] * 2, tmp_path, progress=False)

@@ -82,10 +82,12 @@ def test_the_default_is_error_driven_within_the_mesh_bytes(bunny: Converted) -> 
         gts = gt.convert(bunny.mesh)
     s = gts.stats
     assert s["max_error"] == pytest.approx(2e-4 * s["diagonal"])
-    # 69k faces, over the 50k from which the budget is the mesh's own bytes (1.25 MB); its
-    # outline ratio (10.35) is under the 10.5 at which the bound starts to tighten.
+    # 69k faces (Stanford) or 56k (pymeshlab's), over the 50k from which the budget is the
+    # mesh's own bytes; the outline ratios (measured 10.35 and 10.23) are under the 10.5 at which
+    # the bound starts to tighten.
     assert s["max_bytes"] == mesh_bytes(bunny.mesh)
-    assert s["outline_ratio"] == pytest.approx(10.35, abs=0.05)
+    outline = {"stanford-bunny": 10.35, "pymeshlab-bunny": 10.23}[bunny.name]
+    assert s["outline_ratio"] == pytest.approx(outline, abs=0.05)
     # Measured: 0.999 of the mesh's bytes (a fixed 256-texel set: 16.6, so 0.060 of it), p99
     # 2.5e-4 of the diagonal, so the budget binds.
     assert s["bytes"] <= s["max_bytes"] and s["bytes"] <= 0.065 * bunny.gts.stats["bytes"], s["bytes"]
