@@ -160,7 +160,8 @@ async fn choose_adapter(instance: &wgpu::Instance) -> Result<wgpu::Adapter> {
 }
 
 /// Refuses an adapter on which some object kind would draw wrong: the GL backend (texture sets
-/// came back blank and ray queries missed everything there, while meshes still rasterized), and
+/// came back blank and ray queries and shadow rays missed everything there, while meshes,
+/// surfels, IGT and GDM shells passed gt.info()'s self-check on Mesa's llvmpipe), and
 /// any adapter short of the WebGPU baseline the passes are written for (compute shaders,
 /// storage buffers and textures, independent blending, the default limits).
 fn refuse_unsupported(adapter: &wgpu::Adapter) -> Result<()> {
@@ -173,8 +174,9 @@ fn refuse_unsupported(adapter: &wgpu::Adapter) -> Result<()> {
     );
     if info.backend == wgpu::Backend::Gl {
         return Err(GeomtexError::Device(format!(
-            "the adapter found is {}, through OpenGL, where geomtex's ray-cast object kinds \
-             (texture sets, surfels, IGT and GDM shells, ray queries) do not draw correctly; {fix}",
+            "the adapter found is {}, through OpenGL, where geomtex draws wrong: texture sets \
+             come back blank and ray queries and shadow rays miss everything (meshes, surfels, \
+             IGT and GDM shells do draw there); {fix}",
             describe(&info)
         )));
     }
