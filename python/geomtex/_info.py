@@ -34,13 +34,19 @@ MAX_DEPTH_P90 = 0.03
 MIN_SHADOW_AGREEMENT = 0.99
 
 
-def _sphere_reference() -> tuple[npt.NDArray[np.bool_], npt.NDArray[np.float64]]:
-    """Coverage and z-depth of the unit sphere in the self-check's camera, per pixel (row 0 at
-    the top, pixel centres at +0.5), by solving |o + t d|² = 1 for each camera ray."""
+def _camera_rays() -> npt.NDArray[np.float64]:
+    """The self-check camera's pixel rays (SIZE, SIZE, 3), world space, with z = -1 (so a ray's
+    parameter is its z-depth): row 0 at the top, pixel centres at +0.5."""
     half = np.tan(np.radians(YFOV_DEG) / 2)
     centres = (np.arange(SIZE) + 0.5) / SIZE * 2 - 1
     x, y = np.meshgrid(centres * half, -centres * half)
-    d = np.stack([x, y, -np.ones_like(x)], axis=-1)
+    return np.stack([x, y, -np.ones_like(x)], axis=-1)
+
+
+def _sphere_reference() -> tuple[npt.NDArray[np.bool_], npt.NDArray[np.float64]]:
+    """Coverage and z-depth of the unit sphere in the self-check's camera, per pixel, by solving
+    |o + t d|² = 1 for each camera ray."""
+    d = _camera_rays()
     o = np.array([0.0, 0.0, EYE_DISTANCE])
     a = (d * d).sum(-1)
     b = 2 * (d @ o)
@@ -48,7 +54,7 @@ def _sphere_reference() -> tuple[npt.NDArray[np.bool_], npt.NDArray[np.float64]]
     disc = b * b - 4 * a * c
     hit = disc >= 0
     t = np.where(hit, (-b - np.sqrt(np.where(hit, disc, 0))) / (2 * a), np.inf)
-    return hit, t  # d has z = -1, so the ray parameter is the z-depth
+    return hit, t
 
 
 def _sphere() -> Any:
@@ -105,32 +111,23 @@ def _scaled(mesh: Any, scale: float) -> Any:
     return Mesh(np.asarray(mesh.vertices) * scale, mesh.faces)
 
 
-def _compare(frame: Any, hit: npt.NDArray[np.bool_], depth: npt.NDArray[np.float64]) -> dict[str, Any]:
-    drawn = np.isfinite(frame.depth)
+def _compare(drawn_depth: npt.NDArray[Any], hit: npt.NDArray[np.bool_],
+             depth: npt.NDArray[np.float64]) -> dict[str, Any]:
+    drawn = np.isfinite(drawn_depth)
     both = drawn & hit
     union = (drawn | hit).sum()
     iou = float(both.sum() / union) if union else 0.0
-    error = float(np.quantile(np.abs(frame.depth[both] - depth[both]), 0.9)) if both.any() else float("inf")
+    error = float(np.quantile(np.abs(drawn_depth[both] - depth[both]), 0.9)) if both.any() else float("inf")
     return {"passed": iou >= MIN_IOU and error <= MAX_DEPTH_P90, "iou": round(iou, 4),
             "depth_p90": float(f"{error:.3g}")}
 
 
-def _ray_query(mesh: Any, hit: npt.NDArray[np.bool_], depth: npt.NDArray[np.float64]) -> dict[str, Any]:
+def _ray_query(gts: Any, hit: npt.NDArray[np.bool_], depth: npt.NDArray[np.float64]) -> dict[str, Any]:
     """The set's ray queries along the self-check's camera rays, against the analytic sphere."""
-    from . import convert
-
-    half = np.tan(np.radians(YFOV_DEG) / 2)
-    centres = (np.arange(SIZE) + 0.5) / SIZE * 2 - 1
-    x, y = np.meshgrid(centres * half, -centres * half)
-    d = np.stack([x, y, -np.ones_like(x)], axis=-1).reshape(-1, 3)
+    d = _camera_rays().reshape(-1, 3)
     lengths = np.linalg.norm(d, axis=1)
-    hits = _made("set", lambda: convert(mesh, max_resolution=64)).intersects_first(np.array([0.0, 0.0, EYE_DISTANCE]), d)
-    z = np.where(hits.hit, hits.distances / lengths, np.inf).reshape(SIZE, SIZE)
-
-    class _Hits:
-        depth = z
-
-    return _compare(_Hits, hit, depth)
+    hits = gts.intersects_first(np.array([0.0, 0.0, EYE_DISTANCE]), d)
+    return _compare(np.where(hits.hit, hits.distances / lengths, np.inf).reshape(SIZE, SIZE), hit, depth)
 
 
 def _shadow(renderer: Any, camera: Any, hit: npt.NDArray[np.bool_], depth: npt.NDArray[np.float64]) -> dict[str, Any]:
@@ -141,10 +138,7 @@ def _shadow(renderer: Any, camera: Any, hit: npt.NDArray[np.bool_], depth: npt.N
 
     travel = np.array([1.0, -1.0, -0.5]) / np.linalg.norm([1.0, -1.0, -0.5])
     frame = renderer.render(_MADE["set"], camera, light=DirectionalLight(travel))
-    half = np.tan(np.radians(YFOV_DEG) / 2)
-    centres = (np.arange(SIZE) + 0.5) / SIZE * 2 - 1
-    x, y = np.meshgrid(centres * half, -centres * half)
-    points = np.stack([x, y, -np.ones_like(x)], axis=-1) * np.where(hit, depth, 0)[..., None]
+    points = _camera_rays() * np.where(hit, depth, 0)[..., None]
     points[..., 2] += EYE_DISTANCE
     facing = -(points @ travel)  # the unit sphere's normal is the point itself
     judged = hit & (np.abs(facing) > 0.1) & np.isfinite(frame.depth)
@@ -164,11 +158,13 @@ def self_check() -> dict[str, dict[str, Any]]:
     camera = Camera.look_at((0.0, 0.0, EYE_DISTANCE), (0.0, 0.0, 0.0), up=(0.0, 1.0, 0.0), yfov_deg=YFOV_DEG)
     renderer = shared_renderer(SIZE, SIZE)
     results: dict[str, dict[str, Any]] = {}
-    checks: dict[str, Callable[[], dict[str, Any]]] = {
-        name: (lambda name=name, make=make: _compare(renderer.render(_made(name, make), camera), hit, depth))
-        for name, make in _kinds(mesh).items()
-    }
-    checks["ray_query"] = lambda: _ray_query(mesh, hit, depth)
+    kinds = _kinds(mesh)
+
+    def drawn(name: str) -> Callable[[], dict[str, Any]]:
+        return lambda: _compare(renderer.render(_made(name, kinds[name]), camera).depth, hit, depth)
+
+    checks = {name: drawn(name) for name in kinds}
+    checks["ray_query"] = lambda: _ray_query(_made("set", kinds["set"]), hit, depth)
     checks["shadow"] = lambda: _shadow(renderer, camera, hit, depth)
     for name, check in checks.items():
         start = time.perf_counter()
