@@ -7,18 +7,16 @@
 
 from __future__ import annotations
 
-import numbers
 import os
 import warnings
 from typing import Any, Callable, Literal
-
-import numpy as np
 
 # Mesa's Vulkan device-select layer prints a spurious "XDG_RUNTIME_DIR is invalid" on headless
 # machines; geomtex picks its adapter itself, so the layer is not needed.
 os.environ.setdefault("NODEVICE_SELECT", "1")
 
-from . import _core, _grids, _pickle, _preview, _rays, gdm, igt  # noqa: E402
+from . import _check, _core, _grids, _pickle, _preview, _rays, gdm, igt  # noqa: E402
+from ._check import number as _number  # noqa: E402
 from ._core import Camera, Frame, GeometryTextureSet, Surfels, __version__  # noqa: E402
 from ._errors import (  # noqa: E402
     CancelledError,
@@ -31,10 +29,10 @@ from ._errors import (  # noqa: E402
     MeshError,
     ParameterError,
 )
+from ._info import info  # noqa: E402
 from ._mesh import AppearanceWarning, Mesh, as_mesh, load_mesh  # noqa: E402
 from ._rays import RayHits  # noqa: E402
 from ._render import DirectionalLight, PointLight, Renderer, Scene  # noqa: E402
-from ._info import info  # noqa: E402
 
 __all__ = [
     "AppearanceWarning",
@@ -102,6 +100,30 @@ for _cls, _name, _method in [
 ]:
     setattr(_cls, _name, _method)
 
+
+
+def _from_bytes(core_from_bytes: Callable[[bytes], Any]) -> Any:
+    """`from_bytes` taking any bytes-like object (bytes, bytearray, memoryview); anything else
+    is a ParameterError naming `data`."""
+
+    def from_bytes(data: Any) -> Any:
+        if not isinstance(data, (bytes, bytearray, memoryview)):
+            raise _check.fail("data", "bytes (or a bytearray or memoryview)", data)
+        return core_from_bytes(bytes(data))
+
+    from_bytes.__doc__ = core_from_bytes.__doc__
+    return staticmethod(from_bytes)
+
+
+def _surfels_new(cls: type) -> Any:
+    raise ParameterError("Surfels are made by GeometryTextureSet.to_surfels(tile) or geomtex.load_surfels(path), "
+                         "not by Surfels(...)")
+
+
+for _stored in (GeometryTextureSet, Surfels, igt.InverseGeometricTexture):
+    setattr(_stored, "from_bytes", _from_bytes(_stored.from_bytes))
+setattr(Surfels, "__new__", staticmethod(_surfels_new))  # the extension's refusal is a TypeError
+
 _pickle.install()
 
 ProgressCallback = Callable[[str, float], "bool | None"]
@@ -111,19 +133,6 @@ _STAGE_SPAN = {
     "geometry": (0, 2), "partition": (2, 75), "repair": (75, 77), "overlap": (77, 79),
     "frame": (79, 80), "resolution": (80, 90), "raster": (90, 96), "dilate": (96, 99), "done": (100, 100),
 }
-
-
-def _number(name: str, value: Any, kind: type) -> Any:
-    """`value` as a Python int or float; numpy scalars count as numbers, bools do not."""
-    if value is None:
-        return None
-    wanted = numbers.Integral if kind is int else numbers.Real
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, wanted):
-        raise ParameterError(f"{name} must be {'a number' if kind is float else 'an integer'}, got {value!r}")
-    number = kind(value)
-    if kind is int and not -(2**63) <= number < 2**63:  # past what the core's i64 holds
-        raise ParameterError(f"{name} is out of range, got {value!r}")
-    return number
 
 
 def convert(
@@ -312,23 +321,13 @@ def load(path: str | os.PathLike[str]) -> GeometryTextureSet:
     """Reads a .gtex file. Raises FormatError for anything that is not an intact .gtex file
     (versions 1 to 5). Files hold no stage timings, so a loaded set's ``stats["seconds"]`` is
     empty."""
-    if not isinstance(path, (str, os.PathLike)):
-        raise ParameterError(f"path must be a str or os.PathLike, got {path!r}")
-    p = os.fspath(path)
-    if not os.path.exists(p):
-        raise FileError(f"no such file: {p}")
-    return _core.load(p)
+    return _core.load(_check.path("path", path, exists=True))
 
 
 def load_surfels(path: str | os.PathLike[str]) -> Surfels:
     """Reads a .gtsurf file (``Surfels.save``): the set and tile size it holds, the hierarchy
     rebuilt from them. Raises FormatError for anything that is not an intact one."""
-    if not isinstance(path, (str, os.PathLike)):
-        raise ParameterError(f"path must be a str or os.PathLike, got {path!r}")
-    p = os.fspath(path)
-    if not os.path.exists(p):
-        raise FileError(f"no such file: {p}")
-    return _core.load_surfels(p)
+    return _core.load_surfels(_check.path("path", path, exists=True))
 
 
 #: Public submodules imported on first use (PEP 562): ``gt.batch.convert_many`` works after a

@@ -14,7 +14,7 @@ from typing import Any, Literal, NamedTuple
 import numpy as np
 import numpy.typing as npt
 
-from . import _core
+from . import _check, _core
 
 _Quality = Literal["fast", "balanced", "exact"]
 _Method = Literal["linear_binary", "maxmip"]
@@ -44,28 +44,36 @@ class RayHits(NamedTuple):
     hit: npt.NDArray[np.bool_]
 
 
-def _real_rows(name: str, value: npt.ArrayLike) -> np.ndarray:
-    """``value`` as C-contiguous float64; anything that is not an array-like of real numbers
-    (a str, None entries, a ragged list, bool or complex values) is a ParameterError naming it."""
-    try:
-        a = np.asarray(value)
-    except (ValueError, TypeError) as e:  # a ragged list
-        raise _core.ParameterError(f"{name} must be an (N, 3) array-like of real numbers: {e}") from None
-    if a.dtype.kind not in "iuf":
-        raise _core.ParameterError(
-            f"{name} must be an (N, 3) array-like of real numbers, got {type(value).__name__} of dtype {a.dtype}")
-    return np.ascontiguousarray(a, dtype=np.float64)
-
-
 def _rays(origins: npt.ArrayLike, directions: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
-    o = _real_rows("origins", origins)
-    d = _real_rows("directions", directions)
-    if o.ndim == 1 and o.shape == (3,):
-        o = np.broadcast_to(o, d.shape if d.ndim == 2 else (1, 3)).copy()
-    if o.ndim != 2 or o.shape[1:] != (3,) or d.shape != o.shape:
-        raise _core.ParameterError(
-            f"origins and directions must both be (N, 3); got {o.shape} and {d.shape}")
+    """(N, 3) float64 origins and directions, finite, every direction non-zero; one origin (3,)
+    serves every ray. At most 2^26 rays, counted before anything is copied."""
+    d = _check.array("directions", directions, shape="(N, 3)")
+    o = _check.array("origins", origins, shape="(N, 3)")
+    if o.shape == (3,) and d.ndim == 2:
+        o = np.broadcast_to(o, d.shape)
+    if d.ndim != 2 or d.shape[1] != 3 or o.shape != d.shape:
+        raise _core.ParameterError(f"origins and directions must both be (N, 3); got {o.shape} and {d.shape}")
+    if len(d) > _check.MAX_RAYS:
+        raise _core.ParameterError(f"origins and directions hold {len(d)} rays, more than the limit of "
+                                   f"{_check.MAX_RAYS}")
+    o, d = np.ascontiguousarray(o, dtype=np.float64), np.ascontiguousarray(d, dtype=np.float64)
+    bad = ~np.isfinite(o).all(axis=1)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise _core.ParameterError(f"ray {i}: origin {o[i].tolist()} must be finite (origins row {i})")
+    bad = ~(np.isfinite(d).all(axis=1) & (np.abs(d).max(axis=1) > 0))
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise _core.ParameterError(f"ray {i}: direction {d[i].tolist()} must be finite and the direction non-zero "
+                                   f"(directions row {i})")
     return o, d
+
+
+def _options(options: dict[str, Any]) -> dict[str, Any]:
+    unknown = sorted(set(options) - {"quality", "method"})
+    if unknown:
+        raise _core.ParameterError(f"unknown keyword {unknown[0]!r}: a ray query takes quality and method")
+    return options
 
 
 # The first parameter is `self`: these become methods of GeometryTextureSet and Scene.
@@ -85,9 +93,9 @@ def intersects_location(self: Any, ray_origins: npt.ArrayLike, ray_directions: n
                         ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.int32]]:
     """Like trimesh's: (hit locations (M, 3), index of the ray of each (M,), patch id of each
     (M,)) for the rays that hit; the nearest hit only."""
-    if multiple_hits:
+    if _check.flag("multiple_hits", multiple_hits):
         raise _core.ParameterError("multiple_hits=True is not supported: only the nearest hit is traced")
-    hits = intersects_first(self, ray_origins, ray_directions, **options)
+    hits = intersects_first(self, ray_origins, ray_directions, **_options(options))
     index = np.flatnonzero(hits.hit)
     return hits.locations[index], index, hits.patch_ids[index]
 
@@ -96,5 +104,5 @@ def intersects_any(self: Any, ray_origins: npt.ArrayLike, ray_directions: npt.Ar
                    **options: Any) -> npt.NDArray[np.bool_]:
     """Whether each ray hits anything (each stops at the first hit found)."""
     o, d = _rays(ray_origins, ray_directions)
-    _, ids, _ = _query_renderer().intersect(self, o, d, any_hit=True, **options)
+    _, ids, _ = _query_renderer().intersect(self, o, d, any_hit=True, **_options(options))
     return ids != -1

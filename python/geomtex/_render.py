@@ -10,7 +10,8 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 
-from . import _core
+from . import _check, _core
+from ._errors import ParameterError
 from ._mesh import as_mesh
 
 _NATIVE = (_core.Scene, _core.GeometryTextureSet, _core.Mesh, _core.Surfels, _core.GdmShell, _core.IgtMesh)
@@ -26,23 +27,69 @@ def renderable(obj: Any) -> Any:
 
 @dataclass(frozen=True)
 class DirectionalLight:
-    """Parallel light travelling along ``direction`` (world space, any length but zero): pass it
-    as ``render(..., light=...)`` for shadows."""
+    """Parallel light travelling along ``direction`` (world space, three finite numbers, any
+    length but zero): pass it as ``render(..., light=...)`` for shadows."""
 
     direction: npt.ArrayLike
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "direction", np.asarray(self.direction, dtype=np.float64).copy())
+        object.__setattr__(self, "direction", _check.direction("direction", self.direction))
 
 
 @dataclass(frozen=True)
 class PointLight:
-    """Light from ``position`` (world space): pass it as ``render(..., light=...)`` for shadows."""
+    """Light from ``position`` (world space, three finite numbers): pass it as
+    ``render(..., light=...)`` for shadows."""
 
     position: npt.ArrayLike
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "position", np.asarray(self.position, dtype=np.float64).copy())
+        object.__setattr__(self, "position", _check.vector("position", self.position))
+
+
+def check_light(light: Any) -> None:
+    """`render`'s ``light``: None, or a DirectionalLight or PointLight (or any object with a
+    ``direction`` or a ``position``) whose vector is finite, a direction non-zero. Checked again
+    here: a light's array can be changed in place after it was made."""
+    if light is None:
+        return
+    if hasattr(light, "direction"):
+        _check.direction("light.direction", light.direction)
+    elif hasattr(light, "position"):
+        _check.vector("light.position", light.position)
+    else:
+        raise _check.fail("light", "a geomtex.DirectionalLight or PointLight", light)
+
+
+#: Renderer.render's keywords by the kind of value each takes (the extension checks ranges).
+_RENDER_KEYWORDS = {
+    "quality": "text", "method": "text", "primary": "text", "count_fetches": "flag", "lod": "flag",
+    "steps_per_texel": "real", "max_pixel_error": "real", "min_linear_steps": "int", "max_linear_steps": "int",
+    "binary_steps": "int", "max_traversal_steps": "int", "background": "rgba", "light": "light",
+}
+
+
+def check_render_options(options: dict[str, Any]) -> None:
+    """`Renderer.render`'s keywords: known names, each of the right kind of value (None is every
+    keyword's default); the light checked in full. For callers that cannot wait for the
+    extension's own checks (a batch job checks them before any worker starts)."""
+    for name, value in options.items():
+        kind = _RENDER_KEYWORDS.get(name)
+        if kind is None:
+            raise ParameterError(f"unknown render keyword {name!r}; Renderer.render takes "
+                                 + ", ".join(sorted(_RENDER_KEYWORDS)))
+        if value is None:
+            continue
+        if kind == "text" and not isinstance(value, str):
+            raise _check.fail(name, "a str", value)
+        if kind == "flag":
+            _check.flag(name, value)
+        elif kind in ("real", "int"):
+            _check.number(name, value, float if kind == "real" else int)
+        elif kind == "rgba":
+            _check.rgba(name, value)
+        elif kind == "light":
+            check_light(value)
 
 
 class Scene(_core.Scene):
@@ -59,8 +106,18 @@ class Scene(_core.Scene):
         within a surface and splits at edges whose faces' normals differ by ``crease_angle``
         degrees or more (default 20, in (0, 180]); ``"smooth"`` averages across every edge;
         ``"flat"`` gives each face its own normal. (A set's normals were chosen when it was
-        converted: these keywords are for meshes only.)"""
-        return super().add(renderable(obj), world_from_object, normals=normals, crease_angle=crease_angle)
+        converted: these keywords are for meshes only.)
+
+        `world_from_object` must be affine (last row 0, 0, 0, 1), invertible and finite; any
+        other matrix is a ParameterError."""
+        placement = None if world_from_object is None else _check.affine("world_from_object", world_from_object)
+        drawn = renderable(obj)
+        index: int = super().add(drawn, placement, normals=normals, crease_angle=crease_angle)
+        bounds = getattr(obj, "bounds", None)
+        if isinstance(drawn, _core.GdmShell) and bounds is not None:
+            # The extension's shell keeps no extent the viewer could read: remember the shell's.
+            self.__dict__.setdefault("_extents", {})[index] = np.asarray(bounds, dtype=np.float64)
+        return index
 
 
 class Renderer(_core.Renderer):
@@ -68,6 +125,7 @@ class Renderer(_core.Renderer):
     textures are kept between frames). See ``render`` for the keywords."""
 
     def render(self, obj: Any, camera: _core.Camera, **options: Any) -> _core.Frame:
+        check_light(options.get("light"))
         return super().render(renderable(obj), camera, **options)
 
 

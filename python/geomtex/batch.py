@@ -43,8 +43,8 @@ from typing import Any
 
 import numpy as np
 
-from . import _core
-from ._errors import GeomtexError, ParameterError
+from . import _check, _core
+from ._errors import CancelledError, FileError, GeomtexError, ParameterError
 
 MANIFEST = "manifest.json"
 JOURNAL = "manifest.journal"
@@ -81,6 +81,64 @@ def _client(client: Any, n_workers: int | None) -> Iterator[Any]:
 
 
 # ---------------------------------------------------------------------------------------------
+# Arguments, checked before anything is written or any worker starts
+
+
+def _check_job(client: Any, n_workers: Any, progress: Any) -> None:
+    if client is not None and not isinstance(client, str) and not isinstance(client, _dask().Client):
+        raise ParameterError(f"client must be a dask.distributed.Client, an address or None, got {client!r}")
+    if n_workers is not None:
+        _check.integer("n_workers", n_workers, 1, 1024)
+    _check.flag("progress", progress)
+
+
+def _listed(name: str, items: Any, what: str) -> list[Any]:
+    """`items` as a list: a list, tuple or other iterable, not one str or path."""
+    if isinstance(items, (str, bytes, os.PathLike)) or not isinstance(items, Iterable):
+        raise _check.fail(name, f"a list of {what} (one path: [path])", items)
+    return list(items)
+
+
+def _cancel(stage: str, fraction: float) -> bool:
+    return False
+
+
+def _check_convert_options(options: dict[str, Any]) -> dict[str, Any]:
+    """`geomtex.convert`'s keywords as plain JSON values (numpy scalars become Python numbers),
+    checked by the conversion's own checks on one triangle, cancelled before any work."""
+    import inspect
+
+    import geomtex as gt
+
+    known = [name for name in inspect.signature(gt.convert).parameters if name not in ("mesh", "progress")]
+    for name in options:
+        if name not in known:
+            raise ParameterError(f"unknown convert option {name!r}; geomtex.convert takes {', '.join(known)}")
+    plain = {name: value.item() if isinstance(value, np.generic) else value for name, value in options.items()}
+    try:
+        gt.convert(gt.Mesh([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], [[0, 1, 2]]), progress=_cancel,
+                   **plain)
+    except CancelledError:  # every option was read: the conversion stopped at its first stage
+        pass
+    return plain
+
+
+def _check_objects(objects: Any) -> list[Any]:
+    """render_views' objects: each a path to a file that exists, or anything a Scene takes."""
+    from ._render import renderable
+
+    objs = _listed("objects", objects, "sets, meshes, scenes or paths")
+    for i, obj in enumerate(objs):
+        if isinstance(obj, (str, os.PathLike)):
+            p = _check.path(f"objects[{i}]", obj)
+            if not os.path.isfile(p):
+                raise FileError(f"objects[{i}]: no such file: {p}")
+        else:
+            renderable(obj)  # a MeshError for what is no mesh
+    return objs
+
+
+# ---------------------------------------------------------------------------------------------
 # Inputs and their keys
 
 
@@ -93,7 +151,7 @@ def _input_key(source: Any, index: int) -> tuple[str, str, dict[str, Any]]:
         try:
             st = os.stat(path)
         except OSError as e:
-            raise ParameterError(f"input {index}: cannot read {path}: {e.strerror}") from None
+            raise FileError(f"input {index}: cannot read {path}: {e.strerror}") from None
         stem = os.path.splitext(os.path.basename(path))[0]
         digest = hashlib.sha1(path.encode()).hexdigest()[:10]
         return f"{stem}-{digest}", path, {"size": st.st_size, "mtime_ns": st.st_mtime_ns}
@@ -144,7 +202,7 @@ def read_manifest(out_dir: str | os.PathLike[str]) -> dict[str, Any]:
     crash mid-write leaves torn: it is skipped, and that input converted again."""
     from ._errors import FileError
 
-    folder = os.fspath(out_dir)
+    folder = _check.path("out_dir", out_dir)
     path = os.path.join(folder, MANIFEST)
     manifest: dict[str, Any] = {"version": _MANIFEST_VERSION, "options": None, "rows": {}}
     try:
@@ -310,18 +368,23 @@ def convert_many(
     again elsewhere (Dask's ``allowed-failures``); an input whose tasks keep killing workers is
     recorded as failed. Inputs already done in an earlier run with the same options are skipped.
     """
-    out = os.fspath(out_dir)
-    os.makedirs(out, exist_ok=True)
+    out = _check.path("out_dir", out_dir)
+    _check_job(client, n_workers, progress)
+    _check.flag("retry_failed", retry_failed)
+    sources = _listed("inputs", inputs, "mesh paths or meshes")
+    options = dict(sorted(_check_convert_options(convert_options).items()))
+    keyed = [(*_input_key(source, i), source) for i, source in enumerate(sources)]
+    if len({k for k, *_ in keyed}) != len(keyed):
+        raise ParameterError("inputs name the same file or mesh twice")
+    try:
+        os.makedirs(out, exist_ok=True)
+    except OSError as e:
+        raise FileError(f"cannot make the output folder {out}: {e.strerror or e}") from None
     manifest = read_manifest(out)
-    options = dict(sorted(convert_options.items()))
     if manifest["rows"] and manifest["options"] != json.loads(json.dumps(options)):
         raise ParameterError(f"{out} holds a job converted with options {manifest['options']}, not {options}; "
                              "use another folder")
     manifest["options"] = options
-    sources = list(inputs)
-    keyed = [(*_input_key(source, i), source) for i, source in enumerate(sources)]
-    if len({k for k, *_ in keyed}) != len(keyed):
-        raise ParameterError("inputs name the same file or mesh twice")
     rows: dict[str, Any] = manifest["rows"]
     todo = [(key, desc, fp, src) for key, desc, fp, src in keyed if _wanted(rows.get(key), fp, out, retry_failed)]
     if todo:
@@ -472,12 +535,19 @@ def render_views(
     """
     import zarr
 
-    if not isinstance(width, int) or not isinstance(height, int) or width < 1 or height < 1:
-        raise ParameterError(f"width and height must be positive integers, got {width!r}, {height!r}")
-    unknown = [name for name in outputs if name not in _OUTPUTS]
-    if unknown or not outputs:
-        raise ParameterError(f"outputs must be some of {sorted(_OUTPUTS)}, got {list(outputs)}")
-    objs = list(objects)
+    from ._render import check_render_options
+
+    width, height = _check.image_size(width, height)
+    names = _listed("outputs", outputs, f"output names, some of {sorted(_OUTPUTS)}")
+    unknown = [name for name in names if not isinstance(name, str) or name not in _OUTPUTS]
+    if unknown or not names:
+        raise ParameterError(f"outputs must be some of {sorted(_OUTPUTS)}, got {names}")
+    outputs = names
+    views_per_task = _check.integer("views_per_task", views_per_task, 1, 1 << 20)
+    _check_job(client, n_workers, progress)
+    check_render_options(render_options)
+    out = _check.path("out", out)
+    objs = _check_objects(objects)
     per_object = _cameras_per_object(cameras, len(objs))
     n_views = len(per_object[0]) if per_object else 0
     group = zarr.open_group(os.fspath(out), mode="a")
@@ -507,13 +577,16 @@ def render_views(
 
 
 def _cameras_per_object(cameras: Any, n_objects: int) -> list[list[_core.Camera]]:
-    cams = list(cameras)
+    wanted = "a list of Cameras, or one equally long list of Cameras per object"
+    cams = _listed("cameras", cameras, wanted[2:])
     if all(isinstance(c, _core.Camera) for c in cams):
         return [cams] * n_objects
+    if not all(isinstance(c, Iterable) and not isinstance(c, (str, bytes)) for c in cams):
+        raise _check.fail("cameras", wanted, cameras)
     per = [list(c) for c in cams]
     if len(per) != n_objects or len({len(p) for p in per}) > 1 \
             or not all(isinstance(c, _core.Camera) for p in per for c in p):
-        raise ParameterError("cameras must be a list of Cameras, or one equally long list per object")
+        raise _check.fail("cameras", wanted, cameras)
     return per
 
 

@@ -22,33 +22,29 @@ from typing import Any, Callable, Literal
 import numpy as np
 import numpy.typing as npt
 
-from . import _core
+from . import _check, _core
 from ._errors import MeshError, ParameterError
 
 Pattern = Literal["chain", "weave", "lattice"]
 DEFAULT_DIRECTIONS = (16, 32)
 DEFAULT_SIZE = (64, 64, 16)
+#: Voxels a side of a volume (the extension's limits), and direction counts (theta, phi).
+MAX_SIDE = 512
+MAX_DIRECTIONS = (64, 128)
 
 
 def _size(size: Any, what: str = "size") -> tuple[int, int, int]:
-    try:
-        t = tuple(int(s) for s in size)
-        ok = len(t) == 3 and all(float(a) == float(b) for a, b in zip(t, size))
-    except (TypeError, ValueError):
-        ok = False
-    if not ok:
-        raise ParameterError(f"{what} must be three voxel counts (nx, ny, nz), got {size!r}")
-    return t  # type: ignore[return-value]
+    return _check.counts(what, size, 2, (MAX_SIDE,) * 3,  # type: ignore[return-value]
+                         f"three voxel counts (nx, ny, nz), 2 to {MAX_SIDE} voxels along each axis")
 
 
 def _occupancy(grid: Any) -> npt.NDArray[np.uint8]:
-    try:
-        a = np.asarray(grid)
-    except (TypeError, ValueError) as e:
-        raise ParameterError(f"occupancy must be an (nx, ny, nz) array, got {type(grid).__name__}") from e
-    if a.ndim != 3 or a.dtype.kind not in "biuf":
+    a = _check.array("occupancy", grid, "biuf")
+    if a.ndim != 3:
         raise ParameterError(f"occupancy must be an (nx, ny, nz) array of bools or numbers, got shape "
                              f"{a.shape} dtype {a.dtype}")
+    if not all(2 <= n <= MAX_SIDE for n in a.shape):  # before anything the size of the grid is made
+        raise ParameterError(f"occupancy must have 2 to {MAX_SIDE} voxels along each axis, got shape {a.shape}")
     if a.dtype.kind == "f":
         if not np.isfinite(a).all():
             bad = np.argwhere(~np.isfinite(a))[0]
@@ -72,14 +68,17 @@ class Volume:
             self._core = occupancy
             return
         grid = _occupancy(occupancy)
+        seams = _check.flag("check_seams", check_seams)
         rgba = None
         if colors is not None:
-            rgba = np.asarray(colors)
-            if rgba.shape != grid.shape + (4,) or rgba.dtype.kind not in "iu":
+            rgba = _check.array("colors", colors, "iu")
+            if rgba.shape != grid.shape + (4,):
                 raise ParameterError(f"colors must be {grid.shape + (4,)} uint8, got shape {rgba.shape} "
                                      f"dtype {rgba.dtype}")
-            rgba = np.ascontiguousarray(np.clip(rgba, 0, 255), dtype=np.uint8)
-        self._core = _core.GdmVolume(grid, rgba, bool(check_seams))
+            if rgba.size and (rgba.min() < 0 or rgba.max() > 255):
+                raise ParameterError(f"colors must be in [0, 255], got values from {rgba.min()} to {rgba.max()}")
+            rgba = np.ascontiguousarray(rgba, dtype=np.uint8)
+        self._core = _core.GdmVolume(grid, rgba, seams)
 
     def __reduce__(self) -> tuple[Any, ...]:
         # As its grid and colors; the extension's copy is made anew from them, identical.
@@ -98,11 +97,12 @@ class Volume:
         z span the tile's height (a voxel is solid when its centre is inside)."""
         from ._mesh import as_mesh
 
+        n = np.array(_size(size))
+        _check.flag("check_seams", check_seams)
         tm: Any = _core_to_trimesh(as_mesh(mesh))
         tm.merge_vertices()
         if not tm.is_watertight:
             raise MeshError("Volume.from_mesh needs a watertight mesh (inside must be defined)")
-        n = np.array(_size(size))
         lo, hi = tm.bounds
         axes = [lo[a] + (np.arange(n[a]) + 0.5) / n[a] * (hi[a] - lo[a]) for a in range(3)]
         centres = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
@@ -130,14 +130,19 @@ class Volume:
 
     def march(self, origins: Any, directions: Any,
               max_t: float | None = None) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.bool_]]:
-        """Exact first solid voxel along (N, 3) texture-space rays (directions normalized here):
-        (t in voxels, hit); a miss ends where the ray leaves the slab 0 <= z <= nz."""
-        o = np.ascontiguousarray(np.asarray(origins, dtype=np.float64).reshape(-1, 3))
-        d = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
+        """Exact first solid voxel along (N, 3) texture-space rays (directions normalized here; one
+        ray may be given as two 3-vectors): (t in voxels, hit); a miss ends where the ray leaves
+        the slab 0 <= z <= nz, or at ``max_t`` (voxels, positive)."""
+        o, d = (_check.vector(name, v).reshape(1, 3) if _check.array(name, v).ndim == 1 else _check.rows(name, v)
+                for name, v in (("origins", origins), ("directions", directions)))
+        if o.shape != d.shape:
+            raise ParameterError(f"origins and directions must both be (N, 3), got {o.shape} and {d.shape}")
         norm = np.linalg.norm(d, axis=1, keepdims=True)
-        if not (np.isfinite(o).all() and np.isfinite(d).all() and (norm > 0).all()):
-            raise ParameterError("march: origins and directions must be finite, directions non-zero")
-        return self._core.march(o, np.ascontiguousarray(d / norm), max_t)  # type: ignore[no-any-return]
+        if not (norm > 0).all():
+            raise ParameterError(f"directions must be non-zero: row {int(np.flatnonzero(norm[:, 0] == 0)[0])} is "
+                                 "(0, 0, 0)")
+        t = None if max_t is None else _check.real("max_t", max_t, 0.0, lo_open=True)
+        return self._core.march(o, np.ascontiguousarray(d / norm), t)  # type: ignore[no-any-return]
 
     def distance_function(self, directions: Any = DEFAULT_DIRECTIONS,
                           progress: Callable[[str, float], Any] | None = None, *,
@@ -152,15 +157,11 @@ class Volume:
         by the distance to leave the slab: interpolated anywhere, it never passes a surface. Its
         ``compress()`` keeps that (the SVD's overshoot subtracted), and a Shell given it steps by
         the table and finishes with the exact march."""
-        if not isinstance(lower_bound, bool):
-            raise ParameterError(f"lower_bound must be True or False, got {lower_bound!r}")
-        try:
-            counts = tuple(int(c) for c in directions)
-        except (TypeError, ValueError):
-            counts = ()
-        if len(counts) != 2:
-            raise ParameterError(f"directions must be (theta, phi) counts, got {directions!r}")
-        d, hit = self._core.distance_function(counts, progress, lower_bound)
+        lower_bound = _check.flag("lower_bound", lower_bound)
+        counts = _check.counts("directions", directions, 2, MAX_DIRECTIONS,
+                               f"(theta, phi) counts, theta 2 to {MAX_DIRECTIONS[0]} and phi 2 to {MAX_DIRECTIONS[1]}")
+        _check.callback("progress", progress)
+        d, hit = self._core.distance_function(counts, progress, lower_bound)  # type: ignore[arg-type]
         return DistanceFunction(self, d, hit, lower_bound=lower_bound)
 
 
@@ -219,8 +220,7 @@ class DistanceFunction:
         reconstruction error (voxels) over the whole table."""
         nx, ny, nz, nt, nphi = self.distance.shape
         most = min(nx * ny * nphi, nt * nz)
-        if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 1 <= k <= most:
-            raise ParameterError(f"k must be an integer in 1..{most} (the table's rank bound), got {k!r}")
+        k = _check.integer("k", k, 1, most)  # the table's rank bound
         if self._svd is None:
             u, s, vt = np.linalg.svd(self.matrix().astype(np.float64), full_matrices=False)
             self._svd = (u, s, vt)
@@ -431,6 +431,11 @@ def tile_surface(volume: Volume) -> tuple[npt.NDArray[np.float64], npt.NDArray[n
     return verts, np.ascontiguousarray(faces, dtype=np.int64)
 
 
+#: Thickest shell, in diagonals of its base mesh; most tiles (uv magnitude) across it.
+_MAX_THICKNESS = 100.0
+_MAX_TILES = 1e6
+
+
 class Shell:
     """A volume tiled over a base mesh: every triangle extruded along its vertices' shared normals
     by ``thickness`` (object units) into a prism.
@@ -467,40 +472,32 @@ class Shell:
         mesh = as_mesh(base_mesh)
         if not isinstance(volume, Volume):
             raise ParameterError(f"volume must be a geomtex.gdm.Volume, got {type(volume).__name__}")
-        t = float(thickness) if isinstance(thickness, (int, float, np.number)) else float("nan")
-        if not np.isfinite(t) or t <= 0:
-            raise ParameterError(f"thickness must be a positive number, got {thickness!r}")
+        # A shell far thicker than its base is no displacement (and overflows the prism maps).
+        most = _MAX_THICKNESS * max(float(mesh.diagonal), 1e-300)
         try:
-            scale = np.array([float(x) for x in tiles])
-        except (TypeError, ValueError):
-            scale = np.zeros(0)
-        if scale.shape != (2,) or not np.isfinite(scale).all() or (scale <= 0).any():
-            raise ParameterError(f"tiles must be two positive numbers (u, v), got {tiles!r}")
+            t = _check.real("thickness", thickness, 0.0, most, lo_open=True)
+        except ParameterError:
+            raise _check.fail("thickness", f"a positive number of object units, at most {most:.6g} "
+                              f"({_MAX_THICKNESS:g} x the base mesh's diagonal)", thickness) from None
+        scale = _check.vector("tiles", tiles, 2) if _check.array("tiles", tiles).shape == (2,) else None
+        if scale is None or (scale <= 0).any() or (scale > _MAX_TILES).any():
+            raise _check.fail("tiles", f"two positive numbers (u, v), at most {_MAX_TILES:g}", tiles)
         self.vertices = np.asarray(mesh.vertices, dtype=np.float64)
         self.faces = np.asarray(mesh.faces, dtype=np.int64)
         self.volume, self.thickness, self.tiles = volume, t, tuple(scale)
         self.normals, self.untangled = _welded_normals(self.vertices, self.faces, t)
         self.uv, self.uv_source = self._texture_coordinates(mesh, uv, scale)
-        rgba = np.asarray(color)
-        if rgba.shape != (4,) or rgba.dtype.kind not in "iu" or (rgba < 0).any() or (rgba > 255).any():
-            raise ParameterError(f"color must be four integers in 0..255 (RGBA), got {color!r}")
-        self.color: tuple[int, int, int, int] = (int(rgba[0]), int(rgba[1]), int(rgba[2]), int(rgba[3]))
-        if isinstance(pieces, bool) or not isinstance(pieces, (int, np.integer)) or not 1 <= pieces <= 64:
-            raise ParameterError(f"pieces must be an integer in 1..64, got {pieces!r}")
-        self.pieces = int(pieces)
+        self.color: tuple[int, int, int, int] = _check.rgba("color", color)
+        self.pieces = _check.integer("pieces", pieces, 1, 64)
         if lookup is not None and (not isinstance(lookup, CompressedGDM) or lookup.shape[:3] != volume.size):
             raise ParameterError("lookup must be a CompressedGDM of this shell's volume (DistanceFunction.compress)")
         self.lookup = lookup
-        r = float(refine) if isinstance(refine, (int, float, np.number)) and not isinstance(refine, bool) else -1.0
-        if not 0 <= r <= 64:
-            raise ParameterError(f"refine must be a number of voxels in 0..64, got {refine!r}")
+        r = _check.real("refine", refine, 0.0, 64.0)
         if r > 0 and lookup is not None and lookup.conservative:
             raise ParameterError("refine applies to the paper's lookup; a conservative table is followed by "
                                  "the exact march (leave refine at 0)")
         self.refine = r
-        if not isinstance(count_steps, bool):
-            raise ParameterError(f"count_steps must be True or False, got {count_steps!r}")
-        self.count_steps = count_steps
+        self.count_steps = _check.flag("count_steps", count_steps)
         self._drawn: Any = None
 
     def __getstate__(self) -> dict[str, Any]:
@@ -510,12 +507,12 @@ class Shell:
     def _texture_coordinates(self, mesh: Any, uv: Any, scale: npt.NDArray[np.float64]) -> tuple[Any, str]:
         nv, nf = len(self.vertices), len(self.faces)
         if uv is not None:
-            a = np.asarray(uv, dtype=np.float64)
+            a = np.asarray(_check.array("uv", uv), dtype=np.float64)
             if a.shape == (nv, 2):
                 a = a[self.faces]
-            if a.shape != (nf, 3, 2) or not np.isfinite(a).all():
+            if a.shape != (nf, 3, 2) or not np.isfinite(a).all() or np.abs(a).max(initial=0.0) > _MAX_TILES:
                 raise ParameterError(f"uv must be finite (V, 2) = ({nv}, 2) or (F, 3, 2) = ({nf}, 3, 2), "
-                                     f"got shape {a.shape}")
+                                     f"at most {_MAX_TILES:g} tiles from 0, got shape {a.shape}")
             return np.ascontiguousarray(a), "given"
         if mesh.uv is not None:
             return np.ascontiguousarray(np.asarray(mesh.uv, dtype=np.float64)[self.faces] * scale), "mesh"
@@ -532,6 +529,12 @@ class Shell:
                                                   self.lookup.conservative),
                 getattr(self, "count_steps", False))
         return self._drawn
+
+    @property
+    def bounds(self) -> npt.NDArray[np.float64]:
+        """(2, 3) object-space box of the prisms: the base and its extrusion by ``thickness``."""
+        corners = np.concatenate([self.vertices, self.vertices + self.normals * self.thickness])
+        return np.stack([corners.min(axis=0), corners.max(axis=0)])
 
     def tile_surface(self) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]:
         """The tile's surface over one period (``tile_surface`` of this shell's volume)."""
@@ -559,10 +562,14 @@ class Shell:
 def uv_torus(major: float = 1.0, minor: float = 0.35, sections: tuple[int, int] = (48, 24)) -> tuple[Any, Any]:
     """A torus base mesh with continuous texture coordinates: (trimesh.Trimesh, (V, 2) uv in
     [0, 1] around the ring and the tube). Vertices repeat along the two seams so uv can run from
-    0 to 1; with whole tile counts the mesostructure continues across them."""
+    0 to 1; with whole tile counts the mesostructure continues across them. ``major`` > 0,
+    0 < ``minor`` < ``major`` (the tube's radius, so the ring does not cross itself) and
+    ``sections`` two integers (around the ring, around the tube), each 3 to 4096."""
     import trimesh
 
-    nu, nv = sections
+    major = _check.real("major", major, 0.0, lo_open=True)
+    minor = _check.real("minor", minor, 0.0, major, lo_open=True, hi_open=True)
+    nu, nv = _check.counts("sections", sections, 3, (4096, 4096), "two integers (ring, tube), each 3 to 4096")
     u, v = np.meshgrid(np.linspace(0, 1, nu + 1), np.linspace(0, 1, nv + 1), indexing="ij")
     a, b = 2 * np.pi * u, 2 * np.pi * v
     ring = major + minor * np.cos(b)

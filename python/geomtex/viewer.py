@@ -20,7 +20,7 @@ import numpy as np
 import numpy.typing as npt
 from PIL import Image
 
-from . import _core
+from . import _check, _core
 from ._errors import ParameterError
 from ._preview import box_bounds, patch_tint
 
@@ -31,15 +31,27 @@ _COMPARES = ("textures", "mesh", "beside", "overlay")
 _QUALITIES = ("fast", "balanced", "exact")
 
 
+def _box_corners(lo: npt.NDArray[np.float64], hi: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    """The 8 corners of a box, homogeneous (8, 4)."""
+    return np.array([[(lo, hi)[i & 1][0], (lo, hi)[(i >> 1) & 1][1], (lo, hi)[(i >> 2) & 1][2], 1.0]
+                     for i in range(8)])
+
+
 def _bounds(obj: Any) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-    """World (lo, hi) of a set, a mesh or a scene (each object's box placed by its matrix)."""
+    """World (lo, hi) of anything a Scene takes: a set, surfels, a mesh (geomtex, trimesh, an
+    IgtMesh), a GDM shell, or a scene (each object's box placed by its matrix)."""
     if isinstance(obj, _core.Scene):
         corners = []
-        for item, world_from_object, _, _ in obj._objects():
-            lo, hi = _bounds(item)
-            box = np.array([[(lo, hi)[i & 1][0], (lo, hi)[(i >> 1) & 1][1], (lo, hi)[(i >> 2) & 1][2], 1.0]
-                            for i in range(8)])
-            corners.append((box @ np.asarray(world_from_object).T)[:, :3])
+        extents = getattr(obj, "__dict__", {}).get("_extents", {})
+        for index, (item, world_from_object, _, _) in enumerate(obj._objects()):
+            if isinstance(item, _core.GdmShell):
+                if index not in extents:
+                    raise ParameterError(f"scene object {index} is a shell of unknown extent (added to the "
+                                         "extension's Scene, not geomtex.Scene): nothing to frame it by")
+                lo, hi = extents[index]
+            else:
+                lo, hi = _bounds(item)
+            corners.append((_box_corners(lo, hi) @ np.asarray(world_from_object).T)[:, :3])
         if not corners:
             raise ParameterError("the scene is empty: nothing to show")
         every = np.concatenate(corners)
@@ -48,7 +60,20 @@ def _bounds(obj: Any) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]
         if len(obj) == 0:
             raise ParameterError("the set has no patches: nothing to show")
         return box_bounds(obj)
-    b = np.asarray(obj.bounds)
+    if isinstance(obj, _core.Surfels):
+        if len(obj) == 0:
+            raise ParameterError("the surfels are empty: nothing to show")
+        reach = np.asarray(obj.radii)[:, None]
+        return (np.asarray(obj.positions) - reach).min(axis=0), (np.asarray(obj.positions) + reach).max(axis=0)
+    if isinstance(obj, (_core.IgtMesh, _core.InverseGeometricTexture)):
+        v = np.asarray(obj.vertices)
+        return v.min(axis=0), v.max(axis=0)
+    bounds = getattr(obj, "bounds", None)  # Mesh, trimesh, gdm.Shell
+    if bounds is None:
+        from ._mesh import as_mesh
+
+        bounds = as_mesh(obj).bounds
+    b = np.asarray(bounds, dtype=np.float64)
     return b[0], b[1]
 
 
@@ -82,16 +107,15 @@ class Viewer:
         from ._mesh import as_mesh
         from ._render import renderable
 
+        self.width, self.height = _check.image_size(width, height, 16, 4096)
         self.obj = renderable(obj)
+        # A gdm.Shell's own box: the extension's shell it is drawn as keeps no extent.
+        lo, hi = _bounds(obj if isinstance(self.obj, _core.GdmShell) else self.obj)
         self.mesh = None if mesh is None else as_mesh(mesh)
-        if not (isinstance(width, int) and isinstance(height, int) and 16 <= width <= 4096 and 16 <= height <= 4096):
-            raise ParameterError(f"width and height must be integers in [16, 4096], got {width!r}, {height!r}")
-        self.width, self.height = width, height
-        lo, hi = _bounds(self.obj)
         self.centre = (lo + hi) / 2
         self.diagonal = float(np.linalg.norm(hi - lo)) or 1.0
-        self.state = ViewState(compare=compare or ("beside" if self.mesh is not None else "textures"))
-        self.set(redraw=False, **state)
+        self.state = ViewState(compare="beside" if self.mesh is not None else "textures")
+        self.set(redraw=False, **state, **({} if compare is None else {"compare": compare}))
         self._drag: tuple[float, float] | None = None
         self._widget: Any = None
         self.image = self.render()
@@ -106,17 +130,27 @@ class Viewer:
         return _core.Camera.look_at(eye, self.centre, up=(0.0, 1.0, 0.0), yfov_deg=s.yfov_deg)
 
     def set(self, redraw: bool = True, **changes: Any) -> None:
-        """Changes any ViewState fields (checked) and redraws."""
+        """Changes any ViewState fields and redraws. Every value is checked before any is set, so
+        a bad one changes nothing."""
         s = self.state
+        checked: dict[str, Any] = {}
         for name, value in changes.items():
-            if name not in ("azimuth_deg", "elevation_deg", "distance", "yfov_deg", "quality", "lod", "shading",
-                            "compare"):
+            if name in ("azimuth_deg", "elevation_deg"):
+                checked[name] = _check.real(name, value)
+            elif name == "distance":
+                checked[name] = _check.real(name, value, 0.0, lo_open=True)
+            elif name == "yfov_deg":
+                checked[name] = _check.real(name, value, 0.0, 180.0, lo_open=True, hi_open=True)
+            elif name == "lod":
+                checked[name] = _check.flag(name, value)
+            elif name in ("quality", "shading", "compare"):
+                choices = {"quality": _QUALITIES, "shading": _SHADINGS, "compare": _COMPARES}[name]
+                checked[name] = _check.choice(name, value, choices)
+            else:
                 raise ParameterError(f"unknown view setting {name!r}")
-            choices = {"quality": _QUALITIES, "shading": _SHADINGS, "compare": _COMPARES}.get(name)
-            if choices is not None and value not in choices:
-                raise ParameterError(f"{name} must be one of {choices}, got {value!r}")
-            if name in ("compare",) and value != "textures" and self.mesh is None:
-                raise ParameterError(f"compare={value!r} needs the original mesh: show(obj, mesh=...)")
+        if checked.get("compare", "textures") != "textures" and self.mesh is None:
+            raise ParameterError(f"compare={checked['compare']!r} needs the original mesh: show(obj, mesh=...)")
+        for name, value in checked.items():
             setattr(s, name, value)
         s.elevation_deg = float(np.clip(s.elevation_deg, -89.0, 89.0))  # the pole has no 'up'
         s.azimuth_deg = float(s.azimuth_deg % 360.0)
@@ -125,14 +159,12 @@ class Viewer:
             self.redraw()
 
     def orbit(self, d_azimuth_deg: float, d_elevation_deg: float) -> None:
-        self.set(azimuth_deg=self.state.azimuth_deg + d_azimuth_deg,
-                 elevation_deg=self.state.elevation_deg + d_elevation_deg)
+        self.set(azimuth_deg=self.state.azimuth_deg + _check.real("d_azimuth_deg", d_azimuth_deg),
+                 elevation_deg=self.state.elevation_deg + _check.real("d_elevation_deg", d_elevation_deg))
 
     def zoom(self, factor: float) -> None:
         """Moves the camera `factor` times closer (a factor below 1 backs away)."""
-        if not factor > 0:
-            raise ParameterError(f"zoom factor must be positive, got {factor!r}")
-        self.set(distance=self.state.distance / factor)
+        self.set(distance=self.state.distance / _check.real("factor", factor, 0.0, lo_open=True))
 
     # -- rendering ------------------------------------------------------------------------------
 
@@ -259,7 +291,8 @@ class Viewer:
 
 
 def show(obj: Any, *, mesh: Any = None, width: int = 512, height: int = 384, **view: Any) -> Viewer:
-    """An interactive view of `obj` (a set, Mesh, trimesh, Scene or path) in Jupyter: drag to
+    """An interactive view of `obj` (anything a Scene takes: a set, Mesh, trimesh, surfels, an
+    IgtMesh, a gdm.Shell, a Scene, or a mesh path) in Jupyter: drag to
     orbit, scroll to zoom; quality, LOD and shading ("shaded", "patches", "normals", "depth")
     selectors; with `mesh` (the original) also "mesh", "beside" and "overlay". `view` sets the
     starting ViewState (azimuth_deg, elevation_deg, distance, ...). Front ends without widgets
