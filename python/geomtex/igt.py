@@ -168,6 +168,7 @@ def attach(
     v = _check.rows("vertices", vertices, label="V", min_rows=3, max_rows=2**31)
     f = _check.indices("faces", faces, 3, len(v), label="F", min_rows=1)
     lk, n, level = _shading(lookup, samples, lod)
+    igt.check_near(v, f)  # before the grids' nearest-face search, which a far mesh makes slow
     face_grid = np.zeros(len(f), dtype=np.int64)
     if igt.primary == "charts":
         from scipy.spatial import cKDTree

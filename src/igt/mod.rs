@@ -613,6 +613,37 @@ pub struct IgtMesh {
     pub lod: Lod,
 }
 
+/// How far past the detailed mesh's bounding box (a share of its diagonal, on every side) a mesh
+/// shaded through its texture may reach: a simplification stays within a fraction of a percent.
+pub const MAX_REACH_PAST_SOURCE: f64 = 0.25;
+
+/// Refuses a mesh that does not lie where the texture's detailed mesh lies: its faces' windows
+/// and nearest detailed faces are searched outward from the detailed surface, so a mesh moved
+/// away (10 diagonals) made the search run for minutes without an answer that means anything.
+pub fn check_near_source(igt: &InverseGeometricTexture, mesh: &Mesh) -> Result<()> {
+    let bounds = |points: &[DVec3]| {
+        points.iter().fold(
+            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |(lo, hi), &p| (lo.min(p), hi.max(p)),
+        )
+    };
+    let (lo, hi) = bounds(&igt.positions);
+    let reach = MAX_REACH_PAST_SOURCE * (hi - lo).length();
+    let used: Vec<DVec3> = (mesh.faces.iter().flatten())
+        .map(|&v| mesh.positions[v as usize])
+        .collect();
+    let (mlo, mhi) = bounds(&used);
+    let past = (lo - mlo).max(mhi - hi).max_element();
+    if past > reach {
+        return Err(GeomtexError::Parameter(format!(
+            "the mesh reaches {past:.4e} past the texture's detailed mesh's bounding box \
+             ({lo:?} to {hi:?}), more than {MAX_REACH_PAST_SOURCE} of its diagonal: shade a mesh \
+             simplified from that mesh, in its space"
+        )));
+    }
+    Ok(())
+}
+
 impl IgtMesh {
     pub fn new(
         igt: Arc<InverseGeometricTexture>,
@@ -634,6 +665,7 @@ impl IgtMesh {
                 face_grid[f]
             )));
         }
+        check_near_source(&igt, &mesh)?;
         let face_grid: Vec<u32> = face_grid.into_iter().map(|g| g as u32).collect();
         let (face_window, face_search_grids) = window::windows(&igt, &mesh, &face_grid);
         Ok(IgtMesh {

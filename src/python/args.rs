@@ -225,6 +225,33 @@ pub fn mat4(obj: Option<&Bound<'_, PyAny>>, what: &str) -> PyResult<DMat4> {
     })))
 }
 
+/// A placement (`mat4`) that is affine and invertible: its last row (0, 0, 0, 1) within 1e-6,
+/// its linear part of non-zero determinant. Every kind places its records with the affine part
+/// alone, so a projective last row would be drawn differently by different kinds.
+pub fn affine_mat4(obj: Option<&Bound<'_, PyAny>>, what: &str) -> PyResult<DMat4> {
+    let m = mat4(obj, what)?;
+    let last = m.row(3);
+    if (last - glam::DVec4::W).abs().max_element() > 1e-6 {
+        return Err(parameter_error(format!(
+            "{what} must be affine (last row 0, 0, 0, 1), got last row {:?}",
+            last.to_array()
+        )));
+    }
+    let linear = glam::DMat3::from_mat4(m);
+    let scale = [linear.x_axis, linear.y_axis, linear.z_axis]
+        .map(|a| a.length())
+        .iter()
+        .product::<f64>();
+    // Finite (mat4 checked), so a NaN cannot reach this test.
+    if linear.determinant().abs() <= 1e-12 * scale {
+        return Err(parameter_error(format!(
+            "{what} must be invertible, but its 3x3 part is singular (determinant {:e})",
+            linear.determinant()
+        )));
+    }
+    Ok(m)
+}
+
 /// An image size: each side in [1, MAX_IMAGE_SIDE] and at most MAX_RAYS pixels.
 pub fn image_size(width: &Bound<'_, PyAny>, height: &Bound<'_, PyAny>) -> PyResult<(u32, u32)> {
     let w = integer(width, "width", 1..=MAX_IMAGE_SIDE)?;

@@ -258,6 +258,20 @@ impl PyIgt {
         Some(image(py, flat, (i.height(), i.width(), 4)))
     }
 
+    /// Raises ParameterError unless the mesh (V, 3) / (M, 3) lies where the detailed mesh does
+    /// (within 0.25 of its diagonal past its bounding box): what `shade` checks first, for
+    /// geomtex.igt.attach to check before it assigns faces their grids.
+    fn check_near(
+        &self,
+        vertices: PyReadonlyArray2<'_, f64>,
+        faces: PyReadonlyArray2<'_, i64>,
+    ) -> PyResult<()> {
+        expect_columns(&vertices, 3, "vertices", GeomtexError::Mesh)?;
+        expect_columns(&faces, 3, "faces", GeomtexError::Mesh)?;
+        let mesh = Mesh::from_flat(&flat(&vertices), &flat(&faces), None)?;
+        Ok(crate::igt::check_near_source(&self.inner, &mesh)?)
+    }
+
     /// The detailed face under each world point (N, 3) and its barycentrics: projected into
     /// grid `grids[k]` (required with several grids), the first listed triangle containing it,
     /// else the nearest listed one. Returns (face (N,) int64, -1 where nothing is listed near;

@@ -10,7 +10,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use super::args::{
-    image_size, mat3, mat4, opt_flag, opt_real, opt_text, opt_u32, rays, real, rgba8, vec3,
+    affine_mat4, image_size, mat3, opt_flag, opt_real, opt_text, opt_u32, rays, real, rgba8, vec3,
 };
 use super::arrays::{image, mat4_to_numpy, matrix, ArrayPair};
 use super::errors::{heavy, parameter_error};
@@ -68,7 +68,7 @@ impl PyCamera {
         height: &Bound<'_, PyAny>,
         near: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        let world_from_camera = mat4(Some(world_from_camera), "world_from_camera")?;
+        let world_from_camera = affine_mat4(Some(world_from_camera), "world_from_camera")?;
         let (width, height) = image_size(width, height)?;
         let camera = Camera::from_intrinsics(mat3(K, "K")?, world_from_camera, width, height)?;
         Ok(PyCamera {
@@ -84,7 +84,7 @@ impl PyCamera {
         ymag: &Bound<'_, PyAny>,
         near: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        let world_from_camera = mat4(Some(world_from_camera), "world_from_camera")?;
+        let world_from_camera = affine_mat4(Some(world_from_camera), "world_from_camera")?;
         let camera = Camera::orthographic(world_from_camera, real(ymag, "ymag")?)?;
         Ok(PyCamera {
             inner: camera.with_near(opt_real(near, "near")?)?,
@@ -157,7 +157,7 @@ impl PyCamera {
         numbers: Vec<f64>,
         near: Option<f64>,
     ) -> PyResult<Self> {
-        let pose = mat4(Some(world_from_camera), "world_from_camera")?;
+        let pose = affine_mat4(Some(world_from_camera), "world_from_camera")?;
         let size =
             |v: f64| (v >= 1.0 && v <= f64::from(u32::MAX) && v.fract() == 0.0).then_some(v as u32);
         let projection = match (kind, numbers.as_slice()) {
@@ -278,7 +278,7 @@ impl PyScene {
         normals: Option<&Bound<'_, PyAny>>,
         crease_angle: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<usize> {
-        let world_from_object = mat4(world_from_object, "world_from_object")?;
+        let world_from_object = affine_mat4(world_from_object, "world_from_object")?;
         let rule = match (normals, crease_angle) {
             (None, None) => None,
             _ => Some(NormalRule::from_keywords(

@@ -465,16 +465,20 @@ impl Targets {
 /// A stored half-float normal made unit length again (in f64, so the f32 result is within
 /// float32 rounding of 1): the target holds 11-bit mantissas, whose lengths run 0.9994-1.0000,
 /// and a user taking `arccos` of a dot product with a true normal would read that as degrees of
-/// error. A miss (all zero) stays zero.
+/// error. Values whose length is not within NORMAL_LENGTH_SLACK of 1 are not normals (a miss's
+/// zeros; the counts GDM shells write there with `count_steps`) and are kept as stored.
 fn unit_normal(bits: [u16; 3]) -> [f32; 3] {
     let n = bits.map(|h| half::f16::from_bits(h).to_f64());
     let length = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-    if length > 0.0 && length.is_finite() {
+    if (length - 1.0).abs() <= NORMAL_LENGTH_SLACK {
         n.map(|v| (v / length) as f32)
     } else {
-        [0.0; 3]
+        n.map(|v| v as f32)
     }
 }
+
+/// How far from 1 a stored normal's length may be (half-float rounding gives at most ~1e-3).
+const NORMAL_LENGTH_SLACK: f64 = 0.01;
 
 #[cfg(test)]
 mod tests {
@@ -492,5 +496,7 @@ mod tests {
             );
         }
         assert_eq!(unit_normal([0; 3]), [0.0; 3]);
+        // Not a normal (GDM's count_steps counts): kept as stored.
+        assert_eq!(unit_normal([3.0f32, 1.0, 0.0].map(half)), [3.0, 1.0, 0.0]);
     }
 }
