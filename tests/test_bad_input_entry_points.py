@@ -640,3 +640,11 @@ def test_show_frames_a_placed_shell(o: Objects) -> None:
     lo, hi = _bounds(scene)
     assert np.allclose(lo, 2 * o.shell.bounds[0]) and np.allclose(hi, 2 * o.shell.bounds[1])
     assert (o.shell.bounds[1] - o.shell.bounds[0]).min() > 0
+
+
+def test_render_refuses_an_unknown_keyword_by_name() -> None:
+    """A misspelt keyword was the extension's TypeError; it is a ParameterError naming it."""
+    mesh = gt.Mesh(np.eye(3), [[0, 1, 2]])
+    camera = gt.Camera.look_at((0.0, 0.0, 3.0), (0.0, 0.0, 0.0))
+    with pytest.raises(gt.ParameterError, match="unknown render keyword 'qualty'"):
+        gt.Renderer(8, 8).render(mesh, camera, qualty="exact")

@@ -125,7 +125,7 @@ class Renderer(_core.Renderer):
     textures are kept between frames). See ``render`` for the keywords."""
 
     def render(self, obj: Any, camera: _core.Camera, **options: Any) -> _core.Frame:
-        check_light(options.get("light"))
+        check_render_options(options)
         return super().render(renderable(obj), camera, **options)
 
 
