@@ -96,20 +96,11 @@ def test_parallel_rays_walk_tiles_and_agree_with_trimesh(bunny: Converted) -> No
     gap = np.abs(walked.distances[1:][hits.hit[1:]] - hits.distances[1:][hits.hit[1:]]) / diag
     assert np.percentile(gap, 99) <= 1.4e-5, np.percentile(gap, 99)
     assert np.sum(gap > 1e-5) <= 100, np.sum(gap > 1e-5)
-    # A ray grazing a chart's rim can meet the ring's copy of the surface (within the set's error
-    # of the mesh) and pass just beside the owner's, which the tiles walk; then the walks land
-    # far apart though both stand on the set's surface (the CPU's exact search agrees with the
-    # hierarchy). Measured: none on the Stanford bunny (largest gap 2.3e-4); one ray in 20,000 on
-    # pymeshlab's, 0.10 of the diagonal, its nearer hit 5.8e-5 of the diagonal from the mesh and
-    # the tiles' hit 1e-8 from trimesh's. Each such ray's nearer hit lies on the mesh within the
-    # set's largest reconstruction error, and its farther one is trimesh's.
-    rays = np.flatnonzero(hits.hit[1:])[gap > 7e-4] + 1
-    assert len(rays) <= 2, len(rays)
-    for k in rays:
-        nearer, farther = sorted([walked, hits], key=lambda h: h.distances[k])
-        off = reference.points_to_mesh(nearer.locations[k][None], bunny.mesh)[0]
-        assert off <= bunny.gts.stats["reconstruction_error_max"], (k, off / diag)
-        assert abs(farther.distances[k] - ref[k]) / diag <= 1.5e-4, (k, farther.distances[k], ref[k])
+    # Both walks enter pieces over the texels each patch owns (boxes.rs). While the hierarchy's
+    # pieces covered every texel, one ray in 20,000 on pymeshlab's bunny met a ring's copy of a
+    # rim through it, 0.10 of the diagonal nearer than the tiles' (and trimesh's) hit. Measured
+    # since: at most 1.6e-4 (pymeshlab bunny).
+    assert gap.max() <= 7e-4, gap.max()
 
 
 def test_location_and_any_match_first(bunny: Converted) -> None:

@@ -30,10 +30,14 @@ pub(crate) struct PatchBoxGpu {
 
 const _: () = assert!(size_of::<PatchBoxGpu>() == 32);
 
-/// The pieces of patch `index`, from its min-max pyramid (heightfield::min_max_pyramid).
+/// The pieces of patch `index`, from the min-max pyramid (heightfield::min_max_pyramid) of
+/// `heights` (the patch's heights, or fewer of them: those it owns, owners.rs), each node's
+/// column shrunk to the texels with heights as the tiles' pieces are (`column`): a ray walked
+/// through the hierarchy then meets the surface where one walked through tiles does.
 pub(crate) fn patch_boxes(
     index: u32,
     p: &Patch,
+    heights: &[u16],
     pyramid: &[(u32, u32, Vec<u32>)],
 ) -> Vec<PatchBoxGpu> {
     let level = BOX_LEVEL.min(pyramid.len().saturating_sub(1) as u32);
@@ -41,24 +45,19 @@ pub(crate) fn patch_boxes(
     let cells = f64::from(1u32 << level);
     let code_max = f64::from(p.code_max());
     let decode = |code: u32| (f64::from(code) - 1.0) / (code_max - 1.0);
-    // Heights are known to half a code (the search's graze tolerance); a hair in u/v so that
-    // a ray along a shared side enters one of the two pieces.
+    // Heights are known to half a code (the search's graze tolerance).
     let dz = 0.5 / (code_max - 1.0);
-    let duv = 1e-6;
-    // Node column c spans cells [c 2^L, (c + 1) 2^L), i.e. u in [(c 2^L - 1/2) / W, ...].
-    let span = |n: u32, texels: u32| {
-        let at = |k: f64| ((k * cells - 0.5) / f64::from(texels)).clamp(0.0, 1.0);
-        (at(f64::from(n)) - duv, at(f64::from(n + 1)) + duv)
-    };
     let mut boxes = Vec::new();
     for r in 0..*nh {
         for c in 0..*nw {
             let value = values[(r * nw + c) as usize];
-            if value == 0 {
+            let held = held_texels(p, heights, (i64::from(c), i64::from(r)), cells as i64);
+            if value == 0 || held.is_empty() {
                 continue;
             }
-            let (u0, u1) = span(c, p.width);
-            let (v0, v1) = span(r, p.height);
+            let ((i0, i1), (j0, j1)) = held_range(&held);
+            let (u0, u1) = column(i64::from(c), cells as i64, i64::from(p.width), (i0, i1));
+            let (v0, v1) = column(i64::from(r), cells as i64, i64::from(p.height), (j0, j1));
             let (z0, z1) = (decode(value & 0xffff) - dz, decode(value >> 16) + dz);
             boxes.push(PatchBoxGpu {
                 lo: [u0, v0, z0].map(|x| x as f32),
@@ -104,19 +103,7 @@ pub(crate) fn tile_pieces(
             if values[(r * i64::from(*nw) + c) as usize] == 0 {
                 continue;
             }
-            // The corner texels of the node's cells (cell k spans texels k - 1 and k).
-            let held: Vec<(i64, i64, DVec3)> = (r * cells - 1..(r + 1) * cells)
-                .filter(|&j| (0..h).contains(&j))
-                .flat_map(|j| {
-                    (c * cells - 1..(c + 1) * cells)
-                        .filter(|&i| (0..w).contains(&i))
-                        .map(move |i| (i, j))
-                })
-                .filter_map(|(i, j)| {
-                    let q = heights[(j * w + i) as usize];
-                    (q != 0).then(|| (i, j, p.texel_local(i as u32, j as u32, q)))
-                })
-                .collect();
+            let held = held_texels(p, heights, (c, r), cells);
             if held.is_empty() {
                 continue;
             }
@@ -149,12 +136,7 @@ pub(crate) fn tile_pieces(
             let lo = across.clone().fold(f64::INFINITY, f64::min) - dz;
             let hi = across.fold(f64::NEG_INFINITY, f64::max) + dz;
             let grow = (0.5 * (thick - (hi - lo))).max(0.0);
-            let (i0, i1) = held
-                .iter()
-                .fold((w, -1), |(l, u), t| (l.min(t.0), u.max(t.0)));
-            let (j0, j1) = held
-                .iter()
-                .fold((h, -1), |(l, u), t| (l.min(t.1), u.max(t.1)));
+            let ((i0, i1), (j0, j1)) = held_range(&held);
             let (u0, u1) = column(c, cells, w, (i0, i1));
             let (v0, v1) = column(r, cells, h, (j0, j1));
             let piece = PatchBoxGpu {
@@ -168,6 +150,38 @@ pub(crate) fn tile_pieces(
         }
     }
     pieces
+}
+
+/// The corner texels of pyramid node `(c, r)`'s cells (`cells` a side; cell k spans texels
+/// k - 1 and k) that have a height in `heights`: (i, j, patch-local point).
+fn held_texels(
+    p: &Patch,
+    heights: &[u16],
+    (c, r): (i64, i64),
+    cells: i64,
+) -> Vec<(i64, i64, DVec3)> {
+    let (w, h) = (i64::from(p.width), i64::from(p.height));
+    (r * cells - 1..(r + 1) * cells)
+        .filter(|&j| (0..h).contains(&j))
+        .flat_map(|j| {
+            (c * cells - 1..(c + 1) * cells)
+                .filter(|&i| (0..w).contains(&i))
+                .map(move |i| (i, j))
+        })
+        .filter_map(|(i, j)| {
+            let q = heights[(j * w + i) as usize];
+            (q != 0).then(|| (i, j, p.texel_local(i as u32, j as u32, q)))
+        })
+        .collect()
+}
+
+/// The first and last column (i) and row (j) of non-empty `held` texels.
+fn held_range(held: &[(i64, i64, DVec3)]) -> ((i64, i64), (i64, i64)) {
+    let range = |k: fn(&(i64, i64, DVec3)) -> i64| {
+        held.iter()
+            .fold((i64::MAX, i64::MIN), |(l, u), t| (l.min(k(t)), u.max(k(t))))
+    };
+    (range(|t| t.0), range(|t| t.1))
 }
 
 /// Whether the surface of patch `p` is one sheet across the whole column of the pyramid node
@@ -308,7 +322,7 @@ mod tests {
     #[test]
     fn pieces_hold_the_surface() {
         let p = wavy_patch(200, 150);
-        let boxes = patch_boxes(3, &p, &min_max_pyramid(&p));
+        let boxes = patch_boxes(3, &p, &p.heights, &min_max_pyramid(&p));
         assert!(boxes
             .iter()
             .all(|b| b.patch_index == 3 && b.level == BOX_LEVEL));
@@ -384,7 +398,7 @@ mod tests {
             .into_iter()
             .map(|(piece, _)| piece)
             .collect();
-        let boxes = patch_boxes(3, &p, &pyramid);
+        let boxes = patch_boxes(3, &p, &p.heights, &pyramid);
         let thickness = |b: &PatchBoxGpu| f64::from(b.hi[2] - b.lo[2]);
         let mean =
             |list: &[PatchBoxGpu]| list.iter().map(thickness).sum::<f64>() / list.len() as f64;
