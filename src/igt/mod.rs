@@ -650,6 +650,7 @@ impl IgtMesh {
         mesh: Mesh,
         face_grid: Vec<i64>,
         lookup: Lookup,
+        cancel: &crate::cancel::Cancel,
     ) -> Result<Self> {
         if face_grid.len() != mesh.faces.len() {
             return Err(GeomtexError::Parameter(format!(
@@ -667,7 +668,7 @@ impl IgtMesh {
         }
         check_near_source(&igt, &mesh)?;
         let face_grid: Vec<u32> = face_grid.into_iter().map(|g| g as u32).collect();
-        let (face_window, face_search_grids) = window::windows(&igt, &mesh, &face_grid);
+        let (face_window, face_search_grids) = window::windows(&igt, &mesh, &face_grid, cancel)?;
         Ok(IgtMesh {
             igt,
             mesh,

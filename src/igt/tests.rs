@@ -154,7 +154,14 @@ fn windows_cover_the_gap_to_the_detailed_surface() {
     };
     let grids = keep.iter().map(|&f| igt.face_grid[f] as i64).collect();
     let igt = Arc::new(igt);
-    let shaded = IgtMesh::new(igt.clone(), shrunk, grids, Lookup::Ray).unwrap();
+    let shaded = IgtMesh::new(
+        igt.clone(),
+        shrunk,
+        grids,
+        Lookup::Ray,
+        &crate::cancel::Cancel::new(),
+    )
+    .unwrap();
     let gap = 0.02 * radius;
     // The measured distance back out of each inside window (1.25x it plus a cell; nothing of
     // the sphere lies inside its shrunk copy near it, so that is the base); the outside window

@@ -20,6 +20,8 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::InverseGeometricTexture;
+use crate::cancel::Cancel;
+use crate::error::Result;
 use crate::mesh::Mesh;
 
 /// Grids the ray lookup walks for one face at most (its own and the nearest others). On the
@@ -388,16 +390,25 @@ fn reach(
 
 /// Per face of `mesh` (projected into grid `face_grid[f]`): its windows (outside, inside) and
 /// the grids it walks (its own first).
+/// `cancel` is polled per face (Ctrl-C stops a search that a mesh far from the detailed one
+/// makes long): Interrupted once set.
 pub fn windows(
     igt: &InverseGeometricTexture,
     mesh: &Mesh,
     face_grid: &[u32],
-) -> (Vec<[f32; 2]>, Vec<Vec<u32>>) {
+    cancel: &Cancel,
+) -> Result<(Vec<[f32; 2]>, Vec<Vec<u32>>)> {
     let boxes = grid_boxes(igt);
     let corners = |t: &[u32; 3]| t.map(|v| mesh.positions[v as usize]);
     let parted: Vec<f64> = (mesh.faces.par_iter().zip(face_grid))
-        .map(|(t, &g)| parted(igt, &boxes, corners(t), g))
+        .map(|(t, &g)| {
+            if cancel.is_cancelled() {
+                return 0.0;
+            }
+            parted(igt, &boxes, corners(t), g)
+        })
         .collect();
+    cancel.check("measuring the faces' windows")?;
     let mut faces_at: Vec<Vec<u32>> = vec![Vec::new(); mesh.positions.len()];
     for (f, t) in mesh.faces.iter().enumerate() {
         for &v in t {
@@ -411,10 +422,19 @@ pub fn windows(
     let buckets = Buckets::new(centroids, |f| igt.face_grid[f] != u32::MAX);
     let simplified = FaceBuckets::new(mesh);
     let nearest: Vec<u32> = (points.points.par_iter())
-        .map(|&p| simplified.nearest(p).unwrap_or(u32::MAX))
+        .map(|&p| {
+            if cancel.is_cancelled() {
+                return u32::MAX;
+            }
+            simplified.nearest(p).unwrap_or(u32::MAX)
+        })
         .collect();
-    (mesh.faces.par_iter().zip(face_grid))
+    cancel.check("measuring the faces' windows")?;
+    let windows = (mesh.faces.par_iter().zip(face_grid))
         .map(|(t, &own)| {
+            if cancel.is_cancelled() {
+                return ([0.0; 2], Vec::new());
+            }
             let mut ring: Vec<u32> = t
                 .iter()
                 .flat_map(|&v| faces_at[v as usize].clone())
@@ -434,5 +454,7 @@ pub fn windows(
             let grids = std::iter::once(own).chain(others).take(MAX_GRIDS).collect();
             (window.map(|w| w as f32), grids)
         })
-        .collect()
+        .collect();
+    cancel.check("measuring the faces' windows")?;
+    Ok(windows)
 }

@@ -357,12 +357,10 @@ impl PyIgt {
         let lookup = lookup.map_or(Ok(Lookup::default()), str::parse::<Lookup>)?;
         let mesh = Mesh::from_flat(&flat(&vertices), &flat(&faces), None)?;
         let igt = self.inner.clone();
-        let shaded = py.detach(move || {
-            Ok::<_, GeomtexError>(
-                IgtMesh::new(igt, mesh, face_grid, lookup)?
-                    .with_samples(samples.unwrap_or(1))?
-                    .with_lod(lod),
-            )
+        let shaded = heavy(py, "shading a mesh through the texture", move |cancel| {
+            Ok(IgtMesh::new(igt, mesh, face_grid, lookup, cancel)?
+                .with_samples(samples.unwrap_or(1))?
+                .with_lod(lod))
         })?;
         Ok(PyIgtMesh {
             inner: Arc::new(shaded),
