@@ -388,16 +388,18 @@ fn reach(
     (outside, inside)
 }
 
-/// Per face of `mesh` (projected into grid `face_grid[f]`): its windows (outside, inside) and
-/// the grids it walks (its own first).
-/// `cancel` is polled per face (Ctrl-C stops a search that a mesh far from the detailed one
+/// Per face: its windows (outside, inside) and the grids it walks (its own first).
+pub type FaceWindows = (Vec<[f32; 2]>, Vec<Vec<u32>>);
+
+/// Per face of `mesh` (projected into grid `face_grid[f]`): its windows and grids. `cancel` is
+/// polled per face (Ctrl-C stops a search that a mesh far from the detailed one
 /// makes long): Interrupted once set.
 pub fn windows(
     igt: &InverseGeometricTexture,
     mesh: &Mesh,
     face_grid: &[u32],
     cancel: &Cancel,
-) -> Result<(Vec<[f32; 2]>, Vec<Vec<u32>>)> {
+) -> Result<FaceWindows> {
     let boxes = grid_boxes(igt);
     let corners = |t: &[u32; 3]| t.map(|v| mesh.positions[v as usize]);
     let parted: Vec<f64> = (mesh.faces.par_iter().zip(face_grid))
