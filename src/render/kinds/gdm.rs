@@ -244,8 +244,25 @@ fn shell_record(
     }
 }
 
-impl GdmKind {
-    /// The object's one draw call; `None` when nothing of it is in view.
+impl Kind for GdmKind {
+    fn upload(
+        &mut self,
+        gpu: &Gpu,
+        object: &Object,
+        view_from_object: &DMat4,
+        depth: &mut DepthRange,
+    ) -> Result<bool> {
+        let Object::Gdm(shell) = object else {
+            return Ok(false);
+        };
+        if shell.shell.faces.is_empty() {
+            return Ok(true);
+        }
+        let u = self.uploads.get_or_upload(shell, |s| Ok(upload(gpu, s)))?;
+        depth.include_box(view_from_object, u.lo, u.hi);
+        Ok(true)
+    }
+
     fn draw_call(
         &self,
         gpu: &Gpu,
@@ -281,38 +298,6 @@ impl GdmKind {
             instances: 1,
             compute: None,
         })
-    }
-}
-
-impl Kind for GdmKind {
-    fn upload(
-        &mut self,
-        gpu: &Gpu,
-        object: &Object,
-        view_from_object: &DMat4,
-        depth: &mut DepthRange,
-    ) -> Result<bool> {
-        let Object::Gdm(shell) = object else {
-            return Ok(false);
-        };
-        if shell.shell.faces.is_empty() {
-            return Ok(true);
-        }
-        let u = self.uploads.get_or_upload(shell, |s| Ok(upload(gpu, s)))?;
-        depth.include_box(view_from_object, u.lo, u.hi);
-        Ok(true)
-    }
-
-    fn draw(
-        &self,
-        gpu: &Gpu,
-        frame: &FrameView,
-        placed: &SceneObject,
-        tally: &mut Tally,
-    ) -> Vec<DrawCall> {
-        self.draw_call(gpu, frame, placed, tally)
-            .into_iter()
-            .collect()
     }
 
     fn trace(

@@ -482,33 +482,6 @@ fn surface_pipeline(
     })
 }
 
-impl IgtKind {
-    /// The object's one draw call; `None` when nothing of it is in view.
-    fn draw_call(
-        &self,
-        gpu: &Gpu,
-        frame: &FrameView,
-        placed: &SceneObject,
-        tally: &mut Tally,
-    ) -> Option<DrawCall> {
-        let Object::Igt(_) = &placed.object else {
-            return None;
-        };
-        // Numbered as meshes are, whether drawn or not (the surface pass does not count).
-        let id = -2 - tally.meshes_drawn as i32;
-        tally.meshes_drawn += 1;
-        let (group, mesh) = self.bind(gpu, frame, placed, id)?;
-        Some(DrawCall {
-            pipeline: self.pipeline.clone(),
-            group,
-            vertex_buffer: Some(mesh.vertices.clone()),
-            vertices: mesh.count,
-            instances: 1,
-            compute: None,
-        })
-    }
-}
-
 impl Kind for IgtKind {
     fn upload(
         &mut self,
@@ -533,16 +506,28 @@ impl Kind for IgtKind {
         Ok(true)
     }
 
-    fn draw(
+    fn draw_call(
         &self,
         gpu: &Gpu,
         frame: &FrameView,
         placed: &SceneObject,
         tally: &mut Tally,
-    ) -> Vec<DrawCall> {
-        self.draw_call(gpu, frame, placed, tally)
-            .into_iter()
-            .collect()
+    ) -> Option<DrawCall> {
+        let Object::Igt(_) = &placed.object else {
+            return None;
+        };
+        // Numbered as meshes are, whether drawn or not (the surface pass does not count).
+        let id = -2 - tally.meshes_drawn as i32;
+        tally.meshes_drawn += 1;
+        let (group, mesh) = self.bind(gpu, frame, placed, id)?;
+        Some(DrawCall {
+            pipeline: self.pipeline.clone(),
+            group,
+            vertex_buffer: Some(mesh.vertices.clone()),
+            vertices: mesh.count,
+            instances: 1,
+            compute: None,
+        })
     }
 
     fn draw_surface(&self, gpu: &Gpu, frame: &FrameView, placed: &SceneObject) -> Option<DrawCall> {

@@ -441,8 +441,30 @@ fn upload(gpu: &Gpu, mesh: &Mesh, rule: NormalRule) -> UploadedMesh {
     }
 }
 
-impl MeshKind {
-    /// The object's one draw call; `None` when nothing of it is in view.
+impl Kind for MeshKind {
+    fn upload(
+        &mut self,
+        gpu: &Gpu,
+        object: &Object,
+        view_from_object: &DMat4,
+        depth: &mut DepthRange,
+    ) -> Result<bool> {
+        let Object::Mesh(mesh, rule) = object else {
+            return Ok(false);
+        };
+        let uploads = self.uploads.entry(mesh);
+        if let (None, Some(texture)) = (&uploads.image, &mesh.appearance.texture) {
+            uploads.image = Some(upload_image(gpu, &texture.image));
+        }
+        let uploads = &mut uploads.drawn;
+        if !uploads.iter().any(|(r, _)| r == rule) {
+            uploads.push((*rule, upload(gpu, mesh, *rule)));
+        }
+        let (_, u) = uploads.iter().find(|(r, _)| r == rule).expect("uploaded");
+        depth.include_box(view_from_object, u.lo, u.hi);
+        Ok(true)
+    }
+
     fn draw_call(
         &self,
         gpu: &Gpu,
@@ -496,43 +518,6 @@ impl MeshKind {
             instances: 1,
             compute: None,
         })
-    }
-}
-
-impl Kind for MeshKind {
-    fn upload(
-        &mut self,
-        gpu: &Gpu,
-        object: &Object,
-        view_from_object: &DMat4,
-        depth: &mut DepthRange,
-    ) -> Result<bool> {
-        let Object::Mesh(mesh, rule) = object else {
-            return Ok(false);
-        };
-        let uploads = self.uploads.entry(mesh);
-        if let (None, Some(texture)) = (&uploads.image, &mesh.appearance.texture) {
-            uploads.image = Some(upload_image(gpu, &texture.image));
-        }
-        let uploads = &mut uploads.drawn;
-        if !uploads.iter().any(|(r, _)| r == rule) {
-            uploads.push((*rule, upload(gpu, mesh, *rule)));
-        }
-        let (_, u) = uploads.iter().find(|(r, _)| r == rule).expect("uploaded");
-        depth.include_box(view_from_object, u.lo, u.hi);
-        Ok(true)
-    }
-
-    fn draw(
-        &self,
-        gpu: &Gpu,
-        frame: &FrameView,
-        placed: &SceneObject,
-        tally: &mut Tally,
-    ) -> Vec<DrawCall> {
-        self.draw_call(gpu, frame, placed, tally)
-            .into_iter()
-            .collect()
     }
 
     fn trace(

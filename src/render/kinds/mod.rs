@@ -64,16 +64,29 @@ pub(crate) trait Kind: Send {
         depth: &mut DepthRange,
     ) -> Result<bool>;
 
-    /// The draw calls of an object this kind uploaded, counted in `tally`: one for most kinds,
-    /// one per piece for an object drawn in pieces (surfels larger than a storage binding),
-    /// none when nothing of it is in view.
+    /// The draw call of an object this kind uploaded, counted in `tally`; `None` when nothing of
+    /// it is in view.
+    fn draw_call(
+        &self,
+        gpu: &Gpu,
+        frame: &FrameView,
+        placed: &SceneObject,
+        tally: &mut Tally,
+    ) -> Option<DrawCall>;
+
+    /// Every draw call of the object: `draw_call`'s, or one per piece for a kind that draws an
+    /// object in pieces (surfels larger than a storage binding, kinds/surfels.rs).
     fn draw(
         &self,
         gpu: &Gpu,
         frame: &FrameView,
         placed: &SceneObject,
         tally: &mut Tally,
-    ) -> Vec<DrawCall>;
+    ) -> Vec<DrawCall> {
+        self.draw_call(gpu, frame, placed, tally)
+            .into_iter()
+            .collect()
+    }
 
     /// The draw call of an object in the surface pass (after the scene pass, depth-tested against
     /// its finished depth, into the surface target: detailed face and barycentrics per pixel),

@@ -575,6 +575,17 @@ impl Kind for SurfelsKind {
         Ok(true)
     }
 
+    /// Not asked: surfels override `draw`, which makes one call per piece.
+    fn draw_call(
+        &self,
+        _gpu: &Gpu,
+        _frame: &FrameView,
+        _placed: &SceneObject,
+        _tally: &mut Tally,
+    ) -> Option<DrawCall> {
+        None
+    }
+
     fn draw(
         &self,
         gpu: &Gpu,

@@ -570,8 +570,26 @@ fn tile_entries<'a>(
     ]
 }
 
-impl GtexKind {
-    /// The object's one draw call; `None` when nothing of it is in view.
+impl Kind for GtexKind {
+    fn upload(
+        &mut self,
+        gpu: &Gpu,
+        object: &Object,
+        view_from_object: &DMat4,
+        depth: &mut DepthRange,
+    ) -> Result<bool> {
+        let Object::Textures(set) = object else {
+            return Ok(false);
+        };
+        self.uploads
+            .get_or_upload(set, |s| GtexUpload::new(gpu, s))?;
+        for p in &set.patches {
+            let view_from_patch = *view_from_object * p.world_from_patch();
+            depth.include_box(&view_from_patch, DVec3::ZERO, DVec3::ONE);
+        }
+        Ok(true)
+    }
+
     fn draw_call(
         &self,
         gpu: &Gpu,
@@ -626,39 +644,6 @@ impl GtexKind {
             instances: 1,
             compute: None,
         })
-    }
-}
-
-impl Kind for GtexKind {
-    fn upload(
-        &mut self,
-        gpu: &Gpu,
-        object: &Object,
-        view_from_object: &DMat4,
-        depth: &mut DepthRange,
-    ) -> Result<bool> {
-        let Object::Textures(set) = object else {
-            return Ok(false);
-        };
-        self.uploads
-            .get_or_upload(set, |s| GtexUpload::new(gpu, s))?;
-        for p in &set.patches {
-            let view_from_patch = *view_from_object * p.world_from_patch();
-            depth.include_box(&view_from_patch, DVec3::ZERO, DVec3::ONE);
-        }
-        Ok(true)
-    }
-
-    fn draw(
-        &self,
-        gpu: &Gpu,
-        frame: &FrameView,
-        placed: &SceneObject,
-        tally: &mut Tally,
-    ) -> Vec<DrawCall> {
-        self.draw_call(gpu, frame, placed, tally)
-            .into_iter()
-            .collect()
     }
 
     fn trace(
