@@ -375,10 +375,11 @@ def test_bad_render_input_is_a_clear_error(r256: gt.Renderer) -> None:
         r256.render(sphere.gts, cam, steps_per_texel=0.0)
     with pytest.raises(gt.MeshError, match="expected a geomtex.Mesh"):
         r256.render(42, cam)
-    scene = gt.Scene()
-    scene.add(sphere.gts, world_from_object=np.zeros((4, 4)))
+    # Placements are checked when added (they were refused only at the render before).
+    with pytest.raises(gt.ParameterError, match="must be affine"):
+        gt.Scene().add(sphere.gts, world_from_object=np.zeros((4, 4)))
     with pytest.raises(gt.ParameterError, match="invertible"):
-        r256.render(scene, cam)
+        gt.Scene().add(sphere.gts, world_from_object=np.diag([1.0, 0.0, 1.0, 1.0]))
     with pytest.raises(gt.ParameterError, match=r"world_from_object must be an array .* shape \(4, 4\)"):
         gt.Scene().add(sphere.gts, world_from_object=np.eye(3))
 
