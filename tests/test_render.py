@@ -439,3 +439,31 @@ def test_level_of_detail_cuts_fetches_within_bounds(bunny: Converted, r512: gt.R
     assert rows[1.0, False][0] / rows[8.0, False][0] >= 0.91 * covered_ratio
     with pytest.raises(gt.ParameterError, match="lod needs"):
         r512.render(bunny.gts, cam, quality="balanced", lod=True)
+
+
+def test_scenes_past_float32_are_refused_not_drawn_blank() -> None:
+    """The GPU passes work in float32 relative to the camera: a set scaled to 1e30 drew a blank
+    frame and its ray queries missed (the mesh it came from rasterized), and an orthographic view
+    1e-300 tall drew nothing. Each is a ParameterError now; at 1e12 the set draws what trimesh
+    sees."""
+    import trimesh
+
+    sphere = trimesh.creation.icosphere(subdivisions=2)
+    for scale, expect_drawn in ((1e12, True), (1e30, False)):
+        mesh = gt.Mesh(sphere.vertices * scale, sphere.faces)
+        gts = gt.convert(mesh)
+        cam = gt.Camera.look_at((0.0, 0.0, 3 * scale), (0.0, 0.0, 0.0))
+        origin, down = np.array([[0.0, 0.0, 3 * scale]]), np.array([[0.0, 0.0, -1.0]])
+        if expect_drawn:
+            frame = gt.Renderer(64, 64).render(gts, cam)
+            ref = reference.raycast(mesh, cam, 64, 64)
+            m = reference.compare(frame, ref, mesh.diagonal)
+            assert m["iou"] >= 0.99, m  # measured 1.0 (64², a 320-face icosphere)
+            assert gts.intersects_first(origin, down).hit[0]
+        else:
+            with pytest.raises(gt.ParameterError, match="float32"):
+                gt.Renderer(64, 64).render(gts, cam)
+            with pytest.raises(gt.ParameterError, match="float32"):
+                gts.intersects_first(origin, down)
+    with pytest.raises(gt.ParameterError, match="float32"):
+        gt.Renderer(64, 64).render(gt.Mesh(sphere.vertices, sphere.faces), gt.Camera.orthographic(np.eye(4), 1e-300))

@@ -300,6 +300,12 @@ impl Camera {
     /// Projection numbers for an image size and the view-space depth range [z_min, z_max]
     /// (distances along the view direction) that the scene occupies.
     pub fn lens(&self, width: u32, height: u32, z_min: f64, z_max: f64) -> Result<Lens> {
+        let lens = self.lens_unchecked(width, height, z_min, z_max)?;
+        check_f32_range(&lens, z_min, z_max)?;
+        Ok(lens)
+    }
+
+    fn lens_unchecked(&self, width: u32, height: u32, z_min: f64, z_max: f64) -> Result<Lens> {
         let (w, h) = (width as f64, height as f64);
         match self.intrinsics(width, height)? {
             Some([fx, fy, cx, cy]) => {
@@ -410,6 +416,47 @@ impl Camera {
             (lens.near / depth as f64) as f32
         }
     }
+}
+
+/// The farthest (world units) the scene may reach from the camera: the GPU passes work in f32
+/// relative to the camera and square distances, so past ~1e19 (f32's largest value is 3.4e38) a
+/// set's tracer overflowed and drew nothing (a set scaled to 1e30: a blank frame, while the mesh
+/// it came from rasterized). 1e15 keeps squares and their sums far inside f32.
+pub const MAX_VIEW_DISTANCE: f64 = 1e15;
+
+/// Refuses a scene (or rays) reaching `far` from the origin of the frame the GPU works in (the
+/// camera, or a ray query's rays) past MAX_VIEW_DISTANCE.
+pub(crate) fn check_view_distance(far: f64, from: &str) -> Result<()> {
+    if far > MAX_VIEW_DISTANCE {
+        return Err(GeomtexError::Parameter(format!(
+            "the scene reaches {far:e} (world units) from {from}, past the {MAX_VIEW_DISTANCE:e} \
+             the GPU passes hold in float32; scale the scene (or its placement) and the camera \
+             or rays together"
+        )));
+    }
+    Ok(())
+}
+
+/// Refuses a lens the GPU would read as something else: a scene farther from the camera than
+/// MAX_VIEW_DISTANCE, or a pixel footprint outside f32's normal range (an orthographic view
+/// 1e-300 tall became 0 in f32 and drew nothing).
+fn check_f32_range(lens: &Lens, z_min: f64, z_max: f64) -> Result<()> {
+    check_view_distance(z_min.abs().max(z_max.abs()), "the camera")?;
+    let footprint = [lens.ray[0].abs(), lens.ray[1].abs()];
+    if footprint
+        .iter()
+        .any(|&v| !(f64::from(f32::MIN_POSITIVE)..=1e30).contains(&v))
+    {
+        return Err(GeomtexError::Parameter(format!(
+            "a pixel of this camera spans {:e} x {:e} (world units for an orthographic camera, \
+             tangent of the angle for a perspective one), outside what float32 holds \
+             ({:e} to 1e30): choose a field of view or view height within range",
+            footprint[0],
+            footprint[1],
+            f32::MIN_POSITIVE
+        )));
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -12,6 +12,7 @@ use glam::{DMat4, DVec3};
 use rayon::prelude::*;
 use wgpu::util::DeviceExt;
 
+use super::camera::check_view_distance;
 use super::device::guarded;
 use super::gpu_types::{QueryGpu, QueryHitGpu, QueryRayGpu};
 use super::kinds::{bind_buffers, storage_buffer, Tally, TestRay, TraceCall};
@@ -227,6 +228,9 @@ impl Renderer {
         let device = self.gpu.device.clone();
         guarded(&device, || {
             let centre = rays.iter().map(|r| r.0).sum::<DVec3>() / rays.len().max(1) as f64;
+            let spread =
+                (rays.iter()).fold(0.0f64, |m, r| m.max((r.0 - centre).abs().max_element()));
+            check_view_distance(spread, "the rays' centre")?;
             let parallel = shared_direction(rays);
             let view_from_world = DMat4::from_translation(-centre);
             let traces = self.prepare_query(scene, view_from_world, search, parallel)?;
@@ -337,7 +341,9 @@ impl Renderer {
         search: &SearchOptions,
         parallel: Option<DVec3>,
     ) -> Result<Vec<TraceCall>> {
-        let (owners, _) = self.upload_scene(scene, view_from_world)?;
+        let (owners, depth) = self.upload_scene(scene, view_from_world)?;
+        let (z_min, z_max) = depth.or_default();
+        check_view_distance(z_min.abs().max(z_max.abs()), "the rays")?;
         self.frame_bindings.write_search(&self.gpu.queue, search);
         let mut ids = Tally::default();
         let mut traces = Vec::new();
