@@ -56,26 +56,21 @@ def gtigt(request: pytest.FixtureRequest) -> bytes:
                         ao_rays=8).to_bytes()
 
 
-def _sealed(data: bytes | bytearray) -> bytes:
-    """A .gtex or .gtigt file, its header's payload length and CRC-32 made to match its payload."""
+def _sealed(data: bytes | bytearray, crc_from: int = 16) -> bytes:
+    """A file made intact again: its header's payload length and CRC-32 made to match. The CRC
+    covers the header's bytes from `crc_from` to 16 and the payload: the payload alone for .gtex
+    and .gtigt, the tile size (bytes 12-16) too for .gtsurf."""
     body = bytearray(data)
     if len(body) < HEADER:
         return bytes(body)
     payload = bytes(body[HEADER:])
     body[16:24] = len(payload).to_bytes(8, "little")
-    body[24:28] = zlib.crc32(payload).to_bytes(4, "little")
+    body[24:28] = zlib.crc32(bytes(body[crc_from:16]) + payload).to_bytes(4, "little")
     return bytes(body)
 
 
 def _sealed_surfels(data: bytes | bytearray) -> bytes:
-    """A .gtsurf file resealed: its CRC-32 covers the tile size and the payload."""
-    body = bytearray(data)
-    if len(body) < HEADER:
-        return bytes(body)
-    payload = bytes(body[HEADER:])
-    body[16:24] = len(payload).to_bytes(8, "little")
-    body[24:28] = zlib.crc32(bytes(body[12:16]) + payload).to_bytes(4, "little")
-    return bytes(body)
+    return _sealed(data, crc_from=12)
 
 
 def _put(data: bytes, at: int, value: bytes) -> bytearray:
