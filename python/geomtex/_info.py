@@ -86,10 +86,13 @@ def _kinds(mesh: Any) -> dict[str, Callable[[], Any]]:
         coarse = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
         return igt.attach(texture, coarse.vertices, coarse.faces)
 
+    def the_set() -> Any:
+        return _made("set", lambda: convert(mesh, max_resolution=64))
+
     return {
         "mesh": lambda: mesh,
-        "set": lambda: convert(mesh, max_resolution=64),
-        "surfels": lambda: _made("set", lambda: convert(mesh, max_resolution=64)).to_surfels(),
+        "set": the_set,
+        "surfels": lambda: the_set().to_surfels(),
         "igt": igt_mesh,
         "gdm": gdm_shell,
     }
@@ -130,14 +133,15 @@ def _ray_query(gts: Any, hit: npt.NDArray[np.bool_], depth: npt.NDArray[np.float
     return _compare(np.where(hits.hit, hits.distances / lengths, np.inf).reshape(SIZE, SIZE), hit, depth)
 
 
-def _shadow(renderer: Any, camera: Any, hit: npt.NDArray[np.bool_], depth: npt.NDArray[np.float64]) -> dict[str, Any]:
+def _shadow(renderer: Any, camera: Any, gts: Any, hit: npt.NDArray[np.bool_],
+            depth: npt.NDArray[np.float64]) -> dict[str, Any]:
     """The set's shadow rays under a directional light: on a convex sphere a point is in shadow
     exactly where its normal faces away from the light. Pixels within ~6° of the terminator,
     where a facet decides, are left out."""
     from ._render import DirectionalLight
 
     travel = np.array([1.0, -1.0, -0.5]) / np.linalg.norm([1.0, -1.0, -0.5])
-    frame = renderer.render(_MADE["set"], camera, light=DirectionalLight(travel))
+    frame = renderer.render(gts, camera, light=DirectionalLight(travel))
     points = _camera_rays() * np.where(hit, depth, 0)[..., None]
     points[..., 2] += EYE_DISTANCE
     facing = -(points @ travel)  # the unit sphere's normal is the point itself
@@ -164,8 +168,8 @@ def self_check() -> dict[str, dict[str, Any]]:
         return lambda: _compare(renderer.render(_made(name, kinds[name]), camera).depth, hit, depth)
 
     checks = {name: drawn(name) for name in kinds}
-    checks["ray_query"] = lambda: _ray_query(_made("set", kinds["set"]), hit, depth)
-    checks["shadow"] = lambda: _shadow(renderer, camera, hit, depth)
+    checks["ray_query"] = lambda: _ray_query(kinds["set"](), hit, depth)
+    checks["shadow"] = lambda: _shadow(renderer, camera, kinds["set"](), hit, depth)
     for name, check in checks.items():
         start = time.perf_counter()
         try:
