@@ -157,6 +157,7 @@ def convert(
     progress: Callable[[str, float], bool | None] | None = None,
 ) -> GeometryTextureSet: ...
 def load(path: str | os.PathLike[str]) -> GeometryTextureSet: ...
+def device_counts() -> dict[str, int]: ...
 
 @final
 class GdmVolume:
@@ -387,16 +388,27 @@ class Scene:
 class Frame:
     @staticmethod
     def _from_arrays(
-        color: npt.NDArray[np.uint8],
-        albedo: npt.NDArray[np.uint8],
-        depth: npt.NDArray[np.float32],
-        normal: npt.NDArray[np.float32],
-        patch_id: npt.NDArray[np.int32],
+        color: npt.NDArray[np.uint8] | None,
+        albedo: npt.NDArray[np.uint8] | None,
+        depth: npt.NDArray[np.float32] | None,
+        normal: npt.NDArray[np.float32] | None,
+        patch_id: npt.NDArray[np.int32] | None,
         shadow: npt.NDArray[np.bool_] | None,
         stats: dict[str, Any],
         face_id: npt.NDArray[np.int32] | None = None,
         barycentric: npt.NDArray[np.float32] | None = None,
+        width: int | None = None,
+        height: int | None = None,
     ) -> Frame: ...
+    def _arrays(self) -> tuple[npt.NDArray[np.uint8] | None, npt.NDArray[np.uint8] | None,
+                               npt.NDArray[np.float32] | None, npt.NDArray[np.float32] | None,
+                               npt.NDArray[np.int32] | None]: ...
+    @property
+    def outputs(self) -> list[str]: ...
+    @property
+    def width(self) -> int: ...
+    @property
+    def height(self) -> int: ...
     @property
     def shadow(self) -> npt.NDArray[np.bool_] | None: ...
     @property
@@ -427,6 +439,7 @@ class Renderer:
     def height(self) -> int: ...
     @property
     def adapter_info(self) -> dict[str, str]: ...
+    def resize(self, width: _Int, height: _Int) -> None: ...
     def render(
         self,
         obj: Any,
@@ -445,6 +458,7 @@ class Renderer:
         light: Any | None = None,
         max_pixel_error: _Real | None = None,
         primary: Literal["tiles", "boxes"] | None = None,
+        outputs: str | Sequence[str] | None = None,
     ) -> Frame: ...
     def intersect(
         self,

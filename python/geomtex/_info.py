@@ -218,8 +218,11 @@ def info(check: bool = True) -> Info:
     ``check`` a self-check: a 64² frame of a unit sphere drawn by every object kind (mesh, set,
     surfels, IGT mesh, GDM shell) and traced by ray queries, each compared with the exact
     intersection of the same rays with the sphere (``self_check[kind]["passed"]``, IoU and depth
-    p90 in radii). Raises DeviceError when no usable adapter is found (the message says why and
-    how to fix it)."""
+    p90 in radii). Then what this process has made on the adapter: ``devices_made`` (one per
+    process: every Renderer, ray query, preview and the viewer share it), ``target_sets_made``
+    (one per image size drawn), ``target_sizes_kept`` and ``uploads`` (objects copied to the
+    adapter, each once while it lives). Raises DeviceError when no usable adapter is found (the
+    message says why and how to fix it)."""
     from ._render import shared_renderer
 
     result = Info(version=_core.__version__)
@@ -227,4 +230,6 @@ def info(check: bool = True) -> Info:
     result["shader_cache"] = _shader_cache()
     if check:
         result["self_check"] = self_check()
+    # What the process made on the adapter: one device whatever the sizes drawn and rays traced.
+    result.update(_core.device_counts())
     return result

@@ -127,8 +127,8 @@ def _reduce_renderer(self: _core.Renderer) -> tuple[Any, ...]:
 
 
 def _reduce_frame(self: _core.Frame) -> tuple[Any, ...]:
-    return restore_frame, (self.color, self.albedo, self.depth, self.normal, self.patch_id, self.shadow, self.stats,
-                           self.face_id, self.barycentric)
+    return restore_frame, (*self._arrays(), self.shadow, self.stats, self.face_id, self.barycentric, self.width,
+                           self.height)
 
 
 def install() -> None:

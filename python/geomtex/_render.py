@@ -66,6 +66,7 @@ _RENDER_KEYWORDS = {
     "quality": "text", "method": "text", "primary": "text", "count_fetches": "flag", "lod": "flag",
     "steps_per_texel": "real", "max_pixel_error": "real", "min_linear_steps": "int", "max_linear_steps": "int",
     "binary_steps": "int", "max_traversal_steps": "int", "background": "rgba", "light": "light",
+    "outputs": "names",
 }
 
 
@@ -82,6 +83,9 @@ def check_render_options(options: dict[str, Any]) -> None:
             continue
         if kind == "text" and not isinstance(value, str):
             raise _check.fail(name, "a str", value)
+        if kind == "names" and not (isinstance(value, str)
+                                    or (isinstance(value, (list, tuple)) and all(isinstance(v, str) for v in value))):
+            raise _check.fail(name, "a str or a sequence of str", value)
         if kind == "flag":
             _check.flag(name, value)
         elif kind in ("real", "int"):
@@ -121,8 +125,10 @@ class Scene(_core.Scene):
 
 
 class Renderer(_core.Renderer):
-    """A headless renderer of a fixed image size; reuse it (device, targets and uploaded
-    textures are kept between frames). See ``render`` for the keywords."""
+    """A headless renderer of an image size (``resize`` changes it). Every Renderer of a process
+    shares one GPU device, its pipelines and the objects uploaded to it: making a second
+    Renderer, drawing at a second size or tracing rays costs no new device and no new upload.
+    See ``render`` for the keywords."""
 
     def render(self, obj: Any, camera: _core.Camera, **options: Any) -> _core.Frame:
         check_render_options(options)
@@ -132,8 +138,9 @@ class Renderer(_core.Renderer):
 Renderer.render.__doc__ = _core.Renderer.render.__doc__
 
 
-#: This process's renderers, one per image size, kept for its life: a GPU device and its uploads
-#: are dear to make and cheap to keep (notebook pictures, the viewer and batch workers share them).
+#: This process's renderers, one per image size, kept for its life. Every Renderer shares the
+#: process's one device and its uploads, so these cost no device each: one per size keeps threads
+#: drawing at different sizes from resizing one another's renderer.
 _SHARED: dict[tuple[int, int], Renderer] = {}
 
 

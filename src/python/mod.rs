@@ -34,6 +34,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<render::PyScene>()?;
     m.add_class::<render::PyRenderer>()?;
     m.add_class::<render::PyFrame>()?;
+    m.add_function(wrap_pyfunction!(render::device_counts, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

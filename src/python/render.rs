@@ -21,7 +21,8 @@ use super::mesh::PyMesh;
 use super::surfels::PySurfels;
 use crate::mesh::{NormalRule, NormalSource};
 use crate::render::{
-    Camera, Light, Object, Projection, Quality, Renderer, Scene, SceneObject, SearchOverrides,
+    Camera, FrameRequest, Light, Object, Outputs, Projection, Quality, Renderer, Scene,
+    SceneObject, SearchOverrides,
 };
 
 /// A camera: OpenGL-style pose (looks down -Z, +Y up) as pyrender and trimesh use; see
@@ -376,13 +377,60 @@ impl PyScene {
     }
 }
 
-/// A headless renderer of a fixed image size. Reuse it: the GPU device, render targets and
-/// uploaded textures are kept between frames.
+/// A headless renderer of an image size (`resize` changes it). Every Renderer of the process
+/// shares one GPU device, its pipelines and its uploads (`SHARED`): a second size or a ray query
+/// costs no new device and no new upload.
 #[pyclass(name = "Renderer", module = "geomtex._core", subclass, frozen)]
 pub struct PyRenderer {
-    inner: Mutex<Renderer>,
-    width: u32,
-    height: u32,
+    inner: Arc<Mutex<Renderer>>,
+    size: Mutex<(u32, u32)>,
+}
+
+/// This process's renderer, made on first use and kept for its life. A failure to make one is not
+/// kept: a later call tries again (and raises again).
+static SHARED: Mutex<Option<Arc<Mutex<Renderer>>>> = Mutex::new(None);
+
+/// The process's renderer, made now if there is none (call with the GIL released: making a
+/// device takes seconds on a CPU adapter).
+fn shared() -> crate::Result<Arc<Mutex<Renderer>>> {
+    let mut slot = SHARED
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner());
+    if let Some(renderer) = &*slot {
+        return Ok(renderer.clone());
+    }
+    let made = Arc::new(Mutex::new(Renderer::new()?));
+    *slot = Some(made.clone());
+    Ok(made)
+}
+
+/// What the process has made on the adapter so far: devices (one for the whole process),
+/// target sets (one per image size drawn), the sizes kept, uploads of objects (each set once).
+#[pyfunction]
+pub fn device_counts(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("devices_made", crate::render::device::devices_made())?;
+    let renderer = SHARED
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner())
+        .clone();
+    let counts = match renderer {
+        Some(r) => lock(&r).counts(),
+        None => vec![("target_sets_made", 0), ("target_sizes_kept", 0)],
+    };
+    for (k, v) in counts {
+        d.set_item(k, v)?;
+    }
+    d.set_item("uploads", crate::render::uploads_made())?;
+    Ok(d)
+}
+
+/// The renderer, even if an earlier call panicked while holding it (its state is rebuilt per
+/// frame, so a poisoned lock holds nothing half-written that a later frame reads).
+fn lock(renderer: &Mutex<Renderer>) -> MutexGuard<'_, Renderer> {
+    renderer
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner())
 }
 
 /// A scene object, its placement and a mesh's normal rule (`Scene._objects`).
@@ -427,6 +475,24 @@ fn light_of(obj: &Bound<'_, PyAny>) -> PyResult<Light> {
     )))
 }
 
+/// `render`'s `outputs`: names (a str for one), every output when `None`.
+fn outputs_of(obj: Option<&Bound<'_, PyAny>>) -> PyResult<Outputs> {
+    let Some(obj) = obj else {
+        return Ok(Outputs::ALL);
+    };
+    let names: Vec<String> = match obj.extract::<String>() {
+        Ok(one) => vec![one],
+        Err(_) => obj.extract().map_err(|_| {
+            parameter_error(format!(
+                "outputs must be a sequence of names among {}, got {}",
+                Outputs::NAMES.join(", "),
+                obj.get_type().name().map_or("?".into(), |n| n.to_string())
+            ))
+        })?,
+    };
+    Ok(Outputs::parse(&names)?)
+}
+
 /// A Scene as given, or a scene of one object placed at the origin.
 fn scene_of(obj: &Bound<'_, PyAny>) -> PyResult<Scene> {
     Ok(match obj.cast::<PyScene>() {
@@ -438,10 +504,13 @@ fn scene_of(obj: &Bound<'_, PyAny>) -> PyResult<Scene> {
 }
 
 impl PyRenderer {
-    /// The renderer, even if an earlier call panicked while holding it (its state is rebuilt per
-    /// frame, so a poisoned lock holds nothing half-written that a later frame reads).
     fn renderer(&self) -> MutexGuard<'_, Renderer> {
-        self.inner
+        lock(&self.inner)
+    }
+
+    fn size(&self) -> (u32, u32) {
+        *self
+            .size
             .lock()
             .unwrap_or_else(|poisoned| poisoned.into_inner())
     }
@@ -452,22 +521,37 @@ impl PyRenderer {
     #[new]
     fn new(py: Python<'_>, width: &Bound<'_, PyAny>, height: &Bound<'_, PyAny>) -> PyResult<Self> {
         let (w, h) = image_size(width, height)?;
-        let renderer = heavy(py, "creating the renderer", move |_| Renderer::new(w, h))?;
+        let inner = heavy(py, "creating the renderer", move |_| {
+            let renderer = shared()?;
+            lock(&renderer).check_size(w, h)?;
+            Ok(renderer)
+        })?;
         Ok(PyRenderer {
-            inner: Mutex::new(renderer),
-            width: w,
-            height: h,
+            inner,
+            size: Mutex::new((w, h)),
         })
     }
 
     #[getter]
     fn width(&self) -> u32 {
-        self.width
+        self.size().0
     }
 
     #[getter]
     fn height(&self) -> u32 {
-        self.height
+        self.size().1
+    }
+
+    /// Makes later frames `width` x `height`; the device, pipelines and uploads are kept (every
+    /// Renderer shares them), and so are the targets of sizes drawn lately.
+    fn resize(&self, width: &Bound<'_, PyAny>, height: &Bound<'_, PyAny>) -> PyResult<()> {
+        let (w, h) = image_size(width, height)?;
+        self.renderer().check_size(w, h)?;
+        *self
+            .size
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner()) = (w, h);
+        Ok(())
     }
 
     /// The GPU adapter in use: name, backend, device_type, driver, driver_info.
@@ -491,11 +575,14 @@ impl PyRenderer {
     /// above them is drawn, each part at its coarsest level whose perpendicular error projects to
     /// at most this many pixels of depth (1/16 of it where a silhouette may show). `primary` ("tiles", default, or
     /// "boxes") picks how camera rays meet the texture sets' boxes: per pixel nearest first,
-    /// stopping behind the nearest hit, or every box over a pixel searched.
+    /// stopping behind the nearest hit, or every box over a pixel searched. `outputs` (names
+    /// among "color", "albedo", "depth", "normal", "patch_id"; default all) are the arrays read
+    /// back: a frame's other arrays raise ParameterError when read, and a frame without
+    /// "patch_id" reports no per-pixel figures in `stats`.
     #[pyo3(signature = (obj, camera, *, quality = None, method = None, steps_per_texel = None,
         min_linear_steps = None, max_linear_steps = None, binary_steps = None,
         max_traversal_steps = None, count_fetches = None, lod = None, background = None,
-        light = None, max_pixel_error = None, primary = None))]
+        light = None, max_pixel_error = None, primary = None, outputs = None))]
     #[allow(clippy::too_many_arguments)] // one per keyword of Renderer.render
     fn render(
         &self,
@@ -515,6 +602,7 @@ impl PyRenderer {
         light: Option<&Bound<'_, PyAny>>,
         max_pixel_error: Option<&Bound<'_, PyAny>>,
         primary: Option<&Bound<'_, PyAny>>,
+        outputs: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<PyFrame> {
         let steps = 0..=i64::from(u32::MAX);
         let search = SearchOverrides {
@@ -551,21 +639,33 @@ impl PyRenderer {
         let background = background.map(|b| rgba8(b, "background")).transpose()?;
         let scene = scene_of(obj)?;
         let light = light.map(light_of).transpose()?;
+        let wanted = outputs_of(outputs)?;
+        let (width, height) = self.size();
+        let request = FrameRequest {
+            width,
+            height,
+            // Shadow rays start from each pixel's depth and normal.
+            outputs: match light {
+                Some(_) => wanted.union(Outputs::parse(&["depth", "normal"])?),
+                None => wanted,
+            },
+            background,
+        };
         let frame = heavy(py, "rendering", |cancel| {
             let mut renderer = self.renderer();
-            renderer.set_background(background);
-            let mut frame = renderer.render(&scene, &camera, &search)?;
+            let mut frame = renderer.render(&scene, &camera, &search, &request)?;
             if let Some(light) = &light {
                 renderer.cast_shadows(&scene, &camera, &search, light, &mut frame, cancel)?;
             }
+            frame.keep_only(wanted);
             Ok(frame)
         })?;
         PyFrame::new(py, frame)
     }
 
-    /// Ray queries on the GPU against a Scene or a GeometryTextureSet (no meshes): per ray the
-    /// distance to the nearest hit along its unit direction (+inf on a miss), the patch id (-1)
-    /// and the world normal. `any_hit` stops each ray at the first hit found (shadow-style
+    /// Ray queries on the GPU against a Scene, a GeometryTextureSet or a Mesh: per ray the
+    /// distance to the nearest hit along its unit direction (+inf on a miss), the patch id (-1
+    /// on a miss, -2 - k for the scene's k-th mesh) and the world normal. `any_hit` stops each ray at the first hit found (shadow-style
     /// visibility, not the nearest). `quality` defaults to "exact" here.
     #[pyo3(signature = (obj, origins, directions, *, any_hit = None, quality = None, method = None))]
     #[allow(clippy::too_many_arguments)] // one per keyword of Renderer.intersect
@@ -610,10 +710,8 @@ impl PyRenderer {
 
     fn __repr__(&self) -> String {
         let name = self.renderer().info()[0].1.clone();
-        format!(
-            "<geomtex.Renderer {}x{} on {name}>",
-            self.width, self.height
-        )
+        let (width, height) = self.size();
+        format!("<geomtex.Renderer {width}x{height} on {name}>")
     }
 }
 
@@ -622,19 +720,42 @@ fn owned<T: pyo3::type_object::PyTypeCheck>(a: &Bound<'_, PyAny>) -> PyResult<Py
     Ok(a.call_method0("copy")?.cast_into::<T>()?.unbind())
 }
 
-/// One rendered image: numpy arrays, row 0 at the top.
+/// An array that may be absent, bound to the GIL.
+fn bound<'py, T>(py: Python<'py>, a: &Option<Py<T>>) -> Option<Bound<'py, T>> {
+    a.as_ref().map(|a| a.bind(py).clone())
+}
+
+/// `owned` of an array that may be absent.
+fn owned_opt<T: pyo3::type_object::PyTypeCheck, A>(
+    a: &Option<Bound<'_, A>>,
+) -> PyResult<Option<Py<T>>> {
+    a.as_ref().map(|a| owned(a.as_any())).transpose()
+}
+
+/// One rendered image: numpy arrays, row 0 at the top; the outputs its render asked for.
 #[pyclass(name = "Frame", module = "geomtex._core", frozen)]
 pub struct PyFrame {
+    width: usize,
+    height: usize,
     shadow: Option<Py<PyArray2<bool>>>,
     face_id: Option<Py<PyArray2<i32>>>,
     barycentric: Option<Py<PyArray3<f32>>>,
-    color: Py<PyArray3<u8>>,
-    albedo: Py<PyArray3<u8>>,
-    depth: Py<PyArray2<f32>>,
-    normal: Py<PyArray3<f32>>,
-    patch_id: Py<PyArray2<i32>>,
+    color: Option<Py<PyArray3<u8>>>,
+    albedo: Option<Py<PyArray3<u8>>>,
+    depth: Option<Py<PyArray2<f32>>>,
+    normal: Option<Py<PyArray3<f32>>>,
+    patch_id: Option<Py<PyArray2<i32>>>,
     stats: Py<PyDict>,
 }
+
+/// A frame's per-pixel outputs as `Frame._from_arrays` takes them (None where not asked for).
+type FrameArrays<'py> = (
+    Option<Bound<'py, PyArray3<u8>>>,
+    Option<Bound<'py, PyArray3<u8>>>,
+    Option<Bound<'py, PyArray2<f32>>>,
+    Option<Bound<'py, PyArray3<f32>>>,
+    Option<Bound<'py, PyArray2<i32>>>,
+);
 
 impl PyFrame {
     fn new(py: Python<'_>, frame: crate::render::Frame) -> PyResult<Self> {
@@ -642,15 +763,32 @@ impl PyFrame {
         let stats = PyDict::new(py);
         set_stats(&stats, &frame.stats())?;
         Ok(PyFrame {
+            width: w,
+            height: h,
             shadow: (frame.shadow).map(|s| matrix(py, s, h, w).unbind()),
             face_id: (frame.face_id).map(|f| matrix(py, f, h, w).unbind()),
             barycentric: (frame.barycentric).map(|b| image(py, b, (h, w, 3)).unbind()),
-            color: image(py, frame.color, (h, w, 4)).unbind(),
-            albedo: image(py, frame.albedo, (h, w, 4)).unbind(),
-            depth: matrix(py, frame.depth, h, w).unbind(),
-            normal: image(py, frame.normal, (h, w, 3)).unbind(),
-            patch_id: matrix(py, frame.patch_id, h, w).unbind(),
+            color: (frame.color).map(|c| image(py, c, (h, w, 4)).unbind()),
+            albedo: (frame.albedo).map(|a| image(py, a, (h, w, 4)).unbind()),
+            depth: (frame.depth).map(|d| matrix(py, d, h, w).unbind()),
+            normal: (frame.normal).map(|n| image(py, n, (h, w, 3)).unbind()),
+            patch_id: (frame.patch_id).map(|p| matrix(py, p, h, w).unbind()),
             stats: stats.unbind(),
+        })
+    }
+
+    /// Output `name`, or a ParameterError saying the render did not ask for it.
+    fn output<T>(&self, py: Python<'_>, array: &Option<Py<T>>, name: &str) -> PyResult<Py<T>> {
+        array.as_ref().map(|a| a.clone_ref(py)).ok_or_else(|| {
+            parameter_error(format!(
+                "this frame holds no {name}: its render asked for outputs=({}); add '{name}' to \
+                 render(..., outputs=...)",
+                self.outputs()
+                    .iter()
+                    .map(|n| format!("'{n}', "))
+                    .collect::<String>()
+                    .trim_end()
+            ))
         })
     }
 }
@@ -658,30 +796,48 @@ impl PyFrame {
 #[pymethods]
 impl PyFrame {
     /// A frame from arrays of the shapes and dtypes a render gives (how a pickled frame is made
-    /// again); ParameterError when they do not fit together.
+    /// again), None for outputs not asked for; ParameterError when they do not fit together.
     #[staticmethod]
     #[pyo3(signature = (color, albedo, depth, normal, patch_id, shadow, stats, face_id = None,
-        barycentric = None))]
+        barycentric = None, width = None, height = None))]
     #[allow(clippy::too_many_arguments)] // one per output of a frame
     fn _from_arrays(
-        color: Bound<'_, PyArray3<u8>>,
-        albedo: Bound<'_, PyArray3<u8>>,
-        depth: Bound<'_, PyArray2<f32>>,
-        normal: Bound<'_, PyArray3<f32>>,
-        patch_id: Bound<'_, PyArray2<i32>>,
+        color: Option<Bound<'_, PyArray3<u8>>>,
+        albedo: Option<Bound<'_, PyArray3<u8>>>,
+        depth: Option<Bound<'_, PyArray2<f32>>>,
+        normal: Option<Bound<'_, PyArray3<f32>>>,
+        patch_id: Option<Bound<'_, PyArray2<i32>>>,
         shadow: Option<Bound<'_, PyArray2<bool>>>,
         stats: Bound<'_, PyDict>,
         face_id: Option<Bound<'_, PyArray2<i32>>>,
         barycentric: Option<Bound<'_, PyArray3<f32>>>,
+        width: Option<usize>,
+        height: Option<usize>,
     ) -> PyResult<Self> {
-        let (h, w) = (depth.shape()[0], depth.shape()[1]);
-        let fits = [(color.shape(), 4), (albedo.shape(), 4), (normal.shape(), 3)]
-            .iter()
-            .all(|(shape, channels)| *shape == [h, w, *channels])
-            && patch_id.shape() == [h, w]
-            && shadow.as_ref().is_none_or(|s| s.shape() == [h, w])
-            && face_id.as_ref().is_none_or(|f| f.shape() == [h, w])
-            && barycentric.as_ref().is_none_or(|b| b.shape() == [h, w, 3])
+        let known = depth.as_ref().map(|d| (d.shape()[0], d.shape()[1]));
+        let (h, w) = match (height, width, known) {
+            (Some(h), Some(w), _) => (h, w),
+            (_, _, Some(hw)) => hw,
+            _ => {
+                return Err(parameter_error(
+                    "a frame without depth needs its width and height".into(),
+                ))
+            }
+        };
+        let fits = |shape: Option<&[usize]>, channels: Option<usize>| {
+            shape.is_none_or(|s| match channels {
+                Some(c) => s == [h, w, c],
+                None => s == [h, w],
+            })
+        };
+        let fits = fits(color.as_ref().map(|a| a.shape()), Some(4))
+            && fits(albedo.as_ref().map(|a| a.shape()), Some(4))
+            && fits(depth.as_ref().map(|a| a.shape()), None)
+            && fits(normal.as_ref().map(|a| a.shape()), Some(3))
+            && fits(patch_id.as_ref().map(|a| a.shape()), None)
+            && fits(shadow.as_ref().map(|a| a.shape()), None)
+            && fits(face_id.as_ref().map(|a| a.shape()), None)
+            && fits(barycentric.as_ref().map(|a| a.shape()), Some(3))
             && face_id.is_some() == barycentric.is_some();
         if !fits {
             return Err(parameter_error(format!(
@@ -689,16 +845,57 @@ impl PyFrame {
             )));
         }
         Ok(PyFrame {
-            shadow: shadow.map(|s| owned(s.as_any())).transpose()?,
-            face_id: face_id.map(|f| owned(f.as_any())).transpose()?,
-            barycentric: barycentric.map(|b| owned(b.as_any())).transpose()?,
-            color: owned(color.as_any())?,
-            albedo: owned(albedo.as_any())?,
-            depth: owned(depth.as_any())?,
-            normal: owned(normal.as_any())?,
-            patch_id: owned(patch_id.as_any())?,
+            width: w,
+            height: h,
+            shadow: owned_opt(&shadow)?,
+            face_id: owned_opt(&face_id)?,
+            barycentric: owned_opt(&barycentric)?,
+            color: owned_opt(&color)?,
+            albedo: owned_opt(&albedo)?,
+            depth: owned_opt(&depth)?,
+            normal: owned_opt(&normal)?,
+            patch_id: owned_opt(&patch_id)?,
             stats: stats.copy()?.unbind(),
         })
+    }
+
+    /// The per-pixel outputs as `_from_arrays` takes them: color, albedo, depth, normal and
+    /// patch_id, None for those the render did not ask for.
+    fn _arrays<'py>(&self, py: Python<'py>) -> FrameArrays<'py> {
+        (
+            bound(py, &self.color),
+            bound(py, &self.albedo),
+            bound(py, &self.depth),
+            bound(py, &self.normal),
+            bound(py, &self.patch_id),
+        )
+    }
+
+    /// The names of the per-pixel outputs this frame holds (`render`'s `outputs`).
+    #[getter]
+    fn outputs(&self) -> Vec<&'static str> {
+        let held = [
+            self.color.is_some(),
+            self.albedo.is_some(),
+            self.depth.is_some(),
+            self.normal.is_some(),
+            self.patch_id.is_some(),
+        ];
+        (Outputs::NAMES.iter().zip(held))
+            .filter_map(|(n, h)| h.then_some(*n))
+            .collect()
+    }
+
+    /// Image width in pixels.
+    #[getter]
+    fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Image height in pixels.
+    #[getter]
+    fn height(&self) -> usize {
+        self.height
     }
 
     /// (H, W) bool, true where the render's light cannot see the surface; None without a light.
@@ -723,48 +920,50 @@ impl PyFrame {
 
     /// (H, W, 4) uint8 RGBA, headlight-shaded; the background on a miss.
     #[getter]
-    fn color(&self, py: Python<'_>) -> Py<PyArray3<u8>> {
-        self.color.clone_ref(py)
+    fn color(&self, py: Python<'_>) -> PyResult<Py<PyArray3<u8>>> {
+        self.output(py, &self.color, "color")
     }
 
     /// (H, W, 4) uint8 RGBA unshaded base color (the surface's own color: no light, no
     /// shadow); 0 (transparent black) on a miss, whatever the background.
     #[getter]
-    fn albedo(&self, py: Python<'_>) -> Py<PyArray3<u8>> {
-        self.albedo.clone_ref(py)
+    fn albedo(&self, py: Python<'_>) -> PyResult<Py<PyArray3<u8>>> {
+        self.output(py, &self.albedo, "albedo")
     }
 
     /// (H, W) float32 z-depth: distance along the camera's forward axis in world units, +inf on
     /// a miss.
     #[getter]
-    fn depth(&self, py: Python<'_>) -> Py<PyArray2<f32>> {
-        self.depth.clone_ref(py)
+    fn depth(&self, py: Python<'_>) -> PyResult<Py<PyArray2<f32>>> {
+        self.output(py, &self.depth, "depth")
     }
 
     /// (H, W, 3) float32 world-space unit normals, 0 on a miss.
     #[getter]
-    fn normal(&self, py: Python<'_>) -> Py<PyArray3<f32>> {
-        self.normal.clone_ref(py)
+    fn normal(&self, py: Python<'_>) -> PyResult<Py<PyArray3<f32>>> {
+        self.output(py, &self.normal, "normal")
     }
 
     /// (H, W) int32: patch index (numbered across the scene's texture sets), -1 on a miss,
     /// -2 - k for the scene's k-th mesh.
     #[getter]
-    fn patch_id(&self, py: Python<'_>) -> Py<PyArray2<i32>> {
-        self.patch_id.clone_ref(py)
+    fn patch_id(&self, py: Python<'_>) -> PyResult<Py<PyArray2<i32>>> {
+        self.output(py, &self.patch_id, "patch_id")
     }
 
     /// gpu_ms (GPU timestamps, None where unsupported), cpu_ms (the whole call), patches_drawn,
     /// patches_culled (boxes outside the view), meshes_drawn, texture_bytes (the drawn sets' maps
-    /// and pyramids on the adapter), near, method; with count_fetches
-    /// also fetches, raycast_fragments and fetches_per_pixel.
+    /// and pyramids on the adapter), near, method, primary, covered_pixels, searches,
+    /// searches_per_pixel (covered_pixels and the per-pixel figures are None without
+    /// "patch_id" in `outputs`); with a light
+    /// the shadow figures; with surfels their counts; with count_fetches also fetches,
+    /// fetches_per_pixel, fetches_per_search and piece_tests_per_pixel.
     #[getter]
     fn stats(&self, py: Python<'_>) -> Py<PyDict> {
         self.stats.clone_ref(py)
     }
 
-    fn __repr__(&self, py: Python<'_>) -> String {
-        let shape = self.depth.bind(py).shape().to_vec();
-        format!("<geomtex.Frame {}x{}>", shape[1], shape[0])
+    fn __repr__(&self) -> String {
+        format!("<geomtex.Frame {}x{}>", self.width, self.height)
     }
 }

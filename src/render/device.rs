@@ -30,9 +30,18 @@ pub struct Gpu {
     pub int64_atomics: bool,
 }
 
+/// Devices made in this process: one is what a process needs (the binding shares one renderer).
+static DEVICES_MADE: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+
+pub fn devices_made() -> u64 {
+    DEVICES_MADE.load(std::sync::atomic::Ordering::Relaxed)
+}
+
 impl Gpu {
     pub fn new() -> Result<Gpu> {
-        pollster::block_on(Self::new_async())
+        let gpu = pollster::block_on(Self::new_async())?;
+        DEVICES_MADE.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        Ok(gpu)
     }
 
     async fn new_async() -> Result<Gpu> {

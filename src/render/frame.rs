@@ -3,26 +3,118 @@
 //! Spaces: images are row-major with row 0 at the top; depth is measured along the camera's
 //! forward axis in world units; normals are world-space.
 
+use crate::error::{GeomtexError, Result};
 use crate::gtex::StatValue;
 
 use super::search::{Method, Primary};
 
-/// One rendered image, row-major with row 0 at the top.
+/// The per-pixel outputs a frame reads back: every target is drawn, but only these are copied
+/// off the adapter and converted (on lavapipe the copies and conversions are a large share of a
+/// small frame's time).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Outputs {
+    pub color: bool,
+    pub albedo: bool,
+    pub depth: bool,
+    pub normal: bool,
+    pub patch_id: bool,
+}
+
+impl Outputs {
+    pub const ALL: Outputs = Outputs {
+        color: true,
+        albedo: true,
+        depth: true,
+        normal: true,
+        patch_id: true,
+    };
+    pub const NONE: Outputs = Outputs {
+        color: false,
+        albedo: false,
+        depth: false,
+        normal: false,
+        patch_id: false,
+    };
+    /// Every output's name, in the order `names` lists them.
+    pub const NAMES: [&'static str; 5] = ["color", "albedo", "depth", "normal", "patch_id"];
+
+    fn flags_mut(&mut self) -> [&mut bool; 5] {
+        [
+            &mut self.color,
+            &mut self.albedo,
+            &mut self.depth,
+            &mut self.normal,
+            &mut self.patch_id,
+        ]
+    }
+
+    fn flags(&self) -> [bool; 5] {
+        [
+            self.color,
+            self.albedo,
+            self.depth,
+            self.normal,
+            self.patch_id,
+        ]
+    }
+
+    /// The outputs named (at least one; each of `NAMES`).
+    pub fn parse<S: AsRef<str>>(names: &[S]) -> Result<Outputs> {
+        let mut outputs = Outputs::NONE;
+        for name in names {
+            let name = name.as_ref();
+            let k = Self::NAMES.iter().position(|n| *n == name).ok_or_else(|| {
+                GeomtexError::Parameter(format!(
+                    "unknown output {name:?}; outputs are {}",
+                    Self::NAMES.join(", ")
+                ))
+            })?;
+            *outputs.flags_mut()[k] = true;
+        }
+        if outputs == Outputs::NONE {
+            return Err(GeomtexError::Parameter(format!(
+                "outputs must name at least one of {}",
+                Self::NAMES.join(", ")
+            )));
+        }
+        Ok(outputs)
+    }
+
+    /// The names of the outputs held, in `NAMES` order.
+    pub fn names(&self) -> Vec<&'static str> {
+        (Self::NAMES.iter().zip(self.flags()))
+            .filter_map(|(n, on)| on.then_some(*n))
+            .collect()
+    }
+
+    /// Both sets of outputs.
+    pub fn union(self, other: Outputs) -> Outputs {
+        let (a, b) = (self.flags(), other.flags());
+        let mut out = Outputs::NONE;
+        for (k, flag) in out.flags_mut().into_iter().enumerate() {
+            *flag = a[k] || b[k];
+        }
+        out
+    }
+}
+
+/// One rendered image, row-major with row 0 at the top. Each per-pixel output is `None` when the
+/// render did not ask for it (`Outputs`).
 pub struct Frame {
     pub width: u32,
     pub height: u32,
     /// RGBA8, shaded with a headlight; the background where nothing was hit.
-    pub color: Vec<u8>,
+    pub color: Option<Vec<u8>>,
     /// RGBA8 unshaded base color (the surface's own color, no light or shadow); transparent
     /// black (0) where nothing was hit.
-    pub albedo: Vec<u8>,
+    pub albedo: Option<Vec<u8>>,
     /// z-depth: distance along the camera's forward axis in world units; +inf on a miss.
-    pub depth: Vec<f32>,
+    pub depth: Option<Vec<f32>>,
     /// World-space unit normals (xyz), 0 on a miss.
-    pub normal: Vec<f32>,
+    pub normal: Option<Vec<f32>>,
     /// Patch index (0.. across the scene's texture sets in order), -1 on a miss, -2 - k for the
     /// k-th mesh of the scene.
-    pub patch_id: Vec<i32>,
+    pub patch_id: Option<Vec<i32>>,
     pub gpu_ms: Option<f64>,
     pub cpu_ms: f64,
     pub patches_drawn: usize,
@@ -114,17 +206,53 @@ impl SurfelCounts {
 }
 
 impl Frame {
-    /// Pixels showing a geometry texture.
-    pub fn covered_pixels(&self) -> usize {
-        self.patch_id.iter().filter(|&&id| id >= 0).count()
+    /// Pixels showing a geometry texture; `None` without the patch ids.
+    pub fn covered_pixels(&self) -> Option<usize> {
+        let ids = self.patch_id.as_ref()?;
+        Some(ids.iter().filter(|&&id| id >= 0).count())
+    }
+
+    /// The outputs the frame holds.
+    pub fn outputs(&self) -> Outputs {
+        Outputs {
+            color: self.color.is_some(),
+            albedo: self.albedo.is_some(),
+            depth: self.depth.is_some(),
+            normal: self.normal.is_some(),
+            patch_id: self.patch_id.is_some(),
+        }
+    }
+
+    /// Drops the outputs not in `keep` (read only because shadows needed them).
+    pub fn keep_only(&mut self, keep: Outputs) {
+        if !keep.color {
+            self.color = None;
+        }
+        if !keep.albedo {
+            self.albedo = None;
+        }
+        if !keep.depth {
+            self.depth = None;
+        }
+        if !keep.normal {
+            self.normal = None;
+        }
+        if !keep.patch_id {
+            self.patch_id = None;
+        }
     }
 
     /// The frame's figures by name, in a stable order; the fetch figures only when counted.
-    /// Per-pixel figures divide by the covered pixels (at least one).
+    /// Per-pixel figures divide by the covered pixels (at least one); without the patch ids
+    /// neither is known (`Absent`).
     pub fn stats(&self) -> Vec<(&'static str, StatValue)> {
         let count = |n: usize| StatValue::Int(n as i64);
         let covered = self.covered_pixels();
-        let per_pixel = |n: u64| StatValue::Float(n as f64 / covered.max(1) as f64);
+        let per_pixel = |n: u64| {
+            covered.map_or(StatValue::Absent, |c| {
+                StatValue::Float(n as f64 / c.max(1) as f64)
+            })
+        };
         let mut stats = vec![
             (
                 "gpu_ms",
@@ -138,7 +266,7 @@ impl Frame {
             ("near", StatValue::Float(self.near)),
             ("method", StatValue::Text(self.method.as_str())),
             ("primary", StatValue::Text(self.primary.as_str())),
-            ("covered_pixels", count(covered)),
+            ("covered_pixels", covered.map_or(StatValue::Absent, count)),
             ("searches", StatValue::Int(self.searches as i64)),
             ("searches_per_pixel", per_pixel(self.searches)),
         ];
@@ -202,11 +330,11 @@ mod tests {
         Frame {
             width: 1,
             height: 1,
-            color: vec![0; 4],
-            albedo: vec![0; 4],
-            depth: vec![f32::INFINITY],
-            normal: vec![0.0; 3],
-            patch_id: vec![-1],
+            color: Some(vec![0; 4]),
+            albedo: Some(vec![0; 4]),
+            depth: Some(vec![f32::INFINITY]),
+            normal: Some(vec![0.0; 3]),
+            patch_id: Some(vec![-1]),
             gpu_ms: None,
             cpu_ms: 2.5,
             patches_drawn: 3,
@@ -266,5 +394,23 @@ mod tests {
         assert_eq!(stats[13].1, StatValue::Float(30.0));
         assert_eq!(stats[14].1, StatValue::Float(30.0));
         assert_eq!(stats[15].1, StatValue::Float(60.0));
+        // Without the patch ids the per-pixel figures are not known, not zero.
+        let mut depth_only = frame(Some(30));
+        depth_only.keep_only(Outputs::parse(&["depth"]).unwrap());
+        let stats = depth_only.stats();
+        assert_eq!(stats[9], ("covered_pixels", StatValue::Absent));
+        assert_eq!(stats[13].1, StatValue::Absent);
+    }
+
+    #[test]
+    fn outputs_parse_by_name_and_refuse_the_unknown() {
+        let o = Outputs::parse(&["normal", "depth"]).unwrap();
+        assert_eq!(o.names(), ["depth", "normal"]);
+        assert_eq!(
+            o.union(Outputs::parse(&["color"]).unwrap()).names().len(),
+            3
+        );
+        assert!(Outputs::parse(&["colour"]).is_err());
+        assert!(Outputs::parse::<&str>(&[]).is_err());
     }
 }

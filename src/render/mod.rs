@@ -3,10 +3,12 @@
 //! arrays; ray queries through a hierarchy over thin pieces of the same boxes (`query`), and
 //! shadows cast with them (`shadow`).
 //!
-//! A render is three steps: prepare (upload what is new, choose the near plane, make each
-//! object's draw call), encode the passes (the scene pass, then copies into readback buffers),
-//! read back (one wait, then the `Frame`). Each object kind lives in `kinds/`; the camera,
-//! targets, group 0 and readback are shared by all kinds.
+//! One `Renderer` serves every image size: its device, pipelines and uploads are made once, and
+//! targets are made per size (kept for the sizes drawn lately). A render is three steps: prepare
+//! (upload what is new, choose the near plane, make each object's draw call), encode the passes
+//! (the scene pass, then copies of the outputs asked for into readback buffers), read back (one
+//! wait, then the `Frame`). Each object kind lives in `kinds/`; the camera, targets, group 0 and
+//! readback are shared by all kinds.
 //!
 //! Spaces: world (f64, the scene's), object (each scene object's own, placed by
 //! `world_from_object`), patch-local (unit cube) and view (camera-relative, OpenGL-style). Every
@@ -33,7 +35,8 @@ use std::time::Instant;
 
 pub use camera::{Camera, Lens, Projection};
 pub use device::Gpu;
-pub use frame::{Frame, SurfelCounts};
+pub use frame::{Frame, Outputs, SurfelCounts};
+pub use kinds::uploads_made;
 pub use query::RayHits;
 pub use scene::{Object, Scene, SceneObject};
 pub use search::{Method, Primary, Quality, SearchOptions, SearchOverrides};
@@ -54,10 +57,39 @@ pub struct Renderer {
     depth_copy: DepthCopy,
     /// Group 2 of ray queries (query.rs).
     query_layout: wgpu::BindGroupLayout,
-    targets: Targets,
-    /// Clear color of the color target, RGBA in [0, 1].
-    background: [f64; 4],
+    /// Targets of the sizes drawn lately, the latest first.
+    targets: Vec<Targets>,
+    /// Target sets made so far (a new size, or one dropped and drawn again).
+    targets_made: u64,
 }
+
+/// What a frame is asked for beyond its scene, camera and search.
+#[derive(Clone, Copy, Debug)]
+pub struct FrameRequest {
+    pub width: u32,
+    pub height: u32,
+    /// The per-pixel outputs to read back.
+    pub outputs: Outputs,
+    /// The color (RGBA8) of pixels nothing is drawn on; `None` for
+    /// `Renderer::DEFAULT_BACKGROUND`.
+    pub background: Option<[u8; 4]>,
+}
+
+impl FrameRequest {
+    /// Every output of a `width` x `height` frame on the default background.
+    pub fn new(width: u32, height: u32) -> FrameRequest {
+        FrameRequest {
+            width,
+            height,
+            outputs: Outputs::ALL,
+            background: None,
+        }
+    }
+}
+
+/// Pixels of target sets the renderer keeps besides the one in use (a 4096² set, ~0.9 GB): a
+/// notebook drawing at two or three sizes keeps them all, a sweep over many sizes does not grow.
+const KEPT_TARGET_PIXELS: u64 = 1 << 24;
 
 /// A frame ready to encode.
 struct Prepared {
@@ -72,71 +104,99 @@ impl Renderer {
     /// The color of pixels nothing was drawn on: transparent white.
     pub const DEFAULT_BACKGROUND: [u8; 4] = [255, 255, 255, 0];
 
-    pub fn new(width: u32, height: u32) -> Result<Renderer> {
+    pub fn new() -> Result<Renderer> {
         let gpu = Gpu::new()?;
         let device = gpu.device.clone();
-        guarded(&device, move || Self::build(gpu, width, height))
+        guarded(&device, move || Ok(Self::build(gpu)))
     }
 
-    fn build(gpu: Gpu, width: u32, height: u32) -> Result<Renderer> {
-        let max = gpu.device.limits().max_texture_dimension_2d;
+    fn build(gpu: Gpu) -> Renderer {
+        let device = &gpu.device;
+        let frame_bindings = FrameBindings::new(device);
+        let query_layout = query::query_layout(device);
+        let kinds = kinds::registered(&gpu, &frame_bindings.layout, &query_layout);
+        let depth_copy = DepthCopy::new(device);
+        Renderer {
+            gpu,
+            frame_bindings,
+            kinds,
+            depth_copy,
+            query_layout,
+            targets: Vec::new(),
+            targets_made: 0,
+        }
+    }
+
+    /// A `ParameterError` unless this adapter draws `width` x `height` images.
+    pub fn check_size(&self, width: u32, height: u32) -> Result<()> {
+        let max = self.gpu.device.limits().max_texture_dimension_2d;
         if width == 0 || height == 0 || width > max || height > max {
             return Err(GeomtexError::Parameter(format!(
                 "image size {width}x{height} must be between 1 and {max} (this adapter's limit) \
                  on each side"
             )));
         }
-        let device = &gpu.device;
-        let frame_bindings = FrameBindings::new(device);
-        let query_layout = query::query_layout(device);
-        let kinds = kinds::registered(&gpu, &frame_bindings.layout, &query_layout);
-        let depth_copy = DepthCopy::new(device);
-        let targets = Targets::new(&gpu, &depth_copy, width, height);
-        let mut renderer = Renderer {
-            gpu,
-            frame_bindings,
-            kinds,
-            depth_copy,
-            query_layout,
-            targets,
-            background: [0.0; 4],
-        };
-        renderer.set_background(None);
-        Ok(renderer)
-    }
-
-    pub fn size(&self) -> (u32, u32) {
-        (self.targets.width, self.targets.height)
+        Ok(())
     }
 
     pub fn info(&self) -> Vec<(&'static str, String)> {
         self.gpu.info()
     }
 
-    /// The color (RGBA8) of pixels nothing is drawn on; `None` for `DEFAULT_BACKGROUND`.
-    pub fn set_background(&mut self, rgba: Option<[u8; 4]>) {
-        let rgba = rgba.unwrap_or(Self::DEFAULT_BACKGROUND);
-        self.background = rgba.map(|v| v as f64 / 255.0);
+    /// What this renderer has made so far: target sets (one per image size drawn), the image
+    /// sizes it keeps targets for, and uploads of objects to the adapter (every kind's).
+    pub fn counts(&self) -> Vec<(&'static str, u64)> {
+        vec![
+            ("target_sets_made", self.targets_made),
+            ("target_sizes_kept", self.targets.len() as u64),
+            ("uploads", kinds::uploads_made()),
+        ]
     }
 
-    /// Renders `scene` seen by `camera`. GPU validation or out-of-memory errors come back as
-    /// `GeomtexError::Device`, never as a panic.
+    /// The targets of a `width` x `height` frame, made unless kept, moved to the front; sizes
+    /// past `KEPT_TARGET_PIXELS` drawn longest ago are dropped.
+    fn targets_of(&mut self, width: u32, height: u32) -> &mut Targets {
+        match self
+            .targets
+            .iter()
+            .position(|t| (t.width, t.height) == (width, height))
+        {
+            Some(k) => self.targets[..=k].rotate_right(1),
+            None => {
+                let made = Targets::new(&self.gpu, &self.depth_copy, width, height);
+                self.targets.insert(0, made);
+                self.targets_made += 1;
+            }
+        }
+        let mut kept = 0;
+        self.targets.retain(|t| {
+            kept += u64::from(t.width) * u64::from(t.height);
+            kept <= KEPT_TARGET_PIXELS + u64::from(width) * u64::from(height)
+        });
+        &mut self.targets[0]
+    }
+
+    /// Renders `scene` seen by `camera` as `request` asks. GPU validation or out-of-memory
+    /// errors come back as `GeomtexError::Device`, never as a panic.
     pub fn render(
         &mut self,
         scene: &Scene,
         camera: &Camera,
         search: &SearchOptions,
+        request: &FrameRequest,
     ) -> Result<Frame> {
         search.validate()?;
+        self.check_size(request.width, request.height)?;
         let device = self.gpu.device.clone();
         guarded(&device, || {
             let start = Instant::now();
-            let prepared = self.prepare(scene, camera, search)?;
-            let (counters, tallies) = self.encode_passes(&prepared);
-            let readback = self.targets.read_back(&self.gpu, counters)?;
+            let prepared = self.prepare(scene, camera, search, request)?;
+            let (counters, tallies) = self.encode_passes(&prepared, request);
+            let targets = &self.targets[0];
+            let readback = targets.read_back(&self.gpu, counters, request.outputs)?;
             let surfels = SurfelCounts::read(&self.gpu, &tallies)?;
             let surface = (!prepared.surface_draws.is_empty())
-                .then(|| self.targets.read_surface(&self.gpu))
+                .then(|| targets.read_surface(&self.gpu))
                 .transpose()?;
             let mut frame = self.finish(prepared, readback, surfels, search, start);
             (frame.face_id, frame.barycentric) = surface.unzip();
@@ -151,10 +211,11 @@ impl Renderer {
         scene: &Scene,
         camera: &Camera,
         search: &SearchOptions,
+        request: &FrameRequest,
     ) -> Result<Prepared> {
         let view_from_world = camera.view_from_world();
         let (owners, depth) = self.upload_scene(scene, view_from_world)?;
-        let (width, height) = self.size();
+        let (width, height) = (request.width, request.height);
         let (z_min, z_max) = depth.or_default();
         let lens = camera.lens(width, height, z_min, z_max)?;
         self.frame_bindings
@@ -180,8 +241,10 @@ impl Renderer {
                 self.kinds[owner].draw_surface(&self.gpu, &frame, placed)
             })
             .collect();
+        let device = self.gpu.device.clone();
+        let targets = self.targets_of(width, height);
         if !surface_draws.is_empty() {
-            self.targets.ensure_surface(&self.gpu.device);
+            targets.ensure_surface(&device);
         }
         Ok(Prepared {
             lens,
@@ -228,7 +291,12 @@ impl Renderer {
 
     /// Encodes and submits the kinds' compute passes, the scene pass and the copies into
     /// readback buffers; the counters and the compute passes' tallies to read back.
-    fn encode_passes(&self, prepared: &Prepared) -> (&wgpu::Buffer, Vec<wgpu::Buffer>) {
+    fn encode_passes(
+        &self,
+        prepared: &Prepared,
+        request: &FrameRequest,
+    ) -> (&wgpu::Buffer, Vec<wgpu::Buffer>) {
+        let targets = &self.targets[0];
         let mut encoder = self
             .gpu
             .device
@@ -243,7 +311,7 @@ impl Renderer {
         if !work.is_empty() {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("kinds' compute"),
-                timestamp_writes: self.targets.compute_timestamps(),
+                timestamp_writes: targets.compute_timestamps(),
             });
             pass.set_bind_group(0, &self.frame_bindings.group, &[]);
             for w in &work {
@@ -252,9 +320,10 @@ impl Renderer {
         }
         let surface = !prepared.surface_draws.is_empty();
         {
-            let mut pass = self.targets.begin_scene_pass(
+            let background = request.background.unwrap_or(Self::DEFAULT_BACKGROUND);
+            let mut pass = targets.begin_scene_pass(
                 &mut encoder,
-                self.background,
+                background.map(|v| f64::from(v) / 255.0),
                 !work.is_empty(),
                 surface,
             );
@@ -264,15 +333,15 @@ impl Renderer {
             }
         }
         if surface {
-            let mut pass = self.targets.begin_surface_pass(&mut encoder, true);
+            let mut pass = targets.begin_surface_pass(&mut encoder, true);
             pass.set_bind_group(0, &self.frame_bindings.group, &[]);
             for draw in &prepared.surface_draws {
                 draw.encode(&mut pass);
             }
         }
-        self.targets.encode_readback(&mut encoder, &self.depth_copy);
+        targets.encode_readback(&mut encoder, &self.depth_copy, request.outputs);
         if surface {
-            self.targets.encode_surface_readback(&mut encoder);
+            targets.encode_surface_readback(&mut encoder);
         }
         let counters = self.frame_bindings.encode_counters_readback(&mut encoder);
         let tallies = work
@@ -291,13 +360,13 @@ impl Renderer {
         search: &SearchOptions,
         start: Instant,
     ) -> Frame {
-        let (width, height) = self.size();
+        let (width, height) = (self.targets[0].width, self.targets[0].height);
         let lens = prepared.lens;
-        let depth = readback
-            .depth
-            .iter()
-            .map(|&d| Camera::distance_from_depth(&lens, d))
-            .collect();
+        let depth = readback.depth.map(|values| {
+            (values.iter())
+                .map(|&d| Camera::distance_from_depth(&lens, d))
+                .collect()
+        });
         let tally = prepared.tally;
         let [fetches, searches, piece_tests] = readback.counters;
         Frame {

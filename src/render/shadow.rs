@@ -151,15 +151,25 @@ impl Renderer {
         };
         let offset = start_offset(scene);
         mark(format_args!("casters+offset"), &mut t);
-        let mut shadow = vec![false; frame.depth.len()];
+        let (Some(depth), Some(normal)) = (&frame.depth, &frame.normal) else {
+            return Err(GeomtexError::Internal(
+                "shadows need the frame's depth and normals read back".into(),
+            ));
+        };
+        let n = depth.len();
+        let mut shadow = vec![false; n];
         if !casters.objects.is_empty() {
             let traced = std::time::Instant::now();
-            let rays = ShadowRays::new(camera, frame, light, offset)?;
+            let seen = SeenSurface {
+                width: frame.width,
+                depth,
+                normal,
+            };
+            let rays = ShadowRays::new(camera, seen, frame.height, light, offset)?;
             // Shadow rays toward a directional light share one direction (the tracer tiles
             // texture sets along it); the query frame is the camera's, as the frame's own.
             let parallel = rays.toward_parallel.map(|(toward, _)| toward);
             let eye = camera.world_from_camera.w_axis.truncate();
-            let n = frame.depth.len();
             // Each pixel's surface is rebuilt once, as the tracer makes its ray: an attached
             // pixel is marked there (the tracer calls in parallel, hence atomics) and gets none.
             let marked: Vec<AtomicBool> = (0..n).map(|_| AtomicBool::new(false)).collect();
@@ -182,9 +192,11 @@ impl Renderer {
             frame.shadow_traced = Some(traced_rays as u64);
             frame.shadow_trace_ms = Some(traced.elapsed().as_secs_f64() * 1e3);
         }
-        for (i, _) in shadow.iter().enumerate().filter(|(_, s)| **s) {
-            for c in &mut frame.color[4 * i..4 * i + 3] {
-                *c = (f64::from(*c) * SHADOW_BRIGHTNESS).round() as u8;
+        if let Some(color) = &mut frame.color {
+            for (i, _) in shadow.iter().enumerate().filter(|(_, s)| **s) {
+                for c in &mut color[4 * i..4 * i + 3] {
+                    *c = (f64::from(*c) * SHADOW_BRIGHTNESS).round() as u8;
+                }
             }
         }
         mark(
@@ -207,7 +219,7 @@ struct ShadowRays<'a> {
     /// The frame's pixel rays (no matrix per pixel: a frame has ~10^5 of them).
     lines: crate::render::camera::PixelLines,
     forward: DVec3,
-    frame: &'a Frame,
+    seen: SeenSurface<'a>,
     light: &'a Light,
     /// A directional light's `Light::toward` (the same at every point), made once rather than
     /// per pixel.
@@ -221,17 +233,25 @@ enum PixelShadow {
     Ray(super::query::RangedRay),
 }
 
+/// What a frame shows per pixel that its shadow rays start from: z-depth and world normals.
+struct SeenSurface<'a> {
+    width: u32,
+    depth: &'a [f32],
+    normal: &'a [f32],
+}
+
 impl<'a> ShadowRays<'a> {
     fn new(
         camera: &'a Camera,
-        frame: &'a Frame,
+        seen: SeenSurface<'a>,
+        height: u32,
         light: &'a Light,
         offset: f64,
     ) -> Result<ShadowRays<'a>> {
         Ok(ShadowRays {
-            lines: camera.pixel_lines(&camera.lens(frame.width, frame.height, 1.0, 2.0)?),
+            lines: camera.pixel_lines(&camera.lens(seen.width, height, 1.0, 2.0)?),
             forward: camera.forward(),
-            frame,
+            seen,
             light,
             toward_parallel: match *light {
                 Light::Directional { .. } => Some(light.toward(DVec3::ZERO)),
@@ -258,16 +278,16 @@ impl<'a> ShadowRays<'a> {
     /// The world point pixel `i` shows and its normal on the side the camera sees, or `None`
     /// where the frame hit nothing.
     fn surface(&self, i: usize) -> Option<(DVec3, DVec3)> {
-        let frame = self.frame;
-        let depth = frame.depth[i];
+        let seen = &self.seen;
+        let depth = seen.depth[i];
         if !depth.is_finite() {
             return None;
         }
-        let (x, y) = (i % frame.width as usize, i / frame.width as usize);
+        let (x, y) = (i % seen.width as usize, i / seen.width as usize);
         // d is not of unit length: the division makes the step one of z-depth all the same.
         let (o, d) = self.lines.at(x as f64 + 0.5, y as f64 + 0.5);
         let point = o + d * (f64::from(depth) / d.dot(self.forward));
-        let [nx, ny, nz] = [0, 1, 2].map(|k| f64::from(frame.normal[3 * i + k]));
+        let [nx, ny, nz] = [0, 1, 2].map(|k| f64::from(seen.normal[3 * i + k]));
         let n = DVec3::new(nx, ny, nz);
         // The side of the surface the camera sees.
         Some((point, if n.dot(d) > 0.0 { -n } else { n }))

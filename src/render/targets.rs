@@ -1,5 +1,6 @@
 //! Render targets shared by every object kind (color, normal, id, albedo and reversed-Z depth), and
-//! reading them back: one image size, made once and reused by every frame.
+//! reading back the outputs a frame asks for: one image size each, kept by the renderer while
+//! frames of that size are drawn (mod.rs).
 //!
 //! Spaces: framebuffer pixels, row-major with row 0 at the top; depth values are reversed Z
 //! (0 = nothing) until `Camera::distance_from_depth` turns them into view distances.
@@ -7,6 +8,7 @@
 use crate::error::{GeomtexError, Result};
 
 use super::device::{texture_2d, Gpu};
+use super::frame::Outputs;
 use super::gpu_types::{COLOR_FORMAT, DEPTH_FORMAT, ID_FORMAT, NORMAL_FORMAT};
 use super::pipelines::DepthCopy;
 
@@ -39,15 +41,15 @@ pub(crate) struct Targets {
     surface: Option<(wgpu::Texture, wgpu::Buffer)>,
 }
 
-/// What one frame's readback holds.
+/// What one frame's readback holds: the outputs asked for.
 pub(crate) struct Readback {
-    pub color: Vec<u8>,
+    pub color: Option<Vec<u8>>,
     /// Unit normals, xyz per pixel.
-    pub normal: Vec<f32>,
-    pub patch_id: Vec<i32>,
-    pub albedo: Vec<u8>,
+    pub normal: Option<Vec<f32>>,
+    pub patch_id: Option<Vec<i32>>,
+    pub albedo: Option<Vec<u8>>,
     /// Reversed-Z depth values.
-    pub depth: Vec<f32>,
+    pub depth: Option<Vec<f32>>,
     pub gpu_ms: Option<f64>,
     /// The frame's counters: height fetches (counting build only), piece searches and tiled
     /// walks' piece tests (counting build only).
@@ -376,16 +378,31 @@ impl Targets {
         })
     }
 
-    /// Copies every target into its readback buffer: depth through the depth copy pass, the
-    /// others as texture copies; then the timestamps.
-    pub fn encode_readback(&self, encoder: &mut wgpu::CommandEncoder, depth_copy: &DepthCopy) {
-        depth_copy.encode(encoder, &self.depth_copy_group, self.width, self.height);
-        for (texture, buffer, bytes_per_pixel) in [
-            (&self.color, &self.readback[0], 4),
-            (&self.normal, &self.readback[1], 8),
-            (&self.id, &self.readback[2], 4),
-            (&self.albedo, &self.readback[3], 4),
-        ] {
+    /// The color targets in readback order (color, normal, id, albedo), each with its bytes per
+    /// pixel and whether `outputs` asks for it.
+    fn color_targets(&self, outputs: Outputs) -> [(&wgpu::Texture, u32, bool); 4] {
+        [
+            (&self.color, 4, outputs.color),
+            (&self.normal, 8, outputs.normal),
+            (&self.id, 4, outputs.patch_id),
+            (&self.albedo, 4, outputs.albedo),
+        ]
+    }
+
+    /// Copies the targets `outputs` asks for into their readback buffers (depth through the
+    /// depth copy pass, the others as texture copies); then the timestamps.
+    pub fn encode_readback(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        depth_copy: &DepthCopy,
+        outputs: Outputs,
+    ) {
+        for ((texture, bytes_per_pixel, wanted), buffer) in
+            self.color_targets(outputs).into_iter().zip(&self.readback)
+        {
+            if !wanted {
+                continue;
+            }
             encoder.copy_texture_to_buffer(
                 wgpu::TexelCopyTextureInfo {
                     texture,
@@ -404,26 +421,44 @@ impl Targets {
                 texture.size(),
             );
         }
-        let depth_size = self.depth_values.size();
-        encoder.copy_buffer_to_buffer(&self.depth_values, 0, &self.readback[4], 0, depth_size);
+        if outputs.depth {
+            depth_copy.encode(encoder, &self.depth_copy_group, self.width, self.height);
+            let depth_size = self.depth_values.size();
+            encoder.copy_buffer_to_buffer(&self.depth_values, 0, &self.readback[4], 0, depth_size);
+        }
         if let Some((set, resolve, readback)) = &self.timestamps {
             encoder.resolve_query_set(set, 0..2, resolve, 0);
             encoder.copy_buffer_to_buffer(resolve, 0, readback, 0, 16);
         }
     }
 
-    /// Reads the submitted frame back in one wait, with the frame's counters.
-    pub fn read_back(&self, gpu: &Gpu, counters: &wgpu::Buffer) -> Result<Readback> {
-        let mut buffers: Vec<&wgpu::Buffer> = self.readback.iter().collect();
+    /// Reads the submitted frame's `outputs` back in one wait, with the frame's counters.
+    pub fn read_back(
+        &self,
+        gpu: &Gpu,
+        counters: &wgpu::Buffer,
+        outputs: Outputs,
+    ) -> Result<Readback> {
+        let wanted = [
+            outputs.color,
+            outputs.normal,
+            outputs.patch_id,
+            outputs.albedo,
+            outputs.depth,
+        ];
+        let mut buffers: Vec<&wgpu::Buffer> = (self.readback.iter().zip(wanted))
+            .filter_map(|(b, w)| w.then_some(b))
+            .collect();
         buffers.push(counters);
         buffers.extend(self.timestamps.as_ref().map(|(_, _, r)| r));
         let mut bytes = read_buffers(&gpu.device, &buffers)?.into_iter();
         let mut next = || bytes.next().unwrap_or_default();
-        let color = self.unpad(next(), 4);
-        let normal_half = self.unpad(next(), 8);
-        let ids = self.unpad(next(), 4);
-        let albedo = self.unpad(next(), 4);
-        let depth = bytemuck::cast_slice(&next()).to_vec();
+        let mut read = |k: usize| wanted[k].then(&mut next);
+        let color = read(0).map(|b| self.unpad(b, 4));
+        let normal = read(1).map(|b| unit_normals(&self.unpad(b, 8)));
+        let patch_id = read(2).map(|b| bytemuck::cast_slice(&self.unpad(b, 4)).to_vec());
+        let albedo = read(3).map(|b| self.unpad(b, 4));
+        let depth = read(4).map(|b| bytemuck::cast_slice(&b).to_vec());
         let counts: Vec<u32> = bytemuck::cast_slice(&next()).to_vec();
         let counters = [counts[0], counts[1], counts[2]];
         let gpu_ms = self.timestamps.as_ref().map(|_| {
@@ -431,14 +466,10 @@ impl Targets {
             let period = gpu.queue.get_timestamp_period() as f64;
             ticks[1].saturating_sub(ticks[0]) as f64 * period / 1e6
         });
-        let normal = bytemuck::cast_slice::<u8, [u16; 4]>(&normal_half)
-            .iter()
-            .flat_map(|n| unit_normal([n[0], n[1], n[2]]))
-            .collect();
         Ok(Readback {
             color,
             normal,
-            patch_id: bytemuck::cast_slice(&ids).to_vec(),
+            patch_id,
             albedo,
             depth,
             gpu_ms,
@@ -460,6 +491,13 @@ impl Targets {
             .copied()
             .collect()
     }
+}
+
+/// The normal target's half-float texels (xyzw) as unit normals, xyz per pixel.
+fn unit_normals(texels: &[u8]) -> Vec<f32> {
+    (bytemuck::cast_slice::<u8, [u16; 4]>(texels).iter())
+        .flat_map(|n| unit_normal([n[0], n[1], n[2]]))
+        .collect()
 }
 
 /// A stored half-float normal made unit length again (in f64, so the f32 result is within

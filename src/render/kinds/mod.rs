@@ -18,6 +18,7 @@ pub(crate) mod surfels;
 pub(crate) mod tiles;
 
 use std::collections::HashMap;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Weak};
 
 use glam::{DMat4, DVec3};
@@ -289,6 +290,14 @@ impl DrawCall {
     }
 }
 
+/// Objects uploaded in this process so far, by every kind (a cache entry made): what tells a
+/// user that a set drawn at two sizes and queried was uploaded once.
+static UPLOADS_MADE: AtomicU64 = AtomicU64::new(0);
+
+pub fn uploads_made() -> u64 {
+    UPLOADS_MADE.load(Ordering::Relaxed)
+}
+
 /// GPU copies of objects, keyed by the object's identity and kept while it lives (a new object
 /// at a freed address is uploaded again).
 pub(crate) struct UploadCache<T, U> {
@@ -324,6 +333,7 @@ impl<T, U> UploadCache<T, U> {
         let key = Self::key(object);
         if self.get(object).is_none() {
             let made = upload(object)?;
+            UPLOADS_MADE.fetch_add(1, Ordering::Relaxed);
             self.entries.insert(key, (Arc::downgrade(object), made));
         }
         Ok(&self.entries[&key].1)
@@ -337,6 +347,7 @@ impl<T, U> UploadCache<T, U> {
     {
         let key = Self::key(object);
         if self.get(object).is_none() {
+            UPLOADS_MADE.fetch_add(1, Ordering::Relaxed);
             self.entries
                 .insert(key, (Arc::downgrade(object), U::default()));
         }
