@@ -17,6 +17,7 @@ use super::args::{opt_text, real};
 use super::arrays::{flat, image, rows, ArrayPair};
 use super::errors::heavy;
 use super::gtex::with_progress;
+use super::kinds::{Drawn, Holds};
 use crate::error::{parse_choice, GeomtexError};
 use crate::gdm::{
     distance_function, lower_bound_function, CompressedTable, GdmShell, Marcher, Pattern, Seams,
@@ -263,6 +264,20 @@ fn table_of(
 #[pyclass(name = "GdmShell", module = "geomtex._core", frozen)]
 pub struct PyGdmShell {
     pub(crate) inner: Arc<GdmShell>,
+}
+
+/// How a Scene takes a displacement shell (python/kinds.rs).
+pub(crate) const DRAWN: Drawn = Drawn::of::<PyGdmShell>("GdmShell", "GDM shells");
+
+impl Holds for PyGdmShell {
+    type Payload = GdmShell;
+    const NO_NORMALS: &'static str = "a shell's normals come from its volume";
+    fn payload(&self) -> &Arc<GdmShell> {
+        &self.inner
+    }
+    fn holding(inner: Arc<GdmShell>) -> Self {
+        PyGdmShell { inner }
+    }
 }
 
 #[pymethods]

@@ -15,6 +15,7 @@ use pyo3::types::{PyBytes, PyDict};
 use super::args::{integer, opt_integer, opt_real, opt_text, path, rays, real};
 use super::arrays::{flat, image, mat4_to_numpy, matrix, rows, ArrayPair};
 use super::errors::heavy;
+use super::kinds::{Drawn, Holds};
 use super::mesh::PyMesh;
 use crate::convert::{ConvertArgs, ConvertOptions, Progress};
 use crate::error::GeomtexError;
@@ -26,6 +27,21 @@ use crate::gtex::{GeometryTextureSet, Patch, StatValue};
 #[pyclass(name = "GeometryTextureSet", module = "geomtex._core", frozen)]
 pub struct PyGeometryTextureSet {
     pub(crate) inner: Arc<GeometryTextureSet>,
+}
+
+/// How a Scene takes a set (python/kinds.rs).
+pub(crate) const DRAWN: Drawn = Drawn::of::<PyGeometryTextureSet>("GeometryTextureSet", "sets");
+
+impl Holds for PyGeometryTextureSet {
+    type Payload = GeometryTextureSet;
+    const NO_NORMALS: &'static str =
+        "a GeometryTextureSet's normals were chosen by convert(..., normals=...)";
+    fn payload(&self) -> &Arc<GeometryTextureSet> {
+        &self.inner
+    }
+    fn holding(inner: Arc<GeometryTextureSet>) -> Self {
+        PyGeometryTextureSet { inner }
+    }
 }
 
 impl PyGeometryTextureSet {

@@ -10,6 +10,7 @@ use super::args::{opt_integer, opt_text, path};
 use super::arrays::{expect_columns, flat, image, matrix, rows};
 use super::errors::heavy;
 use super::gtex::with_progress;
+use super::kinds::{Drawn, Holds};
 use super::mesh::PyMesh;
 use crate::error::GeomtexError;
 use crate::igt::{self, file, IgtMesh, IgtOptions, InverseGeometricTexture, Lod, Lookup};
@@ -409,6 +410,21 @@ impl PyIgt {
 #[pyclass(name = "IgtMesh", module = "geomtex._core", frozen)]
 pub struct PyIgtMesh {
     pub(crate) inner: Arc<IgtMesh>,
+}
+
+/// How a Scene takes a mesh shaded through an inverse geometric texture (python/kinds.rs).
+pub(crate) const DRAWN: Drawn = Drawn::of::<PyIgtMesh>("IgtMesh", "IGT meshes");
+
+impl Holds for PyIgtMesh {
+    type Payload = IgtMesh;
+    const NO_NORMALS: &'static str = "an IgtMesh takes its detailed mesh's normals \
+         (geomtex.igt.build(..., normals=...))";
+    fn payload(&self) -> &Arc<IgtMesh> {
+        &self.inner
+    }
+    fn holding(inner: Arc<IgtMesh>) -> Self {
+        PyIgtMesh { inner }
+    }
 }
 
 #[pymethods]

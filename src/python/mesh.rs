@@ -8,11 +8,15 @@ use numpy::{
 };
 use pyo3::prelude::*;
 
+use std::any::TypeId;
+
 use super::arrays::{expect_columns, flat, image, matrix, rows};
 use super::errors::heavy;
+use super::kinds::Drawn;
 use crate::appearance::{TextureCoords, TextureInput};
 use crate::error::GeomtexError;
 use crate::mesh::Mesh;
+use crate::render::{Object, ShadedMesh};
 
 /// A validated triangle mesh (f64 positions, u32 faces, optional RGBA8 vertex or face colors, or
 /// texture coordinates and an RGBA8 texture).
@@ -20,6 +24,27 @@ use crate::mesh::Mesh;
 pub struct PyMesh {
     pub(crate) inner: Arc<Mesh>,
 }
+
+/// How a Scene takes a mesh: its payload is the mesh with the normal rule it is shaded by
+/// (python/kinds.rs).
+pub(crate) const DRAWN: Drawn = Drawn {
+    name: "Mesh",
+    label: "meshes",
+    payload_type: TypeId::of::<ShadedMesh>,
+    to_object: |obj, normals| {
+        let mesh = obj.cast::<PyMesh>().ok()?.get().inner.clone();
+        let rule = normals.unwrap_or_default();
+        Some(Ok(Object::new(Arc::new(ShadedMesh { mesh, rule }))))
+    },
+    from_object: |py, object| {
+        let shaded = object.payload::<ShadedMesh>()?;
+        let address = Arc::as_ptr(&shaded.mesh) as *const () as usize;
+        let mesh = PyMesh {
+            inner: shaded.mesh.clone(),
+        };
+        Some(Py::new(py, mesh).map(|m| (m.into_any(), address, Some(shaded.rule))))
+    },
+};
 
 #[pymethods]
 impl PyMesh {

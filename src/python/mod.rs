@@ -8,6 +8,7 @@ mod errors;
 mod gdm;
 mod gtex;
 mod igt;
+mod kinds;
 mod mesh;
 mod render;
 mod surfels;

@@ -14,15 +14,12 @@ use super::args::{
 };
 use super::arrays::{image, mat4_to_numpy, matrix, ArrayPair};
 use super::errors::{heavy, parameter_error};
-use super::gdm::PyGdmShell;
-use super::gtex::{set_stats, PyGeometryTextureSet};
-use super::igt::PyIgtMesh;
-use super::mesh::PyMesh;
-use super::surfels::PySurfels;
+use super::gtex::set_stats;
+use super::kinds;
 use crate::mesh::{NormalRule, NormalSource};
 use crate::render::{
-    Camera, FrameRequest, Light, Object, Outputs, Projection, Quality, Renderer, Scene,
-    SceneObject, SearchOverrides,
+    Camera, FrameRequest, Light, Outputs, Projection, Quality, Renderer, Scene, SceneObject,
+    SearchOverrides,
 };
 
 /// A camera: OpenGL-style pose (looks down -Z, +Y up) as pyrender and trimesh use; see
@@ -207,56 +204,15 @@ pub struct PyScene {
     pub(crate) inner: Scene,
 }
 
-/// A set or a mesh as a scene object; anything else was the Python package's to convert.
-/// `normals` is a mesh's normal rule (the default when None); a set's normals are in its maps.
+/// A scene object of any class the renderer draws (python/kinds.rs); anything else was the Python
+/// package's to convert. `normals` is a mesh's normal rule (the default when None).
 fn scene_object(
     obj: &Bound<'_, PyAny>,
     world_from_object: DMat4,
     normals: Option<NormalRule>,
 ) -> PyResult<SceneObject> {
-    let object = if let Ok(s) = obj.cast::<PyGeometryTextureSet>() {
-        if normals.is_some() {
-            return Err(parameter_error(
-                "normals and crease_angle apply to meshes; a GeometryTextureSet's normals were \
-                 chosen by convert(..., normals=...)"
-                    .into(),
-            ));
-        }
-        Object::Textures(s.get().inner.clone())
-    } else if let Ok(m) = obj.cast::<PyMesh>() {
-        Object::Mesh(m.get().inner.clone(), normals.unwrap_or_default())
-    } else if let Ok(s) = obj.cast::<PySurfels>() {
-        if normals.is_some() {
-            return Err(parameter_error(
-                "normals and crease_angle apply to meshes; Surfels take their set's normals".into(),
-            ));
-        }
-        Object::Surfels(s.get().inner.clone())
-    } else if let Ok(s) = obj.cast::<PyGdmShell>() {
-        if normals.is_some() {
-            return Err(parameter_error(
-                "normals and crease_angle apply to meshes; a shell's normals come from its volume"
-                    .into(),
-            ));
-        }
-        Object::Gdm(s.get().inner.clone())
-    } else if let Ok(s) = obj.cast::<PyIgtMesh>() {
-        if normals.is_some() {
-            return Err(parameter_error(
-                "normals and crease_angle apply to meshes; an IgtMesh takes its detailed mesh's \
-                 normals (geomtex.igt.build(..., normals=...))"
-                    .into(),
-            ));
-        }
-        Object::Igt(s.get().inner.clone())
-    } else {
-        return Err(parameter_error(format!(
-            "expected a GeometryTextureSet, Surfels, an IgtMesh, a Mesh or a trimesh, got {}",
-            obj.get_type().name()?
-        )));
-    };
     Ok(SceneObject {
-        object,
+        object: kinds::object_of(obj, normals)?,
         world_from_object,
     })
 }
@@ -303,77 +259,41 @@ impl PyScene {
     /// normals, crease_angle), the last two None for a set. An object added twice is the same
     /// Python object both times, so it is stored once.
     fn _objects<'py>(&self, py: Python<'py>) -> PyResult<Vec<ObjectState<'py>>> {
-        let mut seen: Vec<(*const (), Py<PyAny>)> = Vec::new();
-        let mut shared =
-            |ptr: *const (), make: &dyn Fn() -> PyResult<Py<PyAny>>| -> PyResult<Py<PyAny>> {
-                if let Some((_, obj)) = seen.iter().find(|(p, _)| *p == ptr) {
-                    return Ok(obj.clone_ref(py));
+        let mut seen: Vec<(usize, Py<PyAny>)> = Vec::new();
+        let mut states = Vec::with_capacity(self.inner.objects.len());
+        for placed in &self.inner.objects {
+            let (made, address, rule) = kinds::unbound(py, &placed.object)?;
+            let obj = match seen.iter().find(|(a, _)| *a == address) {
+                Some((_, obj)) => obj.clone_ref(py),
+                None => {
+                    seen.push((address, made.clone_ref(py)));
+                    made
                 }
-                let obj = make()?;
-                seen.push((ptr, obj.clone_ref(py)));
-                Ok(obj)
             };
-        self.inner
-            .objects
-            .iter()
-            .map(|placed| {
-                let pose = mat4_to_numpy(py, placed.world_from_object);
-                Ok(match &placed.object {
-                    Object::Textures(set) => {
-                        let make =
-                            || {
-                                Ok(Py::new(py, PyGeometryTextureSet { inner: set.clone() })?
-                                    .into_any())
-                            };
-                        (shared(Arc::as_ptr(set).cast(), &make)?, pose, None, None)
-                    }
-                    Object::Surfels(h) => {
-                        let make = || Ok(Py::new(py, PySurfels { inner: h.clone() })?.into_any());
-                        (shared(Arc::as_ptr(h).cast(), &make)?, pose, None, None)
-                    }
-                    Object::Gdm(g) => {
-                        let make = || Ok(Py::new(py, PyGdmShell { inner: g.clone() })?.into_any());
-                        (shared(Arc::as_ptr(g).cast(), &make)?, pose, None, None)
-                    }
-                    Object::Igt(m) => {
-                        let make = || Ok(Py::new(py, PyIgtMesh { inner: m.clone() })?.into_any());
-                        (shared(Arc::as_ptr(m).cast(), &make)?, pose, None, None)
-                    }
-                    Object::Mesh(mesh, rule) => {
-                        let make = || {
-                            Ok(Py::new(
-                                py,
-                                PyMesh {
-                                    inner: mesh.clone(),
-                                },
-                            )?
-                            .into_any())
-                        };
-                        let crease =
-                            (rule.source == NormalSource::Crease).then_some(rule.crease_angle);
-                        let source = format!("{:?}", rule.source).to_lowercase();
-                        (
-                            shared(Arc::as_ptr(mesh).cast(), &make)?,
-                            pose,
-                            Some(source),
-                            crease,
-                        )
-                    }
-                })
-            })
-            .collect()
+            let source = rule.map(|r| format!("{:?}", r.source).to_lowercase());
+            let crease =
+                rule.and_then(|r| (r.source == NormalSource::Crease).then_some(r.crease_angle));
+            let pose = mat4_to_numpy(py, placed.world_from_object);
+            states.push((obj, pose, source, crease));
+        }
+        Ok(states)
     }
 
+    /// The objects counted by kind, e.g. `<geomtex.Scene 2 sets, 1 meshes>`.
     fn __repr__(&self) -> String {
-        let objects = &self.inner.objects;
-        let sets = objects
-            .iter()
-            .filter(|o| matches!(o.object, Object::Textures(_)))
-            .count();
-        format!(
-            "<geomtex.Scene {sets} texture sets, {} meshes>",
-            objects.len() - sets
-        )
+        let mut counts: Vec<(&str, usize)> = Vec::new();
+        for placed in &self.inner.objects {
+            let label = kinds::label(&placed.object);
+            match counts.iter_mut().find(|(l, _)| *l == label) {
+                Some((_, n)) => *n += 1,
+                None => counts.push((label, 1)),
+            }
+        }
+        let parts: Vec<_> = counts.iter().map(|(l, n)| format!("{n} {l}")).collect();
+        match parts.is_empty() {
+            true => "<geomtex.Scene empty>".into(),
+            false => format!("<geomtex.Scene {}>", parts.join(", ")),
+        }
     }
 }
 

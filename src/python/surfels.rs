@@ -11,6 +11,7 @@ use super::args::{integer, path};
 use super::arrays::{matrix, rows};
 use super::errors::heavy;
 use super::gtex::PyGeometryTextureSet;
+use super::kinds::{Drawn, Holds};
 use crate::error::GeomtexError;
 use crate::surfels::{file, SurfelHierarchy, DEFAULT_TILE};
 
@@ -20,6 +21,20 @@ use crate::surfels::{file, SurfelHierarchy, DEFAULT_TILE};
 #[pyclass(name = "Surfels", module = "geomtex._core", frozen)]
 pub struct PySurfels {
     pub(crate) inner: Arc<SurfelHierarchy>,
+}
+
+/// How a Scene takes surfels (python/kinds.rs).
+pub(crate) const DRAWN: Drawn = Drawn::of::<PySurfels>("Surfels", "surfels");
+
+impl Holds for PySurfels {
+    type Payload = SurfelHierarchy;
+    const NO_NORMALS: &'static str = "Surfels take their set's normals";
+    fn payload(&self) -> &Arc<SurfelHierarchy> {
+        &self.inner
+    }
+    fn holding(inner: Arc<SurfelHierarchy>) -> Self {
+        PySurfels { inner }
+    }
 }
 
 impl PySurfels {

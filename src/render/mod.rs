@@ -38,7 +38,7 @@ pub use device::Gpu;
 pub use frame::{Frame, Outputs, SurfelCounts};
 pub use kinds::uploads_made;
 pub use query::RayHits;
-pub use scene::{Object, Scene, SceneObject};
+pub use scene::{Object, Scene, SceneObject, ShadedMesh};
 pub use search::{Method, Primary, Quality, SearchOptions, SearchOverrides};
 pub use shadow::Light;
 
@@ -46,14 +46,14 @@ use crate::error::{GeomtexError, Result};
 use cull::DepthRange;
 use device::guarded;
 use frame_bindings::FrameBindings;
-use kinds::{DrawCall, FrameView, Kind, Tally};
+use kinds::{DrawCall, FrameView, KindContext, Registry, Tally};
 use pipelines::DepthCopy;
 use targets::{Readback, Targets};
 
 pub struct Renderer {
     gpu: Gpu,
     frame_bindings: FrameBindings,
-    kinds: Vec<Box<dyn Kind>>,
+    kinds: Registry,
     depth_copy: DepthCopy,
     /// Group 2 of ray queries (query.rs).
     query_layout: wgpu::BindGroupLayout,
@@ -114,7 +114,11 @@ impl Renderer {
         let device = &gpu.device;
         let frame_bindings = FrameBindings::new(device);
         let query_layout = query::query_layout(device);
-        let kinds = kinds::registered(&gpu, &frame_bindings.layout, &query_layout);
+        let kinds = kinds::registered(&KindContext {
+            gpu: &gpu,
+            frame_layout: &frame_bindings.layout,
+            query_layout: &query_layout,
+        });
         let depth_copy = DepthCopy::new(device);
         Renderer {
             gpu,
@@ -233,12 +237,12 @@ impl Renderer {
             .iter()
             .zip(&owners)
             .flat_map(|(placed, &owner)| {
-                self.kinds[owner].draw(&self.gpu, &frame, placed, &mut tally)
+                self.kinds.kinds[owner].draw(&self.gpu, &frame, placed, &mut tally)
             })
             .collect();
         let surface_draws: Vec<DrawCall> = (scene.objects.iter().zip(&owners))
             .filter_map(|(placed, &owner)| {
-                self.kinds[owner].draw_surface(&self.gpu, &frame, placed)
+                self.kinds.kinds[owner].draw_surface(&self.gpu, &frame, placed)
             })
             .collect();
         let device = self.gpu.device.clone();
@@ -261,7 +265,7 @@ impl Renderer {
         scene: &Scene,
         view_from_world: glam::DMat4,
     ) -> Result<(Vec<usize>, DepthRange)> {
-        for kind in &mut self.kinds {
+        for kind in &mut self.kinds.kinds {
             kind.purge();
         }
         let mut depth = DepthRange::empty();
@@ -274,19 +278,16 @@ impl Renderer {
         Ok((owners, depth))
     }
 
-    /// Uploads an object through the kind it belongs to; that kind's index.
+    /// Uploads an object through the kind registered for its payload; that kind's index.
     fn upload(
         &mut self,
         object: &Object,
         view_from_object: &glam::DMat4,
         depth: &mut DepthRange,
     ) -> Result<usize> {
-        for (index, kind) in self.kinds.iter_mut().enumerate() {
-            if kind.upload(&self.gpu, object, view_from_object, depth)? {
-                return Ok(index);
-            }
-        }
-        unreachable!("every Object variant has a kind in kinds::registered")
+        let k = self.kinds.kind_of(object)?;
+        self.kinds.kinds[k].upload(&self.gpu, object, view_from_object, depth)?;
+        Ok(k)
     }
 
     /// Encodes and submits the kinds' compute passes, the scene pass and the copies into

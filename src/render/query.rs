@@ -348,12 +348,8 @@ impl Renderer {
         let mut ids = Tally::default();
         let mut traces = Vec::new();
         for (placed, owner) in scene.objects.iter().zip(owners) {
-            let kind = &self.kinds[owner];
-            let trace = match parallel {
-                Some(d) => kind.trace_parallel(&self.gpu, view_from_world, placed, &mut ids, d)?,
-                None => kind.trace(&self.gpu, view_from_world, placed, &mut ids)?,
-            };
-            traces.extend(trace);
+            let kind = &self.kinds.kinds[owner];
+            traces.extend(kind.trace(&self.gpu, view_from_world, placed, &mut ids, parallel)?);
         }
         Ok(traces)
     }

@@ -2,29 +2,53 @@
 //!
 //! Spaces: world (f64, the scene's) and each object's own, placed by `world_from_object`.
 
+use std::any::{Any, TypeId};
 use std::sync::Arc;
 
 use glam::DMat4;
 
 use crate::error::{GeomtexError, Result};
-use crate::gdm::GdmShell;
-use crate::gtex::GeometryTextureSet;
-use crate::igt::IgtMesh;
 use crate::mesh::{Mesh, NormalRule};
-use crate::surfels::SurfelHierarchy;
 
-/// What a scene holds; each variant is drawn by its module in `render::kinds`.
+/// What a scene holds: a payload of any type a kind of `render::kinds` is registered for — a
+/// `GeometryTextureSet`, a `ShadedMesh`, a `SurfelHierarchy`, a `GdmShell` (displacement shell),
+/// an `IgtMesh` (a simplified mesh shaded through an inverse geometric texture) — shared, not
+/// copied. Which kind draws it is decided once, by its type (kinds::Registry).
 #[derive(Clone)]
-pub enum Object {
-    Textures(Arc<GeometryTextureSet>),
-    /// A rasterized mesh and the rule its normals follow (the same as `convert`'s).
-    Mesh(Arc<Mesh>, NormalRule),
-    /// A surfel hierarchy, splatted with its levels chosen per tile (`max_pixel_error`).
-    Surfels(Arc<SurfelHierarchy>),
-    /// A displacement shell: mesostructure tiled over a base mesh's prisms (gdm).
-    Gdm(Arc<GdmShell>),
-    /// A simplified mesh shaded through an inverse geometric texture (kinds/igt.rs).
-    Igt(Arc<IgtMesh>),
+pub struct Object {
+    payload: Arc<dyn Any + Send + Sync>,
+    /// The payload's type name, for errors.
+    name: &'static str,
+}
+
+impl Object {
+    pub fn new<T: Any + Send + Sync>(payload: Arc<T>) -> Object {
+        Object {
+            payload,
+            name: std::any::type_name::<T>(),
+        }
+    }
+
+    /// The payload if it is a `T` (the same allocation the object was made with).
+    pub fn payload<T: Any + Send + Sync>(&self) -> Option<Arc<T>> {
+        self.payload.clone().downcast::<T>().ok()
+    }
+
+    pub fn payload_type(&self) -> TypeId {
+        (*self.payload).type_id()
+    }
+
+    /// The payload type's name, as errors give it.
+    pub fn payload_name(&self) -> &'static str {
+        self.name.rsplit("::").next().unwrap_or(self.name)
+    }
+}
+
+/// A rasterized mesh and the rule its normals follow (the same as `convert`'s): the payload of
+/// the mesh kind.
+pub struct ShadedMesh {
+    pub mesh: Arc<Mesh>,
+    pub rule: NormalRule,
 }
 
 #[derive(Clone)]

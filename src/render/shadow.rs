@@ -10,7 +10,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use glam::DVec3;
 
-use super::{Camera, Frame, Object, Renderer, Scene, SearchOptions};
+use super::kinds::Registry;
+use super::{Camera, Frame, Renderer, Scene, SearchOptions};
 use crate::cancel::Cancel;
 use crate::error::{GeomtexError, Result};
 
@@ -25,24 +26,6 @@ pub enum Light {
 
 /// What shadowed pixels keep of their color.
 const SHADOW_BRIGHTNESS: f64 = 0.5;
-
-/// Texels a shadow ray starts off its surface (along the normal, and again along the ray), so
-/// that it does not hit the surface it starts on (stored twice near chart borders, by the
-/// overlap rings). Against embree's shadow rays on the bunny: 2 texels lose 8% of the shadowed
-/// pixels (near the terminator), a quarter texel agrees on 99.87–99.89% of the pixels.
-const OFFSET_TEXELS: f64 = 0.25;
-
-/// The same offset for displacement shells, in voxels of their tile. Against embree's shadow
-/// rays on `Shell.to_mesh()` (a torus under chain links and a weave, 256², three lights): half a
-/// voxel lost 3-5% of the shadowed pixels, where thin wires curve away from their tangent plane
-/// within the offset; 0.05 voxel agrees on 98.3-99.4% of the pixels; 0.03 starts to shadow
-/// surfaces by themselves away from shadow edges.
-const OFFSET_VOXELS: f64 = 0.05;
-
-/// The same offset for meshes, as a fraction of the largest mesh's bounding-box diagonal: above
-/// f32's rounding of the triangles in the query's frame (~1e-7 of their extent), far below any
-/// detail a mesh shows.
-const OFFSET_MESH_DIAGONAL: f64 = 1e-5;
 
 /// Attached shadows: a pixel whose surface (the side the camera sees) faces away from the light,
 /// n.l below this, is shadowed without a ray, since whatever lies between, the surface itself
@@ -95,35 +78,21 @@ impl Light {
     }
 }
 
-/// How far a shadow ray starts off its surface in world units: a quarter of the scene's largest
-/// texel, half its largest shell voxel (a placement's largest scale applied), and never less than
-/// `OFFSET_MESH_DIAGONAL` of its largest mesh.
-fn start_offset(scene: &Scene) -> f64 {
-    scene
-        .objects
-        .iter()
-        .map(|placed| {
-            let m = placed.world_from_object;
-            let scale = [m.x_axis, m.y_axis, m.z_axis]
-                .iter()
-                .map(|c| c.truncate().length())
-                .fold(0.0, f64::max);
-            match &placed.object {
-                Object::Textures(set) => OFFSET_TEXELS * set.texel_size * scale,
-                Object::Mesh(mesh, _) => mesh_offset(mesh, scale),
-                // Shaded simplified meshes receive shadows as meshes do.
-                Object::Igt(shaded) => mesh_offset(&shaded.mesh, scale),
-                Object::Gdm(shell) => OFFSET_VOXELS * shell.voxel_size() * scale,
-                // Surfels receive shadows but are not traced (see `casters`).
-                Object::Surfels(..) => 0.0,
-            }
-        })
-        .fold(0.0, f64::max)
-}
-
-fn mesh_offset(mesh: &crate::mesh::Mesh, scale: f64) -> f64 {
-    let (lo, hi) = mesh.bounds();
-    OFFSET_MESH_DIAGONAL * (hi - lo).length() * scale
+/// How far a shadow ray starts off its surface in world units: the largest of the scene's objects'
+/// offsets, each as its kind gives it (`Kind::shadow_offset`, a placement's largest scale
+/// applied): a quarter of a set's texel, half a shell's voxel, `OFFSET_MESH_DIAGONAL` of a mesh.
+fn start_offset(kinds: &Registry, scene: &Scene) -> Result<f64> {
+    let mut offset: f64 = 0.0;
+    for placed in &scene.objects {
+        let m = placed.world_from_object;
+        let scale = [m.x_axis, m.y_axis, m.z_axis]
+            .iter()
+            .map(|c| c.truncate().length())
+            .fold(0.0, f64::max);
+        let kind = &kinds.kinds[kinds.kind_of(&placed.object)?];
+        offset = offset.max(kind.shadow_offset(&placed.object, scale));
+    }
+    Ok(offset)
 }
 
 impl Renderer {
@@ -141,15 +110,16 @@ impl Renderer {
         light.validate()?;
         let start = std::time::Instant::now();
         let mut t = start;
-        // Surfels and shaded simplified meshes receive shadows but do not cast them: the tracer
-        // does not trace them.
-        let casters = Scene {
-            objects: (scene.objects.iter())
-                .filter(|placed| !matches!(placed.object, Object::Surfels(..) | Object::Igt(..)))
-                .cloned()
-                .collect(),
-        };
-        let offset = start_offset(scene);
+        // Kinds the tracer does not trace (surfels, shaded simplified meshes) receive shadows
+        // but do not cast them.
+        let mut casters = Scene::default();
+        for placed in &scene.objects {
+            let kind = &self.kinds.kinds[self.kinds.kind_of(&placed.object)?];
+            if kind.casts_shadows() {
+                casters.objects.push(placed.clone());
+            }
+        }
+        let offset = start_offset(&self.kinds, scene)?;
         mark(format_args!("casters+offset"), &mut t);
         let (Some(depth), Some(normal)) = (&frame.depth, &frame.normal) else {
             return Err(GeomtexError::Internal(

@@ -14,12 +14,11 @@
 //! `world_from_object`), stored relative to that centre ("local", f32); view (camera-relative);
 //! primary space per grid in cell units (src/igt/primary.rs).
 
+use std::sync::Arc;
 use glam::{DMat3, DMat4, DVec3, Vec3};
 use wgpu::util::DeviceExt;
 
-use super::{
-    bind_buffers, storage_buffer, DrawCall, FrameView, Kind, Tally, TraceCall, UploadCache,
-};
+use super::{bind_buffers, storage_buffer, DrawCall, FrameView, Kind, KindContext, Tally, TraceCall, UploadCache};
 use crate::appearance::Image;
 use crate::error::{GeomtexError, Result};
 use crate::igt::{IgtMesh, InverseGeometricTexture, Lod, Lookup};
@@ -30,7 +29,7 @@ use crate::render::gpu_types::{
     DEPTH_FORMAT, NORMAL_FORMAT,
 };
 use crate::render::pipelines::{storage_entry, uniform_entry, RasterPipeline, VERTEX_AND_FRAGMENT};
-use crate::render::scene::{Object, SceneObject};
+use crate::render::scene::SceneObject;
 use crate::render::shaders;
 
 /// Format of the surface target: detailed face + 1 (0 = none) and the barycentrics' f32 bits.
@@ -334,7 +333,8 @@ fn upload_mesh(gpu: &Gpu, shaded: &IgtMesh, centre: DVec3) -> UploadedMesh {
 }
 
 impl IgtKind {
-    pub fn new(device: &wgpu::Device, frame_layout: &wgpu::BindGroupLayout) -> IgtKind {
+    pub fn new(context: &KindContext) -> IgtKind {
+        let (device, frame_layout) = (&context.gpu.device, context.frame_layout);
         let fragment = wgpu::ShaderStages::FRAGMENT;
         // Group 1 of igt_bindings.wgsl.
         let mut entries = vec![uniform_entry(0, VERTEX_AND_FRAGMENT)];
@@ -370,11 +370,9 @@ impl IgtKind {
         gpu: &Gpu,
         frame: &FrameView,
         placed: &SceneObject,
+        shaded: &Arc<IgtMesh>,
         id: i32,
     ) -> Option<(wgpu::BindGroup, &UploadedMesh)> {
-        let Object::Igt(shaded) = &placed.object else {
-            return None;
-        };
         let tables = self.tables.get(&shaded.igt)?;
         let mesh = self.meshes.get(shaded)?;
         let view_from_local = frame.view_from_world
@@ -483,18 +481,17 @@ fn surface_pipeline(
 }
 
 impl Kind for IgtKind {
+    type Payload = IgtMesh;
+
     fn upload(
         &mut self,
         gpu: &Gpu,
-        object: &Object,
+        shaded: &Arc<IgtMesh>,
         view_from_object: &DMat4,
         depth: &mut DepthRange,
-    ) -> Result<bool> {
-        let Object::Igt(shaded) = object else {
-            return Ok(false);
-        };
+    ) -> Result<()> {
         if shaded.mesh.faces.is_empty() {
-            return Ok(true);
+            return Ok(());
         }
         let centre = (self.tables)
             .get_or_upload(&shaded.igt, |igt| upload_tables(gpu, igt))?
@@ -503,7 +500,7 @@ impl Kind for IgtKind {
             .meshes
             .get_or_upload(shaded, |s| Ok(upload_mesh(gpu, s, centre)))?;
         depth.include_box(view_from_object, m.lo, m.hi);
-        Ok(true)
+        Ok(())
     }
 
     fn draw_call(
@@ -511,15 +508,12 @@ impl Kind for IgtKind {
         gpu: &Gpu,
         frame: &FrameView,
         placed: &SceneObject,
+        shaded: &Arc<IgtMesh>,
         tally: &mut Tally,
     ) -> Option<DrawCall> {
-        let Object::Igt(_) = &placed.object else {
-            return None;
-        };
         // Numbered as meshes are, whether drawn or not (the surface pass does not count).
-        let id = -2 - tally.meshes_drawn as i32;
-        tally.meshes_drawn += 1;
-        let (group, mesh) = self.bind(gpu, frame, placed, id)?;
+        let id = tally.next_mesh_id();
+        let (group, mesh) = self.bind(gpu, frame, placed, shaded, id)?;
         Some(DrawCall {
             pipeline: self.pipeline.clone(),
             group,
@@ -530,8 +524,14 @@ impl Kind for IgtKind {
         })
     }
 
-    fn draw_surface(&self, gpu: &Gpu, frame: &FrameView, placed: &SceneObject) -> Option<DrawCall> {
-        let (group, mesh) = self.bind(gpu, frame, placed, 0)?;
+    fn draw_surface(
+        &self,
+        gpu: &Gpu,
+        frame: &FrameView,
+        placed: &SceneObject,
+        shaded: &Arc<IgtMesh>,
+    ) -> Option<DrawCall> {
+        let (group, mesh) = self.bind(gpu, frame, placed, shaded, 0)?;
         Some(DrawCall {
             pipeline: self.surface_pipeline.clone(),
             group,
@@ -546,15 +546,23 @@ impl Kind for IgtKind {
         &self,
         _gpu: &Gpu,
         _view_from_world: DMat4,
-        placed: &SceneObject,
+        _placed: &SceneObject,
+        _shaded: &Arc<IgtMesh>,
         _ids: &mut Tally,
     ) -> Result<Option<TraceCall>> {
-        match &placed.object {
-            Object::Igt(..) => Err(GeomtexError::Parameter(
-                "ray queries through an IgtMesh are not supported; query its detailed mesh".into(),
-            )),
-            _ => Ok(None),
-        }
+        Err(GeomtexError::Parameter(
+            "ray queries through an IgtMesh are not supported; query its detailed mesh".into(),
+        ))
+    }
+
+    /// Shaded simplified meshes receive shadows as meshes do but do not cast them (the tracer
+    /// does not trace them).
+    fn casts_shadows(&self) -> bool {
+        false
+    }
+
+    fn shadow_offset(&self, shaded: &IgtMesh, scale: f64) -> f64 {
+        super::mesh::mesh_offset(&shaded.mesh, scale)
     }
 
     fn purge(&mut self) {

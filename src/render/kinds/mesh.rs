@@ -20,9 +20,7 @@ use wgpu::util::DeviceExt;
 
 use super::footprint::Footprint;
 use super::tiles::{self, TileLists};
-use super::{
-    bind_buffers, storage_buffer, DrawCall, FrameView, Kind, RayTest, Tally, TraceCall, UploadCache,
-};
+use super::{bind_buffers, storage_buffer, DrawCall, FrameView, Kind, KindContext, RayTest, Tally, TraceCall, UploadCache};
 use crate::appearance::{Image, Texture, TextureCoords};
 use crate::error::Result;
 use crate::mesh::{Mesh, MeshGeometry, NormalRule};
@@ -36,7 +34,7 @@ use crate::render::pipelines::{
     compute_pipeline, storage_entry, texture_entry, uniform_entry, RasterPipeline,
     VERTEX_AND_FRAGMENT,
 };
-use crate::render::scene::{Object, SceneObject};
+use crate::render::scene::{SceneObject, ShadedMesh};
 use crate::render::shaders;
 
 /// A mesh's de-indexed vertices on the GPU.
@@ -146,11 +144,9 @@ pub(crate) struct MeshKind {
 }
 
 impl MeshKind {
-    pub fn new(
-        gpu: &Gpu,
-        frame_layout: &wgpu::BindGroupLayout,
-        query_layout: &wgpu::BindGroupLayout,
-    ) -> MeshKind {
+    pub fn new(context: &KindContext) -> MeshKind {
+        let gpu = context.gpu;
+        let (frame_layout, query_layout) = (context.frame_layout, context.query_layout);
         let (device, queue) = (&gpu.device, &gpu.queue);
         let compute = wgpu::ShaderStages::COMPUTE;
         // Group 1 of mesh_trace_bindings.wgsl.
@@ -251,14 +247,11 @@ impl MeshKind {
         &'a self,
         gpu: &Gpu,
         view_from_world: DMat4,
-        placed: &'a SceneObject,
+        placed: &SceneObject,
+        mesh: &'a Arc<Mesh>,
         ids: &mut Tally,
     ) -> Option<MeshQuery<'a>> {
-        let Object::Mesh(mesh, _) = &placed.object else {
-            return None;
-        };
-        let id = -2 - ids.meshes_drawn as i32;
-        ids.meshes_drawn += 1;
+        let id = ids.next_mesh_id();
         let uploads = self.uploads.get(mesh)?;
         let traced = uploads.traced.get_or_init(|| upload_traced(gpu, mesh));
         let centre = 0.5 * (traced.lo + traced.hi);
@@ -441,17 +434,22 @@ fn upload(gpu: &Gpu, mesh: &Mesh, rule: NormalRule) -> UploadedMesh {
     }
 }
 
+/// The same offset for meshes, as a fraction of the largest mesh's bounding-box diagonal: above
+/// f32's rounding of the triangles in the query's frame (~1e-7 of their extent), far below any
+/// detail a mesh shows.
+const OFFSET_MESH_DIAGONAL: f64 = 1e-5;
+
 impl Kind for MeshKind {
+    type Payload = ShadedMesh;
+
     fn upload(
         &mut self,
         gpu: &Gpu,
-        object: &Object,
+        shaded: &Arc<ShadedMesh>,
         view_from_object: &DMat4,
         depth: &mut DepthRange,
-    ) -> Result<bool> {
-        let Object::Mesh(mesh, rule) = object else {
-            return Ok(false);
-        };
+    ) -> Result<()> {
+        let (mesh, rule) = (&shaded.mesh, &shaded.rule);
         let uploads = self.uploads.entry(mesh);
         if let (None, Some(texture)) = (&uploads.image, &mesh.appearance.texture) {
             uploads.image = Some(upload_image(gpu, &texture.image));
@@ -462,7 +460,7 @@ impl Kind for MeshKind {
         }
         let (_, u) = uploads.iter().find(|(r, _)| r == rule).expect("uploaded");
         depth.include_box(view_from_object, u.lo, u.hi);
-        Ok(true)
+        Ok(())
     }
 
     fn draw_call(
@@ -470,11 +468,10 @@ impl Kind for MeshKind {
         gpu: &Gpu,
         frame: &FrameView,
         placed: &SceneObject,
+        shaded: &Arc<ShadedMesh>,
         tally: &mut Tally,
     ) -> Option<DrawCall> {
-        let Object::Mesh(mesh, rule) = &placed.object else {
-            return None;
-        };
+        let (mesh, rule) = (&shaded.mesh, &shaded.rule);
         let uploads = self.uploads.get(mesh)?;
         let (_, u) = uploads.drawn.iter().find(|(r, _)| r == rule)?;
         let image = uploads.image.as_ref().unwrap_or(&self.white);
@@ -483,9 +480,8 @@ impl Kind for MeshKind {
         let record = MeshObjectGpu {
             view_from_object: gpu_matrix(view_from_local),
             world_normal_from_object: normal_matrix(DMat3::from_mat4(placed.world_from_object)),
-            ids: [-2 - tally.meshes_drawn as i32, 0, 0, 0],
+            ids: [tally.next_mesh_id(), 0, 0, 0],
         };
-        tally.meshes_drawn += 1;
         let device = &gpu.device;
         let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("mesh object"),
@@ -525,9 +521,10 @@ impl Kind for MeshKind {
         gpu: &Gpu,
         view_from_world: DMat4,
         placed: &SceneObject,
+        shaded: &Arc<ShadedMesh>,
         ids: &mut Tally,
     ) -> Result<Option<TraceCall>> {
-        let Some(query) = self.query(gpu, view_from_world, placed, ids) else {
+        let Some(query) = self.query(gpu, view_from_world, placed, &shaded.mesh, ids) else {
             return Ok(None);
         };
         Ok(Some(TraceCall::within(
@@ -546,10 +543,11 @@ impl Kind for MeshKind {
         gpu: &Gpu,
         view_from_world: DMat4,
         placed: &SceneObject,
+        shaded: &Arc<ShadedMesh>,
         ids: &mut Tally,
         direction: DVec3,
     ) -> Result<Option<TraceCall>> {
-        let Some(query) = self.query(gpu, view_from_world, placed, ids) else {
+        let Some(query) = self.query(gpu, view_from_world, placed, &shaded.mesh, ids) else {
             return Ok(None);
         };
         // Lines along `direction` map to lines along its local image under the placement
@@ -611,7 +609,24 @@ impl Kind for MeshKind {
         }))
     }
 
+    fn shadow_offset(&self, shaded: &ShadedMesh, scale: f64) -> f64 {
+        mesh_offset(&shaded.mesh, scale)
+    }
+
     fn purge(&mut self) {
         self.uploads.purge();
     }
+}
+
+/// A shadow ray's start offset off a mesh under a placement scaling by at most `scale`: see
+/// `OFFSET_MESH_DIAGONAL`. Meshes shaded through an inverse geometric texture (kinds/igt.rs)
+/// use it too.
+pub(crate) fn mesh_offset(mesh: &Mesh, scale: f64) -> f64 {
+    let (lo, hi) = mesh.bounds();
+    extent_offset(lo, hi, scale)
+}
+
+/// `mesh_offset` of whatever spans the box `lo`..`hi`.
+pub(crate) fn extent_offset(lo: DVec3, hi: DVec3, scale: f64) -> f64 {
+    OFFSET_MESH_DIAGONAL * (hi - lo).length() * scale
 }

@@ -1,22 +1,21 @@
 //! Object kinds. A kind uploads its objects (cached for as long as they live), widens the
-//! scene's depth range by their bounds, and makes each object's draw call for a frame and its
-//! dispatch for a ray query (query.rs); the camera, targets, group 0 (frame_bindings.rs) and
-//! readback are shared by all kinds.
+//! scene's depth range by their bounds, makes each object's draw call for a frame and its
+//! dispatch for a ray query (query.rs), and says how its objects take part in shadows; the
+//! camera, targets, group 0 (frame_bindings.rs) and readback are shared by all kinds.
 //!
-//! Adding a kind: a module here (its pass, group-1 layout and upload cache) with its shader files
-//! and a function in shaders.rs, a variant of `Object` (scene.rs), and one line in `registered`.
+//! Adding a kind (the recipe docs/contributing.md gives in full): a module here whose type
+//! implements `Kind` for its payload type (what a scene object of that kind holds), with its
+//! shader files and a function in shaders.rs, and one line in `kinds!` below. A scene object
+//! holds any payload (`Object::new`); the renderer routes it to the kind registered for its
+//! payload type, and an object no kind draws is a `ParameterError`, never a silent blank.
 //!
 //! Spaces: world (f64), each object's own (placed by `world_from_object`) and view
 //! (camera-relative); every matrix a kind gives the GPU is composed in f64 as view_from_*.
 
 mod footprint;
-pub(crate) mod gdm;
-pub(crate) mod gtex;
-pub(crate) mod igt;
-pub(crate) mod mesh;
-pub(crate) mod surfels;
 pub(crate) mod tiles;
 
+use std::any::{Any, TypeId};
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Weak};
@@ -30,48 +29,97 @@ use super::cull::DepthRange;
 use super::device::Gpu;
 use super::scene::{Object, SceneObject};
 use super::search::SearchOptions;
-use crate::error::Result;
+use crate::error::{GeomtexError, Result};
 
-/// Every kind the renderer draws, each built once with the frame's group-0 layout and the ray
-/// queries' group-2 layout.
-pub(crate) fn registered(
-    gpu: &Gpu,
-    frame_layout: &wgpu::BindGroupLayout,
-    query_layout: &wgpu::BindGroupLayout,
-) -> Vec<Box<dyn Kind>> {
-    let device = &gpu.device;
-    vec![
-        Box::new(gtex::GtexKind::new(device, frame_layout, query_layout)),
-        Box::new(mesh::MeshKind::new(gpu, frame_layout, query_layout)),
-        Box::new(surfels::SurfelsKind::new(
-            device,
-            frame_layout,
-            gpu.int64_atomics,
-        )),
-        Box::new(gdm::GdmKind::new(device, frame_layout, query_layout)),
-        Box::new(igt::IgtKind::new(device, frame_layout)),
-    ]
+/// What every kind is built with: the device, the frame's group-0 layout and the ray queries'
+/// group-2 layout.
+pub(crate) struct KindContext<'a> {
+    pub gpu: &'a Gpu,
+    pub frame_layout: &'a wgpu::BindGroupLayout,
+    pub query_layout: &'a wgpu::BindGroupLayout,
 }
 
-/// One object kind's part in a frame.
-pub(crate) trait Kind: Send {
-    /// Uploads `object` unless it is cached, and widens `depth` by its bounds as
-    /// `view_from_object` places them; false (doing nothing) when the object is another kind's.
+/// Declares every kind's module and registers its type, one line each.
+macro_rules! kinds {
+    ($($(#[$attr:meta])* $module:ident :: $kind:ident),* $(,)?) => {
+        $($(#[$attr])* pub(crate) mod $module;)*
+
+        /// Every kind the renderer draws, each built once, with the payload types they draw.
+        // Pushed one by one: a kind's attributes (`#[cfg(test)]`) apply to its statement.
+        #[allow(clippy::vec_init_then_push)]
+        pub(crate) fn registered(context: &KindContext) -> Registry {
+            let mut kinds: Vec<Box<dyn AnyKind>> = Vec::new();
+            $($(#[$attr])* kinds.push(Box::new($module::$kind::new(context)));)*
+            Registry::new(kinds)
+        }
+    };
+}
+
+kinds! {
+    gtex::GtexKind,
+    mesh::MeshKind,
+    surfels::SurfelsKind,
+    gdm::GdmKind,
+    igt::IgtKind,
+    #[cfg(test)] spheres::SpheresKind,
+}
+
+/// The kinds, and which one draws each payload type: an object is mapped to its kind here, once.
+pub(crate) struct Registry {
+    pub kinds: Vec<Box<dyn AnyKind>>,
+    by_payload: HashMap<TypeId, usize>,
+}
+
+impl Registry {
+    fn new(kinds: Vec<Box<dyn AnyKind>>) -> Registry {
+        let by_payload: HashMap<_, _> = (kinds.iter().enumerate())
+            .map(|(k, kind)| (kind.payload_type(), k))
+            .collect();
+        assert_eq!(
+            by_payload.len(),
+            kinds.len(),
+            "two kinds draw one payload type"
+        );
+        Registry { kinds, by_payload }
+    }
+
+    /// The index of the kind that draws `object`; a `ParameterError` when none does.
+    pub fn kind_of(&self, object: &Object) -> Result<usize> {
+        self.by_payload
+            .get(&object.payload_type())
+            .copied()
+            .ok_or_else(|| {
+                GeomtexError::Parameter(format!(
+                    "no kind of the renderer draws a {}",
+                    object.payload_name()
+                ))
+            })
+    }
+}
+
+/// One object kind's part in frames, ray queries and shadows, for objects holding a `Payload`.
+pub(crate) trait Kind: Send + 'static {
+    /// What a scene object of this kind holds (`Object::new`).
+    type Payload: Any + Send + Sync;
+
+    /// Uploads `payload` unless it is cached, and widens `depth` by its bounds as
+    /// `view_from_object` places them.
     fn upload(
         &mut self,
         gpu: &Gpu,
-        object: &Object,
+        payload: &Arc<Self::Payload>,
         view_from_object: &DMat4,
         depth: &mut DepthRange,
-    ) -> Result<bool>;
+    ) -> Result<()>;
 
-    /// The draw call of an object this kind uploaded, counted in `tally`; `None` when nothing of
-    /// it is in view.
+    /// The draw call of an object this kind uploaded (`placed` holds `payload`), counted in
+    /// `tally`; `None` when nothing of it is in view.
     fn draw_call(
         &self,
         gpu: &Gpu,
         frame: &FrameView,
         placed: &SceneObject,
+        payload: &Arc<Self::Payload>,
         tally: &mut Tally,
     ) -> Option<DrawCall>;
 
@@ -82,30 +130,39 @@ pub(crate) trait Kind: Send {
         gpu: &Gpu,
         frame: &FrameView,
         placed: &SceneObject,
+        payload: &Arc<Self::Payload>,
         tally: &mut Tally,
     ) -> Vec<DrawCall> {
-        self.draw_call(gpu, frame, placed, tally)
-            .into_iter()
-            .collect()
+        (self
+            .draw_call(gpu, frame, placed, payload, tally)
+            .into_iter())
+        .collect()
     }
 
     /// The draw call of an object in the surface pass (after the scene pass, depth-tested against
     /// its finished depth, into the surface target: detailed face and barycentrics per pixel),
     /// for kinds that shade through a detailed surface (kinds/igt.rs); `None` by default.
-    fn draw_surface(&self, gpu: &Gpu, frame: &FrameView, placed: &SceneObject) -> Option<DrawCall> {
-        let _ = (gpu, frame, placed);
+    fn draw_surface(
+        &self,
+        gpu: &Gpu,
+        frame: &FrameView,
+        placed: &SceneObject,
+        payload: &Arc<Self::Payload>,
+    ) -> Option<DrawCall> {
+        let _ = (gpu, frame, placed, payload);
         None
     }
 
     /// The ray-query dispatch of an object this kind uploaded, its records placed by
     /// `view_from_world` (the query's frame); `None` when it holds nothing to hit. Ids continue
     /// from those `ids` handed out so far (patch ids, mesh ids), which it advances as a frame
-    /// would. An error for kinds that cannot be traced.
+    /// would. An error for kinds that cannot be traced (`casts_shadows` false).
     fn trace(
         &self,
         gpu: &Gpu,
         view_from_world: DMat4,
         placed: &SceneObject,
+        payload: &Arc<Self::Payload>,
         ids: &mut Tally,
     ) -> Result<Option<TraceCall>>;
 
@@ -117,15 +174,124 @@ pub(crate) trait Kind: Send {
         gpu: &Gpu,
         view_from_world: DMat4,
         placed: &SceneObject,
+        payload: &Arc<Self::Payload>,
         ids: &mut Tally,
         direction: DVec3,
     ) -> Result<Option<TraceCall>> {
         let _ = direction;
-        self.trace(gpu, view_from_world, placed, ids)
+        self.trace(gpu, view_from_world, placed, payload, ids)
     }
+
+    /// Whether its objects cast shadows (are traced by shadow rays); every kind receives them.
+    fn casts_shadows(&self) -> bool {
+        true
+    }
+
+    /// How far off a surface of `payload` a shadow ray starts (world units under a placement
+    /// scaling by at most `scale`): past the stored surface's own rounding, so that a surface
+    /// does not shadow itself.
+    fn shadow_offset(&self, payload: &Self::Payload, scale: f64) -> f64;
 
     /// Drops the uploads of objects that no longer exist.
     fn purge(&mut self);
+}
+
+/// A `Kind` as the renderer holds it, its payload type erased: each call finds the payload in
+/// the scene object (the registry routed the object here by that type).
+pub(crate) trait AnyKind: Send {
+    fn payload_type(&self) -> TypeId;
+    fn upload(
+        &mut self,
+        gpu: &Gpu,
+        object: &Object,
+        view_from_object: &DMat4,
+        depth: &mut DepthRange,
+    ) -> Result<()>;
+    fn draw(
+        &self,
+        gpu: &Gpu,
+        frame: &FrameView,
+        placed: &SceneObject,
+        tally: &mut Tally,
+    ) -> Vec<DrawCall>;
+    fn draw_surface(&self, gpu: &Gpu, frame: &FrameView, placed: &SceneObject) -> Option<DrawCall>;
+    fn trace(
+        &self,
+        gpu: &Gpu,
+        view_from_world: DMat4,
+        placed: &SceneObject,
+        ids: &mut Tally,
+        direction: Option<DVec3>,
+    ) -> Result<Option<TraceCall>>;
+    fn casts_shadows(&self) -> bool;
+    fn shadow_offset(&self, object: &Object, scale: f64) -> f64;
+    fn purge(&mut self);
+}
+
+/// The payload of `object`, which the registry routed to kind `K`.
+fn payload<K: Kind>(object: &Object) -> Arc<K::Payload> {
+    object
+        .payload::<K::Payload>()
+        .expect("the registry routes each object to the kind of its payload type")
+}
+
+impl<K: Kind> AnyKind for K {
+    fn payload_type(&self) -> TypeId {
+        TypeId::of::<K::Payload>()
+    }
+
+    fn upload(
+        &mut self,
+        gpu: &Gpu,
+        object: &Object,
+        view_from_object: &DMat4,
+        depth: &mut DepthRange,
+    ) -> Result<()> {
+        Kind::upload(self, gpu, &payload::<K>(object), view_from_object, depth)
+    }
+
+    fn draw(
+        &self,
+        gpu: &Gpu,
+        frame: &FrameView,
+        placed: &SceneObject,
+        tally: &mut Tally,
+    ) -> Vec<DrawCall> {
+        let p = payload::<K>(&placed.object);
+        Kind::draw(self, gpu, frame, placed, &p, tally)
+    }
+
+    fn draw_surface(&self, gpu: &Gpu, frame: &FrameView, placed: &SceneObject) -> Option<DrawCall> {
+        let p = payload::<K>(&placed.object);
+        Kind::draw_surface(self, gpu, frame, placed, &p)
+    }
+
+    fn trace(
+        &self,
+        gpu: &Gpu,
+        view_from_world: DMat4,
+        placed: &SceneObject,
+        ids: &mut Tally,
+        direction: Option<DVec3>,
+    ) -> Result<Option<TraceCall>> {
+        let p = payload::<K>(&placed.object);
+        match direction {
+            Some(d) => Kind::trace_parallel(self, gpu, view_from_world, placed, &p, ids, d),
+            None => Kind::trace(self, gpu, view_from_world, placed, &p, ids),
+        }
+    }
+
+    fn casts_shadows(&self) -> bool {
+        Kind::casts_shadows(self)
+    }
+
+    fn shadow_offset(&self, object: &Object, scale: f64) -> f64 {
+        Kind::shadow_offset(self, &payload::<K>(object), scale)
+    }
+
+    fn purge(&mut self) {
+        Kind::purge(self)
+    }
 }
 
 /// A storage buffer holding `contents`.
@@ -230,6 +396,16 @@ pub(crate) struct Tally {
     pub meshes_drawn: usize,
     /// Bytes the drawn texture sets' maps and pyramids take on the adapter.
     pub texture_bytes: u64,
+}
+
+impl Tally {
+    /// The id of the next mesh-like object (meshes, GDM shells, IGT meshes), counted: the k-th
+    /// writes -2 - k (-1 is a miss, 0.. are patches), in frames and ray queries alike.
+    pub fn next_mesh_id(&mut self) -> i32 {
+        let id = -2 - self.meshes_drawn as i32;
+        self.meshes_drawn += 1;
+        id
+    }
 }
 
 /// One object's draw in the scene pass, after group 0 is bound.

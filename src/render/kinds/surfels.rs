@@ -15,12 +15,11 @@
 //! Spaces: the hierarchy's object space (positions stored relative to its bounding box centre,
 //! f32), view (camera-relative, composed in f64) and framebuffer pixels.
 
+use std::sync::Arc;
 use glam::{DMat3, DMat4, DVec3};
 use wgpu::util::DeviceExt;
 
-use super::{
-    bind_buffers, ComputeStep, ComputeWork, Dispatch, DrawCall, FrameView, Kind, Tally, UploadCache,
-};
+use super::{bind_buffers, ComputeStep, ComputeWork, Dispatch, DrawCall, FrameView, Kind, KindContext, Tally, UploadCache};
 use crate::error::{GeomtexError, Result};
 use crate::render::camera::Lens;
 use crate::render::cull::{box_corners, DepthRange};
@@ -31,7 +30,7 @@ use crate::render::gpu_types::{
 use crate::render::pipelines::{
     compute_pipeline, storage_entry, uniform_entry, RasterPipeline, VERTEX_AND_FRAGMENT,
 };
-use crate::render::scene::{Object, SceneObject};
+use crate::render::scene::SceneObject;
 use crate::render::shaders::{self, SurfelPass};
 use crate::surfels::SurfelHierarchy;
 
@@ -87,11 +86,9 @@ fn layout(
 }
 
 impl SurfelsKind {
-    pub fn new(
-        device: &wgpu::Device,
-        frame_layout: &wgpu::BindGroupLayout,
-        int64_atomics: bool,
-    ) -> SurfelsKind {
+    pub fn new(context: &KindContext) -> SurfelsKind {
+        let (device, frame_layout) = (&context.gpu.device, context.frame_layout);
+        let int64_atomics = context.gpu.int64_atomics;
         let c = wgpu::ShaderStages::COMPUTE;
         let compute_layout = layout(
             device,
@@ -558,21 +555,20 @@ impl SurfelsKind {
 }
 
 impl Kind for SurfelsKind {
+    type Payload = SurfelHierarchy;
+
     fn upload(
         &mut self,
         gpu: &Gpu,
-        object: &Object,
+        h: &Arc<SurfelHierarchy>,
         view_from_object: &DMat4,
         depth: &mut DepthRange,
-    ) -> Result<bool> {
-        let Object::Surfels(h) = object else {
-            return Ok(false);
-        };
+    ) -> Result<()> {
         let pieces = self.uploads.get_or_upload(h, |h| upload_pieces(gpu, h))?;
         for u in pieces.iter().filter(|u| u.tile_count > 0) {
             depth.include_box(view_from_object, u.lo, u.hi);
         }
-        Ok(true)
+        Ok(())
     }
 
     /// Not asked: surfels override `draw`, which makes one call per piece.
@@ -581,6 +577,7 @@ impl Kind for SurfelsKind {
         _gpu: &Gpu,
         _frame: &FrameView,
         _placed: &SceneObject,
+        _h: &Arc<SurfelHierarchy>,
         _tally: &mut Tally,
     ) -> Option<DrawCall> {
         None
@@ -591,11 +588,9 @@ impl Kind for SurfelsKind {
         gpu: &Gpu,
         frame: &FrameView,
         placed: &SceneObject,
+        h: &Arc<SurfelHierarchy>,
         tally: &mut Tally,
     ) -> Vec<DrawCall> {
-        let Object::Surfels(h) = &placed.object else {
-            return Vec::new();
-        };
         let Some(pieces) = self.uploads.get(h) else {
             return Vec::new();
         };
@@ -611,17 +606,24 @@ impl Kind for SurfelsKind {
         &self,
         _gpu: &Gpu,
         _view_from_world: DMat4,
-        placed: &SceneObject,
+        _placed: &SceneObject,
+        _h: &Arc<SurfelHierarchy>,
         _ids: &mut super::Tally,
     ) -> Result<Option<super::TraceCall>> {
-        match &placed.object {
-            Object::Surfels(..) => Err(GeomtexError::Parameter(
-                "ray queries through surfels are not supported; query the texture set they \
-                 were built from"
-                    .into(),
-            )),
-            _ => Ok(None),
-        }
+        Err(GeomtexError::Parameter(
+            "ray queries through surfels are not supported; query the texture set they were \
+             built from"
+                .into(),
+        ))
+    }
+
+    /// Surfels receive shadows but do not cast them (the tracer does not trace them).
+    fn casts_shadows(&self) -> bool {
+        false
+    }
+
+    fn shadow_offset(&self, _h: &SurfelHierarchy, _scale: f64) -> f64 {
+        0.0
     }
 
     fn purge(&mut self) {
