@@ -5,6 +5,7 @@
 //! lives in `python/` behind the `python` feature.
 
 pub mod appearance;
+pub(crate) mod bvh;
 pub mod cancel;
 pub mod convert;
 pub mod error;
@@ -15,6 +16,8 @@ pub mod gtex;
 pub mod heightfield;
 pub mod igt;
 pub mod mesh;
+pub mod profile;
+pub mod progress;
 pub mod render;
 pub mod surfels;
 
@@ -22,9 +25,8 @@ pub mod surfels;
 mod python;
 
 pub use cancel::Cancel;
-pub use convert::{
-    convert, ConvertArgs, ConvertOptions, ErrorScope, InPlane, NormalSource, Progress,
-};
+pub use convert::{convert, ConvertArgs, ConvertOptions, ErrorScope, InPlane, NormalSource};
 pub use error::{GeomtexError, Result};
 pub use gtex::{GeometryTextureSet, Patch, Stats};
 pub use mesh::{Mesh, NormalRule};
+pub use progress::Progress;

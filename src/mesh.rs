@@ -568,13 +568,13 @@ impl MeshGeometry {
     pub fn new(mesh: &Mesh) -> MeshGeometry {
         let diagonal = mesh.diagonal();
         let (weld, duplicate_vertices) = weld(mesh);
-        crate::convert::profile::memory("geometry: weld");
+        crate::profile::memory("geometry: weld");
         let faces = FaceGeometry::new(mesh, &weld, diagonal);
-        crate::convert::profile::memory("geometry: faces");
+        crate::profile::memory("geometry: faces");
         let vertex_faces = vertex_faces(mesh, &weld, &faces.degenerate, duplicate_vertices);
-        crate::convert::profile::memory("geometry: vertex faces");
+        crate::profile::memory("geometry: vertex faces");
         let edges = EdgeAdjacency::new(mesh, &weld, &faces.degenerate, &vertex_faces);
-        crate::convert::profile::memory("geometry: edges");
+        crate::profile::memory("geometry: edges");
         MeshGeometry {
             face_normals: faces.normals,
             face_areas: faces.areas,

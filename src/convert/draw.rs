@@ -6,8 +6,8 @@
 use super::accuracy::{self, AreaSample, WeightedError, ERROR_QUANTILE, SAMPLES_PER_CHART};
 use super::frame::ChartFrame;
 use super::options::ConvertOptions;
-use super::profile::{timed, Phase};
 use super::raster::{self, Maps, PatchBox};
+use crate::profile::{timed, Phase};
 use rayon::prelude::*;
 
 use crate::mesh::{CornerNormals, Mesh};

@@ -11,8 +11,6 @@ pub mod figures;
 pub mod frame;
 pub mod options;
 pub mod overlap;
-pub mod profile;
-pub mod progress;
 pub mod raster;
 pub mod repair;
 pub mod resolution;
@@ -21,6 +19,7 @@ pub mod silhouette;
 pub mod vsa;
 
 use std::borrow::Cow;
+use std::sync::Mutex;
 use std::time::Instant;
 
 use rayon::prelude::*;
@@ -28,19 +27,18 @@ use rayon::prelude::*;
 pub use options::{
     ConvertArgs, ConvertOptions, ErrorScope, InPlane, NormalRule, NormalSource, PartitionMethod,
 };
-pub use progress::Progress;
 
 use crate::error::{GeomtexError, Result};
 use crate::gtex::{GeometryTextureSet, Patch};
 use crate::mesh::{CornerNormals, EdgeCounts, Mesh, MeshGeometry};
+use crate::profile;
+use crate::progress::{each_chart, Progress, Stages};
 use accuracy::SetError;
 use draw::{ChartDrawer, Drawn};
 use figures::StageFigures;
 use frame::ChartFrame;
 use options::ERROR_DRIVEN_CHART_ERRORS;
 use overlap::Ring;
-use progress::each_chart;
-pub use progress::Stages;
 use repair::Folding;
 
 /// Converts a mesh to geometry textures. With the VSA partition, `max_error` and neither
@@ -124,14 +122,14 @@ fn convert_any(
     let start = Instant::now();
     let mut best: Option<GeometryTextureSet> = None;
     let runs = ERROR_DRIVEN_CHART_ERRORS.len();
-    let reported = std::sync::Mutex::new(0.0);
+    let reported = Mutex::new(0.0);
     for (run, tolerance) in ERROR_DRIVEN_CHART_ERRORS.into_iter().enumerate() {
         let o = ConvertOptions {
             chart_error: Some(tolerance),
             ..opts.clone()
         };
         let share = |stage: &str, fraction: f64| {
-            progress::share_of_runs(&progress, &reported, (run, runs), stage, fraction)
+            share_of_runs(&progress, &reported, (run, runs), stage, fraction)
         };
         let set = convert_once(mesh, &o, Progress::new(&share, progress.cancel))?;
         if best
@@ -149,6 +147,42 @@ fn convert_any(
         .push(("all_partitions".into(), start.elapsed().as_secs_f64()));
     progress.report("done", 1.0)?;
     Ok(best)
+}
+
+/// The stages of one conversion in the order they run ("resolution" only with `max_error`).
+const STAGE_ORDER: [&str; 8] = [
+    "geometry",
+    "partition",
+    "repair",
+    "overlap",
+    "frame",
+    "resolution",
+    "raster",
+    "dilate",
+];
+
+/// Passes on a report of run `run` of `runs` whole conversions (the partitions an error-driven
+/// VSA conversion tries) to `outer` as stage "partition" at (run + position within the run) /
+/// runs, so the caller's bar only moves forward; a report that would move it back (worker
+/// threads report out of order) is not passed on. `reported` holds the last fraction passed on.
+fn share_of_runs(
+    outer: &Progress,
+    reported: &Mutex<f64>,
+    (run, runs): (usize, usize),
+    stage: &str,
+    fraction: f64,
+) -> bool {
+    let position = match STAGE_ORDER.iter().position(|&s| s == stage) {
+        Some(k) => (k as f64 + fraction.clamp(0.0, 1.0)) / STAGE_ORDER.len() as f64,
+        None => 1.0, // "done"
+    };
+    let overall = (run as f64 + position) / runs as f64;
+    let mut last = reported.lock().unwrap_or_else(|p| p.into_inner());
+    if overall < *last {
+        return true;
+    }
+    *last = overall;
+    (outer.callback)("partition", overall)
 }
 
 /// Orders error-driven sets, best first: those within the bound by bytes, then the others by

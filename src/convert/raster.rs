@@ -642,7 +642,7 @@ pub fn rasterize(
     outline: &[[u32; 2]],
     bx: &PatchBox,
 ) -> Maps {
-    use super::profile::{timed, Phase};
+    use crate::profile::{timed, Phase};
     let mut canvas = Canvas::new(bx, corner_normals.is_some(), mesh.has_colors());
     let placed: Vec<_> = faces.iter().map(|&f| canvas.place(mesh, f)).collect();
     timed(Phase::Centres, || {

@@ -14,10 +14,10 @@ use std::collections::BinaryHeap;
 use glam::DVec3;
 
 use super::options::ConvertOptions;
-use super::progress::Progress;
 use crate::cancel::{Cancel, NEVER};
 use crate::error::Result;
 use crate::mesh::{Csr, Mesh, MeshGeometry};
+use crate::progress::Progress;
 
 pub const NONE: u32 = u32::MAX;
 

@@ -27,8 +27,8 @@ use super::distance::{
     box_exit, check_directions, direction, tabulate, DistanceFunction, MAX_MARCH,
 };
 use super::volume::Volume;
-use crate::convert::Progress;
 use crate::error::Result;
+use crate::progress::Progress;
 
 /// Chebyshev distance from the surface to a solid voxel's centre (1) plus the footprint's
 /// half-width in space (1): the clearance the sweep's centre line keeps.

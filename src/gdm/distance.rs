@@ -12,8 +12,8 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::volume::Volume;
-use crate::convert::Progress;
 use crate::error::{GeomtexError, Result};
+use crate::progress::Progress;
 
 /// The paper's direction counts: 16 polar angles by 32 azimuths.
 pub const DEFAULT_DIRECTIONS: [usize; 2] = [16, 32];

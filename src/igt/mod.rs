@@ -22,9 +22,10 @@ use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 
 use crate::appearance::{Image, TextureCoords};
-use crate::convert::{chart_planes, ConvertOptions, Progress, Stages};
+use crate::convert::{chart_planes, ConvertOptions};
 use crate::error::{GeomtexError, Result};
 use crate::mesh::{Mesh, MeshGeometry, NormalRule};
+use crate::progress::{Progress, Stages};
 pub use occlusion::OcclusionOptions;
 pub use primary::{Grid, Primary};
 
@@ -325,11 +326,8 @@ fn lists(
         .enumerate()
         .map(|(k, c)| (k * CHUNK, c))
         .collect();
-    let parts = crate::convert::progress::each_chart(
-        &chunks,
-        stages.progress,
-        "lists",
-        |&(start, chunk)| {
+    let parts =
+        crate::progress::each_chart(&chunks, stages.progress, "lists", |&(start, chunk)| {
             let mut pairs = Vec::with_capacity(chunk.len() * 4);
             let mut cells = Vec::new();
             for (k, e) in chunk.iter().enumerate() {
@@ -344,8 +342,7 @@ fn lists(
                 );
             }
             pairs
-        },
-    )?;
+        })?;
     let mut pairs: Vec<u64> = parts.concat();
     pairs.par_sort_unstable();
     let n_cells = grids.last().map_or(0, |g| g.first_cell + g.cells()) as usize;

@@ -13,10 +13,10 @@
 
 use glam::DVec3;
 
-use crate::convert::Progress;
+use crate::bvh::{Aabb, Bvh};
 use crate::error::Result;
 use crate::mesh::{Mesh, MeshGeometry};
-use crate::render::bvh::{Aabb, Bvh};
+use crate::progress::Progress;
 
 /// Rays per vertex by default: the sampling error's standard deviation is at most
 /// 0.5 / sqrt(64) = 0.06 of the full range.
@@ -142,7 +142,7 @@ pub fn vertex_occlusion(
         .step_by(CHUNK)
         .map(|s| s..(s + CHUNK).min(mesh.positions.len()))
         .collect();
-    let parts = crate::convert::progress::each_chart(&chunks, progress, "occlusion", |r| {
+    let parts = crate::progress::each_chart(&chunks, progress, "occlusion", |r| {
         r.clone().map(at_vertex).collect::<Vec<f32>>()
     })?;
     Ok(parts.concat())

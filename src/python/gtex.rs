@@ -16,11 +16,12 @@ use super::args::{integer, opt_integer, opt_real, opt_text, path, rays, real};
 use super::arrays::{flat, image, mat4_to_numpy, matrix, rows, ArrayPair};
 use super::errors::heavy;
 use super::mesh::PyMesh;
-use crate::convert::{ConvertArgs, ConvertOptions, Progress};
+use crate::convert::{ConvertArgs, ConvertOptions};
 use crate::error::GeomtexError;
 use crate::filters::MapFilter;
 use crate::grids::HeightGrid;
 use crate::gtex::{GeometryTextureSet, Patch, StatValue};
+use crate::progress::Progress;
 
 /// Height-map patches in oriented boxes, converted from a mesh or loaded from a .gtex file.
 #[pyclass(name = "GeometryTextureSet", module = "geomtex._core", frozen)]

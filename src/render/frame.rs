@@ -92,7 +92,10 @@ pub struct SurfelCounts {
 impl SurfelCounts {
     /// The counts the surfel passes left in their tallies (kinds/surfels.rs), summed; None when
     /// there are none.
-    pub(crate) fn read(gpu: &super::Gpu, tallies: &[wgpu::Buffer]) -> crate::Result<Option<Self>> {
+    pub(crate) fn read(
+        gpu: &super::Gpu,
+        tallies: &[wgpu::Buffer],
+    ) -> crate::error::Result<Option<Self>> {
         if tallies.is_empty() {
             return Ok(None);
         }

@@ -13,7 +13,6 @@
 //! matrix the GPU sees is composed in f64 with the camera position subtracted, then cast to f32.
 
 mod atlas;
-pub(crate) mod bvh;
 pub mod camera;
 mod cull;
 pub mod device;

@@ -57,7 +57,7 @@ const ATTACHED_BELOW: f64 = -0.1;
 /// Phase timers of a shadow pass, printed to stderr with `GEOMTEX_PROFILE=1` (as conversions'
 /// are): milliseconds since the last mark.
 pub(crate) fn mark(what: std::fmt::Arguments, since: &mut std::time::Instant) {
-    if crate::convert::profile::enabled() {
+    if crate::profile::enabled() {
         eprintln!(
             "geomtex shadow: {:8.2} ms {what}",
             since.elapsed().as_secs_f64() * 1e3

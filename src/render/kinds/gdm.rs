@@ -15,9 +15,9 @@ use wgpu::util::DeviceExt;
 use super::{
     bind_buffers, storage_buffer, DrawCall, FrameView, Kind, Tally, TraceCall, UploadCache,
 };
+use crate::bvh::{Aabb, Bvh};
 use crate::error::Result;
 use crate::gdm::GdmShell;
-use crate::render::bvh::{Aabb, Bvh};
 use crate::render::cull::DepthRange;
 use crate::render::device::Gpu;
 use crate::render::gpu_types::{gpu_matrix, normal_matrix, GdmObjectGpu, GdmVertex, PrismGpu};

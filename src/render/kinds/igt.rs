@@ -575,7 +575,7 @@ mod tests {
         let igt = crate::igt::build(
             &mesh,
             &Default::default(),
-            crate::convert::Progress::silent(),
+            crate::progress::Progress::silent(),
         )
         .unwrap();
         let slabs = grid_slabs(&igt);

@@ -24,9 +24,9 @@ use super::{
     bind_buffers, storage_buffer, DrawCall, FrameView, Kind, RayTest, Tally, TraceCall, UploadCache,
 };
 use crate::appearance::{Image, Texture, TextureCoords};
+use crate::bvh::{Aabb, Bvh};
 use crate::error::Result;
 use crate::mesh::{Mesh, MeshGeometry, NormalRule};
-use crate::render::bvh::{Aabb, Bvh};
 use crate::render::cull::DepthRange;
 use crate::render::device::Gpu;
 use crate::render::gpu_types::{

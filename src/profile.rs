@@ -1,7 +1,8 @@
 //! Optional per-phase timers inside a conversion's stages (`GEOMTEX_PROFILE=1`): how often each
 //! inner phase ran and the thread-seconds it took, summed over worker threads and printed to
 //! stderr when a conversion ends. The stage seconds in `stats["seconds"]` say which stage is
-//! slow; these say which part of it, without a profiler on the loaded CI machines.
+//! slow; these say which part of it, without a profiler on the loaded CI machines. Crate-level:
+//! the mesh's geometry and the renderer's shadow pass mark their memory and time too.
 //!
 //! With profiling on, each stage's end also prints the process's resident memory (VmRSS) and
 //! its peak over the stage (VmHWM, reset through /proc/self/clear_refs when the stage ends, so
