@@ -20,6 +20,8 @@ pub mod profile;
 pub mod progress;
 pub mod render;
 pub mod surfels;
+#[cfg(test)]
+mod test_shapes;
 
 #[cfg(feature = "python")]
 mod python;

@@ -571,7 +571,7 @@ mod tests {
     /// the cell otherwise), and the bounds are the listed faces' own, to a quantum each side.
     #[test]
     fn cell_heights_hold_their_listed_faces_tightly() {
-        let mesh = crate::convert::tests::uv_sphere(24, 48);
+        let mesh = crate::test_shapes::uv_sphere(24, 48);
         let igt = crate::igt::build(
             &mesh,
             &Default::default(),
