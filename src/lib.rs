@@ -7,7 +7,9 @@
 pub mod appearance;
 pub(crate) mod bvh;
 pub mod cancel;
+pub mod charts;
 pub mod convert;
+pub mod convert_options;
 pub mod error;
 pub mod filters;
 pub mod gdm;

@@ -1,6 +1,6 @@
 //! Meshes the unit tests of several modules share (test builds only).
 
-use crate::mesh::Mesh;
+use crate::mesh::{grid_faces, Mesh};
 
 /// A UV sphere of radius 1 (poles are fans): closed, so it can never be a single height field.
 pub fn uv_sphere(rings: usize, segments: usize) -> Mesh {
@@ -36,4 +36,23 @@ pub fn uv_sphere(rings: usize, segments: usize) -> Mesh {
         }
     }
     Mesh::from_flat(&pos, &faces, None).unwrap()
+}
+
+/// A helicoid ramp (radius 0.5 to 1, rising 0.5 a turn) over `turns` turns: every face faces
+/// up (tilted at most 9 degrees), so it never folds, yet past one turn it lies over itself.
+pub fn ramp(turns: f64) -> Mesh {
+    let (nr, nt) = (4usize, (48.0 * turns).ceil() as usize);
+    let mut pos = Vec::new();
+    for j in 0..=nt {
+        let theta = turns * std::f64::consts::TAU * j as f64 / nt as f64;
+        for i in 0..=nr {
+            let r = 0.5 + 0.5 * i as f64 / nr as f64;
+            pos.extend_from_slice(&[
+                r * theta.cos(),
+                r * theta.sin(),
+                0.5 * theta / std::f64::consts::TAU,
+            ]);
+        }
+    }
+    Mesh::from_flat(&pos, &grid_faces(nr, nt), None).unwrap()
 }

@@ -1,33 +1,30 @@
 //! Mesh → geometry textures, one call per stage:
 //! geometry (winding, degenerate faces) → partition (cone or VSA) → folding repair → overlap rings →
 //! frames → resolution (texel sizes) → raster (with reconstruction error) → dilation → stats.
+//! The stages up to the frames are `charts`' (shared with igt); the rest are here.
 //!
 //! Space: world (the mesh's coordinates, f64) in, patch boxes in world out.
 
 pub mod accuracy;
-pub mod cone;
 pub mod draw;
 pub mod figures;
-pub mod frame;
-pub mod options;
-pub mod overlap;
 pub mod raster;
-pub mod repair;
 pub mod resolution;
-pub mod sheets;
 pub mod silhouette;
-pub mod vsa;
 
-use std::borrow::Cow;
 use std::sync::Mutex;
 use std::time::Instant;
 
 use rayon::prelude::*;
 
-pub use options::{
+pub use crate::convert_options::{
     ConvertArgs, ConvertOptions, ErrorScope, InPlane, NormalRule, NormalSource, PartitionMethod,
 };
 
+use crate::charts::frame::ChartFrame;
+use crate::charts::repair::Folding;
+use crate::charts::{chart_stages, prepare, Charted, Prepared};
+use crate::convert_options::ERROR_DRIVEN_CHART_ERRORS;
 use crate::error::{GeomtexError, Result};
 use crate::gtex::{GeometryTextureSet, Patch};
 use crate::mesh::{CornerNormals, EdgeCounts, Mesh, MeshGeometry};
@@ -36,10 +33,6 @@ use crate::progress::{each_chart, Progress, Stages};
 use accuracy::SetError;
 use draw::{ChartDrawer, Drawn};
 use figures::StageFigures;
-use frame::ChartFrame;
-use options::ERROR_DRIVEN_CHART_ERRORS;
-use overlap::Ring;
-use repair::Folding;
 
 /// Converts a mesh to geometry textures. With the VSA partition, `max_error` and neither
 /// `chart_error` nor `charts`, each of `ERROR_DRIVEN_CHART_ERRORS` partitions the mesh once and
@@ -198,104 +191,6 @@ fn preference(set: &GeometryTextureSet) -> (bool, f64) {
     (!within, stat(measure))
 }
 
-/// The mesh as the stages see it: every face wound like its neighbours, its geometry, and its
-/// non-degenerate faces.
-struct Prepared<'m> {
-    mesh: Cow<'m, Mesh>,
-    geo: MeshGeometry,
-    active: Vec<u32>,
-    inconsistent_edges: usize,
-    flipped_faces: usize,
-}
-
-/// The geometry stage. Charts are grown from face normals, so reversed triangles would split
-/// them into thousands of slivers: every face is wound like its neighbours first.
-fn prepare<'m>(mesh: &'m Mesh, progress: Progress) -> Result<Prepared<'m>> {
-    let geo = MeshGeometry::new(mesh);
-    progress.check("geometry")?;
-    let inconsistent_edges = geo.edge_counts.inconsistent;
-    let flips = geo.winding_flips();
-    let flipped_faces = flips.iter().filter(|&&f| f).count();
-    let (mesh, geo) = if flipped_faces > 0 {
-        let rewound = mesh.rewound(&flips);
-        let geo = MeshGeometry::new(&rewound);
-        (Cow::Owned(rewound), geo)
-    } else {
-        (Cow::Borrowed(mesh), geo)
-    };
-    let active: Vec<u32> = (0..mesh.faces.len() as u32)
-        .filter(|&f| !geo.degenerate[f as usize])
-        .collect();
-    if active.is_empty() {
-        return Err(GeomtexError::Mesh(format!(
-            "all {} faces are degenerate (zero area or a repeated vertex): nothing to convert",
-            mesh.faces.len()
-        )));
-    }
-    Ok(Prepared {
-        mesh,
-        geo,
-        active,
-        inconsistent_edges,
-        flipped_faces,
-    })
-}
-
-/// The charts after partition, repair and overlap rings, with what those stages counted.
-struct Charted {
-    charts: Vec<repair::Chart>,
-    rings: Vec<Ring>,
-    vsa_charts: usize,
-    vsa_mean_error: f64,
-    charts_capped: bool,
-    repair_splits: usize,
-    sheet_splits: usize,
-    folding_before: Folding,
-}
-
-/// The partition, repair and overlap stages.
-fn chart_stages(
-    prepared: &Prepared,
-    opts: &ConvertOptions,
-    stages: &mut Stages,
-) -> Result<Charted> {
-    let (mesh, geo) = (prepared.mesh.as_ref(), &prepared.geo);
-    stages.begin("partition")?;
-    let partition = match opts.partition_method() {
-        PartitionMethod::Cone => {
-            cone::partition_mesh(mesh, geo, &prepared.active, opts, stages.progress)?
-        }
-        PartitionMethod::Vsa => {
-            vsa::partition_mesh(mesh, geo, &prepared.active, opts, stages.progress)?
-        }
-    };
-    stages.end("partition");
-
-    stages.begin("repair")?;
-    let vsa_charts = partition.groups.len();
-    let folding_before = Folding::before_repair(geo, &partition.groups);
-    let repaired = repair::repair(mesh, geo, partition.groups);
-    stages.end("repair");
-
-    stages.begin("overlap")?;
-    let rings: Vec<Ring> = repaired
-        .charts
-        .par_iter()
-        .map(|c| overlap::ring_faces(mesh, geo, &c.faces, c.z, opts.overlap_rings))
-        .collect();
-    stages.end("overlap");
-    Ok(Charted {
-        charts: repaired.charts,
-        rings,
-        vsa_charts,
-        vsa_mean_error: partition.mean_error,
-        charts_capped: partition.capped,
-        repair_splits: repaired.splits,
-        sheet_splits: repaired.sheet_splits,
-        folding_before,
-    })
-}
-
 /// Every chart drawn at its texel size, and the set's texel size.
 struct Rastered {
     drawn: Vec<Drawn>,
@@ -402,50 +297,6 @@ fn raster_stages(
         drawn,
         texel: drawer.texel,
     })
-}
-
-/// A chart as inverse geometric textures use it (igt/): its faces, its overlap ring and its
-/// frame, whose orthographic projection along z is fold-free for the faces by construction.
-pub struct ChartPlane {
-    pub faces: Vec<u32>,
-    pub ring: Vec<u32>,
-    pub frame: ChartFrame,
-}
-
-/// The geometry, partition, repair, overlap and frame stages of a conversion alone (one
-/// partition, no rasterizing): the charts and their frames, timed into `stages`.
-pub fn chart_planes(
-    mesh: &Mesh,
-    opts: &ConvertOptions,
-    stages: &mut Stages,
-) -> Result<Vec<ChartPlane>> {
-    opts.validate()?;
-    // VSA unless the cone is asked for: the charts are planes for a simplified mesh, whatever
-    // `convert`'s default bound would choose.
-    let opts = &ConvertOptions {
-        partition: Some(opts.partition.unwrap_or(PartitionMethod::Vsa)),
-        ..opts.clone()
-    };
-    stages.begin("geometry")?;
-    let prepared = prepare(mesh, stages.progress)?;
-    stages.end("geometry");
-    let charted = chart_stages(&prepared, opts, stages)?;
-    stages.begin("frame")?;
-    let planes = charted
-        .charts
-        .into_par_iter()
-        .zip(charted.rings)
-        .map(|(c, ring)| {
-            let frame = ChartFrame::new(&prepared.mesh, &c.faces, &ring.faces, c.z, opts.in_plane);
-            ChartPlane {
-                faces: c.faces,
-                ring: ring.faces,
-                frame,
-            }
-        })
-        .collect();
-    stages.end("frame");
-    Ok(planes)
 }
 
 /// One conversion with one partition target.

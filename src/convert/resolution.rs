@@ -6,8 +6,8 @@
 
 use super::accuracy::ERROR_QUANTILE;
 use super::draw::{ChartDrawer, ChartJob, Drawn};
-use super::frame::ChartFrame;
-use super::options::{ConvertOptions, ErrorScope};
+use crate::charts::frame::ChartFrame;
+use crate::convert_options::{ConvertOptions, ErrorScope};
 use crate::error::Result;
 use crate::progress::{each_chart, Progress};
 

@@ -22,7 +22,8 @@ use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 
 use crate::appearance::{Image, TextureCoords};
-use crate::convert::{chart_planes, ConvertOptions};
+use crate::charts::chart_planes;
+use crate::convert_options::ConvertOptions;
 use crate::error::{GeomtexError, Result};
 use crate::mesh::{Mesh, MeshGeometry, NormalRule};
 use crate::progress::{Progress, Stages};

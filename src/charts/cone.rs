@@ -19,8 +19,8 @@ use std::collections::{BinaryHeap, HashMap};
 
 use glam::{DVec2, DVec3};
 
-use super::options::ConvertOptions;
 use super::vsa::{Candidate, MeshPartition, NONE};
+use crate::convert_options::ConvertOptions;
 use crate::error::Result;
 use crate::mesh::{Mesh, MeshGeometry};
 use crate::progress::Progress;

@@ -13,8 +13,8 @@ use std::collections::BinaryHeap;
 
 use glam::DVec3;
 
-use super::options::ConvertOptions;
 use crate::cancel::{Cancel, NEVER};
+use crate::convert_options::ConvertOptions;
 use crate::error::Result;
 use crate::mesh::{Csr, Mesh, MeshGeometry};
 use crate::progress::Progress;
