@@ -21,6 +21,7 @@ pub mod mesh;
 pub mod profile;
 pub mod progress;
 pub mod render;
+pub mod surfel_data;
 pub mod surfels;
 #[cfg(test)]
 mod test_shapes;

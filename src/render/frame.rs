@@ -64,7 +64,7 @@ pub struct Frame {
 }
 
 /// Names of the per-level surfel counts in `Frame::stats`.
-const SURFEL_LEVELS: [&str; crate::surfels::MAX_LEVELS] = [
+const SURFEL_LEVELS: [&str; crate::surfel_data::MAX_LEVELS] = [
     "surfels_level_0",
     "surfels_level_1",
     "surfels_level_2",
@@ -84,7 +84,7 @@ pub struct SurfelCounts {
     /// Tiles not culled by the frustum.
     pub tiles: u64,
     /// Surfels splatted per level, finest first.
-    pub per_level: [u64; crate::surfels::MAX_LEVELS],
+    pub per_level: [u64; crate::surfel_data::MAX_LEVELS],
     /// Surfels splatted from the nodes above the tiles (every level there).
     pub nodes: u64,
 }

@@ -11,7 +11,7 @@ use crate::gdm::GdmShell;
 use crate::gtex::GeometryTextureSet;
 use crate::igt::IgtMesh;
 use crate::mesh::{Mesh, NormalRule};
-use crate::surfels::SurfelHierarchy;
+use crate::surfel_data::SurfelHierarchy;
 
 /// What a scene holds; each variant is drawn by its module in `render::kinds`.
 #[derive(Clone)]
