@@ -13,6 +13,7 @@ pub mod convert_options;
 pub mod error;
 pub mod filters;
 pub mod gdm;
+pub mod gdm_data;
 pub mod grids;
 pub mod gtex;
 pub mod heightfield;

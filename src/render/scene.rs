@@ -7,7 +7,7 @@ use std::sync::Arc;
 use glam::DMat4;
 
 use crate::error::{GeomtexError, Result};
-use crate::gdm::GdmShell;
+use crate::gdm_data::GdmShell;
 use crate::gtex::GeometryTextureSet;
 use crate::igt::IgtMesh;
 use crate::mesh::{Mesh, NormalRule};
