@@ -18,7 +18,10 @@ pub mod grids;
 pub mod gtex;
 pub mod heightfield;
 pub mod igt;
+pub mod igt_data;
 pub mod mesh;
+#[cfg(test)]
+mod pipeline_tests;
 pub mod profile;
 pub mod progress;
 pub mod render;

@@ -1,6 +1,7 @@
 use glam::{DVec2, DVec3};
 
 use super::*;
+use crate::igt_data::file;
 use crate::test_shapes::uv_sphere;
 
 fn built(primary: Primary, resolution: u32) -> (Mesh, InverseGeometricTexture) {

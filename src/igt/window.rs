@@ -19,9 +19,9 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::InverseGeometricTexture;
 use crate::cancel::Cancel;
 use crate::error::Result;
+use crate::igt_data::InverseGeometricTexture;
 use crate::mesh::Mesh;
 
 /// Grids the ray lookup walks for one face at most (its own and the nearest others). On the

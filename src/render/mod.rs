@@ -19,7 +19,7 @@ pub mod device;
 mod frame;
 mod frame_bindings;
 mod gpu_types;
-mod kinds;
+pub(crate) mod kinds;
 mod pipelines;
 mod query;
 mod scene;

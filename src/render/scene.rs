@@ -9,7 +9,7 @@ use glam::DMat4;
 use crate::error::{GeomtexError, Result};
 use crate::gdm_data::GdmShell;
 use crate::gtex::GeometryTextureSet;
-use crate::igt::IgtMesh;
+use crate::igt_data::IgtMesh;
 use crate::mesh::{Mesh, NormalRule};
 use crate::surfel_data::SurfelHierarchy;
 
