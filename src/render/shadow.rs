@@ -13,6 +13,7 @@ use glam::DVec3;
 use super::{Camera, Frame, Object, Renderer, Scene, SearchOptions};
 use crate::cancel::Cancel;
 use crate::error::{GeomtexError, Result};
+use crate::profile;
 
 /// A light that casts shadows.
 #[derive(Clone, Copy, Debug)]
@@ -53,18 +54,6 @@ const OFFSET_MESH_DIAGONAL: f64 = 1e-5;
 /// -0.05, 9-24 at -0.1 (2-4 of them off a shadow edge), 4-10 at -0.2. At -0.1 the rule skips
 /// 7.8k-9.3k of the ~29k rays that reach the bunny, the ones that run through its body.
 const ATTACHED_BELOW: f64 = -0.1;
-
-/// Phase timers of a shadow pass, printed to stderr with `GEOMTEX_PROFILE=1` (as conversions'
-/// are): milliseconds since the last mark.
-pub(crate) fn mark(what: std::fmt::Arguments, since: &mut std::time::Instant) {
-    if crate::profile::enabled() {
-        eprintln!(
-            "geomtex shadow: {:8.2} ms {what}",
-            since.elapsed().as_secs_f64() * 1e3
-        );
-    }
-    *since = std::time::Instant::now();
-}
 
 impl Light {
     pub fn validate(&self) -> Result<()> {
@@ -150,7 +139,7 @@ impl Renderer {
                 .collect(),
         };
         let offset = start_offset(scene);
-        mark(format_args!("casters+offset"), &mut t);
+        profile::mark(format_args!("casters+offset"), &mut t);
         let mut shadow = vec![false; frame.depth.len()];
         if !casters.objects.is_empty() {
             let traced = std::time::Instant::now();
@@ -172,7 +161,7 @@ impl Renderer {
             };
             let (occluded, traced_rays) =
                 self.occluded(&casters, eye, parallel, n, ray, search, cancel)?;
-            mark(format_args!("occluded"), &mut t);
+            profile::mark(format_args!("occluded"), &mut t);
             shadow = marked.into_iter().map(AtomicBool::into_inner).collect();
             let attached = shadow.iter().filter(|&&s| s).count();
             for i in occluded {
@@ -187,7 +176,7 @@ impl Renderer {
                 *c = (f64::from(*c) * SHADOW_BRIGHTNESS).round() as u8;
             }
         }
-        mark(
+        profile::mark(
             format_args!(
                 "mark+darken ({} attached)",
                 frame.shadow_attached.unwrap_or(0)
