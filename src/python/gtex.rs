@@ -16,6 +16,7 @@ use super::args::{integer, opt_integer, opt_real, opt_text, path, rays, real};
 use super::arrays::{flat, image, mat4_to_numpy, matrix, rows, ArrayPair};
 use super::errors::heavy;
 use super::mesh::PyMesh;
+use super::set::PyGeometryTextureSet;
 use crate::convert::{ConvertArgs, ConvertOptions};
 use crate::error::GeomtexError;
 use crate::filters::MapFilter;
@@ -23,19 +24,7 @@ use crate::grids::HeightGrid;
 use crate::gtex::{GeometryTextureSet, Patch, StatValue};
 use crate::progress::Progress;
 
-/// Height-map patches in oriented boxes, converted from a mesh or loaded from a .gtex file.
-#[pyclass(name = "GeometryTextureSet", module = "geomtex._core", frozen)]
-pub struct PyGeometryTextureSet {
-    pub(crate) inner: Arc<GeometryTextureSet>,
-}
-
 impl PyGeometryTextureSet {
-    pub(crate) fn wrap(set: GeometryTextureSet) -> Self {
-        PyGeometryTextureSet {
-            inner: Arc::new(set),
-        }
-    }
-
     /// Gaps and normal steps along the charts' shared edges of `mesh` (a geomtex.Mesh that must
     /// be the set's source), measured with the GIL released.
     fn seams(&self, py: Python<'_>, mesh: &Bound<'_, PyAny>) -> PyResult<crate::filters::Seams> {

@@ -10,6 +10,7 @@ mod gtex;
 mod igt;
 mod mesh;
 mod render;
+mod set;
 mod surfels;
 
 use pyo3::prelude::*;
@@ -18,7 +19,7 @@ use pyo3::prelude::*;
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     errors::register(m)?;
     m.add_class::<mesh::PyMesh>()?;
-    m.add_class::<gtex::PyGeometryTextureSet>()?;
+    m.add_class::<set::PyGeometryTextureSet>()?;
     m.add_function(wrap_pyfunction!(gtex::convert, m)?)?;
     m.add_function(wrap_pyfunction!(gtex::load, m)?)?;
     m.add_class::<surfels::PySurfels>()?;

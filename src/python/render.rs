@@ -15,9 +15,10 @@ use super::args::{
 use super::arrays::{image, mat4_to_numpy, matrix, ArrayPair};
 use super::errors::{heavy, parameter_error};
 use super::gdm::PyGdmShell;
-use super::gtex::{set_stats, PyGeometryTextureSet};
+use super::gtex::set_stats;
 use super::igt::PyIgtMesh;
 use super::mesh::PyMesh;
+use super::set::PyGeometryTextureSet;
 use super::surfels::PySurfels;
 use crate::mesh::{NormalRule, NormalSource};
 use crate::render::{

@@ -10,7 +10,7 @@ use pyo3::types::{PyBytes, PyDict};
 use super::args::{integer, path};
 use super::arrays::{matrix, rows};
 use super::errors::heavy;
-use super::gtex::PyGeometryTextureSet;
+use super::set::PyGeometryTextureSet;
 use crate::error::GeomtexError;
 use crate::surfel_data::{SurfelHierarchy, DEFAULT_TILE};
 use crate::surfels::file;
