@@ -1,7 +1,7 @@
 //! Ambient occlusion per vertex of the detailed mesh, by ray casting on the CPU: from each
 //! vertex, cosine-weighted rays over the hemisphere around its normal; the attribute is the
 //! fraction that leave the mesh (1 = open sky, 0 = enclosed), within `distance` when one is
-//! given. Rays are cast through a bounding-volume hierarchy over the faces (render/bvh.rs, the
+//! given. Rays are cast through a bounding-volume hierarchy over the faces (bvh.rs, the
 //! tracer's own tree) with an any-hit walk, since occlusion needs no nearest hit.
 //!
 //! The directions are one fixed cosine-weighted set (Hammersley points through Malley's

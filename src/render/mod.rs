@@ -1,7 +1,8 @@
 //! Headless rendering of geometry textures (per-pixel ray casting in their patches' boxes) and
 //! ordinary meshes (rasterization) into one reversed-Z depth buffer, read back as numpy-ready
-//! arrays; ray queries through a hierarchy over thin pieces of the same boxes (`query`), and
-//! shadows cast with them (`shadow`).
+//! arrays; ray queries through a hierarchy (the crate-level `bvh`) over thin pieces of the same
+//! boxes (`query`), and shadows cast with them (`shadow`). Besides sets and meshes it draws the
+//! other kinds' data (`igt_data`, `gdm_data`, `surfel_data`), never the stages that build them.
 //!
 //! A render is three steps: prepare (upload what is new, choose the near plane, make each
 //! object's draw call), encode the passes (the scene pass, then copies into readback buffers),

@@ -1,7 +1,7 @@
 //! Simplified meshes shaded through an inverse geometric texture (igt_raster.wgsl): rasterized
 //! into the shared targets like meshes (two-sided), each fragment projected into its face's grid
 //! of the primary space and shaded with the attributes of the detailed triangle found there
-//! (igt_functions.wgsl, following src/igt/lookup.rs). Where the scene holds one, the surface pass
+//! (igt_functions.wgsl, following src/igt_data/lookup.rs). Where the scene holds one, the surface pass
 //! (igt_surface.wgsl) draws them again after the scene pass, depth-tested against the finished
 //! depth buffer, writing the detailed face and barycentrics of the visible pixels
 //! (`Frame::face_id`, `Frame::barycentric`). Not traced by ray queries: they receive shadows but
@@ -12,7 +12,7 @@
 //!
 //! Spaces: object space (the detailed and simplified meshes' own, placed by
 //! `world_from_object`), stored relative to that centre ("local", f32); view (camera-relative);
-//! primary space per grid in cell units (src/igt/primary.rs).
+//! primary space per grid in cell units (src/igt_data/primary.rs).
 
 use glam::{DMat3, DMat4, DVec3, Vec3};
 use wgpu::util::DeviceExt;
@@ -107,7 +107,7 @@ struct Attributes {
     segments: [u32; 4],
 }
 
-/// The baked texture (bake.rs) as the shader reads it: per cell its normal's code and color.
+/// The baked texture (igt_data/bake.rs) as the shader reads it: per cell its normal's code and color.
 fn pack_baked(igt: &InverseGeometricTexture) -> Vec<[u32; 2]> {
     (igt.bake().into_iter())
         .map(|b| match b {
