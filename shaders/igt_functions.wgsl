@@ -1,4 +1,4 @@
-// The inverse-geometric-texture lookup, following the CPU reference (src/igt/lookup.rs) step by
+// The inverse-geometric-texture lookup, following the CPU reference (src/igt_data/lookup.rs) step by
 // step: project an object-space point into its grid's primary space, test its cell's list with
 // watertight edge functions (first listed triangle containing it), else take the listed
 // triangle nearest to it (in its cell, or if that lists none in the ring of cells around it,

@@ -3,7 +3,7 @@
 // Spaces: object space is the meshes' own (the detailed and the simplified mesh share it),
 // stored relative to the detailed mesh's bounding-box centre (f32); view space is
 // camera-relative (camera_types.wgsl); normals are output in world space. Primary space is per
-// grid, in cell units (src/igt/primary.rs): charts project along their own z; spherical and
+// grid, in cell units (src/igt_data/primary.rs): charts project along their own z; spherical and
 // cylindrical maps take longitude (and colatitude or height along the axis).
 
 struct IgtObject {

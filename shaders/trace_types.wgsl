@@ -1,4 +1,4 @@
-// The tracer's bounding-volume hierarchy (src/render/bvh.rs): nodes depth first, a node's left
+// The tracer's bounding-volume hierarchy (src/bvh.rs): nodes depth first, a node's left
 // child is the next node.
 //
 // Space: node bounds are in the space rays are traced in (view space for camera rays).

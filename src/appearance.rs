@@ -12,7 +12,6 @@ use std::sync::Arc;
 use glam::{DMat2, DVec2};
 
 use crate::error::{GeomtexError, Result};
-use crate::mesh::Mesh;
 
 /// Texture coordinates, one pair per vertex or one per face corner (seams without splitting
 /// vertices).
@@ -229,7 +228,7 @@ impl FaceColor<'_> {
 /// How many full-size texture pixels one unit step of the drawing grid crosses on a face whose
 /// corners sit at `grid` (grid units) and `uv`: the longer of the two columns of
 /// d(pixels)/d(grid). Zero for a face with no area on the grid.
-fn footprint(grid: [DVec2; 3], uv: [DVec2; 3], image: &Image) -> f64 {
+pub(crate) fn footprint(grid: [DVec2; 3], uv: [DVec2; 3], image: &Image) -> f64 {
     let pixels = DVec2::new(image.width() as f64, image.height() as f64);
     let grid_edges = DMat2::from_cols(grid[1] - grid[0], grid[2] - grid[0]);
     if grid_edges.determinant().abs() < 1e-300 {
@@ -243,76 +242,8 @@ fn footprint(grid: [DVec2; 3], uv: [DVec2; 3], image: &Image) -> f64 {
         .max(pixels_from_grid.y_axis.length())
 }
 
-impl Mesh {
-    /// The mesh with face colors (M*4 RGBA8) and/or a texture added, checked like the rest.
-    pub fn with_appearance(
-        mut self,
-        face_colors: Option<&[u8]>,
-        texture: Option<TextureInput<'_>>,
-    ) -> Result<Mesh> {
-        let n_faces = self.faces.len();
-        if let Some(c) = face_colors {
-            if c.len() != n_faces * 4 {
-                return Err(GeomtexError::Mesh(format!(
-                    "face colors hold {} values; expected {} (RGBA for each of {n_faces} faces)",
-                    c.len(),
-                    n_faces * 4
-                )));
-            }
-            let rows = c.chunks_exact(4).map(|q| [q[0], q[1], q[2], q[3]]);
-            self.appearance.face_colors = Some(rows.collect());
-        }
-        if let Some(t) = texture {
-            let coords = texture_coords(&t, self.positions.len(), n_faces)?;
-            let image = Arc::new(Image::new(t.width, t.height, t.pixels)?);
-            self.appearance.texture = Some(Texture { coords, image });
-        }
-        Ok(self)
-    }
-
-    /// How face `f` colors its points. `grid` places the face's corners on the grid it is drawn
-    /// on (texels), so a texture is averaged over one grid cell's footprint; None samples it
-    /// bilinearly at full size.
-    pub fn face_color(&self, f: u32, grid: Option<[DVec2; 3]>) -> FaceColor<'_> {
-        let f = f as usize;
-        let tri = self.faces[f];
-        if let Some(Texture { coords, image }) = &self.appearance.texture {
-            let uv = match coords {
-                TextureCoords::PerVertex(uv) => tri.map(|v| uv[v as usize]),
-                TextureCoords::PerCorner(uv) => uv[f],
-            };
-            let footprint = grid.map_or(0.0, |g| footprint(g, uv, image));
-            return FaceColor::Texture {
-                image,
-                uv,
-                footprint,
-            };
-        }
-        if let Some(fc) = &self.appearance.face_colors {
-            return FaceColor::Uniform(fc[f]);
-        }
-        match &self.colors {
-            Some(vc) => FaceColor::Corners(tri.map(|v| vc[v as usize])),
-            None => FaceColor::Uniform(crate::gtex::NEUTRAL_COLOR),
-        }
-    }
-
-    /// The base color at barycentric point `l` of face `f`, whatever the source (a texture
-    /// sampled bilinearly at full size).
-    pub fn base_color(&self, f: u32, l: [f64; 3]) -> [u8; 4] {
-        self.face_color(f, None).at(l)
-    }
-
-    /// Whether the mesh carries any color source.
-    pub fn has_colors(&self) -> bool {
-        self.colors.is_some()
-            || self.appearance.face_colors.is_some()
-            || self.appearance.texture.is_some()
-    }
-}
-
 /// Checks and gathers the texture coordinates: the right count, all finite.
-fn texture_coords(
+pub(crate) fn texture_coords(
     t: &TextureInput<'_>,
     n_vertices: usize,
     n_faces: usize,
@@ -352,112 +283,4 @@ fn texture_coords(
     } else {
         TextureCoords::PerVertex(pairs)
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn triangle() -> Mesh {
-        Mesh::from_flat(&[0., 0., 0., 1., 0., 0., 0., 1., 0.], &[0, 1, 2], None).unwrap()
-    }
-
-    /// A 4 x 2 image: left half black, right half white (row 0 at the top).
-    fn halves() -> Vec<u8> {
-        (0..8)
-            .flat_map(|p| {
-                let v = if p % 4 >= 2 { 255 } else { 0 };
-                [v, v, v, 255]
-            })
-            .collect()
-    }
-
-    #[test]
-    fn every_source_gives_the_color_at_a_point() {
-        let plain = triangle();
-        assert_eq!(
-            plain.base_color(0, [1.0, 0.0, 0.0]),
-            crate::gtex::NEUTRAL_COLOR
-        );
-        let faced = triangle()
-            .with_appearance(Some(&[10, 20, 30, 255]), None)
-            .unwrap();
-        assert_eq!(faced.base_color(0, [0.2, 0.3, 0.5]), [10, 20, 30, 255]);
-        let image = halves();
-        let uv = [0.0, 0.5, 1.0, 0.5, 0.0, 0.5];
-        let input = TextureInput {
-            coords: &uv,
-            per_corner: false,
-            width: 4,
-            height: 2,
-            pixels: &image,
-        };
-        let textured = triangle().with_appearance(None, Some(input)).unwrap();
-        // u = 0.25 lies at pixel centre 1 (black), u = 0.75 at pixel centre 3 (white), and
-        // u = 0.5 halfway between pixels 1 and 2.
-        assert_eq!(textured.base_color(0, [0.75, 0.25, 0.0])[0], 0);
-        assert_eq!(textured.base_color(0, [0.25, 0.75, 0.0])[0], 255);
-        assert_eq!(textured.base_color(0, [0.5, 0.5, 0.0])[0], 128);
-        // Drawn on a grid one unit per face: each grid cell spans 4 pixels, so level 2 (one
-        // pixel, the mean) is read.
-        let grid = [DVec2::ZERO, DVec2::X, DVec2::Y];
-        let coarse = textured.face_color(0, Some(grid));
-        assert_eq!(coarse.at([0.75, 0.25, 0.0])[0], 128);
-    }
-
-    #[test]
-    fn bad_appearance_is_named() {
-        let e = |r: Result<Mesh>| r.unwrap_err().to_string();
-        let msg = e(triangle().with_appearance(Some(&[0; 5]), None));
-        assert!(msg.contains("face colors hold 5"), "{msg}");
-        let image = halves();
-        let mut uv = [0.0; 6];
-        uv[3] = f64::NAN;
-        let input = |coords: &'static [f64], per_corner, pixels: &'static [u8]| TextureInput {
-            coords,
-            per_corner,
-            width: 4,
-            height: 2,
-            pixels,
-        };
-        let nan: &'static [f64] = Box::leak(Box::new(uv));
-        let pixels: &'static [u8] = Box::leak(image.into_boxed_slice());
-        let msg = e(triangle().with_appearance(None, Some(input(nan, false, pixels))));
-        assert!(msg.contains("v of vertex 1"), "{msg}");
-        let msg = e(triangle().with_appearance(None, Some(input(nan, true, pixels))));
-        assert!(msg.contains("v of face 0 corner 1"), "{msg}");
-        let msg = e(triangle().with_appearance(None, Some(input(&nan[..4], true, pixels))));
-        assert!(msg.contains("expected 6"), "{msg}");
-        let msg = e(triangle().with_appearance(None, Some(input(&[0.0; 6], false, &[]))));
-        assert!(msg.contains("holds 0 values"), "{msg}");
-        let empty = TextureInput {
-            width: 0,
-            ..input(&[0.0; 6], false, &[])
-        };
-        let msg = e(triangle().with_appearance(None, Some(empty)));
-        assert!(msg.contains("empty"), "{msg}");
-    }
-
-    #[test]
-    fn rewinding_swaps_corner_coordinates() {
-        let uv = [0.0, 0.0, 1.0, 0.0, 0.0, 1.0];
-        let pixels = [0u8; 4];
-        let input = TextureInput {
-            coords: &uv,
-            per_corner: true,
-            width: 1,
-            height: 1,
-            pixels: &pixels,
-        };
-        let m = triangle().with_appearance(None, Some(input)).unwrap();
-        let flipped = m.appearance.rewound(&[true]);
-        let Some(Texture {
-            coords: TextureCoords::PerCorner(c),
-            ..
-        }) = flipped.texture
-        else {
-            panic!("per-corner coordinates expected");
-        };
-        assert_eq!(c[0], [DVec2::ZERO, DVec2::Y, DVec2::X]);
-    }
 }

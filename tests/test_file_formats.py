@@ -92,7 +92,7 @@ def f32(x: float) -> bytes:
 
 
 def _igt_layout(data: bytes) -> dict[str, int]:
-    """Absolute offsets of a .gtigt file's fields, and its counts (src/igt/file.rs)."""
+    """Absolute offsets of a .gtigt file's fields, and its counts (src/igt_data/file.rs)."""
     at = HEADER
 
     def word(k: int = 0) -> int:

@@ -428,7 +428,7 @@ def test_rendering_bad_input(renderer_256: gt.Renderer) -> None:
         gt.igt.attach(igt, low.vertices[:, :2], low.faces)
 
 
-# Ambient occlusion (src/igt/occlusion.rs) and the shader LoD (src/igt/bake.rs, igt_baked).
+# Ambient occlusion (src/igt/occlusion.rs) and the shader LoD (src/igt_data/bake.rs, igt_baked).
 
 _ao_built: dict[int, gt.igt.InverseGeometricTexture] = {}
 

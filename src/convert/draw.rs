@@ -4,10 +4,11 @@
 //! Space: world (mesh, frames, texel sizes, errors); the maps are patch-local (see raster).
 
 use super::accuracy::{self, AreaSample, WeightedError, ERROR_QUANTILE, SAMPLES_PER_CHART};
-use super::frame::ChartFrame;
-use super::options::ConvertOptions;
-use super::profile::{timed, Phase};
-use super::raster::{self, Maps, PatchBox};
+use super::raster::{self, Maps};
+use crate::charts::frame::ChartFrame;
+use crate::charts::frame::PatchBox;
+use crate::convert_options::ConvertOptions;
+use crate::profile::{timed, Phase};
 use rayon::prelude::*;
 
 use crate::mesh::{CornerNormals, Mesh};

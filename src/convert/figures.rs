@@ -4,8 +4,8 @@
 //! Space: world units for lengths and errors; counts otherwise.
 
 use super::accuracy::SetError;
-use super::options::ConvertOptions;
-use super::repair::Folding;
+use crate::charts::repair::Folding;
+use crate::convert_options::ConvertOptions;
 use crate::gtex::{GeometryTextureSet, Patch, Stats};
 use crate::mesh::{EdgeCounts, Mesh};
 

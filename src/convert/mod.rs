@@ -1,47 +1,38 @@
 //! Mesh → geometry textures, one call per stage:
 //! geometry (winding, degenerate faces) → partition (cone or VSA) → folding repair → overlap rings →
 //! frames → resolution (texel sizes) → raster (with reconstruction error) → dilation → stats.
+//! The stages up to the frames are `charts`' (shared with igt); the rest are here.
 //!
 //! Space: world (the mesh's coordinates, f64) in, patch boxes in world out.
 
 pub mod accuracy;
-pub mod cone;
 pub mod draw;
 pub mod figures;
-pub mod frame;
-pub mod options;
-pub mod overlap;
-pub mod profile;
-pub mod progress;
 pub mod raster;
-pub mod repair;
 pub mod resolution;
-pub mod sheets;
 pub mod silhouette;
-pub mod vsa;
 
-use std::borrow::Cow;
+use std::sync::Mutex;
 use std::time::Instant;
 
 use rayon::prelude::*;
 
-pub use options::{
+pub use crate::convert_options::{
     ConvertArgs, ConvertOptions, ErrorScope, InPlane, NormalRule, NormalSource, PartitionMethod,
 };
-pub use progress::Progress;
 
+use crate::charts::frame::ChartFrame;
+use crate::charts::repair::Folding;
+use crate::charts::{chart_stages, prepare, Charted, Prepared};
+use crate::convert_options::ERROR_DRIVEN_CHART_ERRORS;
 use crate::error::{GeomtexError, Result};
 use crate::gtex::{GeometryTextureSet, Patch};
 use crate::mesh::{CornerNormals, EdgeCounts, Mesh, MeshGeometry};
+use crate::profile;
+use crate::progress::{each_chart, Progress, Stages};
 use accuracy::SetError;
 use draw::{ChartDrawer, Drawn};
 use figures::StageFigures;
-use frame::ChartFrame;
-use options::ERROR_DRIVEN_CHART_ERRORS;
-use overlap::Ring;
-use progress::each_chart;
-pub use progress::Stages;
-use repair::Folding;
 
 /// Converts a mesh to geometry textures. With the VSA partition, `max_error` and neither
 /// `chart_error` nor `charts`, each of `ERROR_DRIVEN_CHART_ERRORS` partitions the mesh once and
@@ -124,14 +115,14 @@ fn convert_any(
     let start = Instant::now();
     let mut best: Option<GeometryTextureSet> = None;
     let runs = ERROR_DRIVEN_CHART_ERRORS.len();
-    let reported = std::sync::Mutex::new(0.0);
+    let reported = Mutex::new(0.0);
     for (run, tolerance) in ERROR_DRIVEN_CHART_ERRORS.into_iter().enumerate() {
         let o = ConvertOptions {
             chart_error: Some(tolerance),
             ..opts.clone()
         };
         let share = |stage: &str, fraction: f64| {
-            progress::share_of_runs(&progress, &reported, (run, runs), stage, fraction)
+            share_of_runs(&progress, &reported, (run, runs), stage, fraction)
         };
         let set = convert_once(mesh, &o, Progress::new(&share, progress.cancel))?;
         if best
@@ -151,6 +142,42 @@ fn convert_any(
     Ok(best)
 }
 
+/// The stages of one conversion in the order they run ("resolution" only with `max_error`).
+const STAGE_ORDER: [&str; 8] = [
+    "geometry",
+    "partition",
+    "repair",
+    "overlap",
+    "frame",
+    "resolution",
+    "raster",
+    "dilate",
+];
+
+/// Passes on a report of run `run` of `runs` whole conversions (the partitions an error-driven
+/// VSA conversion tries) to `outer` as stage "partition" at (run + position within the run) /
+/// runs, so the caller's bar only moves forward; a report that would move it back (worker
+/// threads report out of order) is not passed on. `reported` holds the last fraction passed on.
+fn share_of_runs(
+    outer: &Progress,
+    reported: &Mutex<f64>,
+    (run, runs): (usize, usize),
+    stage: &str,
+    fraction: f64,
+) -> bool {
+    let position = match STAGE_ORDER.iter().position(|&s| s == stage) {
+        Some(k) => (k as f64 + fraction.clamp(0.0, 1.0)) / STAGE_ORDER.len() as f64,
+        None => 1.0, // "done"
+    };
+    let overall = (run as f64 + position) / runs as f64;
+    let mut last = reported.lock().unwrap_or_else(|p| p.into_inner());
+    if overall < *last {
+        return true;
+    }
+    *last = overall;
+    (outer.callback)("partition", overall)
+}
+
 /// Orders error-driven sets, best first: those within the bound by bytes, then the others by
 /// their error.
 fn preference(set: &GeometryTextureSet) -> (bool, f64) {
@@ -162,104 +189,6 @@ fn preference(set: &GeometryTextureSet) -> (bool, f64) {
         "reconstruction_error_p99"
     };
     (!within, stat(measure))
-}
-
-/// The mesh as the stages see it: every face wound like its neighbours, its geometry, and its
-/// non-degenerate faces.
-struct Prepared<'m> {
-    mesh: Cow<'m, Mesh>,
-    geo: MeshGeometry,
-    active: Vec<u32>,
-    inconsistent_edges: usize,
-    flipped_faces: usize,
-}
-
-/// The geometry stage. Charts are grown from face normals, so reversed triangles would split
-/// them into thousands of slivers: every face is wound like its neighbours first.
-fn prepare<'m>(mesh: &'m Mesh, progress: Progress) -> Result<Prepared<'m>> {
-    let geo = MeshGeometry::new(mesh);
-    progress.check("geometry")?;
-    let inconsistent_edges = geo.edge_counts.inconsistent;
-    let flips = geo.winding_flips();
-    let flipped_faces = flips.iter().filter(|&&f| f).count();
-    let (mesh, geo) = if flipped_faces > 0 {
-        let rewound = mesh.rewound(&flips);
-        let geo = MeshGeometry::new(&rewound);
-        (Cow::Owned(rewound), geo)
-    } else {
-        (Cow::Borrowed(mesh), geo)
-    };
-    let active: Vec<u32> = (0..mesh.faces.len() as u32)
-        .filter(|&f| !geo.degenerate[f as usize])
-        .collect();
-    if active.is_empty() {
-        return Err(GeomtexError::Mesh(format!(
-            "all {} faces are degenerate (zero area or a repeated vertex): nothing to convert",
-            mesh.faces.len()
-        )));
-    }
-    Ok(Prepared {
-        mesh,
-        geo,
-        active,
-        inconsistent_edges,
-        flipped_faces,
-    })
-}
-
-/// The charts after partition, repair and overlap rings, with what those stages counted.
-struct Charted {
-    charts: Vec<repair::Chart>,
-    rings: Vec<Ring>,
-    vsa_charts: usize,
-    vsa_mean_error: f64,
-    charts_capped: bool,
-    repair_splits: usize,
-    sheet_splits: usize,
-    folding_before: Folding,
-}
-
-/// The partition, repair and overlap stages.
-fn chart_stages(
-    prepared: &Prepared,
-    opts: &ConvertOptions,
-    stages: &mut Stages,
-) -> Result<Charted> {
-    let (mesh, geo) = (prepared.mesh.as_ref(), &prepared.geo);
-    stages.begin("partition")?;
-    let partition = match opts.partition_method() {
-        PartitionMethod::Cone => {
-            cone::partition_mesh(mesh, geo, &prepared.active, opts, stages.progress)?
-        }
-        PartitionMethod::Vsa => {
-            vsa::partition_mesh(mesh, geo, &prepared.active, opts, stages.progress)?
-        }
-    };
-    stages.end("partition");
-
-    stages.begin("repair")?;
-    let vsa_charts = partition.groups.len();
-    let folding_before = Folding::before_repair(geo, &partition.groups);
-    let repaired = repair::repair(mesh, geo, partition.groups);
-    stages.end("repair");
-
-    stages.begin("overlap")?;
-    let rings: Vec<Ring> = repaired
-        .charts
-        .par_iter()
-        .map(|c| overlap::ring_faces(mesh, geo, &c.faces, c.z, opts.overlap_rings))
-        .collect();
-    stages.end("overlap");
-    Ok(Charted {
-        charts: repaired.charts,
-        rings,
-        vsa_charts,
-        vsa_mean_error: partition.mean_error,
-        charts_capped: partition.capped,
-        repair_splits: repaired.splits,
-        sheet_splits: repaired.sheet_splits,
-        folding_before,
-    })
 }
 
 /// Every chart drawn at its texel size, and the set's texel size.
@@ -370,50 +299,6 @@ fn raster_stages(
     })
 }
 
-/// A chart as inverse geometric textures use it (igt/): its faces, its overlap ring and its
-/// frame, whose orthographic projection along z is fold-free for the faces by construction.
-pub struct ChartPlane {
-    pub faces: Vec<u32>,
-    pub ring: Vec<u32>,
-    pub frame: ChartFrame,
-}
-
-/// The geometry, partition, repair, overlap and frame stages of a conversion alone (one
-/// partition, no rasterizing): the charts and their frames, timed into `stages`.
-pub fn chart_planes(
-    mesh: &Mesh,
-    opts: &ConvertOptions,
-    stages: &mut Stages,
-) -> Result<Vec<ChartPlane>> {
-    opts.validate()?;
-    // VSA unless the cone is asked for: the charts are planes for a simplified mesh, whatever
-    // `convert`'s default bound would choose.
-    let opts = &ConvertOptions {
-        partition: Some(opts.partition.unwrap_or(PartitionMethod::Vsa)),
-        ..opts.clone()
-    };
-    stages.begin("geometry")?;
-    let prepared = prepare(mesh, stages.progress)?;
-    stages.end("geometry");
-    let charted = chart_stages(&prepared, opts, stages)?;
-    stages.begin("frame")?;
-    let planes = charted
-        .charts
-        .into_par_iter()
-        .zip(charted.rings)
-        .map(|(c, ring)| {
-            let frame = ChartFrame::new(&prepared.mesh, &c.faces, &ring.faces, c.z, opts.in_plane);
-            ChartPlane {
-                faces: c.faces,
-                ring: ring.faces,
-                frame,
-            }
-        })
-        .collect();
-    stages.end("frame");
-    Ok(planes)
-}
-
 /// One conversion with one partition target.
 fn convert_once(
     mesh: &Mesh,
@@ -500,44 +385,9 @@ fn convert_once(
 }
 
 #[cfg(test)]
-pub(crate) mod tests {
+mod tests {
     use super::*;
-
-    /// A UV sphere of radius 1 (poles are fans): closed, so it can never be a single height field.
-    pub(crate) fn uv_sphere(rings: usize, segments: usize) -> Mesh {
-        let mut pos = vec![0.0, 0.0, 1.0];
-        for r in 1..rings {
-            let theta = std::f64::consts::PI * r as f64 / rings as f64;
-            for s in 0..segments {
-                let phi = std::f64::consts::TAU * s as f64 / segments as f64;
-                pos.extend_from_slice(&[
-                    theta.sin() * phi.cos(),
-                    theta.sin() * phi.sin(),
-                    theta.cos(),
-                ]);
-            }
-        }
-        pos.extend_from_slice(&[0.0, 0.0, -1.0]);
-        let ring = |r: usize, s: usize| (1 + (r - 1) * segments + s % segments) as i64;
-        let south = (pos.len() / 3 - 1) as i64;
-        let mut faces = Vec::new();
-        for s in 0..segments {
-            faces.extend_from_slice(&[0, ring(1, s), ring(1, s + 1)]);
-            faces.extend_from_slice(&[south, ring(rings - 1, s + 1), ring(rings - 1, s)]);
-        }
-        for r in 1..rings - 1 {
-            for s in 0..segments {
-                let (a, b, c, d) = (
-                    ring(r, s),
-                    ring(r, s + 1),
-                    ring(r + 1, s + 1),
-                    ring(r + 1, s),
-                );
-                faces.extend_from_slice(&[a, d, c, a, c, b]);
-            }
-        }
-        Mesh::from_flat(&pos, &faces, None).unwrap()
-    }
+    use crate::test_shapes::uv_sphere;
 
     #[test]
     fn sphere_converts_without_folding_and_on_the_surface() {

@@ -8,22 +8,11 @@
 use glam::{DVec2, DVec3};
 
 use crate::appearance::FaceColor;
+use crate::charts::frame::PatchBox;
 use crate::gtex::{
     decode_normal, encode_height, encode_normal, encode_outline, Patch, NO_NORMAL, OUTLINE_REACH,
 };
 use crate::mesh::{CornerNormals, Mesh};
-
-/// The box a chart is drawn into.
-#[derive(Clone, Copy, Debug)]
-pub struct PatchBox {
-    pub origin: DVec3,
-    pub axes: [DVec3; 3],
-    pub extent: DVec3,
-    pub width: u32,
-    pub height: u32,
-    /// Bits per height code (8 or 16).
-    pub height_bits: u8,
-}
 
 impl PatchBox {
     /// The patch this box and its maps make, drawing `faces` then `ring_faces`.
@@ -642,7 +631,7 @@ pub fn rasterize(
     outline: &[[u32; 2]],
     bx: &PatchBox,
 ) -> Maps {
-    use super::profile::{timed, Phase};
+    use crate::profile::{timed, Phase};
     let mut canvas = Canvas::new(bx, corner_normals.is_some(), mesh.has_colors());
     let placed: Vec<_> = faces.iter().map(|&f| canvas.place(mesh, f)).collect();
     timed(Phase::Centres, || {

@@ -6,10 +6,10 @@
 
 use super::accuracy::ERROR_QUANTILE;
 use super::draw::{ChartDrawer, ChartJob, Drawn};
-use super::frame::ChartFrame;
-use super::options::{ConvertOptions, ErrorScope};
-use super::progress::{each_chart, Progress};
+use crate::charts::frame::ChartFrame;
+use crate::convert_options::{ConvertOptions, ErrorScope};
 use crate::error::Result;
+use crate::progress::{each_chart, Progress};
 
 /// The set's one texel size: the largest chart just fits `max_resolution`, or `texel_size` if
 /// that is coarser.

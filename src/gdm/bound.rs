@@ -26,9 +26,9 @@ use glam::DVec3;
 use super::distance::{
     box_exit, check_directions, direction, tabulate, DistanceFunction, MAX_MARCH,
 };
-use super::volume::Volume;
-use crate::convert::Progress;
 use crate::error::Result;
+use crate::gdm_data::Volume;
+use crate::progress::Progress;
 
 /// Chebyshev distance from the surface to a solid voxel's centre (1) plus the footprint's
 /// half-width in space (1): the clearance the sweep's centre line keeps.
@@ -195,7 +195,7 @@ fn next_down(x: f32, exact: f64) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gdm::volume::Pattern;
+    use crate::gdm_data::Pattern;
 
     /// The occupancy's trilinear field (voxel centres), as the shader samples it.
     fn field(v: &Volume, p: DVec3) -> f64 {

@@ -7,13 +7,13 @@
 //! occupancy's trilinear field (the level the march and marching cubes follow) is >= 0.5,
 //! found by marching squares on a grid over the fin and mapped through the prism's map.
 //!
-//! Spaces: as shell.rs; a fin is the vertical rectangle over a texture edge, (s, z) with s the
+//! Spaces: as gdm_data/shell.rs; a fin is the vertical rectangle over a texture edge, (s, z) with s the
 //! fraction along the edge and z in voxels.
 
 use glam::{DVec2, DVec3};
 
-use super::shell::{Corner, Shell};
-use super::volume::Volume;
+use crate::gdm_data::shell::{Corner, Shell};
+use crate::gdm_data::Volume;
 
 /// Grid step over a fin, in voxels: the cap's outline follows the field's 0.5 level to well
 /// under a voxel (the level is piecewise trilinear between voxel centres).

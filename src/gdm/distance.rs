@@ -3,7 +3,7 @@
 //! direction to the first solid voxel, with a miss (the ray leaves through the top or the bottom)
 //! replaced by the distance to that boundary, as the paper does so the table stays smooth.
 //!
-//! Space: texture space in voxel units (volume.rs); directions are unit vectors there, theta the
+//! Space: texture space in voxel units (gdm_data/volume.rs); directions are unit vectors there, theta the
 //! polar angle from +z (the shell's outward normal), phi the azimuth from +x towards +y.
 
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -11,9 +11,9 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::volume::Volume;
-use crate::convert::Progress;
 use crate::error::{GeomtexError, Result};
+use crate::gdm_data::Volume;
+use crate::progress::Progress;
 
 /// The paper's direction counts: 16 polar angles by 32 azimuths.
 pub const DEFAULT_DIRECTIONS: [usize; 2] = [16, 32];
@@ -219,7 +219,7 @@ pub(crate) fn tabulate(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gdm::volume::Pattern;
+    use crate::gdm_data::Pattern;
 
     /// A plain voxel-by-voxel walk in small steps: the reference for the skipping march.
     fn walk(v: &Volume, o: DVec3, d: DVec3) -> (f64, bool) {

@@ -547,4 +547,23 @@ mod tests {
         v[8] = 9;
         assert!(decode(&v).unwrap_err().contains("version 9"));
     }
+
+    #[test]
+    fn a_file_with_a_valid_checksum_but_a_zero_axis_is_a_format_error() {
+        let mut s = sample();
+        s.patches.push(s.patches[0].clone());
+        s.patches[1].axes[1] = DVec3::ZERO;
+        let bytes = encode(&s);
+        let e = decode(&bytes).unwrap_err();
+        assert_eq!(e, "patch 1: axis 1 is not unit length (|a| = 0)");
+        let path =
+            std::env::temp_dir().join(format!("geomtex-zero-axis-{}.gtex", std::process::id()));
+        std::fs::write(&path, &bytes).unwrap();
+        let e = GeometryTextureSet::load(&path).unwrap_err();
+        std::fs::remove_file(&path).unwrap();
+        assert!(
+            matches!(&e, crate::error::GeomtexError::Format(m) if m.ends_with("patch 1: axis 1 is not unit length (|a| = 0)")),
+            "{e}"
+        );
+    }
 }

@@ -280,22 +280,4 @@ mod tests {
             );
         }
     }
-
-    #[test]
-    fn a_file_with_a_valid_checksum_but_a_zero_axis_is_a_format_error() {
-        let mut s = set();
-        s.patches[1].axes[1] = DVec3::ZERO;
-        let bytes = crate::gtex::file::encode(&s);
-        let e = crate::gtex::file::decode(&bytes).unwrap_err();
-        assert_eq!(e, "patch 1: axis 1 is not unit length (|a| = 0)");
-        let path =
-            std::env::temp_dir().join(format!("geomtex-zero-axis-{}.gtex", std::process::id()));
-        std::fs::write(&path, &bytes).unwrap();
-        let e = GeometryTextureSet::load(&path).unwrap_err();
-        std::fs::remove_file(&path).unwrap();
-        assert!(
-            matches!(&e, crate::error::GeomtexError::Format(m) if m.ends_with("patch 1: axis 1 is not unit length (|a| = 0)")),
-            "{e}"
-        );
-    }
 }

@@ -1,7 +1,7 @@
 //! Ambient occlusion per vertex of the detailed mesh, by ray casting on the CPU: from each
 //! vertex, cosine-weighted rays over the hemisphere around its normal; the attribute is the
 //! fraction that leave the mesh (1 = open sky, 0 = enclosed), within `distance` when one is
-//! given. Rays are cast through a bounding-volume hierarchy over the faces (render/bvh.rs, the
+//! given. Rays are cast through a bounding-volume hierarchy over the faces (bvh.rs, the
 //! tracer's own tree) with an any-hit walk, since occlusion needs no nearest hit.
 //!
 //! The directions are one fixed cosine-weighted set (Hammersley points through Malley's
@@ -13,10 +13,10 @@
 
 use glam::DVec3;
 
-use crate::convert::Progress;
+use crate::bvh::{Aabb, Bvh};
 use crate::error::Result;
 use crate::mesh::{Mesh, MeshGeometry};
-use crate::render::bvh::{Aabb, Bvh};
+use crate::progress::Progress;
 
 /// Rays per vertex by default: the sampling error's standard deviation is at most
 /// 0.5 / sqrt(64) = 0.06 of the full range.
@@ -142,7 +142,7 @@ pub fn vertex_occlusion(
         .step_by(CHUNK)
         .map(|s| s..(s + CHUNK).min(mesh.positions.len()))
         .collect();
-    let parts = crate::convert::progress::each_chart(&chunks, progress, "occlusion", |r| {
+    let parts = crate::progress::each_chart(&chunks, progress, "occlusion", |r| {
         r.clone().map(at_vertex).collect::<Vec<f32>>()
     })?;
     Ok(parts.concat())

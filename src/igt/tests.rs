@@ -1,7 +1,8 @@
 use glam::{DVec2, DVec3};
 
 use super::*;
-use crate::convert::tests::uv_sphere;
+use crate::igt_data::file;
+use crate::test_shapes::uv_sphere;
 
 fn built(primary: Primary, resolution: u32) -> (Mesh, InverseGeometricTexture) {
     let mesh = uv_sphere(24, 48);

@@ -1,7 +1,7 @@
 //! What the ray lookup of a simplified face searches (shaders/igt_functions.wgsl,
 //! `igt_ray_lookup`): a window on either side of the face's plane (outside, the side its
 //! normal points to, and inside), and the grids whose lists it walks. Both are measured on the
-//! CPU. First with the projection lookup (lookup.rs): the face is sampled, each sample
+//! CPU. First with the projection lookup (igt_data/lookup.rs): the face is sampled, each sample
 //! projected into every grid whose detailed faces' bounding box holds it, and the detailed point
 //! found inside a listed triangle gives the distance of the detailed surface from the face's
 //! plane there; the largest such distance (the nearest grid's, per sample) over the faces
@@ -19,9 +19,9 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::InverseGeometricTexture;
 use crate::cancel::Cancel;
 use crate::error::Result;
+use crate::igt_data::InverseGeometricTexture;
 use crate::mesh::Mesh;
 
 /// Grids the ray lookup walks for one face at most (its own and the nearest others). On the

@@ -15,13 +15,13 @@ use pyo3::types::PyTuple;
 
 use super::args::{opt_text, real};
 use super::arrays::{flat, image, rows, ArrayPair};
+use super::drawn::{Drawn, Holds};
 use super::errors::heavy;
 use super::gtex::with_progress;
-use super::kinds::{Drawn, Holds};
 use crate::error::{parse_choice, GeomtexError};
-use crate::gdm::{
-    distance_function, lower_bound_function, CompressedTable, GdmShell, Marcher, Pattern, Seams,
-    Shell, TileSurface, Volume, DEFAULT_PIECES, PATTERNS,
+use crate::gdm::{distance_function, lower_bound_function, Marcher, Seams, TileSurface};
+use crate::gdm_data::{
+    CompressedTable, GdmShell, Pattern, Shell, Volume, DEFAULT_PIECES, PATTERNS,
 };
 
 /// A mesostructure tile: an occupancy grid (x, y periodic), optional per-voxel RGBA.

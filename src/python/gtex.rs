@@ -14,20 +14,16 @@ use pyo3::types::{PyBytes, PyDict};
 
 use super::args::{integer, opt_integer, opt_real, opt_text, path, rays, real};
 use super::arrays::{flat, image, mat4_to_numpy, matrix, rows, ArrayPair};
+use super::drawn::{Drawn, Holds};
 use super::errors::heavy;
-use super::kinds::{Drawn, Holds};
 use super::mesh::PyMesh;
-use crate::convert::{ConvertArgs, ConvertOptions, Progress};
+use super::set::PyGeometryTextureSet;
+use crate::convert::{ConvertArgs, ConvertOptions};
 use crate::error::GeomtexError;
 use crate::filters::MapFilter;
 use crate::grids::HeightGrid;
 use crate::gtex::{GeometryTextureSet, Patch, StatValue};
-
-/// Height-map patches in oriented boxes, converted from a mesh or loaded from a .gtex file.
-#[pyclass(name = "GeometryTextureSet", module = "geomtex._core", frozen)]
-pub struct PyGeometryTextureSet {
-    pub(crate) inner: Arc<GeometryTextureSet>,
-}
+use crate::progress::Progress;
 
 /// How a Scene takes a set (python/kinds.rs).
 pub(crate) const DRAWN: Drawn = Drawn::of::<PyGeometryTextureSet>("GeometryTextureSet", "sets");
@@ -45,12 +41,6 @@ impl Holds for PyGeometryTextureSet {
 }
 
 impl PyGeometryTextureSet {
-    pub(crate) fn wrap(set: GeometryTextureSet) -> Self {
-        PyGeometryTextureSet {
-            inner: Arc::new(set),
-        }
-    }
-
     /// Gaps and normal steps along the charts' shared edges of `mesh` (a geomtex.Mesh that must
     /// be the set's source), measured with the GIL released.
     fn seams(&self, py: Python<'_>, mesh: &Bound<'_, PyAny>) -> PyResult<crate::filters::Seams> {

@@ -8,12 +8,13 @@ use pyo3::types::{PyBytes, PyDict};
 
 use super::args::{opt_integer, opt_text, path};
 use super::arrays::{expect_columns, flat, image, matrix, rows};
+use super::drawn::{Drawn, Holds};
 use super::errors::heavy;
 use super::gtex::with_progress;
-use super::kinds::{Drawn, Holds};
 use super::mesh::PyMesh;
 use crate::error::GeomtexError;
-use crate::igt::{self, file, IgtMesh, IgtOptions, InverseGeometricTexture, Lod, Lookup};
+use crate::igt::{self, IgtOptions};
+use crate::igt_data::{self, file, IgtMesh, InverseGeometricTexture, Lod, Lookup};
 use crate::mesh::{Mesh, NormalRule};
 
 /// An inverse geometric texture: per cell of a primary parameterization (the conversion's
@@ -103,7 +104,7 @@ pub fn build_igt(
         opts.primary = p.parse()?;
     }
     if let Some(r) = opt_integer(resolution, "resolution", i64::MIN..=i64::MAX)? {
-        opts.resolution = igt::check_resolution(r)?;
+        opts.resolution = igt_data::check_resolution(r)?;
     }
     let ao;
     (opts.colors, opts.uv, ao) = attribute_flags(attributes)?;

@@ -11,8 +11,8 @@ use pyo3::prelude::*;
 use std::any::TypeId;
 
 use super::arrays::{expect_columns, flat, image, matrix, rows};
+use super::drawn::Drawn;
 use super::errors::heavy;
-use super::kinds::Drawn;
 use crate::appearance::{TextureCoords, TextureInput};
 use crate::error::GeomtexError;
 use crate::mesh::Mesh;

@@ -4,6 +4,7 @@
 
 mod args;
 mod arrays;
+mod drawn;
 mod errors;
 mod gdm;
 mod gtex;
@@ -11,6 +12,7 @@ mod igt;
 mod kinds;
 mod mesh;
 mod render;
+mod set;
 mod surfels;
 
 use pyo3::prelude::*;
@@ -19,7 +21,7 @@ use pyo3::prelude::*;
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     errors::register(m)?;
     m.add_class::<mesh::PyMesh>()?;
-    m.add_class::<gtex::PyGeometryTextureSet>()?;
+    m.add_class::<set::PyGeometryTextureSet>()?;
     m.add_function(wrap_pyfunction!(gtex::convert, m)?)?;
     m.add_function(wrap_pyfunction!(gtex::load, m)?)?;
     m.add_class::<surfels::PySurfels>()?;

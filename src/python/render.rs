@@ -312,7 +312,7 @@ static SHARED: Mutex<Option<Arc<Mutex<Renderer>>>> = Mutex::new(None);
 
 /// The process's renderer, made now if there is none (call with the GIL released: making a
 /// device takes seconds on a CPU adapter).
-fn shared() -> crate::Result<Arc<Mutex<Renderer>>> {
+fn shared() -> crate::error::Result<Arc<Mutex<Renderer>>> {
     let mut slot = SHARED
         .lock()
         .unwrap_or_else(|poisoned| poisoned.into_inner());

@@ -9,11 +9,12 @@ use pyo3::types::{PyBytes, PyDict};
 
 use super::args::{integer, path};
 use super::arrays::{matrix, rows};
+use super::drawn::{Drawn, Holds};
 use super::errors::heavy;
-use super::gtex::PyGeometryTextureSet;
-use super::kinds::{Drawn, Holds};
+use super::set::PyGeometryTextureSet;
 use crate::error::GeomtexError;
-use crate::surfels::{file, SurfelHierarchy, DEFAULT_TILE};
+use crate::surfel_data::{SurfelHierarchy, DEFAULT_TILE};
+use crate::surfels::file;
 
 /// A surfel hierarchy over a geometry-texture set: every surface texel a surfel, tiles of
 /// `tile` x `tile` texels merged 2x2 per level (level 0 finest). Render it like a set
@@ -53,7 +54,7 @@ pub fn to_surfels(
         Some(t) => integer(t, "tile", i64::MIN..=i64::MAX)?,
         None => DEFAULT_TILE as i64,
     };
-    let tile = crate::surfels::check_tile(tile)?;
+    let tile = crate::surfel_data::check_tile(tile)?;
     let source = set.inner.clone();
     let h = heavy(py, "building surfels", move |_| {
         SurfelHierarchy::build(source, tile)

@@ -3,100 +3,10 @@
 //! Spaces: images are row-major with row 0 at the top; depth is measured along the camera's
 //! forward axis in world units; normals are world-space.
 
-use crate::error::{GeomtexError, Result};
 use crate::gtex::StatValue;
 
+use super::outputs::Outputs;
 use super::search::{Method, Primary};
-
-/// The per-pixel outputs a frame reads back: every target is drawn, but only these are copied
-/// off the adapter and converted (on lavapipe the copies and conversions are a large share of a
-/// small frame's time).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Outputs {
-    pub color: bool,
-    pub albedo: bool,
-    pub depth: bool,
-    pub normal: bool,
-    pub patch_id: bool,
-}
-
-impl Outputs {
-    pub const ALL: Outputs = Outputs {
-        color: true,
-        albedo: true,
-        depth: true,
-        normal: true,
-        patch_id: true,
-    };
-    pub const NONE: Outputs = Outputs {
-        color: false,
-        albedo: false,
-        depth: false,
-        normal: false,
-        patch_id: false,
-    };
-    /// Every output's name, in the order `names` lists them.
-    pub const NAMES: [&'static str; 5] = ["color", "albedo", "depth", "normal", "patch_id"];
-
-    fn flags_mut(&mut self) -> [&mut bool; 5] {
-        [
-            &mut self.color,
-            &mut self.albedo,
-            &mut self.depth,
-            &mut self.normal,
-            &mut self.patch_id,
-        ]
-    }
-
-    fn flags(&self) -> [bool; 5] {
-        [
-            self.color,
-            self.albedo,
-            self.depth,
-            self.normal,
-            self.patch_id,
-        ]
-    }
-
-    /// The outputs named (at least one; each of `NAMES`).
-    pub fn parse<S: AsRef<str>>(names: &[S]) -> Result<Outputs> {
-        let mut outputs = Outputs::NONE;
-        for name in names {
-            let name = name.as_ref();
-            let k = Self::NAMES.iter().position(|n| *n == name).ok_or_else(|| {
-                GeomtexError::Parameter(format!(
-                    "unknown output {name:?}; outputs are {}",
-                    Self::NAMES.join(", ")
-                ))
-            })?;
-            *outputs.flags_mut()[k] = true;
-        }
-        if outputs == Outputs::NONE {
-            return Err(GeomtexError::Parameter(format!(
-                "outputs must name at least one of {}",
-                Self::NAMES.join(", ")
-            )));
-        }
-        Ok(outputs)
-    }
-
-    /// The names of the outputs held, in `NAMES` order.
-    pub fn names(&self) -> Vec<&'static str> {
-        (Self::NAMES.iter().zip(self.flags()))
-            .filter_map(|(n, on)| on.then_some(*n))
-            .collect()
-    }
-
-    /// Both sets of outputs.
-    pub fn union(self, other: Outputs) -> Outputs {
-        let (a, b) = (self.flags(), other.flags());
-        let mut out = Outputs::NONE;
-        for (k, flag) in out.flags_mut().into_iter().enumerate() {
-            *flag = a[k] || b[k];
-        }
-        out
-    }
-}
 
 /// One rendered image, row-major with row 0 at the top. Each per-pixel output is `None` when the
 /// render did not ask for it (`Outputs`).
@@ -156,7 +66,7 @@ pub struct Frame {
 }
 
 /// Names of the per-level surfel counts in `Frame::stats`.
-const SURFEL_LEVELS: [&str; crate::surfels::MAX_LEVELS] = [
+const SURFEL_LEVELS: [&str; crate::surfel_data::MAX_LEVELS] = [
     "surfels_level_0",
     "surfels_level_1",
     "surfels_level_2",
@@ -176,7 +86,7 @@ pub struct SurfelCounts {
     /// Tiles not culled by the frustum.
     pub tiles: u64,
     /// Surfels splatted per level, finest first.
-    pub per_level: [u64; crate::surfels::MAX_LEVELS],
+    pub per_level: [u64; crate::surfel_data::MAX_LEVELS],
     /// Surfels splatted from the nodes above the tiles (every level there).
     pub nodes: u64,
 }
@@ -184,7 +94,10 @@ pub struct SurfelCounts {
 impl SurfelCounts {
     /// The counts the surfel passes left in their tallies (kinds/surfels.rs), summed; None when
     /// there are none.
-    pub(crate) fn read(gpu: &super::Gpu, tallies: &[wgpu::Buffer]) -> crate::Result<Option<Self>> {
+    pub(crate) fn read(
+        gpu: &super::Gpu,
+        tallies: &[wgpu::Buffer],
+    ) -> crate::error::Result<Option<Self>> {
         if tallies.is_empty() {
             return Ok(None);
         }
@@ -400,17 +313,5 @@ mod tests {
         let stats = depth_only.stats();
         assert_eq!(stats[9], ("covered_pixels", StatValue::Absent));
         assert_eq!(stats[13].1, StatValue::Absent);
-    }
-
-    #[test]
-    fn outputs_parse_by_name_and_refuse_the_unknown() {
-        let o = Outputs::parse(&["normal", "depth"]).unwrap();
-        assert_eq!(o.names(), ["depth", "normal"]);
-        assert_eq!(
-            o.union(Outputs::parse(&["color"]).unwrap()).names().len(),
-            3
-        );
-        assert!(Outputs::parse(&["colour"]).is_err());
-        assert!(Outputs::parse::<&str>(&[]).is_err());
     }
 }

@@ -359,7 +359,7 @@ wgsl_size!(IgtObjectGpu, 256);
 const _: () = assert!(offset_of!(IgtObjectGpu, ids) == 128);
 const _: () = assert!(offset_of!(IgtObjectGpu, info) == 144);
 // The sizes the texture's figures count (igt::GRID_BYTES, igt::ENTRY_BYTES).
-wgsl_size!(IgtGridGpu, crate::igt::GRID_BYTES);
-wgsl_size!(IgtEntryGpu, crate::igt::ENTRY_BYTES);
+wgsl_size!(IgtGridGpu, crate::igt_data::GRID_BYTES);
+wgsl_size!(IgtEntryGpu, crate::igt_data::ENTRY_BYTES);
 const _: () = assert!(offset_of!(IgtEntryGpu, face) == 24);
 const _: () = assert!(size_of::<IgtVertex>() == 44);

@@ -1,7 +1,8 @@
 //! Headless rendering of geometry textures (per-pixel ray casting in their patches' boxes) and
 //! ordinary meshes (rasterization) into one reversed-Z depth buffer, read back as numpy-ready
-//! arrays; ray queries through a hierarchy over thin pieces of the same boxes (`query`), and
-//! shadows cast with them (`shadow`).
+//! arrays; ray queries through a hierarchy (the crate-level `bvh`) over thin pieces of the same
+//! boxes (`query`), and shadows cast with them (`shadow`). Besides sets and meshes it draws the
+//! other kinds' data (`igt_data`, `gdm_data`, `surfel_data`), never the stages that build them.
 //!
 //! One `Renderer` serves every image size: its device, pipelines and uploads are made once, and
 //! targets are made per size (kept for the sizes drawn lately). A render is three steps: prepare
@@ -15,14 +16,14 @@
 //! matrix the GPU sees is composed in f64 with the camera position subtracted, then cast to f32.
 
 mod atlas;
-pub(crate) mod bvh;
 pub mod camera;
 mod cull;
 pub mod device;
 mod frame;
 mod frame_bindings;
 mod gpu_types;
-mod kinds;
+pub(crate) mod kinds;
+mod outputs;
 mod pipelines;
 mod query;
 mod scene;
@@ -35,8 +36,9 @@ use std::time::Instant;
 
 pub use camera::{Camera, Lens, Projection};
 pub use device::Gpu;
-pub use frame::{Frame, Outputs, SurfelCounts};
+pub use frame::{Frame, SurfelCounts};
 pub use kinds::uploads_made;
+pub use outputs::Outputs;
 pub use query::RayHits;
 pub use scene::{Object, Scene, SceneObject, ShadedMesh};
 pub use search::{Method, Primary, Quality, SearchOptions, SearchOverrides};

@@ -20,6 +20,7 @@ use super::pipelines::storage_entry;
 use super::{Renderer, Scene, SearchOptions};
 use crate::cancel::Cancel;
 use crate::error::{GeomtexError, Result};
+use crate::profile;
 
 /// Rays per batch of a query: 2 MiB of rays and of hits, far under every adapter's binding
 /// limit, and short enough on a software adapter (about half a second) that the cancel token,
@@ -287,7 +288,7 @@ impl Renderer {
             let mut t = std::time::Instant::now();
             let view_from_world = DMat4::from_translation(-origin);
             let traces = self.prepare_query(scene, view_from_world, search, parallel)?;
-            super::shadow::mark(format_args!("prepare_query"), &mut t);
+            profile::mark(format_args!("prepare_query"), &mut t);
             // Each kept ray with the traces it reaches (`reach_mask`), so that no test runs twice.
             // Rays that share a direction share its inverse.
             let inverse = parallel.map(DVec3::recip);
@@ -305,7 +306,7 @@ impl Renderer {
                     (mask != 0).then_some((i, ((o, d), range), mask))
                 })
                 .collect();
-            super::shadow::mark(format_args!("make+reach ({} kept)", kept.len()), &mut t);
+            profile::mark(format_args!("make+reach ({} kept)", kept.len()), &mut t);
             let batch = self.largest_batch();
             let mut hit = Vec::new();
             for chunk in kept.chunks(batch) {
@@ -315,7 +316,7 @@ impl Renderer {
                 let masks: Vec<u64> = chunk.iter().map(|k| k.2).collect();
                 let reached = masked_reach(&traces, &masks, |i| chunk[i].1, origin);
                 let counts: Vec<usize> = reached.iter().map(Vec::len).collect();
-                super::shadow::mark(format_args!("  rays per trace {counts:?}"), &mut t);
+                profile::mark(format_args!("  rays per trace {counts:?}"), &mut t);
                 let found = self.run_batch(
                     &traces,
                     &reached,
@@ -327,7 +328,7 @@ impl Renderer {
                 let ids = chunk.iter().zip(found).filter(|(_, h)| h.id != -1);
                 hit.extend(ids.map(|(k, _)| k.0));
             }
-            super::shadow::mark(format_args!("batches ({} hit)", hit.len()), &mut t);
+            profile::mark(format_args!("batches ({} hit)", hit.len()), &mut t);
             Ok((hit, kept.len()))
         })
     }
@@ -394,7 +395,7 @@ impl Renderer {
         if gpu_rays.is_empty() {
             return Ok(vec![MISS; rays.len()]);
         }
-        super::shadow::mark(format_args!("  records"), &mut t);
+        profile::mark(format_args!("  records"), &mut t);
         let storage = wgpu::BufferUsages::STORAGE;
         let rays_buffer = storage_buffer(device, "query rays", bytemuck::cast_slice(&gpu_rays));
         let hits = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -427,9 +428,9 @@ impl Renderer {
                 pass.dispatch_workgroups(per_row, rows, 1);
             }
         }
-        super::shadow::mark(format_args!("  encode"), &mut t);
+        profile::mark(format_args!("  encode"), &mut t);
         let bytes = super::targets::read_buffer(&self.gpu, encoder, &hits)?;
-        super::shadow::mark(format_args!("  submit+wait+read"), &mut t);
+        profile::mark(format_args!("  submit+wait+read"), &mut t);
         Ok(compact.expand(bytemuck::cast_slice(&bytes), rays.len()))
     }
 

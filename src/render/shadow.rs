@@ -14,6 +14,7 @@ use super::kinds::Registry;
 use super::{Camera, Frame, Renderer, Scene, SearchOptions};
 use crate::cancel::Cancel;
 use crate::error::{GeomtexError, Result};
+use crate::profile;
 
 /// A light that casts shadows.
 #[derive(Clone, Copy, Debug)]
@@ -36,18 +37,6 @@ const SHADOW_BRIGHTNESS: f64 = 0.5;
 /// -0.05, 9-24 at -0.1 (2-4 of them off a shadow edge), 4-10 at -0.2. At -0.1 the rule skips
 /// 7.8k-9.3k of the ~29k rays that reach the bunny, the ones that run through its body.
 const ATTACHED_BELOW: f64 = -0.1;
-
-/// Phase timers of a shadow pass, printed to stderr with `GEOMTEX_PROFILE=1` (as conversions'
-/// are): milliseconds since the last mark.
-pub(crate) fn mark(what: std::fmt::Arguments, since: &mut std::time::Instant) {
-    if crate::convert::profile::enabled() {
-        eprintln!(
-            "geomtex shadow: {:8.2} ms {what}",
-            since.elapsed().as_secs_f64() * 1e3
-        );
-    }
-    *since = std::time::Instant::now();
-}
 
 impl Light {
     pub fn validate(&self) -> Result<()> {
@@ -120,7 +109,7 @@ impl Renderer {
             }
         }
         let offset = start_offset(&self.kinds, scene)?;
-        mark(format_args!("casters+offset"), &mut t);
+        profile::mark(format_args!("casters+offset"), &mut t);
         let (Some(depth), Some(normal)) = (&frame.depth, &frame.normal) else {
             return Err(GeomtexError::Internal(
                 "shadows need the frame's depth and normals read back".into(),
@@ -152,7 +141,7 @@ impl Renderer {
             };
             let (occluded, traced_rays) =
                 self.occluded(&casters, eye, parallel, n, ray, search, cancel)?;
-            mark(format_args!("occluded"), &mut t);
+            profile::mark(format_args!("occluded"), &mut t);
             shadow = marked.into_iter().map(AtomicBool::into_inner).collect();
             let attached = shadow.iter().filter(|&&s| s).count();
             for i in occluded {
@@ -169,7 +158,7 @@ impl Renderer {
                 }
             }
         }
-        mark(
+        profile::mark(
             format_args!(
                 "mark+darken ({} attached)",
                 frame.shadow_attached.unwrap_or(0)

@@ -8,8 +8,8 @@
 use crate::error::{GeomtexError, Result};
 
 use super::device::{texture_2d, Gpu};
-use super::frame::Outputs;
 use super::gpu_types::{COLOR_FORMAT, DEPTH_FORMAT, ID_FORMAT, NORMAL_FORMAT};
+use super::outputs::Outputs;
 use super::pipelines::DepthCopy;
 
 /// Bytes per row of a texture copy, padded as wgpu requires.

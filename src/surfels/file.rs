@@ -11,9 +11,9 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use super::{check_tile, SurfelHierarchy};
 use crate::error::{GeomtexError, Result};
 use crate::gtex::file as gtex_file;
+use crate::surfel_data::{check_tile, SurfelHierarchy};
 
 pub const MAGIC: &[u8; 8] = b"GTSURF\r\n";
 pub const VERSION: u32 = 1;

@@ -11,31 +11,8 @@ use std::collections::BTreeMap;
 
 use glam::DVec3;
 
-use super::{disc_error, Disc, Reach, Surfel, Tile};
-
-/// A node above the tiles: one surfel standing for the 2x2 tiles (or nodes) below it.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Node {
-    /// Its disc; `level` counts on from the tiles' top level; `parent` is u32::MAX (nodes link
-    /// through `Node::parent`).
-    pub surfel: Surfel,
-    /// The node one level up (index into `SurfelHierarchy::nodes`), or u32::MAX at a root.
-    pub parent: u32,
-    /// The largest `disc_error` of the finest surfels below against this disc, or how far its
-    /// clipped disc reaches past the surface (Reach) where that is more; never smaller than a
-    /// child's error.
-    pub error: f64,
-    /// Normal cone of the tiles' top-level surfels below (unit axis, half angle in radians):
-    /// the normals at the scale a node is drawn at. It holds the node's own normal (their
-    /// weighted mean, level by level), so a renderer's depth bound along its disc holds; the
-    /// finest normals' spread, wide on a noisy scan, would flag nodes as grazing that no
-    /// pixel shows as such.
-    pub cone: (DVec3, f64),
-    /// A sphere holding its disc and every child's sphere.
-    pub centre: DVec3,
-    pub bound: f64,
-    pub patch: u32,
-}
+use super::{disc_error, Disc, Reach};
+use crate::surfel_data::{Node, Surfel, Tile};
 
 /// A tile or node while the level above it is merged.
 struct Item {

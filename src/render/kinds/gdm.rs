@@ -5,7 +5,7 @@
 //! (gdm_trace_functions.wgsl), so shells cast shadows onto themselves and everything else.
 //!
 //! Spaces: the shell's object space, stored relative to its bounding box's centre ("local", f32);
-//! view (camera-relative); texture space in voxels of the tile (gdm/volume.rs).
+//! view (camera-relative); texture space in voxels of the tile (gdm_data/volume.rs).
 
 use std::sync::Arc;
 use std::sync::OnceLock;
@@ -14,9 +14,9 @@ use glam::{DMat3, DMat4, DVec3};
 use wgpu::util::DeviceExt;
 
 use super::{bind_buffers, storage_buffer, DrawCall, FrameView, Kind, KindContext, Tally, TraceCall, UploadCache};
+use crate::bvh::{Aabb, Bvh};
 use crate::error::Result;
-use crate::gdm::GdmShell;
-use crate::render::bvh::{Aabb, Bvh};
+use crate::gdm_data::GdmShell;
 use crate::render::cull::DepthRange;
 use crate::render::device::Gpu;
 use crate::render::gpu_types::{gpu_matrix, normal_matrix, GdmObjectGpu, GdmVertex, PrismGpu};

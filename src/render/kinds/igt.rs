@@ -1,7 +1,7 @@
 //! Simplified meshes shaded through an inverse geometric texture (igt_raster.wgsl): rasterized
 //! into the shared targets like meshes (two-sided), each fragment projected into its face's grid
 //! of the primary space and shaded with the attributes of the detailed triangle found there
-//! (igt_functions.wgsl, following src/igt/lookup.rs). Where the scene holds one, the surface pass
+//! (igt_functions.wgsl, following src/igt_data/lookup.rs). Where the scene holds one, the surface pass
 //! (igt_surface.wgsl) draws them again after the scene pass, depth-tested against the finished
 //! depth buffer, writing the detailed face and barycentrics of the visible pixels
 //! (`Frame::face_id`, `Frame::barycentric`). Not traced by ray queries: they receive shadows but
@@ -12,7 +12,7 @@
 //!
 //! Spaces: object space (the detailed and simplified meshes' own, placed by
 //! `world_from_object`), stored relative to that centre ("local", f32); view (camera-relative);
-//! primary space per grid in cell units (src/igt/primary.rs).
+//! primary space per grid in cell units (src/igt_data/primary.rs).
 
 use std::sync::Arc;
 use glam::{DMat3, DMat4, DVec3, Vec3};
@@ -21,7 +21,7 @@ use wgpu::util::DeviceExt;
 use super::{bind_buffers, storage_buffer, DrawCall, FrameView, Kind, KindContext, Tally, TraceCall, UploadCache};
 use crate::appearance::Image;
 use crate::error::{GeomtexError, Result};
-use crate::igt::{IgtMesh, InverseGeometricTexture, Lod, Lookup};
+use crate::igt_data::{Entry, IgtMesh, InverseGeometricTexture, Lod, Lookup};
 use crate::render::cull::DepthRange;
 use crate::render::device::Gpu;
 use crate::render::gpu_types::{
@@ -106,7 +106,7 @@ struct Attributes {
     segments: [u32; 4],
 }
 
-/// The baked texture (bake.rs) as the shader reads it: per cell its normal's code and color.
+/// The baked texture (igt_data/bake.rs) as the shader reads it: per cell its normal's code and color.
 fn pack_baked(igt: &InverseGeometricTexture) -> Vec<[u32; 2]> {
     (igt.bake().into_iter())
         .map(|b| match b {
@@ -145,7 +145,7 @@ fn pack_attributes(igt: &InverseGeometricTexture, image: Option<&Image>) -> Attr
 
 /// Per grid, the heights (along its z, from its origin) its listed faces span, widened by a
 /// little slack and rounded outward to f32: the ray lookup's slab (`IgtGrid.z.w`, `size.w`).
-fn grid_slabs(igt: &InverseGeometricTexture) -> Vec<(f32, f32)> {
+pub(crate) fn grid_slabs(igt: &InverseGeometricTexture) -> Vec<(f32, f32)> {
     let mut heights = vec![(f64::INFINITY, f64::NEG_INFINITY); igt.grids.len()];
     for e in &igt.entries {
         let h = &mut heights[e.grid as usize];
@@ -161,7 +161,7 @@ fn grid_slabs(igt: &InverseGeometricTexture) -> Vec<(f32, f32)> {
 }
 
 /// The heights (along its grid's z, from the grid's origin) entry `e`'s face spans.
-fn face_heights(igt: &InverseGeometricTexture, e: &crate::igt::Entry) -> (f64, f64) {
+pub(crate) fn face_heights(igt: &InverseGeometricTexture, e: &Entry) -> (f64, f64) {
     let g = &igt.grids[e.grid as usize];
     (igt.faces[e.face as usize].iter()).fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
         let z = (igt.positions[v as usize] - g.origin).dot(g.axes[2]);
@@ -175,7 +175,7 @@ fn face_heights(igt: &InverseGeometricTexture, e: &crate::igt::Entry) -> (f64, f
 /// stretch over it misses (igt_ray_walk). At 512² on the 1.1 M-face bunny a cell lists 14
 /// triangles on average, and most cells a slanted view ray crosses lie well above or below
 /// the surface there.
-fn cell_heights(igt: &InverseGeometricTexture, slabs: &[(f32, f32)]) -> Vec<u32> {
+pub(crate) fn cell_heights(igt: &InverseGeometricTexture, slabs: &[(f32, f32)]) -> Vec<u32> {
     let mut words = vec![0x0000_ffffu32; igt.cell_start.len().saturating_sub(1)];
     for (grid, &(lo, hi)) in igt.grids.iter().zip(slabs) {
         let span = f64::from(hi - lo).max(f64::MIN_POSITIVE);
@@ -574,46 +574,6 @@ impl Kind for IgtKind {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// Every listed face's heights lie within its cell's decoded bounds (the ray lookup skips
-    /// the cell otherwise), and the bounds are the listed faces' own, to a quantum each side.
-    #[test]
-    fn cell_heights_hold_their_listed_faces_tightly() {
-        let mesh = crate::convert::tests::uv_sphere(24, 48);
-        let igt = crate::igt::build(
-            &mesh,
-            &Default::default(),
-            crate::convert::Progress::silent(),
-        )
-        .unwrap();
-        let slabs = grid_slabs(&igt);
-        let words = cell_heights(&igt, &slabs);
-        let (mut outside, mut loose, mut tested) = (0, 0, 0);
-        for (grid, &(lo, hi)) in igt.grids.iter().zip(&slabs) {
-            let quantum = f64::from(hi - lo) / 65535.0;
-            for c in grid.first_cell..grid.first_cell + grid.cells() {
-                let w = words[c as usize];
-                let decode = |q: u32| f64::from(lo) + f64::from(q & 0xffff) * quantum;
-                let (a, b) = (decode(w), decode(w >> 16));
-                let listed = igt.list(c as usize);
-                let spans = listed
-                    .iter()
-                    .map(|&k| face_heights(&igt, &igt.entries[k as usize]));
-                let (l, h) = spans.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), (x, y)| {
-                    (l.min(x), h.max(y))
-                });
-                if listed.is_empty() {
-                    assert_eq!(w, 0x0000_ffff);
-                    continue;
-                }
-                tested += 1;
-                outside += usize::from(l < a - 1e-12 || h > b + 1e-12);
-                loose += usize::from(a < l - quantum || b > h + quantum);
-            }
-        }
-        assert!(tested > 1000, "{tested}");
-        assert_eq!((outside, loose), (0, 0), "of {tested} cells");
-    }
 
     /// The encoding decoded as igt_octahedral does (WGSL) comes back within snorm16 rounding.
     #[test]

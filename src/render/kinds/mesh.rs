@@ -22,9 +22,9 @@ use super::footprint::Footprint;
 use super::tiles::{self, TileLists};
 use super::{bind_buffers, storage_buffer, DrawCall, FrameView, Kind, KindContext, RayTest, Tally, TraceCall, UploadCache};
 use crate::appearance::{Image, Texture, TextureCoords};
+use crate::bvh::{Aabb, Bvh};
 use crate::error::Result;
 use crate::mesh::{Mesh, MeshGeometry, NormalRule};
-use crate::render::bvh::{Aabb, Bvh};
 use crate::render::cull::DepthRange;
 use crate::render::device::Gpu;
 use crate::render::gpu_types::{

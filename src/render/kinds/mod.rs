@@ -23,12 +23,12 @@ use std::sync::{Arc, Weak};
 use glam::{DMat4, DVec3};
 use wgpu::util::DeviceExt;
 
-use super::bvh::Aabb;
 use super::camera::Lens;
 use super::cull::DepthRange;
 use super::device::Gpu;
 use super::scene::{Object, SceneObject};
 use super::search::SearchOptions;
+use crate::bvh::Aabb;
 use crate::error::{GeomtexError, Result};
 
 /// What every kind is built with: the device, the frame's group-0 layout and the ray queries'

@@ -48,7 +48,7 @@ impl SpheresKind {
 
 /// Every sphere as a UV sphere, in one mesh.
 fn tessellate(spheres: &Spheres) -> Result<Mesh> {
-    let unit = crate::convert::tests::uv_sphere(RINGS, 2 * RINGS);
+    let unit = crate::test_shapes::uv_sphere(RINGS, 2 * RINGS);
     let (mut positions, mut faces) = (Vec::new(), Vec::new());
     for (k, (centre, radius)) in spheres.spheres.iter().enumerate() {
         let first = (k * unit.positions.len()) as i64;

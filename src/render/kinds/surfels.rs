@@ -32,7 +32,7 @@ use crate::render::pipelines::{
 };
 use crate::render::scene::SceneObject;
 use crate::render::shaders::{self, SurfelPass};
-use crate::surfels::SurfelHierarchy;
+use crate::surfel_data::SurfelHierarchy;
 
 /// u32 slots of the tally buffer (TALLY_SLOTS in surfels_types.wgsl).
 pub(crate) const TALLY_SLOTS: usize = 16;
@@ -220,7 +220,7 @@ fn upload(gpu: &Gpu, h: &SurfelHierarchy) -> UploadedSurfels {
             }
         })
         .collect();
-    let surfel_record = |s: &crate::surfels::Surfel| SurfelGpu {
+    let surfel_record = |s: &crate::surfel_data::Surfel| SurfelGpu {
         position: (s.position - centre).as_vec3().to_array(),
         radius: s.radius as f32,
         normal: s.normal.as_vec3().to_array(),
@@ -274,7 +274,7 @@ fn upload(gpu: &Gpu, h: &SurfelHierarchy) -> UploadedSurfels {
 /// chart's rim that margin grew the outline, bunny IoU 0.9826 against 0.9858 at 1/16 of the
 /// image height, and the hole fill closes what cracks remain: none measured.)
 fn clip_boxes(h: &SurfelHierarchy) -> Vec<[f32; 4]> {
-    let boxed = |s: &crate::surfels::Surfel| {
+    let boxed = |s: &crate::surfel_data::Surfel| {
         let t = s.texels.map(|v| v as f32);
         [t[0] - 0.5, t[1] - 0.5, t[2] + 0.5, t[3] + 0.5]
     };

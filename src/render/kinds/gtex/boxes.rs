@@ -10,9 +10,9 @@
 use bytemuck::{Pod, Zeroable};
 use glam::{DMat3, DMat4, DVec3};
 
+use crate::bvh::Aabb;
 use crate::gtex::Patch;
 use crate::heightfield::code_at_texel;
-use crate::render::bvh::Aabb;
 
 /// The pyramid level the boxes are cut at (16 x 16 cells); a patch with fewer levels is one box.
 pub(crate) const BOX_LEVEL: u32 = 4;

@@ -21,11 +21,11 @@ use bytemuck::Zeroable;
 use glam::{DMat3, DMat4, DVec3};
 
 use super::{storage_buffer, DrawCall, FrameView, Kind, KindContext, Tally, TraceCall, UploadCache};
+use crate::bvh::{Aabb, Bvh};
 use crate::error::Result;
 use crate::gtex::{GeometryTextureSet, Patch};
 use crate::heightfield::min_max_pyramid;
 use crate::render::atlas::Atlas;
-use crate::render::bvh::{Aabb, Bvh};
 use crate::render::cull::{in_frustum, lod_level, DepthRange};
 use crate::render::device::Gpu;
 use crate::render::gpu_types::{gpu_matrix, normal_matrix, PatchGpu};

@@ -19,11 +19,11 @@ use std::collections::{BinaryHeap, HashMap};
 
 use glam::{DVec2, DVec3};
 
-use super::options::ConvertOptions;
-use super::progress::Progress;
 use super::vsa::{Candidate, MeshPartition, NONE};
+use crate::convert_options::ConvertOptions;
 use crate::error::Result;
 use crate::mesh::{Mesh, MeshGeometry};
+use crate::progress::Progress;
 
 /// A ball holding points (centroids), merged as the smallest ball holding both.
 #[derive(Clone, Copy, Debug)]

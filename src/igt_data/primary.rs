@@ -5,7 +5,7 @@
 //! Spaces: world (f64) in. Primary space is per grid, in cell units: cell (i, j) covers
 //! [i, i + 1] x [j, j + 1], i along u (0..width), j along v (0..height).
 //! - charts: u, v = (p - origin)·x, ·y over the cell size: the chart's orthographic projection
-//!   along its z, fold-free for its faces by construction (convert/repair.rs).
+//!   along its z, fold-free for its faces by construction (charts/repair.rs).
 //! - spherical: direction d = p - origin in the grid's axes; u = longitude (atan2(d_y, d_x)) over
 //!   2π times width, wrapping; v = colatitude (acos(d_z / |d|)) over π times height. Bijective
 //!   for meshes star-shaped about the origin.

@@ -146,3 +146,31 @@ fn split(
     parts.retain(|p| !p.is_empty());
     parts
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_shapes::ramp;
+
+    #[test]
+    fn repair_separates_the_sheets_of_a_ramp_past_one_turn() {
+        let mesh = ramp(1.6);
+        let geo = MeshGeometry::new(&mesh);
+        let all: Vec<u32> = (0..mesh.faces.len() as u32).collect();
+        let repaired = repair(&mesh, &geo, vec![all.clone()]);
+        assert!(repaired.sheet_splits >= 1);
+        let mut placed: Vec<u32> = repaired
+            .charts
+            .iter()
+            .flat_map(|c| c.faces.clone())
+            .collect();
+        placed.sort_unstable();
+        assert_eq!(placed, all);
+        for chart in &repaired.charts {
+            assert_eq!(
+                sheets::overlapping_faces(&mesh, &geo, &chart.faces, chart.z),
+                None
+            );
+        }
+    }
+}

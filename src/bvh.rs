@@ -1,4 +1,5 @@
 //! A bounding-volume hierarchy over boxes (one leaf per box), for the tracer (trace_functions.wgsl).
+//! Crate-level: the renderer's tracer and igt's ambient occlusion rays both use it.
 //!
 //! The tree's shape is built once per object from its boxes in the object's own space (binned
 //! surface-area heuristic) and kept with the object's upload; each frame only refits the bounds

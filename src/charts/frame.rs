@@ -7,8 +7,7 @@
 use geo::{ConvexHull, MinimumRotatedRect, MultiPoint, Point};
 use glam::{DVec2, DVec3};
 
-use super::options::InPlane;
-use super::raster::PatchBox;
+use crate::convert_options::InPlane;
 use crate::gtex::vertical_extent;
 use crate::mesh::{Mesh, MeshGeometry};
 
@@ -162,6 +161,18 @@ fn min_rect_direction(pts: &[DVec2]) -> Option<DVec2> {
         e1
     };
     longer.try_normalize()
+}
+
+/// The box a chart is drawn into.
+#[derive(Clone, Copy, Debug)]
+pub struct PatchBox {
+    pub origin: DVec3,
+    pub axes: [DVec3; 3],
+    pub extent: DVec3,
+    pub width: u32,
+    pub height: u32,
+    /// Bits per height code (8 or 16).
+    pub height_bits: u8,
 }
 
 /// A chart's frame: its axes, a reference point (one of its vertices) and the tight bounds, in

@@ -1,5 +1,7 @@
 //! The keywords of `convert`: their one set of defaults, their validation, the names they go by
 //! as strings, and `ConvertArgs`, the keywords as a caller (the Python binding) receives them.
+//! Crate-level data: `charts` reads the partition keywords, and an inverse geometric texture's
+//! options carry a set of them for its charts.
 //!
 //! Space: lengths (`texel_size`, `max_error`) are world units; `max_error_rel` is a fraction of
 //! the mesh's bounding-box diagonal.

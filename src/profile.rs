@@ -1,7 +1,8 @@
 //! Optional per-phase timers inside a conversion's stages (`GEOMTEX_PROFILE=1`): how often each
 //! inner phase ran and the thread-seconds it took, summed over worker threads and printed to
 //! stderr when a conversion ends. The stage seconds in `stats["seconds"]` say which stage is
-//! slow; these say which part of it, without a profiler on the loaded CI machines.
+//! slow; these say which part of it, without a profiler on the loaded CI machines. Crate-level:
+//! the mesh's geometry and the renderer's shadow pass mark their memory and time too.
 //!
 //! With profiling on, each stage's end also prints the process's resident memory (VmRSS) and
 //! its peak over the stage (VmHWM, reset through /proc/self/clear_refs when the stage ends, so
@@ -45,8 +46,8 @@ const PHASES: [&str; 10] = [
 static NANOS: [AtomicU64; 10] = [const { AtomicU64::new(0) }; 10];
 static COUNTS: [AtomicU64; 10] = [const { AtomicU64::new(0) }; 10];
 
-/// Whether `GEOMTEX_PROFILE` asks for timers (read once; the render's shadow pass asks too).
-pub(crate) fn enabled() -> bool {
+/// Whether `GEOMTEX_PROFILE` asks for timers (read once).
+fn enabled() -> bool {
     static ON: OnceLock<bool> = OnceLock::new();
     *ON.get_or_init(|| std::env::var_os("GEOMTEX_PROFILE").is_some_and(|v| v != "0"))
 }
@@ -62,6 +63,18 @@ pub fn timed<T>(phase: Phase, work: impl FnOnce() -> T) -> T {
     NANOS[k].fetch_add(start.elapsed().as_nanos() as u64, Ordering::Relaxed);
     COUNTS[k].fetch_add(1, Ordering::Relaxed);
     out
+}
+
+/// Phase timers of the renderer's shadow and ray-query passes, printed to stderr (as
+/// "geomtex shadow: …") when profiling is on: milliseconds since the last mark.
+pub(crate) fn mark(what: std::fmt::Arguments, since: &mut std::time::Instant) {
+    if enabled() {
+        eprintln!(
+            "geomtex shadow: {:8.2} ms {what}",
+            since.elapsed().as_secs_f64() * 1e3
+        );
+    }
+    *since = std::time::Instant::now();
 }
 
 /// Largest VmHWM a stage's line printed since the last `report`, KiB.

@@ -1,10 +1,11 @@
-//! Progress reports, cancellation and per-stage wall-clock seconds of a conversion, and the
-//! parallel loop over charts that reports as it goes.
+//! Progress reports, cancellation and per-stage wall-clock seconds of a long call (a conversion,
+//! an inverse geometric texture's build, a distance function), and the parallel loop over items
+//! that reports as it goes. Crate-level, so every stage reports the same way without importing
+//! another.
 //!
 //! Space: none.
 
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::Mutex;
 use std::time::Instant;
 
 use rayon::prelude::*;
@@ -12,7 +13,7 @@ use rayon::prelude::*;
 use crate::cancel::{Cancel, NEVER};
 use crate::error::{GeomtexError, Result};
 
-/// Progress of one conversion: `callback(stage, fraction)` with the completed fraction in
+/// Progress of one long call: `callback(stage, fraction)` with the completed fraction in
 /// [0, 1] (returning false cancels; may be called from worker threads), and the caller's cancel
 /// token, which long loops poll far more often than they report.
 #[derive(Clone, Copy)]
@@ -55,43 +56,7 @@ impl<'a> Progress<'a> {
     }
 }
 
-/// The stages of one conversion in the order they run ("resolution" only with `max_error`).
-pub const STAGE_ORDER: [&str; 8] = [
-    "geometry",
-    "partition",
-    "repair",
-    "overlap",
-    "frame",
-    "resolution",
-    "raster",
-    "dilate",
-];
-
-/// Passes on a report of run `run` of `runs` whole conversions (the partitions an error-driven
-/// VSA conversion tries) to `outer` as stage "partition" at (run + position within the run) /
-/// runs, so the caller's bar only moves forward; a report that would move it back (worker
-/// threads report out of order) is not passed on. `reported` holds the last fraction passed on.
-pub fn share_of_runs(
-    outer: &Progress,
-    reported: &Mutex<f64>,
-    (run, runs): (usize, usize),
-    stage: &str,
-    fraction: f64,
-) -> bool {
-    let position = match STAGE_ORDER.iter().position(|&s| s == stage) {
-        Some(k) => (k as f64 + fraction.clamp(0.0, 1.0)) / STAGE_ORDER.len() as f64,
-        None => 1.0, // "done"
-    };
-    let overall = (run as f64 + position) / runs as f64;
-    let mut last = reported.lock().unwrap_or_else(|p| p.into_inner());
-    if overall < *last {
-        return true;
-    }
-    *last = overall;
-    (outer.callback)("partition", overall)
-}
-
-/// The stages of one conversion as they run: each is reported when it begins and timed until
+/// The stages of one long call as they run: each is reported when it begins and timed until
 /// it ends.
 pub struct Stages<'a> {
     pub progress: Progress<'a>,
@@ -103,7 +68,7 @@ pub struct Stages<'a> {
 
 impl<'a> Stages<'a> {
     pub fn new(progress: Progress<'a>) -> Stages<'a> {
-        super::profile::memory("before");
+        crate::profile::memory("before");
         let now = Instant::now();
         Stages {
             progress,
@@ -124,7 +89,7 @@ impl<'a> Stages<'a> {
         self.seconds
             .push((stage.into(), (now - self.lap_start).as_secs_f64()));
         self.lap_start = now;
-        super::profile::memory(stage);
+        crate::profile::memory(stage);
     }
 
     /// Every stage's seconds and the total.

@@ -13,11 +13,11 @@ use std::collections::BinaryHeap;
 
 use glam::DVec3;
 
-use super::options::ConvertOptions;
-use super::progress::Progress;
 use crate::cancel::{Cancel, NEVER};
+use crate::convert_options::ConvertOptions;
 use crate::error::Result;
 use crate::mesh::{Csr, Mesh, MeshGeometry};
+use crate::progress::Progress;
 
 pub const NONE: u32 = u32::MAX;
 
@@ -860,7 +860,7 @@ mod tests {
     fn coarse_levels_find_the_partition_of_the_faces() {
         // A bumpy sphere of ~61k faces: partitioned through coarse levels and on its faces
         // alone, to the same error target.
-        let mut m = crate::convert::tests::uv_sphere(128, 240);
+        let mut m = crate::test_shapes::uv_sphere(128, 240);
         for p in m.positions.iter_mut() {
             *p *= 1.0 + 0.05 * (5.0 * p.x).sin() * (4.0 * p.y).cos();
         }
