@@ -1,8 +1,8 @@
 """Ray queries on the GPU, shaped like trimesh's ``RayMeshIntersector`` so a trimesh user can swap
 them in: ``intersects_first`` (everything about each ray's nearest hit), ``intersects_location``
 and ``intersects_any``. They trace through a hierarchy over thin pieces of the patches' boxes and,
-for every other kind in a scene (meshes, surfels, IGT meshes, displacement shells) their own
-hierarchies (see the README's "Ray queries").
+for the meshes and displacement shells in a scene, their own hierarchies (see the README's "Ray
+queries"; surfels and IGT meshes are not traced).
 
 ``GeometryTextureSet`` and ``Scene`` inherit them from `RayQueries`.
 """
@@ -79,7 +79,8 @@ def _options(options: dict[str, Any]) -> dict[str, Any]:
 
 class RayQueries:
     """The ray queries of an object whose extension handle ``_core`` the renderer traces (a set,
-    a scene)."""
+    a scene). Texture sets, meshes and displacement shells are traced; a scene holding surfels or
+    an IGT mesh is a ParameterError (query the set or the detailed mesh instead)."""
 
     _core: Any
 
