@@ -12,10 +12,17 @@ from __future__ import annotations
 
 from typing import Any, ClassVar, Generic, TypeVar, overload
 
+import numpy as np
+
 from ._errors import InternalError
 
 T = TypeVar("T")
 W = TypeVar("W", bound="Wrapped")
+
+# Numbers as the extension takes them (numpy scalars too), for the public signatures.
+Int = int | np.integer[Any]
+Real = float | np.floating[Any] | Int
+Flag = bool | np.bool_
 
 
 class Wrapped:

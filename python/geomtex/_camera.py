@@ -8,7 +8,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._bridge import Wrapped, forward
+from ._bridge import Int, Real, Wrapped, forward
 
 CameraState = tuple[str, npt.NDArray[np.float64], list[float], "float | None"]
 
@@ -30,20 +30,20 @@ class Camera(Wrapped, core=_core.Camera):
 
     @staticmethod
     def look_at(eye: npt.ArrayLike, target: npt.ArrayLike, up: npt.ArrayLike | None = None,
-                yfov_deg: float | None = None, near: float | None = None) -> Camera:
+                yfov_deg: Real | None = None, near: Real | None = None) -> Camera:
         """Perspective camera at `eye` looking at `target`; `yfov_deg` is the vertical field of view
         (default 45), `up` defaults to +Y."""
         return Camera._wrap(_core.Camera.look_at(eye, target, up, yfov_deg, near))
 
     @staticmethod
-    def from_intrinsics(K: npt.ArrayLike, world_from_camera: npt.ArrayLike, width: int, height: int,
-                        near: float | None = None) -> Camera:
+    def from_intrinsics(K: npt.ArrayLike, world_from_camera: npt.ArrayLike, width: Int, height: Int,
+                        near: Real | None = None) -> Camera:
         """OpenCV intrinsics K (3x3) with an OpenCV camera-to-world pose (looks down +Z, +Y down),
         for an image of width x height."""
         return Camera._wrap(_core.Camera.from_intrinsics(K, world_from_camera, width, height, near))
 
     @staticmethod
-    def orthographic(world_from_camera: npt.ArrayLike, ymag: float, near: float | None = None) -> Camera:
+    def orthographic(world_from_camera: npt.ArrayLike, ymag: Real, near: Real | None = None) -> Camera:
         """Orthographic camera with an OpenGL pose; `ymag` is half the view's height in world
         units."""
         return Camera._wrap(_core.Camera.orthographic(world_from_camera, ymag, near))
@@ -64,7 +64,7 @@ class Camera(Wrapped, core=_core.Camera):
         along it."""
         return self._core.forward
 
-    def rays(self, width: int, height: int) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    def rays(self, width: Int, height: Int) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
         """World rays through every pixel centre of a width x height image: origins and unit
         directions, each (height, width, 3) float64, row 0 at the top. The renderer's own rays.
         At most 2^26 rays (8192 x 8192) per call."""

@@ -10,7 +10,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _check, _core
-from ._bridge import Wrapped, forward
+from ._bridge import Int, Wrapped, forward
 from ._errors import ParameterError
 from ._set import from_bytes_arg
 
@@ -101,7 +101,7 @@ class InverseGeometricTexture(Wrapped, core=_core.InverseGeometricTexture):
         return self._core.lookup(p, ids)
 
     def shade(self, vertices: npt.ArrayLike, faces: npt.ArrayLike, face_grid: npt.ArrayLike,
-              lookup: str | None = None, samples: int | None = None, lod: str | float | None = None) -> IgtMesh:
+              lookup: str | None = None, samples: Int | None = None, lod: str | float | None = None) -> IgtMesh:
         """A mesh in the detailed mesh's space ((V, 3) vertices, (F, 3) faces) shaded through this
         texture, each face searched in the grid `face_grid` names; `lookup`, `samples` and `lod` as
         for `geomtex.igt.attach`."""

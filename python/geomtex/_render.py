@@ -10,7 +10,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _check, _core
-from ._bridge import Wrapped, forward, unwrap
+from ._bridge import Flag, Int, Real, Wrapped, forward, unwrap
 from ._camera import Camera
 from ._errors import ParameterError
 from ._frame import Frame
@@ -88,20 +88,22 @@ def check_render_options(options: Mapping[str, Any]) -> None:
 
 
 class RenderOptions(TypedDict, total=False):
-    """`Renderer.render`'s keywords (every one None by default: the extension's own default)."""
+    """`Renderer.render`'s keywords (every one None by default: the extension's own default).
+    ``light``: a DirectionalLight, a PointLight, or any object with a ``direction`` or a
+    ``position``."""
 
     quality: Literal["fast", "balanced", "exact"] | None
     method: Literal["linear_binary", "maxmip"] | None
-    steps_per_texel: float | None
-    min_linear_steps: int | None
-    max_linear_steps: int | None
-    binary_steps: int | None
-    max_traversal_steps: int | None
-    count_fetches: bool | None
-    lod: bool | None
+    steps_per_texel: Real | None
+    min_linear_steps: Int | None
+    max_linear_steps: Int | None
+    binary_steps: Int | None
+    max_traversal_steps: Int | None
+    count_fetches: Flag | None
+    lod: Flag | None
     background: npt.ArrayLike | None
-    light: DirectionalLight | PointLight | None
-    max_pixel_error: float | None
+    light: Any
+    max_pixel_error: Real | None
     primary: Literal["tiles", "boxes"] | None
 
 
@@ -114,7 +116,7 @@ class Renderer(Wrapped, core=_core.Renderer):
 
     _core: _core.Renderer
 
-    def __init__(self, width: int, height: int) -> None:
+    def __init__(self, width: Int, height: Int) -> None:
         self._core = _core.Renderer(width, height)
 
     def __reduce__(self) -> tuple[Any, ...]:

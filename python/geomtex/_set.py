@@ -8,13 +8,13 @@ pictures (``_repr_png_``), grid preparation and mesh input are written in Python
 from __future__ import annotations
 
 import os
-from typing import TYPE_CHECKING, Any, Literal
+from typing import TYPE_CHECKING, Any, Literal, Sequence
 
 import numpy as np
 import numpy.typing as npt
 
 from . import _check, _core, _grids, _preview
-from ._bridge import Wrapped, forward
+from ._bridge import Int, Real, Wrapped, forward
 from ._mesh import as_mesh
 from ._rays import RayQueries
 
@@ -44,8 +44,10 @@ class GeometryTextureSet(RayQueries, Wrapped, core=_core.GeometryTextureSet):
                         "GeometryTextureSet.from_bytes or GeometryTextureSet.from_heightmaps")
 
     @staticmethod
-    def from_heightmaps(grids: Any, extent: Any, *, properties: Any = None, cmap: Any = "viridis",
-                        property_range: tuple[float, float] | None = None, max_resolution: int | None = None,
+    def from_heightmaps(grids: npt.ArrayLike | Sequence[npt.ArrayLike],
+                        extent: Sequence[float] | Sequence[Sequence[float]] | npt.ArrayLike, *,
+                        properties: npt.ArrayLike | Sequence[npt.ArrayLike] | None = None, cmap: Any = "viridis",
+                        property_range: tuple[float, float] | None = None, max_resolution: Int | None = None,
                         height_bits: Literal[8, 16] | None = None) -> GeometryTextureSet:
         """Builds a set straight from regular height grids (horizons, terrain).
 
@@ -82,7 +84,7 @@ class GeometryTextureSet(RayQueries, Wrapped, core=_core.GeometryTextureSet):
         """(M,) int32: the patch holding each source face, -1 for degenerate faces left out."""
         return self._core.face_patch()
 
-    def patch(self, index: int) -> dict[str, Any]:
+    def patch(self, index: Int) -> dict[str, Any]:
         """One patch's maps and frame as numpy arrays (negative indices count from the end):
         height (H, W) codes, uint16 or uint8 as `height_bits` says (0 = empty, else
         h = (code - 1) / (2**height_bits - 2)), normal (H, W, 4) int8 (patch-local xyz/127; 0
@@ -104,14 +106,14 @@ class GeometryTextureSet(RayQueries, Wrapped, core=_core.GeometryTextureSet):
         +inf on a miss; (N,) int32 patch indices, -1 on a miss). Directions must be unit vectors."""
         return self._core.first_hits(origins, directions)
 
-    def to_surfels(self, tile: int | None = None) -> Surfels:
+    def to_surfels(self, tile: Int | None = None) -> Surfels:
         """The surfel hierarchy of this set: every surface texel a surfel, tiles of `tile` x `tile`
         texels (a power of two up to 64, default 8) merged 2x2 per level."""
         from ._surfels import Surfels
 
         return Surfels._wrap(self._core.to_surfels(tile))
 
-    def filtered(self, kind: MapFilter, sigma: float, *, gain: float | None = None) -> GeometryTextureSet:
+    def filtered(self, kind: MapFilter, sigma: Real, *, gain: Real | None = None) -> GeometryTextureSet:
         """A copy with every height map filtered: "gaussian" (low-pass) or "high_pass" (unsharp
         masking, h + gain (h - gaussian h); `gain` is refused for "gaussian"); `sigma` in world
         units. Normals are filtered by the same weights in world space."""

@@ -80,6 +80,10 @@ class Volume(Wrapped, core=_core.GdmVolume):
             rgba = np.ascontiguousarray(rgba, dtype=np.uint8)
         self._core = _core.GdmVolume(grid, rgba, seams)
 
+    def __repr__(self) -> str:
+        colored = ", colored" if self._core.colors is not None else ""
+        return f"<geomtex.gdm.Volume {'x'.join(map(str, self.size))}, {self.occupancy.mean():.1%} solid{colored}>"
+
     def __reduce__(self) -> tuple[Any, ...]:
         # As its grid and colors; the extension's copy is made anew from them, identical.
         colors = self._core.colors

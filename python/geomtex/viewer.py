@@ -23,6 +23,7 @@ from PIL import Image
 from . import _check
 from ._camera import Camera
 from ._errors import ParameterError
+from ._kinds import adopt
 from ._preview import patch_tint
 from ._scene import Scene
 from ._set import GeometryTextureSet
@@ -43,8 +44,6 @@ def _box_corners(lo: npt.NDArray[np.float64], hi: npt.NDArray[np.float64]) -> np
 def _bounds(obj: Any) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """World (lo, hi) of anything a Scene takes (each kind's box, from the kinds table), or of a
     scene (each object's box placed by its matrix)."""
-    from ._kinds import adopt
-
     if not isinstance(obj, Scene):
         kind, item = adopt(obj)
         return kind.box(item)
@@ -86,7 +85,6 @@ class Viewer:
 
     def __init__(self, obj: Any, *, mesh: Any = None, width: int = 512, height: int = 384,
                  compare: Compare | None = None, **state: Any) -> None:
-        from ._kinds import adopt
         from ._mesh import as_mesh
 
         self.width, self.height = _check.image_size(width, height, 16, 4096)
