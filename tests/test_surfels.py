@@ -5,7 +5,10 @@ the 32-bit fallback, files, pickling and bad input."""
 
 from __future__ import annotations
 
+import os
 import pickle
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -178,20 +181,34 @@ def test_surfels_composite_with_a_mesh_nearer_wins(
     assert agree.mean() >= 0.995, agree.mean()     # measured 0.9984
 
 
-def test_the_32_bit_fallback_draws_the_same_frame(
-        monkeypatch: pytest.MonkeyPatch, renderer: gt.Renderer, bunny: Converted,
-        bunny_surfels: gt.Surfels) -> None:
+_FALLBACK = """
+import pickle, sys, numpy as np, geomtex as gt
+surfels, cam, size = pickle.loads(open(sys.argv[1], "rb").read())
+r = gt.Renderer(size, size)
+assert r.adapter_info["int64_atomics"] == "false", r.adapter_info
+f = r.render(surfels, cam)
+np.savez(sys.argv[2], depth=f.depth, patch_id=f.patch_id, drawn=f.stats["surfels_drawn"])
+"""
+
+
+def test_the_32_bit_fallback_draws_the_same_frame(tmp_path, renderer: gt.Renderer, bunny: Converted,
+                                                   bunny_surfels: gt.Surfels) -> None:
     if renderer.adapter_info.get("int64_atomics") != "true":
         pytest.skip("this adapter has no 64-bit atomics: every test already runs the fallback")
-    monkeypatch.setenv("GEOMTEX_NO_INT64_ATOMICS", "1")
-    fallback = gt.Renderer(SIZE, SIZE)
-    assert fallback.adapter_info["int64_atomics"] == "false"
     cam = backed_away(bunny.mesh, 0.5)
-    a, b = renderer.render(bunny_surfels, cam), fallback.render(bunny_surfels, cam)
+    a = renderer.render(bunny_surfels, cam)
+    # The process's one device is made with or without 64-bit atomics: the fallback runs in a
+    # process of its own, started with GEOMTEX_NO_INT64_ATOMICS=1.
+    (tmp_path / "in.pickle").write_bytes(pickle.dumps((bunny_surfels, cam, SIZE)))
+    env = {**os.environ, "GEOMTEX_NO_INT64_ATOMICS": "1"}
+    run = subprocess.run([sys.executable, "-c", _FALLBACK, str(tmp_path / "in.pickle"), str(tmp_path / "out.npz")],
+                         env=env, capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    b = np.load(tmp_path / "out.npz")
     # The fallback keeps the nearest depth, then the largest index at it: the 64-bit key's order.
-    np.testing.assert_array_equal(a.depth, b.depth)
-    np.testing.assert_array_equal(a.patch_id, b.patch_id)
-    assert a.stats["surfels_drawn"] == b.stats["surfels_drawn"]
+    np.testing.assert_array_equal(a.depth, b["depth"])
+    np.testing.assert_array_equal(a.patch_id, b["patch_id"])
+    assert a.stats["surfels_drawn"] == int(b["drawn"])
 
 
 # --- files, pickling, bad input -----------------------------------------------------------------

@@ -15,9 +15,10 @@ from typing import Any, Callable, Literal
 # machines; geomtex picks its adapter itself, so the layer is not needed.
 os.environ.setdefault("NODEVICE_SELECT", "1")
 
-from . import _check, _core, _grids, _pickle, _preview, _rays, gdm, igt  # noqa: E402
+from . import _check, _core, gdm, igt  # noqa: E402
+from ._camera import Camera  # noqa: E402
 from ._check import number as _number  # noqa: E402
-from ._core import Camera, Frame, GeometryTextureSet, Surfels, __version__  # noqa: E402
+from ._core import __version__  # noqa: E402
 from ._errors import (  # noqa: E402
     CancelledError,
     CapWarning,
@@ -29,10 +30,14 @@ from ._errors import (  # noqa: E402
     MeshError,
     ParameterError,
 )
+from ._frame import Frame  # noqa: E402
 from ._info import info  # noqa: E402
 from ._mesh import AppearanceWarning, Mesh, as_mesh, load_mesh  # noqa: E402
 from ._rays import RayHits  # noqa: E402
-from ._render import DirectionalLight, PointLight, Renderer, Scene  # noqa: E402
+from ._render import DirectionalLight, PointLight, Renderer  # noqa: E402
+from ._scene import Scene  # noqa: E402
+from ._set import GeometryTextureSet  # noqa: E402
+from ._surfels import Surfels  # noqa: E402
 
 __all__ = [
     "AppearanceWarning",
@@ -66,65 +71,6 @@ __all__ = [
     "load_surfels",
     "show",
 ]
-
-_core_seam_gaps = GeometryTextureSet.seam_gaps
-_core_seam_normal_steps = GeometryTextureSet.seam_normal_steps
-
-
-def _seam_gaps(self: GeometryTextureSet, mesh: Any) -> Any:
-    """Gaps (world units, float64) between neighbouring patches at points along their charts'
-    shared edges (a quarter, half and three quarters along each, both ways). `mesh`: the mesh
-    the set was converted from, as a Mesh, trimesh or path; a mesh with another face count or
-    elsewhere in space raises ParameterError."""
-    return _core_seam_gaps(self, as_mesh(mesh))
-
-
-def _seam_normal_steps(self: GeometryTextureSet, mesh: Any) -> Any:
-    """Angles (degrees, float64) between the normals two neighbouring patches show at the points
-    of `seam_gaps`: the shading step a viewer would see where the patches meet. `mesh` as for
-    `seam_gaps`."""
-    return _core_seam_normal_steps(self, as_mesh(mesh))
-
-
-# Methods written in Python (pictures, files, grid preparation, mesh input), attached to the
-# extension's classes here so that the extension never imports this package.
-for _cls, _name, _method in [
-    *[(_cls, _query.__name__, _query) for _cls in (GeometryTextureSet, _core.Scene)
-      for _query in (_rays.intersects_first, _rays.intersects_location, _rays.intersects_any)],
-    (GeometryTextureSet, "seam_gaps", _seam_gaps),
-    (GeometryTextureSet, "seam_normal_steps", _seam_normal_steps),
-    (GeometryTextureSet, "_repr_png_", _preview.set_png),
-    (GeometryTextureSet, "from_heightmaps", staticmethod(_grids.from_heightmaps)),
-    (Frame, "_repr_png_", _preview.frame_png),
-    (Frame, "save", _preview.save_frame),
-]:
-    setattr(_cls, _name, _method)
-
-
-
-def _from_bytes(core_from_bytes: Callable[[bytes], Any]) -> Any:
-    """`from_bytes` taking any bytes-like object (bytes, bytearray, memoryview); anything else
-    is a ParameterError naming `data`."""
-
-    def from_bytes(data: Any) -> Any:
-        if not isinstance(data, (bytes, bytearray, memoryview)):
-            raise _check.fail("data", "bytes (or a bytearray or memoryview)", data)
-        return core_from_bytes(bytes(data))
-
-    from_bytes.__doc__ = core_from_bytes.__doc__
-    return staticmethod(from_bytes)
-
-
-def _surfels_new(cls: type) -> Any:
-    raise ParameterError("Surfels are made by GeometryTextureSet.to_surfels(tile) or geomtex.load_surfels(path), "
-                         "not by Surfels(...)")
-
-
-for _stored in (GeometryTextureSet, Surfels, igt.InverseGeometricTexture):
-    setattr(_stored, "from_bytes", _from_bytes(_stored.from_bytes))
-setattr(Surfels, "__new__", staticmethod(_surfels_new))  # the extension's refusal is a TypeError
-
-_pickle.install()
 
 ProgressCallback = Callable[[str, float], "bool | None"]
 
@@ -269,8 +215,9 @@ def convert(
     else:
         raise ParameterError(f"progress must be True, False, None or a callable, got {progress!r}")
     try:
-        gts = _core.convert(m, **integers, **reals, error_scope=error_scope, partition=partition,
-                            frame=frame, normals=normals, progress=callback)
+        gts = GeometryTextureSet._wrap(_core.convert(
+            m._core, **integers, **reals, error_scope=error_scope, partition=partition, frame=frame,
+            normals=normals, progress=callback))
     finally:
         if bar is not None:
             bar.close()
@@ -321,13 +268,13 @@ def load(path: str | os.PathLike[str]) -> GeometryTextureSet:
     """Reads a .gtex file. Raises FormatError for anything that is not an intact .gtex file
     (versions 1 to 5). Files hold no stage timings, so a loaded set's ``stats["seconds"]`` is
     empty."""
-    return _core.load(_check.path("path", path, exists=True))
+    return GeometryTextureSet._wrap(_core.load(_check.path("path", path, exists=True)))
 
 
 def load_surfels(path: str | os.PathLike[str]) -> Surfels:
     """Reads a .gtsurf file (``Surfels.save``): the set and tile size it holds, the hierarchy
     rebuilt from them. Raises FormatError for anything that is not an intact one."""
-    return _core.load_surfels(_check.path("path", path, exists=True))
+    return Surfels._wrap(_core.load_surfels(_check.path("path", path, exists=True)))
 
 
 #: Public submodules imported on first use (PEP 562): ``gt.batch.convert_many`` works after a

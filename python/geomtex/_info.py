@@ -154,7 +154,7 @@ def _shadow(renderer: Any, camera: Any, gts: Any, hit: npt.NDArray[np.bool_],
 def self_check() -> dict[str, dict[str, Any]]:
     """Per kind (and for ray queries): passed, IoU and depth p90 (radii) against the analytic
     sphere, or the error it raised."""
-    from ._core import Camera
+    from ._camera import Camera
     from ._render import shared_renderer
 
     hit, depth = _sphere_reference()

@@ -10,6 +10,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
+from ._bridge import Wrapped, forward
 from ._errors import FileError, FormatError, MeshError, ParameterError
 
 
@@ -114,7 +115,7 @@ def _warn(message: str) -> None:
     warnings.warn(message, AppearanceWarning, stacklevel=3)
 
 
-class Mesh(_core.Mesh):
+class Mesh(Wrapped, core=_core.Mesh):
     """A triangle mesh: ``Mesh(vertices (N, 3), faces (M, 3), vertex_colors=None,
     face_colors=None, uv=None, texture=None)``.
 
@@ -129,8 +130,10 @@ class Mesh(_core.Mesh):
     allowed and left out of conversion.
     """
 
-    def __new__(cls, vertices: Any, faces: Any, vertex_colors: Any = None, face_colors: Any = None,
-                uv: Any = None, texture: Any = None) -> "Mesh":
+    _core: _core.Mesh
+
+    def __init__(self, vertices: Any, faces: Any, vertex_colors: Any = None, face_colors: Any = None,
+                 uv: Any = None, texture: Any = None) -> None:
         v = _vertices(vertices)
         f = _faces(faces)
         c = _colors(vertex_colors, "vertex_colors", v.shape[0], "vertices")
@@ -144,7 +147,21 @@ class Mesh(_core.Mesh):
         sources = [n for n, x in [("texture", t), ("face_colors", fc), ("vertex_colors", c)] if x is not None]
         if len(sources) > 1:
             _warn(f"{' and '.join(sources)} given: {sources[0]} is used")
-        return super().__new__(cls, v, f, c, fc, u, t)  # type: ignore[return-value]  # builds cls
+        self._core = _core.Mesh(v, f, c, fc, u, t)
+
+    vertices = forward[npt.NDArray[np.float64]]("(N, 3) float64 vertex positions (a copy).")
+    faces = forward[npt.NDArray[np.uint32]]("(M, 3) uint32 vertex indices (a copy).")
+    vertex_colors = forward[npt.NDArray[np.uint8] | None]("(N, 4) uint8 RGBA vertex colors, or None.")
+    face_colors = forward[npt.NDArray[np.uint8] | None]("(M, 4) uint8 RGBA face colors, or None.")
+    uv = forward[npt.NDArray[np.float64] | None](
+        "float64 texture coordinates, (N, 2) per vertex or (M, 3, 2) per face corner, or None.")
+    texture = forward[npt.NDArray[np.uint8] | None](
+        "(H, W, 4) uint8 RGBA texture image (row 0 at the top), or None.")
+    textured = forward[bool]("Whether the mesh carries texture coordinates and a texture image.")
+    n_vertices = forward[int]("Number of vertices.")
+    n_faces = forward[int]("Number of faces.")
+    diagonal = forward[float]("Length of the bounding-box diagonal.")
+    bounds = forward[npt.NDArray[np.float64]]("(2, 3) float64: the bounding box's min and max corners.")
 
     @classmethod
     def from_trimesh(cls, mesh: Any) -> "Mesh":
@@ -265,9 +282,9 @@ def load_mesh(path: str | os.PathLike[str]) -> Mesh:
         raise MeshError(f"{p}: {e}") from None
 
 
-def as_mesh(obj: Any) -> _core.Mesh:
+def as_mesh(obj: Any) -> Mesh:
     """A geomtex Mesh from a Mesh, a trimesh.Trimesh, a trimesh.Scene (flattened) or a path."""
-    if isinstance(obj, _core.Mesh):
+    if isinstance(obj, Mesh):
         return obj
     if isinstance(obj, (str, os.PathLike)):
         return load_mesh(obj)

@@ -121,7 +121,7 @@ def ray_cast_view(gts: Any, size: int = 512, azimuth_deg: float = 30.0, elevatio
                   up_axis: str = "y") -> tuple[Image.Image, Any] | None:
     """The set ray cast on the GPU (this process's renderer of that size), tinted by patch; None
     when no GPU adapter (not even lavapipe) is available."""
-    from . import _core
+    from ._camera import Camera
     from ._errors import DeviceError
     from ._render import shared_renderer
 
@@ -135,7 +135,7 @@ def ray_cast_view(gts: Any, size: int = 512, azimuth_deg: float = 30.0, elevatio
     # 1.2 diagonals frame a compact model; a terrain's diagonal lies across the view, so the
     # whole bounding sphere must fit (radius diag / 2 in a 40 degree cone: 1.46 diagonals).
     distance = 1.5 * diag if up_axis == "z" else 1.2 * diag
-    camera = _core.Camera.look_at(centre - forward * distance, centre, up=tuple(up), yfov_deg=40.0)
+    camera = Camera.look_at(centre - forward * distance, centre, up=tuple(up), yfov_deg=40.0)
     frame = renderer.render(gts, camera)
     return Image.fromarray(patch_tint(frame)), frame
 
@@ -172,14 +172,10 @@ def overview(gts: Any, size: int = 512, title: str | None = None) -> Image.Image
     return canvas
 
 
-# The three functions below become methods of the extension's classes (geomtex/__init__.py
-# attaches them), hence their first parameter's name.
-
-
-def set_png(self: Any) -> bytes:
+def set_png(gts: Any) -> bytes:
     """GeometryTextureSet._repr_png_: PNG bytes of `overview`, for Jupyter."""
     buf = io.BytesIO()
-    overview(self, 384).save(buf, format="PNG")
+    overview(gts, 384).save(buf, format="PNG")
     return buf.getvalue()
 
 
@@ -190,16 +186,16 @@ def frame_image(frame: Any) -> Image.Image:
     return Image.alpha_composite(white, Image.fromarray(rgba, "RGBA")).convert("RGB")
 
 
-def frame_png(self: Any) -> bytes:
+def frame_png(frame: Any) -> bytes:
     """Frame._repr_png_: the color image over white as PNG bytes, for Jupyter."""
     buf = io.BytesIO()
-    frame_image(self).save(buf, format="PNG")
+    frame_image(frame).save(buf, format="PNG")
     return buf.getvalue()
 
 
-def save_frame(self: Any, path: Any) -> None:
+def save_frame(frame: Any, path: Any) -> None:
     """Frame.save: writes the color image over white (what ``_repr_png_`` shows) in the format
     the extension names (.png, .jpg, ...), atomically: no half file is ever left behind."""
     from ._files import save_image
 
-    save_image(frame_image(self), path)
+    save_image(frame_image(frame), path)

@@ -1,9 +1,10 @@
 """Ray queries on the GPU, shaped like trimesh's ``RayMeshIntersector`` so a trimesh user can swap
 them in: ``intersects_first`` (everything about each ray's nearest hit), ``intersects_location``
 and ``intersects_any``. They trace through a hierarchy over thin pieces of the patches' boxes and,
-for meshes in a scene, a hierarchy over their triangles (see the README's "Ray queries").
+for the meshes and displacement shells in a scene, their own hierarchies (see the README's "Ray
+queries"; surfels and IGT meshes are not traced).
 
-Attached as methods of ``GeometryTextureSet`` and ``Scene`` by ``geomtex/__init__.py``.
+``GeometryTextureSet`` and ``Scene`` inherit them from `RayQueries`.
 """
 
 from __future__ import annotations
@@ -76,33 +77,39 @@ def _options(options: dict[str, Any]) -> dict[str, Any]:
     return options
 
 
-# The first parameter is `self`: these become methods of GeometryTextureSet and Scene.
-def intersects_first(self: Any, origins: npt.ArrayLike, directions: npt.ArrayLike, *,
-                     quality: _Quality | None = None, method: _Method | None = None) -> RayHits:
-    """The nearest hit of every ray (``quality`` "exact" by default)."""
-    o, d = _rays(origins, directions)
-    dist, ids, normals = _query_renderer().intersect(self, o, d, quality=quality, method=method)
-    hit = ids != -1
-    unit = d / np.linalg.norm(d, axis=1, keepdims=True)
-    locations = np.where(hit[:, None], o + unit * np.where(hit, dist, 0.0)[:, None], np.nan)
-    return RayHits(locations, dist, ids, normals, hit)
+class RayQueries:
+    """The ray queries of an object whose extension handle ``_core`` the renderer traces (a set,
+    a scene). Texture sets, meshes and displacement shells are traced; a scene holding surfels or
+    an IGT mesh is a ParameterError (query the set or the detailed mesh instead)."""
 
+    _core: Any
 
-def intersects_location(self: Any, ray_origins: npt.ArrayLike, ray_directions: npt.ArrayLike,
-                        multiple_hits: bool = False, **options: Any
-                        ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.int32]]:
-    """Like trimesh's: (hit locations (M, 3), index of the ray of each (M,), patch id of each
-    (M,)) for the rays that hit; the nearest hit only."""
-    if _check.flag("multiple_hits", multiple_hits):
-        raise _core.ParameterError("multiple_hits=True is not supported: only the nearest hit is traced")
-    hits = intersects_first(self, ray_origins, ray_directions, **_options(options))
-    index = np.flatnonzero(hits.hit)
-    return hits.locations[index], index, hits.patch_ids[index]
+    def intersects_first(self, origins: npt.ArrayLike, directions: npt.ArrayLike, *,
+                         quality: _Quality | None = None, method: _Method | None = None) -> RayHits:
+        """The nearest hit of every ray (``quality`` "exact" by default): origins (N, 3) or one
+        (3,) for every ray, directions (N, 3), any length but zero."""
+        o, d = _rays(origins, directions)
+        dist, ids, normals = _query_renderer().intersect(self._core, o, d, quality=quality, method=method)
+        hit = ids != -1
+        unit = d / np.linalg.norm(d, axis=1, keepdims=True)
+        locations = np.where(hit[:, None], o + unit * np.where(hit, dist, 0.0)[:, None], np.nan)
+        return RayHits(locations, dist, ids, normals, hit)
 
+    def intersects_location(self, ray_origins: npt.ArrayLike, ray_directions: npt.ArrayLike,
+                            multiple_hits: bool = False, **options: Any
+                            ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.int32]]:
+        """Like trimesh's: (hit locations (M, 3), index of the ray of each (M,), patch id of each
+        (M,)) for the rays that hit; the nearest hit only. `options`: quality, method."""
+        if _check.flag("multiple_hits", multiple_hits):
+            raise _core.ParameterError("multiple_hits=True is not supported: only the nearest hit is traced")
+        hits = self.intersects_first(ray_origins, ray_directions, **_options(options))
+        index = np.flatnonzero(hits.hit)
+        return hits.locations[index], index, hits.patch_ids[index]
 
-def intersects_any(self: Any, ray_origins: npt.ArrayLike, ray_directions: npt.ArrayLike,
-                   **options: Any) -> npt.NDArray[np.bool_]:
-    """Whether each ray hits anything (each stops at the first hit found)."""
-    o, d = _rays(ray_origins, ray_directions)
-    _, ids, _ = _query_renderer().intersect(self, o, d, any_hit=True, **_options(options))
-    return ids != -1
+    def intersects_any(self, ray_origins: npt.ArrayLike, ray_directions: npt.ArrayLike,
+                       **options: Any) -> npt.NDArray[np.bool_]:
+        """Whether each ray hits anything (each stops at the first hit found). `options`:
+        quality, method."""
+        o, d = _rays(ray_origins, ray_directions)
+        _, ids, _ = _query_renderer().intersect(self._core, o, d, any_hit=True, **_options(options))
+        return ids != -1  # type: ignore[no-any-return]

@@ -1,28 +1,23 @@
-"""The renderer's Python face: `Scene` and `Renderer` accept anything `as_mesh` reads (trimesh
-objects, mesh files) besides geomtex objects, turning it into a Mesh before the extension sees it.
-"""
+"""The renderer's Python face: `Renderer` (frames and ray queries of anything a Scene takes, trimesh
+objects and mesh files read as meshes first), the lights, and the render keywords' checks."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal, Mapping, Sequence, TypedDict
 
 import numpy as np
 import numpy.typing as npt
 
 from . import _check, _core
+from ._bridge import Flag, Int, Real, Wrapped, forward, unwrap
+from ._camera import Camera
 from ._errors import ParameterError
-from ._mesh import as_mesh
+from ._frame import Frame
+from ._kinds import renderable
 
-_NATIVE = (_core.Scene, _core.GeometryTextureSet, _core.Mesh, _core.Surfels, _core.GdmShell, _core.IgtMesh)
-
-
-def renderable(obj: Any) -> Any:
-    """`obj` itself if the extension draws it, else a Mesh made from it."""
-    core_shell = getattr(obj, "_core_shell", None)  # a geomtex.gdm.Shell
-    if core_shell is not None:
-        return core_shell()
-    return obj if isinstance(obj, _NATIVE) else as_mesh(obj)
+if TYPE_CHECKING:
+    from typing_extensions import Unpack
 
 
 @dataclass(frozen=True)
@@ -70,7 +65,7 @@ _RENDER_KEYWORDS = {
 }
 
 
-def check_render_options(options: dict[str, Any]) -> None:
+def check_render_options(options: Mapping[str, Any]) -> None:
     """`Renderer.render`'s keywords: known names, each of the right kind of value (None is every
     keyword's default); the light checked in full. For callers that cannot wait for the
     extension's own checks (a batch job checks them before any worker starts)."""
@@ -96,46 +91,91 @@ def check_render_options(options: dict[str, Any]) -> None:
             check_light(value)
 
 
-class Scene(_core.Scene):
-    """Geometry-texture sets and meshes (geomtex, trimesh or a file path), each placed by a
-    ``world_from_object`` 4x4 matrix."""
+class RenderOptions(TypedDict, total=False):
+    """`Renderer.render`'s keywords (every one None by default: the extension's own default).
+    ``light``: a DirectionalLight, a PointLight, or any object with a ``direction`` or a
+    ``position``."""
 
-    def add(self, obj: Any, world_from_object: npt.ArrayLike | None = None, *,
-            normals: Literal["crease", "smooth", "flat"] | None = None,
-            crease_angle: float | None = None) -> int:
-        """Adds `obj` (a set, Mesh, trimesh, trimesh.Scene or mesh path) placed by
-        `world_from_object` (any 4x4 array-like, default identity); returns its index.
-
-        A mesh is shaded by the same rule as ``convert``: ``normals="crease"`` (default) smooths
-        within a surface and splits at edges whose faces' normals differ by ``crease_angle``
-        degrees or more (default 20, in (0, 180]); ``"smooth"`` averages across every edge;
-        ``"flat"`` gives each face its own normal. (A set's normals were chosen when it was
-        converted: these keywords are for meshes only.)
-
-        `world_from_object` must be affine (last row 0, 0, 0, 1), invertible and finite; any
-        other matrix is a ParameterError."""
-        placement = None if world_from_object is None else _check.affine("world_from_object", world_from_object)
-        drawn = renderable(obj)
-        index: int = super().add(drawn, placement, normals=normals, crease_angle=crease_angle)
-        bounds = getattr(obj, "bounds", None)
-        if isinstance(drawn, _core.GdmShell) and bounds is not None:
-            # The extension's shell keeps no extent the viewer could read: remember the shell's.
-            self.__dict__.setdefault("_extents", {})[index] = np.asarray(bounds, dtype=np.float64)
-        return index
+    quality: Literal["fast", "balanced", "exact"] | None
+    method: Literal["linear_binary", "maxmip"] | None
+    steps_per_texel: Real | None
+    min_linear_steps: Int | None
+    max_linear_steps: Int | None
+    binary_steps: Int | None
+    max_traversal_steps: Int | None
+    count_fetches: Flag | None
+    lod: Flag | None
+    background: npt.ArrayLike | None
+    light: Any
+    max_pixel_error: Real | None
+    primary: Literal["tiles", "boxes"] | None
+    outputs: str | Sequence[str] | None
 
 
-class Renderer(_core.Renderer):
+RayHitArrays = tuple[npt.NDArray[np.float64], npt.NDArray[np.int32], npt.NDArray[np.float32]]
+
+
+class Renderer(Wrapped, core=_core.Renderer):
     """A headless renderer of an image size (``resize`` changes it). Every Renderer of a process
     shares one GPU device, its pipelines and the objects uploaded to it: making a second
     Renderer, drawing at a second size or tracing rays costs no new device and no new upload.
     See ``render`` for the keywords."""
 
-    def render(self, obj: Any, camera: _core.Camera, **options: Any) -> _core.Frame:
+    _core: _core.Renderer
+
+    def __init__(self, width: Int, height: Int) -> None:
+        self._core = _core.Renderer(width, height)
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        from ._pickle import restore_renderer
+
+        return restore_renderer, (self.width, self.height)
+
+    width = forward[int]("Image width in pixels.")
+    height = forward[int]("Image height in pixels.")
+    adapter_info = forward[dict[str, str]]("The GPU adapter in use: name, backend, device_type, driver, driver_info.")
+
+    def resize(self, width: Int, height: Int) -> None:
+        """Makes later frames `width` x `height`; the device, pipelines and uploads are kept (every
+        Renderer shares them), and so are the targets of sizes drawn lately."""
+        self._core.resize(width, height)
+
+    def render(self, obj: Any, camera: Camera, **options: Unpack[RenderOptions]) -> Frame:
+        """Renders a Scene or any one object a Scene takes (a set, Mesh, Surfels, IgtMesh,
+        gdm.Shell, trimesh or mesh path) seen by `camera`.
+
+        `quality` picks measured settings ("fast", "balanced" or "exact", the default); `method`
+        ("linear_binary" or "maxmip") and the step keywords (`steps_per_texel`,
+        `min_linear_steps`, `max_linear_steps`, `binary_steps`, `max_traversal_steps`) override
+        them. `count_fetches` uses a counting build of the pipeline and reports height fetches in
+        `frame.stats`. `lod` (max-pyramid search only) stops each patch's descent where its nodes
+        are about a pixel. `background`: RGBA where nothing is hit. `light` (a DirectionalLight or
+        a PointLight) casts shadows: `frame.shadow`, and shadowed pixels at half brightness.
+        `max_pixel_error` (Surfels only, default 1): a cut of each patch's tiles and the nodes
+        above them is drawn, each part at its coarsest level whose perpendicular error projects to
+        at most this many pixels of depth (1/16 of it where a silhouette may show). `primary`
+        ("tiles", default, or "boxes") picks how camera rays meet the texture sets' boxes: per
+        pixel nearest first, stopping behind the nearest hit, or every box over a pixel searched.
+        `outputs` (names among "color", "albedo", "depth", "normal", "patch_id"; default all)
+        are the arrays read back (a depth-only frame skips the others' copies and conversions):
+        the frame's other arrays raise ParameterError when read, and without "patch_id" its
+        per-pixel figures are None. An unknown keyword is a ParameterError naming it."""
         check_render_options(options)
-        return super().render(renderable(obj), camera, **options)
+        return Frame._wrap(self._core.render(renderable(obj), unwrap(camera), **options))
 
-
-Renderer.render.__doc__ = _core.Renderer.render.__doc__
+    def intersect(self, obj: Any, origins: npt.ArrayLike, directions: npt.ArrayLike, *,
+                  any_hit: bool | None = None, quality: Literal["fast", "balanced", "exact"] | None = None,
+                  method: Literal["linear_binary", "maxmip"] | None = None) -> RayHitArrays:
+        """Ray queries on the GPU against a Scene or any one object a Scene takes: texture sets,
+        meshes and displacement shells are traced (surfels and IGT meshes are a ParameterError:
+        query the set or the detailed mesh instead). Per ray the distance to the nearest hit along
+        its unit direction (+inf on a miss), the patch id (-1 on a miss, -2 - k for the k-th mesh
+        or shell, as in frames) and the world normal. `any_hit` stops
+        each ray at the first hit found (shadow-style visibility, not the nearest). `quality`
+        defaults to "exact" here. ``Scene.intersects_*`` and ``GeometryTextureSet.intersects_*``
+        are the trimesh-shaped form."""
+        return self._core.intersect(renderable(obj), origins, directions, any_hit=any_hit, quality=quality,
+                                    method=method)
 
 
 #: This process's renderers, one per image size, kept for its life. Every Renderer shares the

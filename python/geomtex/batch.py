@@ -43,7 +43,8 @@ from typing import Any
 
 import numpy as np
 
-from . import _check, _core
+from . import _check
+from ._camera import Camera
 from ._errors import CancelledError, FileError, GeomtexError, ParameterError
 
 MANIFEST = "manifest.json"
@@ -125,7 +126,7 @@ def _check_convert_options(options: dict[str, Any]) -> dict[str, Any]:
 
 def _check_objects(objects: Any) -> list[Any]:
     """render_views' objects: each a path to a file that exists, or anything a Scene takes."""
-    from ._render import renderable
+    from ._kinds import renderable
 
     objs = _listed("objects", objects, "sets, meshes, scenes or paths")
     for i, obj in enumerate(objs):
@@ -508,7 +509,7 @@ def _render_block(obj: Any, set_index: int, views: list[tuple[int, Any]], store:
 
 def render_views(
     objects: Sequence[Any],
-    cameras: Sequence[_core.Camera] | Sequence[Sequence[_core.Camera]],
+    cameras: Sequence[Camera] | Sequence[Sequence[Camera]],
     out: str | os.PathLike[str],
     *,
     width: int,
@@ -576,16 +577,16 @@ def render_views(
     return zarr.open_group(os.fspath(out), mode="r")
 
 
-def _cameras_per_object(cameras: Any, n_objects: int) -> list[list[_core.Camera]]:
+def _cameras_per_object(cameras: Any, n_objects: int) -> list[list[Camera]]:
     wanted = "a list of Cameras, or one equally long list of Cameras per object"
     cams = _listed("cameras", cameras, wanted[2:])
-    if all(isinstance(c, _core.Camera) for c in cams):
+    if all(isinstance(c, Camera) for c in cams):
         return [cams] * n_objects
     if not all(isinstance(c, Iterable) and not isinstance(c, (str, bytes)) for c in cams):
         raise _check.fail("cameras", wanted, cameras)
     per = [list(c) for c in cams]
     if len(per) != n_objects or len({len(p) for p in per}) > 1 \
-            or not all(isinstance(c, _core.Camera) for p in per for c in p):
+            or not all(isinstance(c, Camera) for p in per for c in p):
         raise _check.fail("cameras", wanted, cameras)
     return per
 

@@ -23,6 +23,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _check, _core
+from ._bridge import Wrapped
 from ._errors import MeshError, ParameterError
 
 Pattern = Literal["chain", "weave", "lattice"]
@@ -53,7 +54,7 @@ def _occupancy(grid: Any) -> npt.NDArray[np.uint8]:
     return np.ascontiguousarray(a != 0, dtype=np.uint8)
 
 
-class Volume:
+class Volume(Wrapped, core=_core.GdmVolume):
     """A mesostructure tile: an occupancy grid indexed [x, y, z], periodic in x and y.
 
     ``occupancy``: bools, integers (non-zero = solid) or floats (>= 0.5 = solid), shape (nx, ny,
@@ -63,10 +64,9 @@ class Volume:
     grid that does not tile.
     """
 
+    _core: _core.GdmVolume
+
     def __init__(self, occupancy: Any, colors: Any = None, *, check_seams: bool = True) -> None:
-        if isinstance(occupancy, _core.GdmVolume):
-            self._core = occupancy
-            return
         grid = _occupancy(occupancy)
         seams = _check.flag("check_seams", check_seams)
         rgba = None
@@ -80,6 +80,10 @@ class Volume:
             rgba = np.ascontiguousarray(rgba, dtype=np.uint8)
         self._core = _core.GdmVolume(grid, rgba, seams)
 
+    def __repr__(self) -> str:
+        colored = ", colored" if self._core.colors is not None else ""
+        return f"<geomtex.gdm.Volume {'x'.join(map(str, self.size))}, {self.occupancy.mean():.1%} solid{colored}>"
+
     def __reduce__(self) -> tuple[Any, ...]:
         # As its grid and colors; the extension's copy is made anew from them, identical.
         colors = self._core.colors
@@ -89,7 +93,7 @@ class Volume:
     def procedural(cls, pattern: Pattern, size: Any = DEFAULT_SIZE) -> Volume:
         """A built-in tile: ``"chain"`` (interlocking links, flat and upright), ``"weave"`` (threads
         over and under) or ``"lattice"`` (rods on two levels joined by posts)."""
-        return cls(_core.GdmVolume.procedural(pattern, _size(size)))
+        return cls._wrap(_core.GdmVolume.procedural(pattern, _size(size)))
 
     @classmethod
     def from_mesh(cls, mesh: Any, size: Any = DEFAULT_SIZE, *, check_seams: bool = True) -> Volume:
@@ -111,11 +115,13 @@ class Volume:
 
     @property
     def size(self) -> tuple[int, int, int]:
-        return self._core.size  # type: ignore[no-any-return]
+        """Voxels along x, y and z."""
+        return self._core.size
 
     @property
     def occupancy(self) -> npt.NDArray[np.bool_]:
-        return self._core.occupancy  # type: ignore[no-any-return]
+        """(nx, ny, nz) bool: the solid voxels."""
+        return self._core.occupancy
 
     @property
     def nbytes(self) -> int:
@@ -126,7 +132,7 @@ class Volume:
 
     def empty_radius(self) -> npt.NDArray[np.uint8]:
         """(nx, ny, nz) Chebyshev distance in voxels to the nearest solid voxel (0 on solid)."""
-        return self._core.empty_radius()  # type: ignore[no-any-return]
+        return self._core.empty_radius()
 
     def march(self, origins: Any, directions: Any,
               max_t: float | None = None) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.bool_]]:
@@ -142,7 +148,7 @@ class Volume:
             raise ParameterError(f"directions must be non-zero: row {int(np.flatnonzero(norm[:, 0] == 0)[0])} is "
                                  "(0, 0, 0)")
         t = None if max_t is None else _check.real("max_t", max_t, 0.0, lo_open=True)
-        return self._core.march(o, np.ascontiguousarray(d / norm), t)  # type: ignore[no-any-return]
+        return self._core.march(o, np.ascontiguousarray(d / norm), t)
 
     def distance_function(self, directions: Any = DEFAULT_DIRECTIONS,
                           progress: Callable[[str, float], Any] | None = None, *,
@@ -504,6 +510,13 @@ class Shell:
         # Without the extension's copy (made again on the first draw after unpickling).
         return {**self.__dict__, "_drawn": None}
 
+    @classmethod
+    def _from_state(cls, state: dict[str, Any]) -> Shell:
+        """The shell `__getstate__` described (how pickling makes it again)."""
+        shell = cls.__new__(cls)
+        shell.__dict__.update(state)
+        return shell
+
     def _texture_coordinates(self, mesh: Any, uv: Any, scale: npt.NDArray[np.float64]) -> tuple[Any, str]:
         nv, nf = len(self.vertices), len(self.faces)
         if uv is not None:
@@ -518,8 +531,8 @@ class Shell:
             return np.ascontiguousarray(np.asarray(mesh.uv, dtype=np.float64)[self.faces] * scale), "mesh"
         return np.ascontiguousarray(box_uv(self.vertices, self.faces) * scale), "box"
 
-    def _core_shell(self) -> Any:
-        """The extension's copy the renderer draws (made once)."""
+    def _to_core(self) -> _core.GdmShell:
+        """The extension's copy the renderer draws (made once; the kinds table's ``to_core``)."""
         if getattr(self, "_drawn", None) is None:
             self._drawn = _core.GdmShell(
                 self.vertices, self.normals, np.ascontiguousarray(self.faces, dtype=np.uint32), self.uv,

@@ -19,11 +19,10 @@ import os
 from typing import Any, Callable, Literal, Sequence
 
 import numpy as np
-import numpy.typing as npt
 
 from . import _check, _core
-from ._core import IgtMesh, InverseGeometricTexture
 from ._errors import ParameterError
+from ._igt import IgtMesh, InverseGeometricTexture, shading
 from ._mesh import as_mesh
 
 __all__ = ["IgtMesh", "InverseGeometricTexture", "attach", "build", "load", "simplify"]
@@ -60,8 +59,8 @@ def build(
         if not isinstance(attributes, (list, tuple)) or not all(isinstance(a, str) for a in attributes):
             raise _check.fail("attributes", 'a str or a list of "normals", "colors", "uv", "ao"', attributes)
     _check.callback("progress", progress)
-    return _core.build_igt(
-        as_mesh(mesh),
+    return InverseGeometricTexture._wrap(_core.build_igt(
+        as_mesh(mesh)._core,
         primary=primary,
         resolution=resolution,
         attributes=None if attributes is None else list(attributes),
@@ -71,32 +70,19 @@ def build(
         ao_rays=ao_rays,
         ao_distance=ao_distance,
         progress=progress,
-    )
+    ))
 
 
 def load(path: str | os.PathLike[str]) -> InverseGeometricTexture:
     """Reads a .gtigt file (``InverseGeometricTexture.save``); FormatError if it is not an
     intact one; FileError if there is no such file."""
-    return _core.load_igt(_check.path("path", path, exists=True))
+    return InverseGeometricTexture._wrap(_core.load_igt(_check.path("path", path, exists=True)))
 
 
 def _texture(igt: Any) -> InverseGeometricTexture:
     if not isinstance(igt, InverseGeometricTexture):
         raise _check.fail("igt", "a geomtex.igt.InverseGeometricTexture (geomtex.igt.build or load)", igt)
     return igt
-
-
-def _shading(lookup: Any, samples: Any, lod: Any) -> tuple[str | None, int | None, str | float | None]:
-    """`lookup`, `samples` and `lod` checked (None: the extension's default)."""
-    lk = None if lookup is None else _check.choice("lookup", lookup, ("ray", "projection"))
-    n = None if samples is None else _check.integer("samples", samples)
-    if n is not None and n not in (1, 5):
-        raise _check.fail("samples", "1 or 5 (lookups per pixel)", samples)
-    if lod is None or isinstance(lod, str):
-        level: str | float | None = None if lod is None else _check.choice("lod", lod, ("off", "auto"))
-    else:
-        level = _check.real("lod", lod, 0.0, lo_open=True)
-    return lk, n, level
 
 
 def simplify(
@@ -116,7 +102,7 @@ def simplify(
         raise ParameterError(
             f"target_faces must be 4 to the detailed mesh's {len(faces)} faces, got {target_faces}"
         )
-    _shading(lookup, samples, lod)  # before the decimation, not after it
+    shading(lookup, samples, lod)  # before the decimation, not after it
     try:
         import pymeshlab
     except ImportError as e:  # pragma: no cover - depends on the environment
@@ -167,7 +153,7 @@ def attach(
     igt = _texture(igt)
     v = _check.rows("vertices", vertices, label="V", min_rows=3, max_rows=2**31)
     f = _check.indices("faces", faces, 3, len(v), label="F", min_rows=1)
-    lk, n, level = _shading(lookup, samples, lod)
+    lk, n, level = shading(lookup, samples, lod)
     igt.check_near(v, f)  # before the grids' nearest-face search, which a far mesh makes slow
     face_grid = np.zeros(len(f), dtype=np.int64)
     if igt.primary == "charts":
@@ -177,42 +163,5 @@ def attach(
         centroids = igt.vertices[igt.faces[listed]].mean(axis=1)
         _, nearest = cKDTree(centroids).query(v[f].mean(axis=1))
         face_grid = igt.face_grid[listed[nearest]]
-    return _core_shade(igt, v, f, face_grid.tolist(), lookup=lk, samples=n, lod=level)
+    return IgtMesh._wrap(igt._core.shade(v, f, face_grid.tolist(), lookup=lk, samples=n, lod=level))
 
-
-_core_lookup = InverseGeometricTexture.lookup
-_core_shade = InverseGeometricTexture.shade
-
-
-def _lookup(self: InverseGeometricTexture, points: Any,
-            grids: Any = None) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64], npt.NDArray[np.bool_]]:
-    """Per point (an (N, 3) array-like, finite): the detailed face listed under it, its
-    barycentric coordinates there and whether one was found; `grids` (N integers) names each
-    point's grid (chart), required with the charts primary."""
-    p = _check.rows("points", points)
-    ids = None
-    if grids is not None:
-        g = _check.array("grids", grids, "iu")
-        if g.shape != (len(p),):
-            raise ParameterError(f"grids must be {len(p)} integers (one per point), got shape {g.shape}")
-        ids = [int(x) for x in g]
-    return _core_lookup(self, p, ids)  # type: ignore[no-any-return]
-
-
-def _shade(self: InverseGeometricTexture, vertices: Any, faces: Any, face_grid: Any, lookup: str | None = None,
-           samples: int | None = None, lod: str | float | None = None) -> IgtMesh:
-    """A mesh in the detailed mesh's space ((V, 3) vertices, (F, 3) faces) shaded through this
-    texture, each face searched in the grid `face_grid` names; see `geomtex.igt.attach`."""
-    v = _check.rows("vertices", vertices, label="V", min_rows=3, max_rows=2**31)
-    f = _check.indices("faces", faces, 3, len(v), label="F", min_rows=1)
-    g = _check.array("face_grid", face_grid, "iu")
-    if g.shape != (len(f),):
-        raise ParameterError(f"face_grid must be {len(f)} integers (one per face), got shape {g.shape}")
-    lk, n, level = _shading(lookup, samples, lod)
-    return _core_shade(self, v, f, [int(x) for x in g], lookup=lk, samples=n, lod=level)
-
-
-_lookup.__doc__ = _core_lookup.__doc__ or _lookup.__doc__
-_shade.__doc__ = _core_shade.__doc__ or _shade.__doc__
-setattr(InverseGeometricTexture, "lookup", _lookup)
-setattr(InverseGeometricTexture, "shade", _shade)

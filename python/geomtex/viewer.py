@@ -20,9 +20,13 @@ import numpy as np
 import numpy.typing as npt
 from PIL import Image
 
-from . import _check, _core
+from . import _check
+from ._camera import Camera
 from ._errors import ParameterError
-from ._preview import box_bounds, patch_tint
+from ._kinds import adopt
+from ._preview import patch_tint
+from ._scene import Scene
+from ._set import GeometryTextureSet
 
 Shading = Literal["shaded", "patches", "normals", "depth"]
 Compare = Literal["textures", "mesh", "beside", "overlay"]
@@ -38,43 +42,20 @@ def _box_corners(lo: npt.NDArray[np.float64], hi: npt.NDArray[np.float64]) -> np
 
 
 def _bounds(obj: Any) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-    """World (lo, hi) of anything a Scene takes: a set, surfels, a mesh (geomtex, trimesh, an
-    IgtMesh), a GDM shell, or a scene (each object's box placed by its matrix)."""
-    if isinstance(obj, _core.Scene):
-        corners = []
-        extents = getattr(obj, "__dict__", {}).get("_extents", {})
-        for index, (item, world_from_object, _, _) in enumerate(obj._objects()):
-            if isinstance(item, _core.GdmShell):
-                if index not in extents:
-                    raise ParameterError(f"scene object {index} is a shell of unknown extent (added to the "
-                                         "extension's Scene, not geomtex.Scene): nothing to frame it by")
-                lo, hi = extents[index]
-            else:
-                lo, hi = _bounds(item)
-            corners.append((_box_corners(lo, hi) @ np.asarray(world_from_object).T)[:, :3])
-        if not corners:
-            raise ParameterError("the scene is empty: nothing to show")
-        every = np.concatenate(corners)
-        return every.min(axis=0), every.max(axis=0)
-    if isinstance(obj, _core.GeometryTextureSet):
-        if len(obj) == 0:
-            raise ParameterError("the set has no patches: nothing to show")
-        return box_bounds(obj)
-    if isinstance(obj, _core.Surfels):
-        if len(obj) == 0:
-            raise ParameterError("the surfels are empty: nothing to show")
-        reach = np.asarray(obj.radii)[:, None]
-        return (np.asarray(obj.positions) - reach).min(axis=0), (np.asarray(obj.positions) + reach).max(axis=0)
-    if isinstance(obj, (_core.IgtMesh, _core.InverseGeometricTexture)):
-        v = np.asarray(obj.vertices)
-        return v.min(axis=0), v.max(axis=0)
-    bounds = getattr(obj, "bounds", None)  # Mesh, trimesh, gdm.Shell
-    if bounds is None:
-        from ._mesh import as_mesh
-
-        bounds = as_mesh(obj).bounds
-    b = np.asarray(bounds, dtype=np.float64)
-    return b[0], b[1]
+    """World (lo, hi) of anything a Scene takes (each kind's box, from the kinds table), or of a
+    scene (each object's box placed by its matrix)."""
+    if not isinstance(obj, Scene):
+        kind, item = adopt(obj)
+        return kind.box(item)
+    corners = []
+    for item, world_from_object, _, _ in obj._objects():
+        kind, _ = adopt(item)
+        lo, hi = kind.box(item)
+        corners.append((_box_corners(lo, hi) @ np.asarray(world_from_object).T)[:, :3])
+    if not corners:
+        raise ParameterError("the scene is empty: nothing to show")
+    every = np.concatenate(corners)
+    return every.min(axis=0), every.max(axis=0)
 
 
 @dataclass
@@ -105,12 +86,11 @@ class Viewer:
     def __init__(self, obj: Any, *, mesh: Any = None, width: int = 512, height: int = 384,
                  compare: Compare | None = None, **state: Any) -> None:
         from ._mesh import as_mesh
-        from ._render import renderable
 
         self.width, self.height = _check.image_size(width, height, 16, 4096)
-        self.obj = renderable(obj)
-        # A gdm.Shell's own box: the extension's shell it is drawn as keeps no extent.
-        lo, hi = _bounds(obj if isinstance(self.obj, _core.GdmShell) else self.obj)
+        # What is drawn, read once (a trimesh or a path as the Mesh read from it).
+        self.obj = obj if isinstance(obj, Scene) else adopt(obj)[1]
+        lo, hi = _bounds(self.obj)
         self.mesh = None if mesh is None else as_mesh(mesh)
         self.centre = (lo + hi) / 2
         self.diagonal = float(np.linalg.norm(hi - lo)) or 1.0
@@ -122,12 +102,12 @@ class Viewer:
 
     # -- the view -------------------------------------------------------------------------------
 
-    def camera(self) -> _core.Camera:
+    def camera(self) -> Camera:
         s = self.state
         az, el = np.radians(s.azimuth_deg), np.radians(s.elevation_deg)
         direction = np.array([np.cos(el) * np.sin(az), np.sin(el), np.cos(el) * np.cos(az)])
         eye = self.centre + direction * s.distance * self.diagonal
-        return _core.Camera.look_at(eye, self.centre, up=(0.0, 1.0, 0.0), yfov_deg=s.yfov_deg)
+        return Camera.look_at(eye, self.centre, up=(0.0, 1.0, 0.0), yfov_deg=s.yfov_deg)
 
     def set(self, redraw: bool = True, **changes: Any) -> None:
         """Changes any ViewState fields and redraws. Every value is checked before any is set, so
@@ -173,7 +153,7 @@ class Viewer:
 
         s = self.state
         options: dict[str, Any] = {"background": (255, 255, 255, 255)}
-        if isinstance(obj, (_core.GeometryTextureSet, _core.Scene)):
+        if isinstance(obj, (GeometryTextureSet, Scene)):
             options.update(quality=s.quality, lod=s.lod)
         frame = shared_renderer(width, self.height).render(obj, self.camera(), **options)
         if obj is self.obj:  # the status line and `stats` speak of the textures, not the mesh

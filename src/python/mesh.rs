@@ -20,7 +20,7 @@ use crate::render::{Object, ShadedMesh};
 
 /// A validated triangle mesh (f64 positions, u32 faces, optional RGBA8 vertex or face colors, or
 /// texture coordinates and an RGBA8 texture).
-#[pyclass(name = "Mesh", module = "geomtex._core", subclass, frozen)]
+#[pyclass(name = "Mesh", module = "geomtex._core", frozen)]
 pub struct PyMesh {
     pub(crate) inner: Arc<Mesh>,
 }

@@ -198,7 +198,7 @@ impl PyCamera {
 }
 
 /// Geometry-texture sets and ordinary meshes, each placed by a world_from_object matrix.
-#[pyclass(name = "Scene", module = "geomtex._core", subclass)]
+#[pyclass(name = "Scene", module = "geomtex._core")]
 #[derive(Default)]
 pub struct PyScene {
     pub(crate) inner: Scene,
@@ -300,7 +300,7 @@ impl PyScene {
 /// A headless renderer of an image size (`resize` changes it). Every Renderer of the process
 /// shares one GPU device, its pipelines and its uploads (`SHARED`): a second size or a ray query
 /// costs no new device and no new upload.
-#[pyclass(name = "Renderer", module = "geomtex._core", subclass, frozen)]
+#[pyclass(name = "Renderer", module = "geomtex._core", frozen)]
 pub struct PyRenderer {
     inner: Arc<Mutex<Renderer>>,
     size: Mutex<(u32, u32)>,

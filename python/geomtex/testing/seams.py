@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._core import GeometryTextureSet
 from .._mesh import Mesh
+from .._set import GeometryTextureSet
 
 
 def seam_rays(mesh: Mesh, gts: GeometryTextureSet, per_face: int = 16, lift: float = 10.0,

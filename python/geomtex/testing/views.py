@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from .._core import Camera
+from .._camera import Camera
 from .._mesh import Mesh
 
 

@@ -1,0 +1,93 @@
+"""How the package talks to its extension, ``geomtex._core``: one style for every class.
+
+Every public class is a Python class holding an extension object as ``self._core`` (the way
+polars holds its Rust frames): its methods are typed, documented here and forward to the handle.
+The extension's classes are used as they are, never subclassed and never given methods at import,
+so ``geomtex._core`` is exactly what ``_core.pyi`` describes and importing geomtex changes nothing
+in it. Two helpers cross the boundary: `wrap` turns what the extension returns into the public
+object, `unwrap` turns a public object back into what the extension takes.
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar, Generic, TypeVar, overload
+
+import numpy as np
+
+from ._errors import InternalError
+
+T = TypeVar("T")
+W = TypeVar("W", bound="Wrapped")
+
+# Numbers as the extension takes them (numpy scalars too), for the public signatures.
+Int = int | np.integer[Any]
+Real = float | np.floating[Any] | Int
+Flag = bool | np.bool_
+
+
+class Wrapped:
+    """Base of the public classes that hold an extension object. ``class X(Wrapped,
+    core=_core.X)`` also makes `wrap` turn a ``_core.X`` into an X."""
+
+    _core: Any
+    #: The public class of each extension class `wrap` meets.
+    _public: ClassVar[dict[type, type[Wrapped]]] = {}
+
+    def __init_subclass__(cls, core: type | None = None, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if core is not None:
+            Wrapped._public[core] = cls
+
+    @classmethod
+    def _wrap(cls: type[W], handle: Any) -> W:
+        """An instance around an extension object, without running ``__init__`` (which builds a
+        new one from user arguments)."""
+        obj = object.__new__(cls)
+        obj._core = handle
+        return obj
+
+    def __repr__(self) -> str:
+        return repr(self._core)
+
+
+def wrap(handle: Any) -> Any:
+    """The public object for an extension object (`Wrapped` subclasses name their extension
+    class); anything else (arrays, numbers, None) as it is."""
+    cls = Wrapped._public.get(type(handle))
+    if cls is not None:
+        return cls._wrap(handle)
+    if type(handle).__module__ == "geomtex._core":  # a class with no public face: a bug here
+        raise InternalError(f"geomtex has no public class for the extension's {type(handle).__name__}")
+    return handle
+
+
+def unwrap(obj: Any) -> Any:
+    """What the extension takes for `obj`: a public object's handle, anything else as it is (the
+    extension then says what it expected)."""
+    return obj._core if isinstance(obj, Wrapped) else obj
+
+
+class forward(Generic[T]):
+    """A read-only attribute read from the handle under the same name:
+    ``positions = forward[NDArray[np.float64]]("(N, 3) float64 world positions.")``. One line
+    per attribute, typed for mypy and documented for ``help()``, instead of a property each."""
+
+    def __init__(self, doc: str) -> None:
+        self.__doc__ = doc
+        self.name = ""
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.name = name
+
+    @overload
+    def __get__(self, obj: None, owner: type | None = None) -> forward[T]: ...
+    @overload
+    def __get__(self, obj: object, owner: type | None = None) -> T: ...
+
+    def __get__(self, obj: object | None, owner: type | None = None) -> T | forward[T]:
+        if obj is None:
+            return self
+        return getattr(obj._core, self.name)  # type: ignore[attr-defined, no-any-return]
+
+    def __set__(self, obj: object, value: Any) -> None:
+        raise AttributeError(f"{self.name} is read-only")
