@@ -23,8 +23,6 @@ pub(crate) struct BvhNodeGpu {
     pub leaf: u32,
 }
 
-const _: () = assert!(size_of::<BvhNodeGpu>() == 32);
-
 /// An axis-aligned box [lo, hi]; empty when lo > hi on some axis.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct Aabb {

@@ -23,6 +23,8 @@ mod frame;
 mod frame_bindings;
 mod gpu_types;
 pub(crate) mod kinds;
+#[cfg(test)]
+mod layouts;
 mod outputs;
 mod pipelines;
 mod query;

@@ -28,8 +28,6 @@ pub(crate) struct PatchBoxGpu {
     pub level: u32,
 }
 
-const _: () = assert!(size_of::<PatchBoxGpu>() == 32);
-
 /// The pieces of patch `index`, from the min-max pyramid (heightfield::min_max_pyramid) of
 /// `heights` (the patch's heights, or fewer of them: those it owns, owners.rs), each node's
 /// column shrunk to the texels with heights as the tiles' pieces are (`column`): a ray walked

@@ -12,7 +12,7 @@
 //! are texture u/v, z is height), view (camera-relative: the patch records and the refitted
 //! bounds; for queries, world space translated near the rays) and clip (the lens's, for culling).
 
-mod boxes;
+pub(crate) mod boxes;
 mod owners;
 
 use std::sync::{Arc, Mutex, OnceLock};
