@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The whole test suite: formatting and lints (rustfmt, clippy with the 100-line function limit,
-# ruff), Rust core tests (no Python, no GPU), pytest, and the type stubs.
+# ruff), Rust core tests (no Python; the one GPU test skips without an adapter), pytest, and the type stubs.
 # Any failure — including pytest finding no tests (exit 5) — fails the script.
 set -euo pipefail
 . "$(dirname "${BASH_SOURCE[0]}")/setup.sh"

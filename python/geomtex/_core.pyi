@@ -13,7 +13,7 @@ import numpy.typing as npt
 __all__ = [
     "Mesh", "GeometryTextureSet", "Surfels", "convert", "load", "load_surfels",
     "InverseGeometricTexture", "IgtMesh", "build_igt", "load_igt", "__version__", "Camera", "Scene",
-    "Renderer", "Frame", "GdmVolume", "GdmShell", "gdm_explicit_mesh",
+    "Renderer", "Frame", "GdmVolume", "GdmShell", "gdm_explicit_mesh", "device_counts",
     "GeomtexError", "MeshError", "ParameterError", "FormatError", "FileError", "CancelledError",
     "DeviceError", "InternalError",
 ]
