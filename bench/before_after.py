@@ -58,7 +58,7 @@ hits = gts.intersects_first(origins, targets - origins)
 rays_ms = (time.perf_counter() - start) * 1e3
 np.savez(sys.argv[1], depth=np.stack([f.depth for f in frames]), color=np.stack([f.color for f in frames]),
          normal=np.stack([f.normal for f in frames]), patch_id=np.stack([f.patch_id for f in frames]),
-         hits=np.asarray(hits))
+         distances=hits.distances, patch_ids=hits.patch_ids)
 print(json.dumps({"frame_ms": times, "rays_ms": rays_ms}))
 """
 
