@@ -685,7 +685,7 @@ impl PyFrame {
         Ok(PyFrame {
             width: w,
             height: h,
-            shadow: (frame.shadow).map(|s| matrix(py, s, h, w).unbind()),
+            shadow: (frame.shadow).map(|s| matrix(py, s.mask, h, w).unbind()),
             face_id: (frame.face_id).map(|f| matrix(py, f, h, w).unbind()),
             barycentric: (frame.barycentric).map(|b| image(py, b, (h, w, 3)).unbind()),
             color: (frame.color).map(|c| image(py, c, (h, w, 4)).unbind()),

@@ -44,18 +44,8 @@ pub struct Frame {
     pub fetches: Option<u64>,
     /// With `count_fetches`: pieces whose slab the tiled walks tested (0 with boxes drawn).
     pub piece_tests: Option<u64>,
-    /// With a light (shadow.rs): per pixel, true where the light cannot see the surface.
-    pub shadow: Option<Vec<bool>>,
-    /// With a light: milliseconds the shadow rays took.
-    pub shadow_ms: Option<f64>,
-    /// Of `shadow_ms`, the tracing (upload, dispatches and read-back of the rays); the rest is
-    /// building the rays and darkening the frame on the CPU.
-    pub shadow_trace_ms: Option<f64>,
-    /// With a light: pixels shadowed without a ray, their surface facing away from the light.
-    pub shadow_attached: Option<u64>,
-    /// With a light: shadow rays traced on the device (those some caster's test kept: the rest
-    /// pass beside every caster, or are attached).
-    pub shadow_traced: Option<u64>,
+    /// With a light (shadow.rs): which pixels it cannot see, and the shadow pass's figures.
+    pub shadow: Option<Shadows>,
     /// With surfel objects in the scene: what their passes drew.
     pub surfels: Option<SurfelCounts>,
     /// With an inverse geometric texture in the scene (kinds/igt.rs): per pixel the detailed
@@ -63,6 +53,23 @@ pub struct Frame {
     pub face_id: Option<Vec<i32>>,
     /// With `face_id`: the barycentric coordinates in that face, three per pixel (0 where none).
     pub barycentric: Option<Vec<f32>>,
+}
+
+/// A frame's shadows (shadow.rs), made in one piece after its pixels are read back.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Shadows {
+    /// Per pixel, true where the light cannot see the surface.
+    pub mask: Vec<bool>,
+    /// Milliseconds the shadow pass took.
+    pub ms: f64,
+    /// Of `ms`, the tracing (upload, dispatches and read-back of the rays); the rest is building
+    /// the rays and darkening the frame on the CPU.
+    pub trace_ms: f64,
+    /// Pixels shadowed without a ray, their surface facing away from the light.
+    pub attached: u64,
+    /// Shadow rays traced on the device (those some caster's test kept: the rest pass beside
+    /// every caster, or are attached).
+    pub traced: u64,
 }
 
 /// Names of the per-level surfel counts in `Frame::stats`.
@@ -183,23 +190,14 @@ impl Frame {
             ("searches", StatValue::Int(self.searches as i64)),
             ("searches_per_pixel", per_pixel(self.searches)),
         ];
-        if let Some(ms) = self.shadow_ms {
-            let shadowed = self.shadow.iter().flatten().filter(|&&s| s).count();
+        if let Some(s) = &self.shadow {
+            let shadowed = s.mask.iter().filter(|&&s| s).count();
             stats.extend([
-                ("shadow_ms", StatValue::Float(ms)),
-                (
-                    "shadow_trace_ms",
-                    StatValue::Float(self.shadow_trace_ms.unwrap_or(0.0)),
-                ),
+                ("shadow_ms", StatValue::Float(s.ms)),
+                ("shadow_trace_ms", StatValue::Float(s.trace_ms)),
                 ("shadowed_pixels", count(shadowed)),
-                (
-                    "shadow_attached_pixels",
-                    count(self.shadow_attached.unwrap_or(0) as usize),
-                ),
-                (
-                    "shadow_rays_traced",
-                    count(self.shadow_traced.unwrap_or(0) as usize),
-                ),
+                ("shadow_attached_pixels", count(s.attached as usize)),
+                ("shadow_rays_traced", count(s.traced as usize)),
             ]);
         }
         if let Some(s) = &self.surfels {
@@ -261,10 +259,6 @@ mod tests {
             fetches,
             piece_tests: fetches.map(|_| 60),
             shadow: None,
-            shadow_ms: None,
-            shadow_trace_ms: None,
-            shadow_attached: None,
-            shadow_traced: None,
             surfels: None,
             face_id: None,
             barycentric: None,

@@ -38,7 +38,7 @@ use std::time::Instant;
 
 pub use camera::{Camera, Lens, Projection};
 pub use device::Gpu;
-pub use frame::{Frame, SurfelCounts};
+pub use frame::{Frame, Shadows, SurfelCounts};
 pub use kinds::uploads_made;
 pub use outputs::Outputs;
 pub use query::RayHits;
@@ -395,10 +395,6 @@ impl Renderer {
             fetches: search.count_fetches.then_some(fetches as u64),
             piece_tests: search.count_fetches.then_some(piece_tests as u64),
             shadow: None,
-            shadow_ms: None,
-            shadow_trace_ms: None,
-            shadow_attached: None,
-            shadow_traced: None,
             surfels,
             face_id: None,
             barycentric: None,

@@ -10,6 +10,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use glam::DVec3;
 
+use super::frame::Shadows;
 use super::kinds::Registry;
 use super::{Camera, Frame, Renderer, Scene, SearchOptions};
 use crate::cancel::Cancel;
@@ -117,6 +118,7 @@ impl Renderer {
         };
         let n = depth.len();
         let mut shadow = vec![false; n];
+        let mut figures = Shadows::default();
         if !casters.objects.is_empty() {
             let traced = std::time::Instant::now();
             let seen = SeenSurface {
@@ -147,9 +149,9 @@ impl Renderer {
             for i in occluded {
                 shadow[i] = true;
             }
-            frame.shadow_attached = Some(attached as u64);
-            frame.shadow_traced = Some(traced_rays as u64);
-            frame.shadow_trace_ms = Some(traced.elapsed().as_secs_f64() * 1e3);
+            figures.attached = attached as u64;
+            figures.traced = traced_rays as u64;
+            figures.trace_ms = traced.elapsed().as_secs_f64() * 1e3;
         }
         if let Some(color) = &mut frame.color {
             for (i, _) in shadow.iter().enumerate().filter(|(_, s)| **s) {
@@ -159,14 +161,14 @@ impl Renderer {
             }
         }
         profile::mark(
-            format_args!(
-                "mark+darken ({} attached)",
-                frame.shadow_attached.unwrap_or(0)
-            ),
+            format_args!("mark+darken ({} attached)", figures.attached),
             &mut t,
         );
-        frame.shadow = Some(shadow);
-        frame.shadow_ms = Some(start.elapsed().as_secs_f64() * 1e3);
+        frame.shadow = Some(Shadows {
+            mask: shadow,
+            ms: start.elapsed().as_secs_f64() * 1e3,
+            ..figures
+        });
         Ok(())
     }
 }

@@ -220,7 +220,7 @@ mod tests {
         renderer
             .cast_shadows(&scene, &camera, &search, &light, &mut frame, &crate::cancel::NEVER)
             .unwrap();
-        let shadowed = frame.shadow.unwrap().iter().filter(|&&s| s).count();
+        let shadowed = frame.shadow.unwrap().mask.iter().filter(|&&s| s).count();
         // Measured: 907 of the 96² pixels.
         assert!(shadowed > 300, "{shadowed} shadowed pixels");
     }
