@@ -14,7 +14,7 @@ from typing import Any, ClassVar, Generic, TypeVar, overload
 
 import numpy as np
 
-from ._errors import InternalError
+from ._errors import InternalError, ParameterError
 
 T = TypeVar("T")
 W = TypeVar("W", bound="Wrapped")
@@ -27,16 +27,24 @@ Flag = bool | np.bool_
 
 class Wrapped:
     """Base of the public classes that hold an extension object. ``class X(Wrapped,
-    core=_core.X)`` also makes `wrap` turn a ``_core.X`` into an X."""
+    core=_core.X)`` also makes `wrap` turn a ``_core.X`` into an X; ``made_by="..."`` says how one
+    is made, for a class users do not construct (``X(...)`` is then a ParameterError saying so)."""
 
     _core: Any
     #: The public class of each extension class `wrap` meets.
     _public: ClassVar[dict[type, type[Wrapped]]] = {}
 
-    def __init_subclass__(cls, core: type | None = None, **kwargs: Any) -> None:
+    def __init_subclass__(cls, core: type | None = None, made_by: str | None = None, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
         if core is not None:
             Wrapped._public[core] = cls
+        if made_by is not None:
+            def refuse(cls: type, *args: Any, **kwargs: Any) -> Any:
+                name = cls.__name__
+                article = "an" if name[0] in "AEIOU" else "a"
+                raise ParameterError(f"{article} {name} is made by {made_by}, not by {name}(...)")
+
+            cls.__new__ = refuse  # type: ignore[method-assign, assignment]
 
     @classmethod
     def _wrap(cls: type[W], handle: Any) -> W:

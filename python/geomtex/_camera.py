@@ -13,15 +13,13 @@ from ._bridge import Int, Real, Wrapped, forward
 CameraState = tuple[str, npt.NDArray[np.float64], list[float], "float | None"]
 
 
-class Camera(Wrapped, core=_core.Camera):
+class Camera(Wrapped, core=_core.Camera,
+             made_by="Camera.look_at, Camera.from_intrinsics or Camera.orthographic"):
     """A camera: OpenGL-style pose (looks down -Z, +Y up) as pyrender and trimesh use; made by
     `look_at`, `from_intrinsics` (OpenCV) or `orthographic`. ``near`` (every constructor): a
     fixed near plane distance, or None to choose one from the scene's bounds at render time."""
 
     _core: _core.Camera
-
-    def __new__(cls, *args: Any, **kwargs: Any) -> Camera:
-        raise TypeError("a Camera is made by Camera.look_at, Camera.from_intrinsics or Camera.orthographic")
 
     def __reduce__(self) -> tuple[Any, ...]:
         from ._pickle import restore_camera

@@ -16,14 +16,12 @@ from ._bridge import Wrapped, forward
 EXTRAS = ("shadow", "stats", "face_id", "barycentric", "width", "height")
 
 
-class Frame(Wrapped, core=_core.Frame):
+class Frame(Wrapped, core=_core.Frame,
+            made_by="Renderer.render"):
     """One rendered image (``Renderer.render``): numpy arrays, row 0 at the top. In Jupyter it
     shows as its color image; ``save`` writes that image."""
 
     _core: _core.Frame
-
-    def __new__(cls, *args: Any, **kwargs: Any) -> Frame:
-        raise TypeError("a Frame is made by Renderer.render")
 
     def __reduce__(self) -> tuple[Any, ...]:
         from ._pickle import restore_frame

@@ -105,17 +105,8 @@ def _colorize(props: Sequence[npt.NDArray[np.float64]], cmap: Any, property_rang
 def from_heightmaps(grids: Any, extent: Any, *, properties: Any = None, cmap: Any = "viridis",
                     property_range: Any = None, max_resolution: int | None = None,
                     height_bits: int | None = None) -> Any:
-    """Builds a GeometryTextureSet straight from regular height grids (horizons, terrain).
-
-    grids: one (rows, columns) array, a stack of them, or a sequence of arrays of any shapes;
-        NaN marks missing samples. extent: ``(x0, x1, y0, y1)`` for all grids or one per grid.
-    properties: optional arrays of the grids' shapes, colored through the matplotlib colormap
-        `cmap` (a name or a ``matplotlib.colors.Colormap``) over `property_range` (default:
-        their finite min and max).
-    max_resolution: samples per tile side (default 256); tiles share their border samples, so
-        the surface has no cracks. height_bits: 16 (default) or 8.
-    The tiling runs in Rust with the GIL released.
-    """
+    """``GeometryTextureSet.from_heightmaps`` (documented there): the grids checked and tiled in
+    Rust, the properties colored through `cmap`."""
     from . import _core
 
     prepared = prepare(grids, extent, properties, cmap, property_range)

@@ -30,17 +30,14 @@ def shading(lookup: Any, samples: Any, lod: Any) -> tuple[str | None, int | None
     return lk, n, level
 
 
-class InverseGeometricTexture(Wrapped, core=_core.InverseGeometricTexture):
+class InverseGeometricTexture(Wrapped, core=_core.InverseGeometricTexture,
+                              made_by="geomtex.igt.build, geomtex.igt.load or InverseGeometricTexture.from_bytes"):
     """An inverse geometric texture (``geomtex.igt.build``, ``geomtex.igt.load``): per cell of a
     primary parameterization (the conversion's charts, or a spherical or cylindrical map) the list
     of the detailed mesh's triangles that overlap it, those triangles in primary space, and their
     attributes."""
 
     _core: _core.InverseGeometricTexture
-
-    def __new__(cls, *args: Any, **kwargs: Any) -> InverseGeometricTexture:
-        raise TypeError("an InverseGeometricTexture is made by geomtex.igt.build, geomtex.igt.load or "
-                        "InverseGeometricTexture.from_bytes")
 
     def __reduce__(self) -> tuple[Any, ...]:
         from ._pickle import restore_igt
@@ -122,16 +119,13 @@ class InverseGeometricTexture(Wrapped, core=_core.InverseGeometricTexture):
         return self._core.to_bytes()
 
 
-class IgtMesh(Wrapped, core=_core.IgtMesh):
+class IgtMesh(Wrapped, core=_core.IgtMesh,
+              made_by="geomtex.igt.simplify, geomtex.igt.attach or InverseGeometricTexture.shade"):
     """A simplified mesh shaded through an inverse geometric texture (``geomtex.igt.simplify``,
     ``geomtex.igt.attach``); render it like a mesh (``Scene.add``, ``Renderer.render``).
     ``len(mesh)`` is its number of faces."""
 
     _core: _core.IgtMesh
-
-    def __new__(cls, *args: Any, **kwargs: Any) -> IgtMesh:
-        raise TypeError("an IgtMesh is made by geomtex.igt.simplify, geomtex.igt.attach or "
-                        "InverseGeometricTexture.shade")
 
     @property
     def igt(self) -> InverseGeometricTexture:

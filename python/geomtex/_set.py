@@ -32,16 +32,14 @@ def from_bytes_arg(data: Any) -> bytes:
     return bytes(data)
 
 
-class GeometryTextureSet(RayQueries, Wrapped, core=_core.GeometryTextureSet):
+class GeometryTextureSet(RayQueries, Wrapped, core=_core.GeometryTextureSet,
+                         made_by="geomtex.convert, geomtex.load, GeometryTextureSet.from_bytes or "
+                                 "GeometryTextureSet.from_heightmaps"):
     """Height-map patches in oriented boxes, converted from a mesh (``geomtex.convert``), loaded
     from a .gtex file (``geomtex.load``) or built from height grids (``from_heightmaps``).
     ``len(gts)`` is its number of patches."""
 
     _core: _core.GeometryTextureSet
-
-    def __new__(cls, *args: Any, **kwargs: Any) -> GeometryTextureSet:
-        raise TypeError("a GeometryTextureSet is made by geomtex.convert, geomtex.load, "
-                        "GeometryTextureSet.from_bytes or GeometryTextureSet.from_heightmaps")
 
     @staticmethod
     def from_heightmaps(grids: npt.ArrayLike | Sequence[npt.ArrayLike],

@@ -11,23 +11,19 @@ import numpy.typing as npt
 
 from . import _core
 from ._bridge import Wrapped, forward
-from ._errors import ParameterError
 from ._set import GeometryTextureSet, from_bytes_arg
 
 _Array = npt.NDArray[Any]
 
 
-class Surfels(Wrapped, core=_core.Surfels):
+class Surfels(Wrapped, core=_core.Surfels,
+              made_by="GeometryTextureSet.to_surfels(tile) or geomtex.load_surfels(path)"):
     """A surfel hierarchy over a geometry-texture set: every surface texel a surfel, tiles of
     `tile` x `tile` texels merged 2x2 per level (level 0 finest). Render it like a set
     (``Renderer.render(surfels, camera, max_pixel_error=1.0)``, ``Scene.add(surfels)``).
     ``len(surfels)`` is its number of surfels."""
 
     _core: _core.Surfels
-
-    def __new__(cls, *args: Any, **kwargs: Any) -> Surfels:
-        raise ParameterError("Surfels are made by GeometryTextureSet.to_surfels(tile) or geomtex.load_surfels(path), "
-                             "not by Surfels(...)")
 
     @staticmethod
     def from_bytes(data: bytes | bytearray | memoryview) -> Surfels:
