@@ -500,7 +500,8 @@ def _render_block(obj: Any, set_index: int, views: list[tuple[int, Any]], store:
     arrays = {name: _array(group, name) for name in outputs}
     done = _array(group, "done")
     for view, camera in views:
-        frame = renderer.render(obj, camera, **options)
+        # Only the outputs stored are read back from the adapter.
+        frame = renderer.render(obj, camera, **options, outputs=tuple(outputs))
         for name in outputs:
             arrays[name][set_index, view] = getattr(frame, name)
         done[set_index, view] = True  # written last: a view marked done has all its chunks
