@@ -18,8 +18,8 @@ use super::gtex::set_stats;
 use super::kinds;
 use crate::mesh::{NormalRule, NormalSource};
 use crate::render::{
-    Camera, FrameRequest, Light, Outputs, Projection, Quality, Renderer, Scene, SceneObject,
-    SearchOverrides,
+    check_image_size, Camera, FrameRequest, Light, Outputs, Projection, Quality, Renderer, Scene,
+    SceneObject, SearchOverrides,
 };
 
 /// A camera: OpenGL-style pose (looks down -Z, +Y up) as pyrender and trimesh use; see
@@ -304,6 +304,10 @@ impl PyScene {
 pub struct PyRenderer {
     inner: Arc<Mutex<Renderer>>,
     size: Mutex<(u32, u32)>,
+    /// The adapter's description and largest image side, read once: what needs only them does
+    /// not wait for a frame another thread is drawing.
+    info: Vec<(&'static str, String)>,
+    max_side: u32,
 }
 
 /// This process's renderer, made on first use and kept for its life. A failure to make one is not
@@ -335,7 +339,8 @@ pub fn device_counts(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
         .unwrap_or_else(|poisoned| poisoned.into_inner())
         .clone();
     let counts = match renderer {
-        Some(r) => lock(&r).counts(),
+        // Waits for a frame another thread is drawing: without the GIL.
+        Some(r) => py.detach(|| lock(&r).counts()),
         None => vec![("target_sets_made", 0), ("target_sizes_kept", 0)],
     };
     for (k, v) in counts {
@@ -441,14 +446,20 @@ impl PyRenderer {
     #[new]
     fn new(py: Python<'_>, width: &Bound<'_, PyAny>, height: &Bound<'_, PyAny>) -> PyResult<Self> {
         let (w, h) = image_size(width, height)?;
-        let inner = heavy(py, "creating the renderer", move |_| {
+        let (inner, info, max_side) = heavy(py, "creating the renderer", move |_| {
             let renderer = shared()?;
-            lock(&renderer).check_size(w, h)?;
-            Ok(renderer)
+            let (info, max_side) = {
+                let locked = lock(&renderer);
+                (locked.info(), locked.max_image_side())
+            };
+            check_image_size(w, h, max_side)?;
+            Ok((renderer, info, max_side))
         })?;
         Ok(PyRenderer {
             inner,
             size: Mutex::new((w, h)),
+            info,
+            max_side,
         })
     }
 
@@ -466,7 +477,7 @@ impl PyRenderer {
     /// Renderer shares them), and so are the targets of sizes drawn lately.
     fn resize(&self, width: &Bound<'_, PyAny>, height: &Bound<'_, PyAny>) -> PyResult<()> {
         let (w, h) = image_size(width, height)?;
-        self.renderer().check_size(w, h)?;
+        check_image_size(w, h, self.max_side)?;
         *self
             .size
             .lock()
@@ -478,7 +489,7 @@ impl PyRenderer {
     #[getter]
     fn adapter_info<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let d = PyDict::new(py);
-        for (k, v) in self.renderer().info() {
+        for (k, v) in &self.info {
             d.set_item(k, v)?;
         }
         Ok(d)
@@ -629,7 +640,7 @@ impl PyRenderer {
     }
 
     fn __repr__(&self) -> String {
-        let name = self.renderer().info()[0].1.clone();
+        let name = &self.info[0].1;
         let (width, height) = self.size();
         format!("<geomtex.Renderer {width}x{height} on {name}>")
     }

@@ -104,6 +104,17 @@ struct Prepared {
     tally: Tally,
 }
 
+/// A `ParameterError` unless `width` x `height` fits an adapter whose largest image side is `max`.
+pub fn check_image_size(width: u32, height: u32, max: u32) -> Result<()> {
+    if width == 0 || height == 0 || width > max || height > max {
+        return Err(GeomtexError::Parameter(format!(
+            "image size {width}x{height} must be between 1 and {max} (this adapter's limit) on \
+             each side"
+        )));
+    }
+    Ok(())
+}
+
 impl Renderer {
     /// The color of pixels nothing was drawn on: transparent white.
     pub const DEFAULT_BACKGROUND: [u8; 4] = [255, 255, 255, 0];
@@ -137,14 +148,12 @@ impl Renderer {
 
     /// A `ParameterError` unless this adapter draws `width` x `height` images.
     pub fn check_size(&self, width: u32, height: u32) -> Result<()> {
-        let max = self.gpu.device.limits().max_texture_dimension_2d;
-        if width == 0 || height == 0 || width > max || height > max {
-            return Err(GeomtexError::Parameter(format!(
-                "image size {width}x{height} must be between 1 and {max} (this adapter's limit) \
-                 on each side"
-            )));
-        }
-        Ok(())
+        check_image_size(width, height, self.max_image_side())
+    }
+
+    /// The longest image side this adapter draws (its largest 2D texture).
+    pub fn max_image_side(&self) -> u32 {
+        self.gpu.device.limits().max_texture_dimension_2d
     }
 
     pub fn info(&self) -> Vec<(&'static str, String)> {
