@@ -114,6 +114,25 @@ def test_location_and_any_match_first(bunny: Converted) -> None:
         bunny.gts.intersects_location(origins, dirs, multiple_hits=True)
 
 
+
+def test_every_query_takes_trimeshs_argument_names_too(bunny: Converted) -> None:
+    """origins/directions everywhere; trimesh's ray_origins/ray_directions give the same answer,
+    so code written for trimesh's RayMeshIntersector runs unchanged; a name given twice, a
+    missing one or a misspelled keyword is a ParameterError naming it."""
+    origins, dirs = rays_around(bunny.mesh, 500, seed=7)
+    ours = bunny.gts.intersects_location(origins, dirs)
+    theirs = bunny.gts.intersects_location(ray_origins=origins, ray_directions=dirs)
+    for a, b in zip(ours, theirs):
+        np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(bunny.gts.intersects_any(ray_origins=origins, ray_directions=dirs),
+                                  bunny.gts.intersects_any(origins=origins, directions=dirs))
+    with pytest.raises(gt.ParameterError, match="origins given twice"):
+        bunny.gts.intersects_first(origins, dirs, ray_origins=origins)
+    with pytest.raises(gt.ParameterError, match="missing argument 'directions'"):
+        bunny.gts.intersects_any(origins)
+    with pytest.raises(gt.ParameterError, match="unknown keyword 'qualty'.*quality"):
+        bunny.gts.intersects_first(origins, dirs, qualty="exact")
+
 def test_scene_queries_take_the_nearest_object(bunny: Converted) -> None:
     """Two copies, the second moved one diagonal along +z: rays down -z hit the moved copy first,
     with ids numbered after the first copy's patches."""

@@ -10,10 +10,12 @@ file is a FileError.
 
 from __future__ import annotations
 
+import functools
+import inspect
 import numbers
 import os
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -28,6 +30,27 @@ MAX_IMAGE_SIDE = 16384
 AFFINE_TOLERANCE = 1e-6
 #: Smallest |det| of a placement's 3x3 part, relative to the cube of its largest entry.
 SINGULAR_TOLERANCE = 1e-12
+
+_F = TypeVar("_F", bound=Callable[..., Any])
+
+
+def keywords(function: _F) -> _F:
+    """`function` with its own signature (what help() and editors show), where an unknown or
+    misspelled keyword is a ParameterError naming it and the keywords taken, as every other bad
+    argument is, rather than Python's TypeError."""
+    signature = inspect.signature(function)
+    taken = [name for name, p in signature.parameters.items()
+             if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY) and name != "self"]
+
+    @functools.wraps(function)
+    def checked(*args: Any, **kwargs: Any) -> Any:
+        unknown = [name for name in kwargs if name not in signature.parameters]
+        if unknown:
+            raise ParameterError(f"unknown keyword {unknown[0]!r}: {function.__name__} takes "
+                                 f"{', '.join(taken)}")
+        return function(*args, **kwargs)
+
+    return checked  # type: ignore[return-value]
 
 
 def shown(value: Any) -> str:

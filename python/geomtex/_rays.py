@@ -70,11 +70,21 @@ def _rays(origins: npt.ArrayLike, directions: npt.ArrayLike) -> tuple[np.ndarray
     return o, d
 
 
-def _options(options: dict[str, Any]) -> dict[str, Any]:
-    unknown = sorted(set(options) - {"quality", "method"})
-    if unknown:
-        raise _core.ParameterError(f"unknown keyword {unknown[0]!r}: a ray query takes quality and method")
-    return options
+def _named(origins: npt.ArrayLike | None, directions: npt.ArrayLike | None,
+           ray_origins: npt.ArrayLike | None, ray_directions: npt.ArrayLike | None
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """The rays of a query called with our names (``origins``, ``directions``) or trimesh's
+    (``ray_origins``, ``ray_directions``), so code written for trimesh runs unchanged; one name
+    per argument."""
+    pairs = {"origins": (origins, ray_origins), "directions": (directions, ray_directions)}
+    for name, (ours, theirs) in pairs.items():
+        if ours is not None and theirs is not None:
+            raise _core.ParameterError(f"{name} given twice: as {name} and as ray_{name} (trimesh's name); "
+                                       "pass one")
+        if ours is None and theirs is None:
+            raise _core.ParameterError(f"missing argument {name!r} (or trimesh's ray_{name})")
+    return _rays(origins if origins is not None else ray_origins,
+                 directions if directions is not None else ray_directions)
 
 
 class RayQueries:
@@ -84,32 +94,42 @@ class RayQueries:
 
     _core: Any
 
-    def intersects_first(self, origins: npt.ArrayLike, directions: npt.ArrayLike, *,
-                         quality: _Quality | None = None, method: _Method | None = None) -> RayHits:
+    @_check.keywords
+    def intersects_first(self, origins: npt.ArrayLike | None = None, directions: npt.ArrayLike | None = None,
+                         *, quality: _Quality | None = None, method: _Method | None = None,
+                         ray_origins: npt.ArrayLike | None = None, ray_directions: npt.ArrayLike | None = None
+                         ) -> RayHits:
         """The nearest hit of every ray (``quality`` "exact" by default): origins (N, 3) or one
-        (3,) for every ray, directions (N, 3), any length but zero."""
-        o, d = _rays(origins, directions)
+        (3,) for every ray, directions (N, 3), any length but zero. Every ray query also takes
+        trimesh's names, ``ray_origins`` and ``ray_directions``."""
+        o, d = _named(origins, directions, ray_origins, ray_directions)
         dist, ids, normals = _query_renderer().intersect(self._core, o, d, quality=quality, method=method)
         hit = ids != -1
         unit = d / np.linalg.norm(d, axis=1, keepdims=True)
         locations = np.where(hit[:, None], o + unit * np.where(hit, dist, 0.0)[:, None], np.nan)
         return RayHits(locations, dist, ids, normals, hit)
 
-    def intersects_location(self, ray_origins: npt.ArrayLike, ray_directions: npt.ArrayLike,
-                            multiple_hits: bool = False, **options: Any
+    @_check.keywords
+    def intersects_location(self, origins: npt.ArrayLike | None = None, directions: npt.ArrayLike | None = None,
+                            multiple_hits: bool = False, *, quality: _Quality | None = None,
+                            method: _Method | None = None, ray_origins: npt.ArrayLike | None = None,
+                            ray_directions: npt.ArrayLike | None = None
                             ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.int32]]:
         """Like trimesh's: (hit locations (M, 3), index of the ray of each (M,), patch id of each
-        (M,)) for the rays that hit; the nearest hit only. `options`: quality, method."""
+        (M,)) for the rays that hit; the nearest hit only (``multiple_hits=True`` is refused)."""
         if _check.flag("multiple_hits", multiple_hits):
             raise _core.ParameterError("multiple_hits=True is not supported: only the nearest hit is traced")
-        hits = self.intersects_first(ray_origins, ray_directions, **_options(options))
+        hits = self.intersects_first(origins, directions, quality=quality, method=method,
+                                     ray_origins=ray_origins, ray_directions=ray_directions)
         index = np.flatnonzero(hits.hit)
         return hits.locations[index], index, hits.patch_ids[index]
 
-    def intersects_any(self, ray_origins: npt.ArrayLike, ray_directions: npt.ArrayLike,
-                       **options: Any) -> npt.NDArray[np.bool_]:
-        """Whether each ray hits anything (each stops at the first hit found). `options`:
-        quality, method."""
-        o, d = _rays(ray_origins, ray_directions)
-        _, ids, _ = _query_renderer().intersect(self._core, o, d, any_hit=True, **_options(options))
+    @_check.keywords
+    def intersects_any(self, origins: npt.ArrayLike | None = None, directions: npt.ArrayLike | None = None, *,
+                       quality: _Quality | None = None, method: _Method | None = None,
+                       ray_origins: npt.ArrayLike | None = None, ray_directions: npt.ArrayLike | None = None
+                       ) -> npt.NDArray[np.bool_]:
+        """Whether each ray hits anything (each stops at the first hit found)."""
+        o, d = _named(origins, directions, ray_origins, ray_directions)
+        _, ids, _ = _query_renderer().intersect(self._core, o, d, any_hit=True, quality=quality, method=method)
         return ids != -1  # type: ignore[no-any-return]
