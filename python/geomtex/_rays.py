@@ -83,8 +83,10 @@ def _named(origins: npt.ArrayLike | None, directions: npt.ArrayLike | None,
                                        "pass one")
         if ours is None and theirs is None:
             raise _core.ParameterError(f"missing argument {name!r} (or trimesh's ray_{name})")
-    return _rays(origins if origins is not None else ray_origins,
-                 directions if directions is not None else ray_directions)
+    o = origins if origins is not None else ray_origins
+    d = directions if directions is not None else ray_directions
+    assert o is not None and d is not None  # checked above
+    return _rays(o, d)
 
 
 class RayQueries:

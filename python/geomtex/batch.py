@@ -43,7 +43,7 @@ from typing import Any
 
 import numpy as np
 
-from . import _check
+from . import _check, _optional
 from ._camera import Camera
 from ._errors import CancelledError, FileError, GeomtexError, ParameterError
 
@@ -53,11 +53,7 @@ _MANIFEST_VERSION = 1
 
 
 def _dask() -> Any:
-    try:
-        import dask.distributed as distributed
-    except ImportError:  # an optional dependency
-        raise ParameterError("geomtex.batch needs Dask distributed: pip install 'geomtex[distributed]'") from None
-    return distributed
+    return _optional.need("dask.distributed", "geomtex.batch")
 
 
 @contextlib.contextmanager
@@ -475,7 +471,7 @@ _OUTPUTS = {"depth": ("f4", (), np.inf), "normal": ("f4", (3,), 0.0), "color": (
 
 def _array(group: Any, name: str) -> Any:
     """One array of a zarr group (typed as Any: zarr's item type is a union of Array and Group)."""
-    import zarr
+    zarr = _optional.need("zarr", "geomtex.batch")
 
     array = group[name]
     if not isinstance(array, zarr.Array):
@@ -486,9 +482,9 @@ def _array(group: Any, name: str) -> Any:
 def _render_block(obj: Any, set_index: int, views: list[tuple[int, Any]], store: str, width: int, height: int,
                   outputs: Sequence[str], options: dict[str, Any]) -> dict[str, Any]:
     """Runs on a worker: renders the views of one object and writes each into its own chunks."""
-    import zarr
-
     import geomtex as gt
+
+    zarr = _optional.need("zarr", "geomtex.batch")
 
     from ._render import shared_renderer
 
@@ -535,9 +531,9 @@ def render_views(
     Views are rendered in tasks of `views_per_task` views of one object; each worker keeps one
     Renderer for its life. Depth is bit-identical to `Renderer.render` in this process.
     """
-    import zarr
-
     from ._render import check_render_options
+
+    zarr = _optional.need("zarr", "geomtex.batch.render_views")
 
     width, height = _check.image_size(width, height)
     names = _listed("outputs", outputs, f"output names, some of {sorted(_OUTPUTS)}")

@@ -22,7 +22,7 @@ from typing import Any, Callable, Literal
 import numpy as np
 import numpy.typing as npt
 
-from . import _check, _core
+from . import _check, _core, _optional
 from ._bridge import Wrapped
 from ._errors import MeshError, ParameterError
 
@@ -421,7 +421,7 @@ def tile_surface(volume: Volume) -> tuple[npt.NDArray[np.float64], npt.NDArray[n
     """A volume's surface over one period (marching cubes at 0.5 of the occupancy sampled at voxel
     centres, x and y wrapped, empty below and above): vertices in voxel units with x, y in
     [0.5, n + 0.5] and z in [0, nz], faces wound outward."""
-    from skimage import measure
+    measure = _optional.need("skimage.measure", "geomtex.gdm (the tile's surface by marching cubes)")
 
     occ = volume.occupancy.astype(np.float32)
     nx, ny, nz = occ.shape

@@ -20,7 +20,7 @@ from typing import Any, Callable, Literal, Sequence
 
 import numpy as np
 
-from . import _check, _core
+from . import _check, _core, _optional
 from ._errors import ParameterError
 from ._igt import IgtMesh, InverseGeometricTexture, shading
 from ._mesh import as_mesh
@@ -103,10 +103,7 @@ def simplify(
             f"target_faces must be 4 to the detailed mesh's {len(faces)} faces, got {target_faces}"
         )
     shading(lookup, samples, lod)  # before the decimation, not after it
-    try:
-        import pymeshlab
-    except ImportError as e:  # pragma: no cover - depends on the environment
-        raise ImportError("geomtex.igt.simplify needs pymeshlab: pip install pymeshlab") from e
+    pymeshlab = _optional.need("pymeshlab", "geomtex.igt.simplify")
 
     ms = pymeshlab.MeshSet()
     ms.add_mesh(pymeshlab.Mesh(vertex_matrix=igt.vertices, face_matrix=faces.astype(np.int32)))
@@ -157,7 +154,7 @@ def attach(
     igt.check_near(v, f)  # before the grids' nearest-face search, which a far mesh makes slow
     face_grid = np.zeros(len(f), dtype=np.int64)
     if igt.primary == "charts":
-        from scipy.spatial import cKDTree
+        cKDTree = _optional.need("scipy.spatial", "geomtex.igt (charts as the primary grid)").cKDTree
 
         listed = np.flatnonzero(igt.face_grid >= 0)
         centroids = igt.vertices[igt.faces[listed]].mean(axis=1)

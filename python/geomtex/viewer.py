@@ -20,7 +20,7 @@ import numpy as np
 import numpy.typing as npt
 from PIL import Image
 
-from . import _check
+from . import _check, _optional
 from ._camera import Camera
 from ._errors import ParameterError
 from ._kinds import adopt
@@ -227,10 +227,7 @@ class Viewer:
         return self._widget
 
     def _build_widgets(self) -> Any:
-        try:
-            import ipywidgets as w
-        except ImportError:
-            raise ParameterError("gt.show needs ipywidgets: pip install 'geomtex[notebook]'") from None
+        w = _optional.need("ipywidgets", "gt.show")
         s = self.state
         image = w.Image(value=self.png(), format="png", width=self.width, height=self.height)
         quality = w.Dropdown(options=_QUALITIES, value=s.quality, description="quality")
