@@ -62,7 +62,7 @@ def test_cone_charts_are_one_sheet_between_homers_fingers() -> None:
 
 def _positions(calls: list[tuple[str, float]]) -> list[float]:
     """Where the tqdm bar of geomtex.convert(progress=True) stands after each report."""
-    from geomtex import _STAGE_SPAN
+    from geomtex._progress import STAGE_SPAN as _STAGE_SPAN
 
     out = []
     for stage, fraction in calls:

@@ -15,7 +15,7 @@ from typing import Any, Callable, Literal
 # machines; geomtex picks its adapter itself, so the layer is not needed.
 os.environ.setdefault("NODEVICE_SELECT", "1")
 
-from . import _check, _core, gdm, igt  # noqa: E402
+from . import _check, _core, _progress, gdm, igt  # noqa: E402
 from ._camera import Camera  # noqa: E402
 from ._check import number as _number  # noqa: E402
 from ._core import __version__  # noqa: E402
@@ -74,11 +74,6 @@ __all__ = [
 
 ProgressCallback = Callable[[str, float], "bool | None"]
 
-# Share of a typical conversion's time per stage (measured on the bunny), for the progress bar.
-_STAGE_SPAN = {
-    "geometry": (0, 2), "partition": (2, 75), "repair": (75, 77), "overlap": (77, 79),
-    "frame": (79, 80), "resolution": (80, 90), "raster": (90, 96), "dilate": (96, 99), "done": (100, 100),
-}
 
 
 def convert(
@@ -199,15 +194,7 @@ def convert(
     callback: ProgressCallback | None
     bar = None
     if progress is True:
-        from tqdm.auto import tqdm
-
-        bar = tqdm(total=100, desc="geomtex", unit="%", leave=False)
-
-        def callback(stage: str, fraction: float) -> None:
-            start, end = _STAGE_SPAN.get(stage, (bar.n, bar.n))
-            bar.set_description(f"geomtex {stage}")
-            bar.n = round(start + (end - start) * fraction)
-            bar.refresh()
+        bar = callback = _progress.Stages()
     elif callable(progress):
         callback = progress
     elif progress in (None, False):

@@ -12,6 +12,9 @@ import os
 import sys
 import warnings
 from pathlib import Path
+from typing import Any
+
+import numpy as np
 
 import geomtex as gt
 from geomtex._files import save_image
@@ -27,26 +30,47 @@ def default_mesh() -> Path:
     return Path(pymeshlab.__file__).parent / "tests" / "sample_meshes" / "bunny.obj"
 
 
+def _charts_row(st: dict[str, Any]) -> str:
+    partition = "cone partition" if st.get("cone_partition", 0) else "VSA"
+    row = f"{st['charts']} ({partition} {st['vsa_charts']}, +{st['repair_splits']} by repair"
+    return row + (f", {st['sheet_splits']} of them for two-sheet charts)" if st.get("sheet_splits") else ")")
+
+
+def _texel_row(st: dict[str, Any]) -> str:
+    row = f"{st['texel_size']:.4g} ({st['texel_size'] / st['diagonal']:.2e} of the diagonal)"
+    if "max_error" not in st:
+        return row + ", one for every patch"
+    levels = len(set(np.round(np.log2(st["patch_texel"]), 6)))
+    return row + f", the finest of {levels} texel sizes chosen per patch (error-driven)"
+
+
+def _bound_row(st: dict[str, Any]) -> str:
+    over = st["charts_over_max_error"]
+    # Charts stay over the bound at the resolution cap, or, where the byte budget binds, at the
+    # level the budget allowed; the stats do not say which held back which chart.
+    held = "the byte budget or the resolution cap held them back" if st.get("max_bytes_binding") \
+        else "at the resolution cap"
+    row = f"{st['max_error'] / st['diagonal']:.2e} of the diagonal"
+    row += f" ({over} charts over it: {held})" if over else ""
+    if st.get("max_bytes_binding") and st["reconstruction_error_p99"] > st["max_error"]:
+        row += f"; missed within the byte budget: p99 {st['reconstruction_error_p99'] / st['max_error']:.2f}x it"
+    return row
+
+
 def stats_table(gts: gt.GeometryTextureSet) -> str:
+    """The conversion's figures as a two-column table; each row says only what the stats show."""
     st = gts.stats
     rows = [
         ("faces", f"{st['faces']:,} ({st['degenerate_faces']} degenerate)"),
-        ("patches (charts)", f"{st['charts']} (partition {st['vsa_charts']}, +{st['repair_splits']} by repair, "
-                             f"{st.get('sheet_splits', 0)} of them two-sheet charts)"),
+        ("patches", _charts_row(st)),
         ("folding charts", f"{st['folding_charts']} (before repair: {st['folding_charts_before_repair']})"),
         ("inverted triangles", f"{st['inverted_triangles']} (before repair: {st['inverted_triangles_before_repair']})"),
         ("texels", f"{st['texels']:,} ({100 * st['empty_fraction']:.1f}% empty)"),
-        ("texel size", f"{st['texel_size']:.4g} ({st['texel_size'] / st['diagonal']:.2e} of the diagonal)"
-                       + (f"; finest of {len(set(st['patch_texel']))} (error-driven)" if "max_error" in st else "")),
+        ("texel size", _texel_row(st)),
         ("map bytes", f"{st['bytes'] / 1e6:.2f} MB"),
         ("reconstruction error", f"p99 {st['reconstruction_error_p99'] / st['diagonal']:.2e}, "
                                  f"max {st['reconstruction_error_max'] / st['diagonal']:.2e} of the diagonal"),
-        *([("error bound", f"{st['max_error'] / st['diagonal']:.2e} of the diagonal "
-                            f"({st['charts_over_max_error']} charts over it at the resolution cap; "
-                            f"chart_error {st['chart_error']})"
-                            + ("; missed within the byte budget: p99 "
-                               f"{st['reconstruction_error_p99'] / st['max_error']:.2f}x it"
-                               if st.get("max_bytes_binding") else ""))] if "max_error" in st else []),
+        *([("error bound", _bound_row(st))] if "max_error" in st else []),
         ("mesh repairs", f"{st['duplicate_vertices']} duplicate vertices welded, {st['flipped_faces']} faces rewound"),
     ]
     rows += [(f"seconds: {k}", f"{v:.3f}") for k, v in st["seconds"].items()]
@@ -73,14 +97,18 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m geomtex", description=__doc__.splitlines()[0])
     ap.add_argument("mesh", nargs="?", help="mesh file (OBJ/PLY/STL/OFF); default: pymeshlab's bunny")
     ap.add_argument("-o", "--out", default="out", help="output folder (default: out/)")
+    ap.add_argument("--version", action="version", version=f"geomtex {gt.__version__}")
     ap.add_argument("--max-resolution", type=int, default=None,
-                    help="longest patch side in texels (default 256; 1024 with --max-error-rel)")
+                    help="a fixed texel for the whole set that makes the largest patch this many texels on "
+                         "its longest side (default: none; the conversion is error-driven within the mesh's "
+                         "own bytes; with --max-error-rel a cap of 1024)")
     ap.add_argument("--max-error-rel", type=float, default=None,
                     help="error-driven: each chart's texel chosen for this p99 reconstruction error, "
                          "as a fraction of the diagonal")
     ap.add_argument("--charts", type=int, default=None, help="exact VSA chart count")
     ap.add_argument("--frame", choices=["min_area", "pca"], default="min_area")
-    ap.add_argument("--quiet", action="store_true", help="no progress bar")
+    ap.add_argument("--quiet", action="store_true",
+                    help="no progress (a bar on a terminal, a line per stage in a log otherwise)")
     args = ap.parse_args(argv)
 
     path = Path(args.mesh) if args.mesh else default_mesh()

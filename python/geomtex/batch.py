@@ -43,7 +43,7 @@ from typing import Any
 
 import numpy as np
 
-from . import _check, _optional
+from . import _check, _optional, _progress
 from ._camera import Camera
 from ._errors import CancelledError, FileError, GeomtexError, ParameterError
 
@@ -452,9 +452,7 @@ class _Journal:
 def _bar(total: int, what: str, progress: bool, client: Any) -> Any:
     if not progress:
         return None
-    from tqdm.auto import tqdm
-
-    bar = tqdm(total=total, desc=f"geomtex {what}", unit="task")
+    bar = _progress.bar(total, f"geomtex {what}", "task")
     services: dict[str, Any] = client.scheduler_info().get("services", {})
     link = client.dashboard_link if "dashboard" in services else None
     if link:

@@ -5,7 +5,7 @@
 
 use super::accuracy::SetError;
 use crate::charts::repair::Folding;
-use crate::convert_options::ConvertOptions;
+use crate::convert_options::{ConvertOptions, PartitionMethod};
 use crate::gtex::{GeometryTextureSet, Patch, Stats};
 use crate::mesh::{EdgeCounts, Mesh};
 
@@ -94,11 +94,15 @@ fn chart_figures(
     opts: &ConvertOptions,
     set: &GeometryTextureSet,
     figures: &StageFigures,
-) -> [(&'static str, f64); 15] {
+) -> [(&'static str, f64); 16] {
     let (before, after) = (figures.folding_before, figures.folding_after);
+    let cone = opts.partition_method() == PartitionMethod::Cone;
     let ring_faces: usize = set.patches.iter().map(|p| p.ring_faces.len()).sum();
     [
         ("charts", set.patches.len() as f64),
+        // Which partition cut the charts (1: cone, 0: VSA); "vsa_charts" counts its charts
+        // either way, and "chart_error" applies to VSA only.
+        ("cone_partition", f64::from(u8::from(cone))),
         ("vsa_charts", figures.vsa_charts as f64),
         ("vsa_mean_error", figures.vsa_mean_error),
         ("chart_error", opts.chart_error_target()),
