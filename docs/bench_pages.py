@@ -130,7 +130,12 @@ def run_info(data: dict[str, Any], path: Path) -> dict[str, str]:
     if parts and not adapter:
         parts.append("adapter not recorded")
     machine_line = "; ".join(parts) if parts else NOT_RECORDED
-    return {"date": date_line, "machine": machine_line, "commit": commit_line, "source": source}
+    adapter_name = (rec.get("adapter") or data.get("adapter") or {})
+    adapter_name = adapter_name.get("name") if isinstance(adapter_name, dict) else adapter_name
+    short = [(f"{cpu}, {cores} cores" if cpu else f"{cores} cores") if cores else cpu] + [adapter_name]
+    short_line = "; ".join(str(x) for x in short if x) or ("platform only" if platform else NOT_RECORDED)
+    return {"date": date_line, "machine": machine_line, "commit": commit_line, "source": source,
+            "machine_short": short_line, "date_from_git": "yes" if fallback and not date else ""}
 
 
 def _sub_runs(data: Any, prefix: str = "", depth: int = 0) -> list[tuple[str, dict[str, str]]]:
@@ -422,10 +427,13 @@ def index(names: list[tuple[str, Path, dict[str, str]]]) -> str:
              "built: one page per result file, with the date, machine and commit of its run, what the "
              "script measures and how to run it (from bench/README.md), its plots and its figures. "
              "How the results developed is in the changelog's benchmark history.", "",
-             "| page | date | machine |", "|---|---|---|"]
+             "| page | date | machine | commit |", "|---|---|---|---|"]
     for name, _, info in names:
-        lines.append(f"| [{name}]({name}.md) | {info['date'].split(' ')[0]} | {info['machine']} |")
-    lines += ["", "```{toctree}", ":hidden:", ":maxdepth: 1", ""] + [n for n, _, _ in names] + ["```", ""]
+        date = info["date"].split(" ")[0] + (" (†)" if info["date_from_git"] else "")
+        commit = info["commit"].split(" ")[0] + (" (†)" if "last commit" in info["commit"] else "")
+        lines.append(f"| [{name}]({name}.md) | {date} | {info['machine_short']} | {commit} |")
+    lines += ["", "(†) Not recorded in the file: the last commit that changed it, and its date. Files "
+              "written since bench/_meta.py record their run's own.", "", "```{toctree}", ":hidden:", ":maxdepth: 1", ""] + [n for n, _, _ in names] + ["```", ""]
     return "\n".join(lines)
 
 
