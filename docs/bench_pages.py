@@ -433,7 +433,8 @@ def index(names: list[tuple[str, Path, dict[str, str]]]) -> str:
         commit = info["commit"].split(" ")[0] + (" (†)" if "last commit" in info["commit"] else "")
         lines.append(f"| [{name}]({name}.md) | {date} | {info['machine_short']} | {commit} |")
     lines += ["", "(†) Not recorded in the file: the last commit that changed it, and its date. Files "
-              "written since bench/_meta.py record their run's own.", "", "```{toctree}", ":hidden:", ":maxdepth: 1", ""] + [n for n, _, _ in names] + ["```", ""]
+              "written since bench/_meta.py record their run's own.", ""]
+    lines += ["```{toctree}", ":hidden:", ":maxdepth: 1", ""] + [n for n, _, _ in names] + ["```", ""]
     return "\n".join(lines)
 
 
