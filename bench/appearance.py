@@ -33,6 +33,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from _meta import write_json  # noqa: E402  (bench/ is on sys.path: run as python bench/<name>.py)
 
 REPO = Path(__file__).resolve().parents[1]
 OUT = REPO / "bench" / "results"
@@ -116,7 +117,7 @@ def main() -> None:
         if old.get("size") == args.size:
             results = {**{k: v for k, v in old.items() if k in PARTS}, **results}
     OUT.mkdir(parents=True, exist_ok=True)
-    (OUT / "appearance.json").write_text(json.dumps(results, indent=1) + "\n")
+    write_json(OUT / "appearance.json", results, indent=1)
     plot(results, OUT / "appearance.png")
     print(f"wrote {OUT / 'appearance.json'} and {OUT / 'appearance.png'}")
 

@@ -20,11 +20,11 @@ Run from the repository root::
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from _meta import write_json  # noqa: E402  (bench/ is on sys.path: run as python bench/<name>.py)
 
 import geomtex as gt
 from geomtex import reference
@@ -106,7 +106,7 @@ def main() -> None:
             print(f"{name:<20}{view:<22}{r['mean']:>8.2f}{r['p99']:>8.1f}{r['interior_px']:>13}")
         print(f"{name:<20}{'all views':<22}{m['mean']:>8.2f}")
     path = OUT / "appearance_colors.json"
-    path.write_text(json.dumps(results, indent=1) + "\n")
+    write_json(path, results, indent=1)
     print(f"wrote {path}")
 
 

@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from _meta import write_json  # noqa: E402  (bench/ is on sys.path: run as python bench/<name>.py)
 
 import geomtex as gt
 from geomtex.testing import common_points, seam_rays
@@ -176,12 +177,11 @@ def plot(m: dict[str, Any], path: Path) -> None:
 
 
 def main() -> None:
-    import json
 
     out = REPO / "bench" / "results"
     m = measure()
     print(table(m))
-    (out / "appearance_filters.json").write_text(json.dumps(m, indent=1) + "\n")
+    write_json(out / "appearance_filters.json", m, indent=1)
     plot(m, out / "appearance_filters.png")
     print(f"wrote {out / 'appearance_filters.json'} and {out / 'appearance_filters.png'}")
 

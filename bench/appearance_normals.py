@@ -27,11 +27,11 @@ Run from the repository root::
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from _meta import write_json  # noqa: E402  (bench/ is on sys.path: run as python bench/<name>.py)
 
 import geomtex as gt
 from geomtex import reference
@@ -159,7 +159,7 @@ def main() -> None:
     args = parser.parse_args()
     result = measure(args.size)
     RESULTS.parent.mkdir(exist_ok=True)
-    RESULTS.write_text(json.dumps(result, indent=1))
+    write_json(RESULTS, result, indent=1)
     print(table(result))
 
 

@@ -27,7 +27,6 @@ Results: ``bench/results/appearance_outlines.json``. Run from the repository roo
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import subprocess
 import sys
@@ -36,6 +35,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from _meta import write_json  # noqa: E402  (bench/ is on sys.path: run as python bench/<name>.py)
 
 import geomtex as gt
 from geomtex import reference
@@ -146,7 +146,7 @@ def main() -> None:
     results = measure(args.size, args.before)
     print(_table(results))
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "appearance_outlines.json").write_text(json.dumps(results, indent=1))
+    write_json(args.out / "appearance_outlines.json", results, indent=1)
 
 
 if __name__ == "__main__":

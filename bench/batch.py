@@ -22,7 +22,6 @@ Run from the repository root::
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import pickle
 import tempfile
@@ -33,6 +32,7 @@ from typing import Any
 import numpy as np
 import pymeshlab
 import trimesh
+from _meta import write_json  # noqa: E402  (bench/ is on sys.path: run as python bench/<name>.py)
 
 import geomtex as gt
 from geomtex import batch
@@ -204,7 +204,7 @@ def main() -> None:
               f"{m['rewrite_s']:.2f} s ({m['manifest_bytes'] / 1e6:.0f} MB)")
     results["load_average_after"] = os.getloadavg()
     OUT.mkdir(parents=True, exist_ok=True)
-    (OUT / "batch.json").write_text(json.dumps(results, indent=1))
+    write_json(OUT / "batch.json", results, indent=1)
     plot(results)
 
 

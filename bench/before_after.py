@@ -18,6 +18,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+from _meta import write_json  # noqa: E402  (bench/ is on sys.path: run as python bench/<name>.py)
 
 RESULTS = Path(__file__).parent / "results"
 ROUNDS = 5
@@ -88,7 +89,7 @@ def main() -> None:
     result = {"builds": {k: str(v) for k, v in builds.items()}, "cores": os.cpu_count(), "rounds": rounds,
               "summary": summary, "identical": identical, "load_average": os.getloadavg()}
     RESULTS.mkdir(exist_ok=True)
-    (RESULTS / "before_after.json").write_text(json.dumps(result, indent=2) + "\n")
+    write_json(RESULTS / "before_after.json", result, indent=2)
     for name, s in summary.items():
         print(f"{name:<7} {s['frame_ms']:7.1f} ms/frame   {s['rays_100k_ms']:8.1f} ms / 100k rays")
     print("identical:", identical)

@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import argparse
 import gc
-import json
 import sys
 import time
 from pathlib import Path
@@ -40,6 +39,8 @@ from tqdm import tqdm
 import geomtex as gt
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _meta import write_json  # noqa: E402  (bench/ is on sys.path: run as python bench/<name>.py)
+
 from render import _version  # noqa: E402
 from render import machine_info as common_machine_info  # noqa: E402
 
@@ -327,7 +328,7 @@ def main(argv: list[str] | None = None) -> None:
         "meshes": records,
     }
     json_path = args.out / "convert.json"
-    json_path.write_text(json.dumps(result, indent=2) + "\n")
+    write_json(json_path, result, indent=2)
     png_path = args.out / "convert.png"
     plot(records, png_path)
     print(f"\nwrote {json_path} and {png_path}")

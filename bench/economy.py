@@ -57,6 +57,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from _meta import write_json  # noqa: E402  (bench/ is on sys.path: run as python bench/<name>.py)
 
 import geomtex as gt
 from geomtex import reference
@@ -643,13 +644,13 @@ def main() -> None:
     args = parser.parse_args()
     if args.budget_scan:
         d = measure_budget_scan()
-        (RESULTS / "budget_scan.json").write_text(json.dumps(d, indent=1))
+        write_json(RESULTS / "budget_scan.json", d, indent=1)
         plot_budget_scan(d, RESULTS / "budget_scan.png")
         print(budget_scan_table(d))
         return
     if args.peak_only:
         d = measure_peak("bunny-loop-subdivided", runs=3)
-        (RESULTS / "peak.json").write_text(json.dumps(d, indent=1))
+        write_json(RESULTS / "peak.json", d, indent=1)
         plot_peak(d, RESULTS / "peak.png")
         print({k: v for k, v in d.items() if k != "stages"})
         return
@@ -657,7 +658,7 @@ def main() -> None:
         path = RESULTS / "economy.json"
         saved = json.loads(path.read_text()) if path.exists() else {}
         saved["default"] = measure_default()
-        path.write_text(json.dumps(saved, indent=1))
+        write_json(path, saved, indent=1)
         plot_default(saved["default"], RESULTS / "economy_default.png")
         print(default_table(saved["default"]))
         return
@@ -674,12 +675,12 @@ def main() -> None:
     now = measure()
     RESULTS.mkdir(exist_ok=True)
     if args.label == "main":
-        (RESULTS / "economy_main.json").write_text(json.dumps(now, indent=1))
+        write_json(RESULTS / "economy_main.json", now, indent=1)
         print(table(now, None))
         return
     main_path = RESULTS / "economy_main.json"
     before = json.loads(main_path.read_text()) if main_path.exists() else None
-    (RESULTS / "economy.json").write_text(json.dumps({"now": now, "main": before}, indent=1))
+    write_json(RESULTS / "economy.json", {"now": now, "main": before}, indent=1)
     plot(now, before, RESULTS / "economy.png")
     print(table(now, before))
 

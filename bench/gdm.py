@@ -45,6 +45,7 @@ from typing import Any
 
 import numpy as np
 import trimesh
+from _meta import write_json  # noqa: E402  (bench/ is on sys.path: run as python bench/<name>.py)
 
 import geomtex as gt
 from geomtex import gdm, reference
@@ -412,7 +413,7 @@ def main() -> None:
         slices = slice_cost(args.slices_size, args.rounds)
         results = json.loads(path.read_text())  # read again: another run may have written it since
         results["slices"] = slices
-        path.write_text(json.dumps(results, indent=1, default=str))
+        write_json(path, results, indent=1, default=str)
         plot(results, OUT / "gdm.png")
         return
     old = json.loads(path.read_text()) if only and path.exists() else None
@@ -461,7 +462,7 @@ def main() -> None:
         print(f"svd {r['directions']} k={r['k']:2}: rms {r['rms']:.3f} vox, {r['bytes'] / 1e6:.2f} MB "
               f"(table {r['table_bytes'] / 1e6:.1f} MB)")
     OUT.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(results, indent=1, default=str))
+    write_json(path, results, indent=1, default=str)
     plot(results, OUT / "gdm.png")
 
 

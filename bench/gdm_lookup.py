@@ -22,11 +22,12 @@ from __future__ import annotations
 
 import argparse
 import datetime
-import json
 import os
 import platform
 from pathlib import Path
 from typing import Any
+
+from _meta import write_json  # noqa: E402  (bench/ is on sys.path: run as python bench/<name>.py)
 
 import geomtex as gt
 from geomtex import gdm, reference
@@ -88,7 +89,7 @@ def main() -> None:
                   f"{row['refined']['iou_min']:.3f}, p99 {row['refined']['p99_voxels_max']:6.1f} vox (1 px tol. "
                   f"{row['refined']['p99_1px_voxels_max']:6.1f})", flush=True)
     OUT.mkdir(parents=True, exist_ok=True)
-    (OUT / "gdm_lookup.json").write_text(json.dumps(results, indent=1, default=str))
+    write_json(OUT / "gdm_lookup.json", results, indent=1, default=str)
     plot(results, OUT / "gdm_lookup.png")
 
 

@@ -18,13 +18,13 @@ Results: ``bench/results/gdm_normals.json``. Run from the repository root::
 from __future__ import annotations
 
 import datetime
-import json
 import os
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+from _meta import write_json  # noqa: E402  (bench/ is on sys.path: run as python bench/<name>.py)
 
 from geomtex import gdm
 
@@ -125,7 +125,7 @@ def main() -> None:
                     f"{k} {c[k]['median_deg']:.2f} deg ({c[k]['exact_share']:.0%} within 0.5)"
                     for k in ("differences_half_voxel", "differences_one_voxel", "gradient_in_cell")), flush=True)
     OUT.mkdir(parents=True, exist_ok=True)
-    (OUT / "gdm_normals.json").write_text(json.dumps(results, indent=1))
+    write_json(OUT / "gdm_normals.json", results, indent=1)
 
 
 if __name__ == "__main__":

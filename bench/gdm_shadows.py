@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import argparse
 import datetime
-import json
 import os
 import platform
 import sys
@@ -40,6 +39,7 @@ from geomtex import gdm, reference
 REPO = Path(__file__).resolve().parents[1]
 OUT = REPO / "bench" / "results"
 sys.path.insert(0, str(REPO / "tests"))
+from _meta import write_json  # noqa: E402  (bench/ is on sys.path: run as python bench/<name>.py)
 from test_shadows import embree_shadow, near_edge  # noqa: E402  (the tests' reference, reused)
 
 LIGHTS = [(0.3, 0.4, -1.0), (-1.0, 0.2, -0.5), (0.2, 1.0, -0.3)]
@@ -151,7 +151,7 @@ def main() -> None:
                "adapter": gt.Renderer(8, 8).adapter_info, "load": os.getloadavg(), "size": args.size,
                "cases": cases}
     OUT.mkdir(parents=True, exist_ok=True)
-    (OUT / "gdm_shadows.json").write_text(json.dumps(results, indent=1, default=str))
+    write_json(OUT / "gdm_shadows.json", results, indent=1, default=str)
     plot(results, OUT / "gdm_shadows.png")
 
 

@@ -18,7 +18,6 @@ Run from the repository root::
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
@@ -30,6 +29,8 @@ import geomtex as gt
 from geomtex import reference, testing
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _meta import write_json  # noqa: E402  (bench/ is on sys.path: run as python bench/<name>.py)
+
 from render import machine_info  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results"
@@ -86,7 +87,7 @@ def main(argv: list[str] | None = None) -> None:
               f"{v['depth_p99']:9.1e} {v['trimesh_s']:9.1f}")
     print("within the renderer issue's bounds:", result["within_renderer_bounds"])
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(result, indent=1))
+    write_json(args.out, result, indent=1)
     print(f"wrote {args.out} and {args.out.with_suffix('.png')}")
 
 

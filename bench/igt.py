@@ -59,6 +59,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from _meta import write_json  # noqa: E402  (bench/ is on sys.path: run as python bench/<name>.py)
 
 import geomtex as gt
 from geomtex import reference
@@ -533,7 +534,7 @@ def main() -> None:
             data.setdefault("section_runs", {})[name] = stamp | {"load_start": start, "load_end": os.getloadavg()}
     data["load_end"] = os.getloadavg()
     data["summary"] = summary(data)
-    path.write_text(json.dumps(data, indent=1))
+    write_json(path, data, indent=1)
     if "tables" in data and "accuracy" in data:
         plot(data, OUT / "igt.png")
     if data.get("lod"):

@@ -44,6 +44,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from _meta import write_json  # noqa: E402  (bench/ is on sys.path: run as python bench/<name>.py)
 
 import geomtex as gt
 from geomtex import reference
@@ -280,7 +281,7 @@ def main() -> None:
                                             "baked_seam_deg_median", "baked_off_seam_deg_median")}
                        for f in FRACTIONS}
     OUT.mkdir(parents=True, exist_ok=True)
-    (OUT / "igt_baked.json").write_text(json.dumps(data, indent=1))
+    write_json(OUT / "igt_baked.json", data, indent=1)
     print(json.dumps(data["summary"], indent=1))
 
 

@@ -46,6 +46,8 @@ import geomtex as gt
 from geomtex import reference, testing
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _meta import write_json  # noqa: E402  (bench/ is on sys.path: run as python bench/<name>.py)
+
 from render import BUNNY, MESH_DIR, machine_info  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results"
@@ -261,9 +263,9 @@ def main(argv: list[str] | None = None) -> None:
         print(f"{q}: full frame -> 1/8 height: covered pixels / {ratios[q]['covered']:.1f}, "
               f"fetches per frame / {ratios[q]['fetches']:.1f}")
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps({"machine": machine_info(), "size": SIZE, "rows": rows,
-                                    "ratios": ratios, "conversions": conversions,
-                                    "error_driven": headline, "other_meshes": others}, indent=1))
+    write_json(args.out, {"machine": machine_info(), "size": SIZE, "rows": rows,
+                          "ratios": ratios, "conversions": conversions,
+                          "error_driven": headline, "other_meshes": others}, indent=1)
 
     plot(json.loads(args.out.read_text()), args.out.with_suffix(".png"))
     print(f"wrote {args.out} and {args.out.with_suffix('.png')}")

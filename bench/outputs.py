@@ -15,13 +15,13 @@ repository root: ``python bench/outputs.py`` (~1 min).
 
 from __future__ import annotations
 
-import json
 import os
 import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from _meta import write_json  # noqa: E402  (bench/ is on sys.path: run as python bench/<name>.py)
 
 import geomtex as gt
 from geomtex import _core
@@ -107,7 +107,7 @@ def main() -> None:
         "device": device_costs(gts, mesh),
     }
     RESULTS.mkdir(exist_ok=True)
-    (RESULTS / "outputs.json").write_text(json.dumps(result, indent=2) + "\n")
+    write_json(RESULTS / "outputs.json", result, indent=2)
     plot(result, RESULTS / "outputs.png")
     o = result["outputs"]
     print(f"{'outputs':<8} {'ms/frame':>9} {'ratio':>6}")

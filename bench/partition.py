@@ -39,6 +39,8 @@ import geomtex as gt
 from geomtex import reference, testing
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _meta import write_json  # noqa: E402  (bench/ is on sys.path: run as python bench/<name>.py)
+
 from render import machine_info  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
@@ -195,7 +197,7 @@ def main() -> None:
     if args.only_big:
         record = json.loads((OUT / "partition.json").read_text())
         record["big"] = bench_big()
-        (OUT / "partition.json").write_text(json.dumps(record, indent=1))
+        write_json(OUT / "partition.json", record, indent=1)
         return
     rows: list[dict[str, Any]] = []
     for name, make in meshes(args.meshes).items():
@@ -204,7 +206,7 @@ def main() -> None:
     OUT.mkdir(parents=True, exist_ok=True)
     record = {"machine": machine_info(), "views": 0 if args.no_render else args.views, "size": args.size,
               "rows": rows, "big": big}
-    (OUT / "partition.json").write_text(json.dumps(record, indent=1))
+    write_json(OUT / "partition.json", record, indent=1)
     plot(rows, OUT / "partition.png")
     print(f"wrote {OUT / 'partition.json'} and {OUT / 'partition.png'}")
 

@@ -29,13 +29,13 @@ Run from the repository root::
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import time
 from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
+from _meta import write_json  # noqa: E402  (bench/ is on sys.path: run as python bench/<name>.py)
 
 import geomtex as gt
 from geomtex.testing.views import rays_around
@@ -197,7 +197,7 @@ def main() -> None:
         machine["adapter"] = dict(gt.Renderer(8, 8).adapter_info)
         result = {"machine": machine, "shadows": shadows(gts, mesh, False) + shadows(gts, mesh, True)}
         OUT.mkdir(parents=True, exist_ok=True)
-        (OUT / "shadows.json").write_text(json.dumps(result, indent=2))
+        write_json(OUT / "shadows.json", result, indent=2)
         return
     caster, build_s = ray_caster(mesh)
     records = []
@@ -220,7 +220,7 @@ def main() -> None:
     machine["adapter"] = dict(gt.Renderer(8, 8).adapter_info)
     result = {"machine": machine, "embree_build_and_first_cast_s": build_s, "records": records,
               "parallel": parallel, "shadows": shadow_records}
-    (OUT / "rays.json").write_text(json.dumps(result, indent=2))
+    write_json(OUT / "rays.json", result, indent=2)
     plot(records, OUT / "rays.png", machine["adapter"]["name"])
 
 

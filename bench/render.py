@@ -44,6 +44,7 @@ from pathlib import Path
 from typing import Any, Callable, Sequence
 
 import numpy as np
+from _meta import write_json  # noqa: E402  (bench/ is on sys.path: run as python bench/<name>.py)
 from tqdm import tqdm
 
 import geomtex as gt
@@ -748,7 +749,7 @@ def replace_headline(path: Path, head: list[dict[str, Any]], first: dict[str, An
         "note": "headline measured alone (--headline-only); 'machine' and the sweeps are the "
                 "earlier full run's",
     }
-    path.write_text(json.dumps(result, indent=2) + "\n")
+    write_json(path, result, indent=2)
     print(f"\nwrote the headline into {path}")
 
 
@@ -775,7 +776,7 @@ def report(result: dict[str, Any], out: Path, headline_printed: bool = False) ->
 
     out.mkdir(parents=True, exist_ok=True)
     json_path = out / "render.json"
-    json_path.write_text(json.dumps(result, indent=2) + "\n")
+    write_json(json_path, result, indent=2)
     png_path = out / "render_coverage.png"
     plot(sweeps, png_path, settings["sweep_size"])
     print(f"\nwrote {json_path} and {png_path}")

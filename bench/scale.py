@@ -45,6 +45,8 @@ import geomtex as gt
 from geomtex import testing
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _meta import write_json  # noqa: E402  (bench/ is on sys.path: run as python bench/<name>.py)
+
 from render import machine_info  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
@@ -191,7 +193,7 @@ def main() -> None:
     record["loadavg_end"] = os.getloadavg()
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(record, indent=1))
+    write_json(out, record, indent=1)
     plot(record, out.with_suffix(".png"))
     print(f"wrote {out} and {out.with_suffix('.png')}")
 

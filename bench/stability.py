@@ -45,6 +45,8 @@ import geomtex as gt
 from geomtex import reference, testing
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _meta import write_json  # noqa: E402  (bench/ is on sys.path: run as python bench/<name>.py)
+
 from render import BUNNY, machine_info  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results"
@@ -269,8 +271,8 @@ def main(argv: list[str] | None = None) -> None:
     print(f"\n{passed}/{len(records)} cases within the issue's bounds; "
           f"{sum(r['meets_renderer_bound'] for r in records)} within the renderer issue's")
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps({"machine": machine_info(), "quick": args.quick, "seconds": time.perf_counter() - t0,
-                                    "bounds": {"issue": ISSUE, "renderer": RENDERER}, "records": records}, indent=1))
+    write_json(args.out, {"machine": machine_info(), "quick": args.quick, "seconds": time.perf_counter() - t0,
+                          "bounds": {"issue": ISSUE, "renderer": RENDERER}, "records": records}, indent=1)
     plot(records, args.out.with_suffix(".png"))
     print(f"wrote {args.out} and {args.out.with_suffix('.png')}")
 

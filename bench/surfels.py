@@ -38,6 +38,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from _meta import write_json  # noqa: E402  (bench/ is on sys.path: run as python bench/<name>.py)
 
 import geomtex as gt
 from geomtex import reference
@@ -312,7 +313,7 @@ def main() -> None:
         a, b = states
         data["side_by_side_dense_over_bunny"] = {
             f: {k: t[f"{b}_{k}"] / t[f"{a}_{k}"] for k in ("gpu_ms", "gpu_ms_min")} for f, t in turns.items()}
-    (OUT / "surfels.json").write_text(json.dumps(data, indent=1))
+    write_json(OUT / "surfels.json", data, indent=1)
     print(json.dumps(data["summary"], indent=1))
     print(json.dumps(data.get("side_by_side_dense_over_bunny"), indent=1))
 

@@ -49,6 +49,8 @@ import geomtex as gt
 from geomtex import reference
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _meta import write_json  # noqa: E402  (bench/ is on sys.path: run as python bench/<name>.py)
+
 from render import ForeignCpu, accuracy, machine_info, wait_idle  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
@@ -683,7 +685,7 @@ def main(argv: list[str] | None = None) -> None:
     }
     args.out.mkdir(parents=True, exist_ok=True)
     json_path = args.out / "tradeoff.json"
-    json_path.write_text(json.dumps(result, indent=2) + "\n")
+    write_json(json_path, result, indent=2)
     png_path = args.out / "tradeoff.png"
     plot(records, png_path, "grazing")
     print(f"wrote {json_path} and {png_path}")

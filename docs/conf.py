@@ -30,3 +30,16 @@ nitpicky = True
 
 html_theme = "furo"
 html_title = "geomtex"
+
+
+def setup(app):  # noqa: ANN001, ANN201 - Sphinx's extension hook
+    """Writes the benchmark pages (docs/benchmarks/, from bench/results/*.json) and copies the
+    stored example notebooks into docs/examples/ before Sphinx looks for source files."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import bench_pages
+
+    bench_pages.generate()
+    return {"parallel_read_safe": True}

@@ -13,7 +13,9 @@ from .._mesh import Mesh
 def look_from(mesh: Mesh, direction: npt.ArrayLike, distance: float = 1.7, yfov_deg: float = 40.0,
               up: npt.ArrayLike | None = None) -> Camera:
     """A camera ``distance`` diagonals from the bounding-box centre along ``direction``, looking
-    back at the centre; ``up`` defaults to +z unless the view is near vertical, then +y."""
+    back at the centre; ``up`` defaults to +z unless the view is near vertical, then +y. A y-up
+    mesh (most scans, the Stanford bunny among them) shows upright with ``up=(0, 1, 0)``; the
+    default stays +z because the tests' and benchmarks' recorded views were taken with it."""
     lo, hi = (np.asarray(b, np.float64) for b in mesh.bounds)
     centre = (lo + hi) / 2
     d = np.asarray(direction, np.float64)
