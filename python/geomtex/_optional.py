@@ -7,14 +7,16 @@ from __future__ import annotations
 import importlib
 from types import ModuleType
 
-#: module -> (the package pip installs, the geomtex extra that brings it)
-PACKAGES = {
+#: module -> (the package pip installs, the geomtex extra that brings it, if one does)
+PACKAGES: dict[str, tuple[str, str | None]] = {
     "dask.distributed": ("dask[distributed]", "distributed"),
     "zarr": ("zarr", "distributed"),
     "skimage": ("scikit-image", "gdm"),
     "ipywidgets": ("ipywidgets", "notebook"),
     "pymeshlab": ("pymeshlab", "igt"),
-    "scipy": ("scipy", "igt"),
+    "scipy": ("scipy", None),
+    "rtree": ("rtree", None),
+    "embreex": ("embreex", "notebook"),
     "matplotlib": ("matplotlib", "notebook"),
 }
 

@@ -7,10 +7,13 @@ the bounding-box diagonal).
 
 from __future__ import annotations
 
+import importlib.util
 from typing import Any, Literal
 
 import numpy as np
 import numpy.typing as npt
+
+from . import _optional
 
 # trimesh's triangle closest-point test compares products of squared edge lengths with an
 # absolute tolerance (~1e-12), so millimetre triangles in metre units land in the wrong Voronoi
@@ -49,8 +52,8 @@ def mesh_to_points(mesh: Any, points: npt.ArrayLike, samples: int = 200_000, see
     """Distance from area-uniform samples of the mesh surface to the nearest of ``points``
     (how well the points cover the surface)."""
     import trimesh
-    from scipy.spatial import cKDTree
 
+    cKDTree = _optional.need("scipy.spatial", "geomtex.reference.mesh_to_points").cKDTree
     tm = _trimesh(mesh)
     samp, _ = trimesh.sample.sample_surface(tm, samples, seed=seed)
     d, _ = cKDTree(np.asarray(points, dtype=np.float64)).query(samp)
@@ -74,13 +77,18 @@ def _intersector(local: Any, kind: str) -> Any:
     """trimesh's intersector of ``local``: its own choice (embree where embreex is installed,
     else numpy), or the one named."""
     if kind == "auto":
+        if importlib.util.find_spec("embreex") is None:
+            _optional.need("rtree", "geomtex.reference (trimesh's numpy ray intersector, used without embreex)")
         return local.ray
     if kind == "numpy":
         from trimesh.ray.ray_triangle import RayMeshIntersector
 
+        _optional.need("rtree", "geomtex.reference (trimesh's numpy ray intersector)")
+
         return RayMeshIntersector(local)
     if kind == "embree":
-        from trimesh.ray.ray_pyembree import RayMeshIntersector as EmbreeIntersector  # needs embreex
+        _optional.need("embreex", "geomtex.reference (trimesh's Embree ray intersector)")
+        from trimesh.ray.ray_pyembree import RayMeshIntersector as EmbreeIntersector
 
         return EmbreeIntersector(local)
     raise ValueError(f"intersector must be 'auto', 'embree' or 'numpy', got {kind!r}")
@@ -220,8 +228,9 @@ def corner_normals(mesh: Any, normals: str = "crease", crease_angle: float = 20.
 def _fan_normals(tm: Any, crease_angle: float) -> npt.NDArray[np.float64]:
     """``corner_normals``' fan rule: corners (3 f + k) joined across smooth edges at their shared
     vertices, then each connected set of corners takes its angle-weighted mean normal."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
+    coo_matrix = _optional.need("scipy.sparse", "geomtex.reference.corner_normals").coo_matrix
+    connected_components = _optional.need("scipy.sparse.csgraph", "geomtex.reference.corner_normals"
+                                          ).connected_components
 
     smooth = tm.face_adjacency_angles < np.radians(crease_angle)
     pairs, edges = tm.face_adjacency[smooth], tm.face_adjacency_edges[smooth]
