@@ -62,6 +62,7 @@ __all__ = [
     "Surfels",
     "__version__",
     "as_mesh",
+    "batch",
     "convert",
     "gdm",
     "igt",
@@ -69,7 +70,11 @@ __all__ = [
     "load",
     "load_mesh",
     "load_surfels",
+    "reference",
     "show",
+    "testing",
+    "viewer",
+    # "data",  # gt.data.bunny(): the bundled mesh (issue 40, another change)
 ]
 
 ProgressCallback = Callable[[str, float], "bool | None"]
@@ -293,4 +298,6 @@ def __getattr__(name: str) -> Any:
 
 
 def __dir__() -> list[str]:
-    return sorted({*globals(), *_LAZY_SUBMODULES})
+    """The public names only (``__all__``, the lazy submodules among them): ``dir(gt)`` and tab
+    completion show what users may use, not the modules and helpers the package imports."""
+    return sorted(__all__)

@@ -47,6 +47,8 @@ from . import _check
 from ._camera import Camera
 from ._errors import CancelledError, FileError, GeomtexError, ParameterError
 
+__all__ = ["convert_many", "read_manifest", "render_views"]
+
 MANIFEST = "manifest.json"
 JOURNAL = "manifest.journal"
 _MANIFEST_VERSION = 1

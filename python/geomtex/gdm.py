@@ -26,6 +26,18 @@ from . import _check, _core
 from ._bridge import Wrapped
 from ._errors import MeshError, ParameterError
 
+__all__ = [
+    "CompressedGDM",
+    "DistanceFunction",
+    "Shell",
+    "Volume",
+    "box_uv",
+    "direction_vectors",
+    "seam_fins",
+    "tile_surface",
+    "uv_torus",
+]
+
 Pattern = Literal["chain", "weave", "lattice"]
 DEFAULT_DIRECTIONS = (16, 32)
 DEFAULT_SIZE = (64, 64, 16)

@@ -12,6 +12,23 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 
+__all__ = [
+    "RayCaster",
+    "agreement",
+    "albedo_difference",
+    "base_colors",
+    "compare",
+    "corner_normals",
+    "diagonal",
+    "mesh_to_points",
+    "normal_angles",
+    "occlusion",
+    "points_to_mesh",
+    "raycast",
+    "raycast_albedo",
+    "shading_normals",
+]
+
 # trimesh's triangle closest-point test compares products of squared edge lengths with an
 # absolute tolerance (~1e-12), so millimetre triangles in metre units land in the wrong Voronoi
 # region and come back up to a triangle-size away. Distances scale linearly, so we measure on a

@@ -28,6 +28,8 @@ from ._preview import patch_tint
 from ._scene import Scene
 from ._set import GeometryTextureSet
 
+__all__ = ["ViewState", "Viewer", "show"]
+
 Shading = Literal["shaded", "patches", "normals", "depth"]
 Compare = Literal["textures", "mesh", "beside", "overlay"]
 _SHADINGS = ("shaded", "patches", "normals", "depth")
