@@ -16,6 +16,7 @@ from typing import Any, Callable, Literal
 os.environ.setdefault("NODEVICE_SELECT", "1")
 
 from . import _check, _core, gdm, igt  # noqa: E402
+from ._bridge import spelled_out as _spelled_out  # noqa: E402
 from ._camera import Camera  # noqa: E402
 from ._check import number as _number  # noqa: E402
 from ._core import __version__  # noqa: E402
@@ -38,6 +39,7 @@ from ._render import DirectionalLight, PointLight, Renderer  # noqa: E402
 from ._scene import Scene  # noqa: E402
 from ._set import GeometryTextureSet  # noqa: E402
 from ._surfels import Surfels  # noqa: E402
+from ._viewstate import SHOW_KEYWORDS as _SHOW_KEYWORDS  # noqa: E402
 
 __all__ = [
     "AppearanceWarning",
@@ -261,6 +263,7 @@ def _warn_caps(stats: dict[str, Any], default_budget: bool = False) -> None:
                       stacklevel=3)
 
 
+@_spelled_out(*_SHOW_KEYWORDS)
 def show(obj: Any, **options: Any) -> Any:
     """An interactive viewer in Jupyter (drag to orbit, scroll to zoom, quality / LOD / shading
     selectors, the original mesh beside or over it with ``mesh=``); see `geomtex.viewer.show`."""

@@ -4,20 +4,17 @@ objects and mesh files read as meshes first), the lights, and the render keyword
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Literal, Mapping, Sequence, TypedDict
+from typing import Any, Literal, Mapping, Sequence, TypedDict, Unpack
 
 import numpy as np
 import numpy.typing as npt
 
 from . import _check, _core
-from ._bridge import Flag, Int, Real, Wrapped, forward, unwrap
+from ._bridge import Flag, Int, Real, Wrapped, forward, keyword_parameters, spelled_out, unwrap
 from ._camera import Camera
 from ._errors import ParameterError
 from ._frame import Frame
 from ._kinds import renderable
-
-if TYPE_CHECKING:
-    from typing_extensions import Unpack
 
 
 @dataclass(frozen=True)
@@ -140,6 +137,7 @@ class Renderer(Wrapped, core=_core.Renderer):
         Renderer shares them), and so are the targets of sizes drawn lately."""
         self._core.resize(width, height)
 
+    @spelled_out(*keyword_parameters(RenderOptions))
     def render(self, obj: Any, camera: Camera, **options: Unpack[RenderOptions]) -> Frame:
         """Renders a Scene or any one object a Scene takes (a set, Mesh, Surfels, IgtMesh,
         gdm.Shell, trimesh or mesh path) seen by `camera`.

@@ -44,8 +44,11 @@ from typing import Any
 import numpy as np
 
 from . import _check
+from . import convert as _convert
+from ._bridge import keyword_parameters, spelled_out
 from ._camera import Camera
 from ._errors import CancelledError, FileError, GeomtexError, ParameterError
+from ._render import RenderOptions
 
 __all__ = ["convert_many", "read_manifest", "render_views"]
 
@@ -346,6 +349,7 @@ def _convert_one(source: Any, out_path: str, options: dict[str, Any]) -> dict[st
             "error": error, "worker_pid": os.getpid()}
 
 
+@spelled_out(*keyword_parameters(_convert, drop=("progress",)))
 def convert_many(
     inputs: Iterable[Any],
     out_dir: str | os.PathLike[str],
@@ -510,6 +514,7 @@ def _render_block(obj: Any, set_index: int, views: list[tuple[int, Any]], store:
     return {"seconds": time.perf_counter() - start, "views": len(views), "worker_pid": os.getpid()}
 
 
+@spelled_out(*keyword_parameters(RenderOptions, drop=("outputs",)))
 def render_views(
     objects: Sequence[Any],
     cameras: Sequence[Camera] | Sequence[Sequence[Camera]],

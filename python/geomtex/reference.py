@@ -12,6 +12,9 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 
+from ._bridge import keyword_parameters, spelled_out
+from ._render import RenderOptions
+
 __all__ = [
     "RayCaster",
     "agreement",
@@ -366,6 +369,7 @@ def compare(frame: Any, ref: dict[str, npt.NDArray[Any]], diagonal: float,
     return out
 
 
+@spelled_out(*keyword_parameters(RenderOptions))
 def agreement(renderer: Any, gts: Any, mesh: Any, camera: Any, **render_options: Any) -> dict[str, float]:
     """Renders ``gts`` and compares it (``compare``) with trimesh's ray cast of ``mesh`` seen by
     the same camera at the renderer's size; ``nan`` counts NaN depths and normals together."""
