@@ -125,6 +125,9 @@ _SIGNATURE_FIXES = [
     (re.compile(r"TypeAliasForwardRef\('([^']+)'\)"), r"\1"),
     (re.compile(r"(?:numpy\.)?ndarray\[tuple\[(?:typing\.)?Any, \.\.\.\], (?:numpy\.)?dtype\[(?:numpy\.)?([\w.]+)\]\]"),
      r"NDArray[\1]"),
+    # A dataclass field's default_factory: "<factory>" is no Python, and the signature would be
+    # shown unparsed.
+    (re.compile(r"<factory>"), "..."),
 ]
 
 

@@ -38,10 +38,16 @@ class RayHits(NamedTuple):
     (-2 - k for the scene's k-th mesh, as in frames; -1 on a miss), world unit normal (0) and
     whether it hit."""
 
+    #: (N, 3) float64 world hit points, NaN on a miss.
     locations: npt.NDArray[np.float64]
+    #: (N,) float64 distance along each ray's unit direction, +inf on a miss.
     distances: npt.NDArray[np.float64]
+    #: (N,) int32 patch index, -1 on a miss, -2 - k for the scene's k-th mesh or displacement
+    #: shell (counted together, in order), as in ``Frame.patch_id``.
     patch_ids: npt.NDArray[np.int32]
+    #: (N, 3) float32 world unit normals at the hits, 0 on a miss.
     normals: npt.NDArray[np.float32]
+    #: (N,) bool, whether each ray hit.
     hit: npt.NDArray[np.bool_]
 
 

@@ -22,6 +22,7 @@ class DirectionalLight:
     """Parallel light travelling along ``direction`` (world space, three finite numbers, any
     length but zero): pass it as ``render(..., light=...)`` for shadows."""
 
+    #: (3,) float64 world direction the light travels along, as given (not normalised).
     direction: npt.ArrayLike
 
     def __post_init__(self) -> None:
@@ -33,6 +34,7 @@ class PointLight:
     """Light from ``position`` (world space, three finite numbers): pass it as
     ``render(..., light=...)`` for shadows."""
 
+    #: (3,) float64 world position of the light.
     position: npt.ArrayLike
 
     def __post_init__(self) -> None:

@@ -209,9 +209,14 @@ class DistanceFunction:
     distance to the slab's top or bottom (``hit`` False there); with ``lower_bound``, the
     conservative table of ``Volume.distance_function(lower_bound=True)``."""
 
+    #: The volume it was computed from.
     volume: Volume
+    #: (nx, ny, nz, theta, phi) float32 distances in voxels.
     distance: npt.NDArray[np.float32]
+    #: (nx, ny, nz, theta, phi) bool: whether the ray from each voxel in each direction hits
+    #: solid (False where ``distance`` is the distance to the slab's top or bottom instead).
     hit: npt.NDArray[np.bool_]
+    #: Whether the table is the conservative one (``distance_function(lower_bound=True)``).
     lower_bound: bool = False
     _svd: Any = field(default=None, repr=False)
 
@@ -221,6 +226,7 @@ class DistanceFunction:
 
     @property
     def directions(self) -> tuple[int, int]:
+        """The direction counts (theta, phi) the table samples."""
         return self.distance.shape[3], self.distance.shape[4]
 
     @property
@@ -287,10 +293,16 @@ class CompressedGDM:
     ``conservative`` one (from a lower-bound table) holds one more term: its per-row margin
     (weights) times -1 (eigen-map), so the sum stays at or below the bound."""
 
-    weights: npt.NDArray[np.float32]  # (nx, ny, phi, k [+ 1])
-    eigen: npt.NDArray[np.float32]  # (k [+ 1], theta, nz)
+    #: (nx, ny, phi, k [+ 1]) float32 weight maps W_i.
+    weights: npt.NDArray[np.float32]
+    #: (k [+ 1], theta, nz) float32 eigen-maps E_i.
+    eigen: npt.NDArray[np.float32]
+    #: The full table's shape (nx, ny, nz, theta, phi).
     shape: tuple[int, ...]
+    #: Reconstruction error in voxels over the whole table: rms, max, p99, and relative (the
+    #: dropped singular values' share of the spectrum's norm).
     error: dict[str, float] = field(default_factory=dict)
+    #: Whether the last term is a lower bound's margin (see the class).
     conservative: bool = False
 
     @property
@@ -300,6 +312,7 @@ class CompressedGDM:
 
     @property
     def nbytes(self) -> int:
+        """Bytes of the weight maps and eigen-maps."""
         return int(self.weights.nbytes + self.eigen.nbytes)
 
     def reconstruct(self) -> npt.NDArray[np.float32]:

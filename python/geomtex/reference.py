@@ -48,6 +48,7 @@ def _trimesh(mesh: Any) -> Any:
 
 
 def diagonal(mesh: Any) -> float:
+    """Length of the bounding-box diagonal of `mesh` (a Mesh or trimesh), by trimesh."""
     tm = _trimesh(mesh)
     return float(np.linalg.norm(tm.bounds[1] - tm.bounds[0]))
 

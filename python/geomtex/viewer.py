@@ -89,6 +89,8 @@ class Viewer:
     # -- the view -------------------------------------------------------------------------------
 
     def camera(self) -> Camera:
+        """The camera of the current view: orbiting the box centre about world +Y at
+        ``state.distance`` diagonals."""
         s = self.state
         az, el = np.radians(s.azimuth_deg), np.radians(s.elevation_deg)
         direction = np.array([np.cos(el) * np.sin(az), np.sin(el), np.cos(el) * np.cos(az)])
@@ -126,6 +128,7 @@ class Viewer:
             self.redraw()
 
     def orbit(self, d_azimuth_deg: float, d_elevation_deg: float) -> None:
+        """Turns the camera by these many degrees of azimuth and elevation and redraws."""
         self.set(azimuth_deg=self.state.azimuth_deg + _check.real("d_azimuth_deg", d_azimuth_deg),
                  elevation_deg=self.state.elevation_deg + _check.real("d_elevation_deg", d_elevation_deg))
 
@@ -173,11 +176,13 @@ class Viewer:
         return ((ours.astype(np.uint16) + theirs) // 2).astype(np.uint8)
 
     def png(self) -> bytes:
+        """The current image as PNG bytes."""
         buf = io.BytesIO()
         Image.fromarray(self.image).save(buf, format="PNG")
         return buf.getvalue()
 
     def redraw(self) -> None:
+        """Renders the view again and updates the widget, where one is shown."""
         self.image = self.render()
         if self._widget is not None:
             self._widgets["image"].value = self.png()
