@@ -34,9 +34,8 @@ def _query_renderer() -> _core.Renderer:
 
 
 class RayHits(NamedTuple):
-    """Per ray: hit point (NaN on a miss), distance along the unit direction (inf), patch id
-    (-2 - k for the scene's k-th mesh, as in frames; -1 on a miss), world unit normal (0) and
-    whether it hit."""
+    """What ``intersects_first`` returns: per ray the hit point, distance, patch id, normal and
+    whether it hit (a NamedTuple: ``hits.distances`` or ``locations, distances, *_ = hits``)."""
 
     #: (N, 3) float64 world hit points, NaN on a miss.
     locations: npt.NDArray[np.float64]
