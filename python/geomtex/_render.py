@@ -271,7 +271,7 @@ _SHARED: dict[tuple[int, int], Renderer] = {}
 
 
 def shared_renderer(width: int, height: int) -> Renderer:
-    """This process's renderer of that size, made on first use and kept."""
+    """The renderer of that size for this process, made on first use and kept."""
     r = _SHARED.get((width, height))
     if r is None:
         r = _SHARED[(width, height)] = Renderer(width, height)

@@ -270,11 +270,13 @@ _FLOAT_SLACK = (1e-3, 1e-5)
 
 
 def _conservative(packed: CompressedGDM, bound: npt.NDArray[np.float32]) -> CompressedGDM:
-    """The SVD of a lower-bound table kept a lower bound: per row (x, y, phi), the largest amount
-    by which the k terms overshoot the table over that row's (theta, z), stored as one more term
-    with a constant eigen-map of -1. Interpolation is linear, so subtracting the interpolated
-    margin keeps every interpolated value at or below the interpolated bound. (One global margin
-    instead costs far more skip: a few rows overshoot by much more than most.)"""
+    """The SVD of a lower-bound table kept a lower bound.
+
+    Per row (x, y, phi), the largest amount by which the k terms overshoot the table over that
+    row's (theta, z) is stored as one more term with a constant eigen-map of -1. Interpolation is
+    linear, so subtracting the interpolated margin keeps every interpolated value at or below the
+    interpolated bound. (One global margin instead costs far more skip: a few rows overshoot by
+    much more than most.)"""
     terms = np.einsum("xypk,ktz->xyztp", packed.weights.astype(np.float64), packed.eigen.astype(np.float64))
     margin = np.maximum((terms - bound).max(axis=(2, 3)), 0.0)  # (x, y, phi)
     margin += _FLOAT_SLACK[0] + _FLOAT_SLACK[1] * float(np.abs(bound).max())
