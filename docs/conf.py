@@ -19,7 +19,7 @@ extensions = [
     "sphinx.ext.napoleon",
     "myst_nb",
 ]
-# Notebooks are stored executed (tests/test_notebooks.py runs them); the build renders their outputs.
+# Notebooks are stored executed (tests/test_notebooks.py runs them); the build shows their outputs.
 nb_execution_mode = "off"
 myst_enable_extensions = ["colon_fence", "deflist"]
 myst_heading_anchors = 3
@@ -37,7 +37,6 @@ napoleon_use_rtype = False
 autodoc_typehints = "signature"
 autodoc_typehints_format = "short"
 autodoc_member_order = "bysource"
-autodoc_class_signature = "separated"
 autosummary_generate = False
 # The package's number aliases (numpy scalars accepted) and numpy's array-like, named as written
 # instead of spelled out as the unions they stand for; docs/api/geomtex.md describes them.
@@ -133,6 +132,8 @@ _SIGNATURE_FIXES = [
 
 def _readable_signature(app: Any, what: str, name: str, obj: Any, options: Any, signature: str | None,
                         return_annotation: str | None) -> tuple[str | None, str | None]:
+    if what == "class" and getattr(obj, "_made_by", None):
+        return "", None  # made by factories only: ``Camera(...)`` refuses, so show no constructor
     for pattern, repl in _SIGNATURE_FIXES:
         signature = None if signature is None else pattern.sub(repl, signature)
         return_annotation = None if return_annotation is None else pattern.sub(repl, return_annotation)
@@ -140,6 +141,7 @@ def _readable_signature(app: Any, what: str, name: str, obj: Any, options: Any, 
 
 
 def setup(app: Any) -> None:
+    """Connects the API reference's handlers above."""
     app.connect("autodoc-process-signature", _readable_signature)
     app.connect("missing-reference", _public_reference)
     app.connect("autodoc-process-docstring", _keep_attribute_prose, priority=400)

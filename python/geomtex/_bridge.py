@@ -34,6 +34,7 @@ class Wrapped:
     is made, for a class users do not construct (``X(...)`` is then a ParameterError saying so)."""
 
     _core: Any
+    _made_by: ClassVar[str | None] = None
     #: The public class of each extension class `wrap` meets.
     _public: ClassVar[dict[type, type[Wrapped]]] = {}
 
@@ -42,6 +43,9 @@ class Wrapped:
         if core is not None:
             Wrapped._public[core] = cls
         if made_by is not None:
+            #: How one is made, for the API reference (which then shows no constructor).
+            cls._made_by = made_by
+
             def refuse(cls: type, *args: Any, **kwargs: Any) -> Any:
                 name = cls.__name__
                 article = "an" if name[0] in "AEIOU" else "a"
