@@ -68,8 +68,8 @@ class Scene(RayQueries, Wrapped):
         Returns
         -------
         int
-            The object's index in the scene (``Frame.patch_id`` numbers meshes and shells
-            -2 - k in this order).
+            The object's index among everything added, sets included. (``Frame.patch_id``
+            numbers only the meshes, IGT meshes and shells, -2 - k in the order added.)
 
         Raises
         ------
