@@ -34,8 +34,9 @@ PUBLIC_MODULES = ["geomtex", *(f"geomtex.{name}" for name in gt.__all__
 OPTIONAL = ["dask", "distributed", "zarr", "matplotlib", "pymeshlab", "ipywidgets", "ipyevents", "skimage",
             "embreex", "scipy", "nbclient", "tqdm"]
 
-_DIRECTIVE = re.compile(r"^\.\. (auto\w+|py:\w+)::\s*(\S+)\s*$")
-_OPTION = re.compile(r"^\s+:([\w-]+):\s*(.*)$")
+#: ``.. autoclass:: name`` in an eval-rst block, or MyST's ``\`\`\`{autoclass} name`` fence.
+_DIRECTIVE = re.compile(r"^(?:\.\. (auto\w+|py:\w+)::|```\{(auto\w+|py:\w+)\})\s*(\S+)\s*$")
+_OPTION = re.compile(r"^\s*:([\w-]+):\s*(.*)$")
 
 
 @dataclass
@@ -58,24 +59,30 @@ def read_entries(folder: Path = API_DOCS) -> dict[str, Entry]:
     for page in sorted(folder.glob("*.md")):
         module = ""
         current: Entry | None = None
+        myst = False  # inside a MyST directive fence: options and body are not indented
         for line in page.read_text().splitlines():
             match = _DIRECTIVE.match(line)
             if match:
-                directive, name = match.groups()
+                rst, fence, name = match.groups()
+                directive = rst or fence
+                myst = fence is not None
                 if directive in ("automodule", "py:currentmodule", "py:module"):
                     module = name
                 if directive == "py:currentmodule":
                     current = None
                     continue
-                if directive.startswith("py:") and directive != "py:currentmodule" and module \
-                        and not name.startswith(module + "."):
+                if directive.startswith("py:") and module and not name.startswith(module + "."):
                     name = f"{module}.{name}"
                 current = entries[name] = Entry(directive, page.name)
                 continue
+            if current is None:
+                continue
             option = _OPTION.match(line)
-            if current is not None and option and not current.body:
+            if myst and line.startswith("```"):
+                current, myst = None, False
+            elif option and not current.body and (myst or line.startswith(" ")):
                 current.options[option.group(1)] = option.group(2)
-            elif current is not None and line.startswith("   ") and line.strip():
+            elif line.strip() and (myst or line.startswith("   ")):
                 current.body.append(line.strip())
             elif line.strip() and not line.startswith(" "):
                 current = None
@@ -211,9 +218,14 @@ def test_the_check_sees_a_missing_docstring_and_entry(tmp_path: Path) -> None:
     (tmp_path / "page.md").write_text(
         "```{eval-rst}\n.. automodule:: geomtex\n   :no-members:\n\n"
         ".. autoclass:: geomtex.Scene\n   :members:\n```\n")
+    (tmp_path / "myst.md").write_text(
+        "```{autoclass} geomtex.Camera\n:members: look_at\n```\n\n"
+        "```{py:data} geomtex.testing.GENERATED\nThe generated meshes.\n```\n")
     entries = read_entries(tmp_path)
-    assert set(entries) == {"geomtex", "geomtex.Scene"}
+    assert set(entries) == {"geomtex", "geomtex.Scene", "geomtex.Camera", "geomtex.testing.GENERATED"}
     assert entries["geomtex.Scene"].options == {"members": ""}
+    assert entries["geomtex.Camera"].lists("members") == {"look_at"}
+    assert entries["geomtex.testing.GENERATED"].body == ["The generated meshes."]
     assert class_members(gt.Scene)["intersects_first"].__name__ == "RayQueries"  # needs :inherited-members:
 
     class Undocumented:
