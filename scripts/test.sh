@@ -18,6 +18,13 @@ cargo test --release --quiet
 echo "== pytest"
 python -m pytest -q -p no:cacheprovider tests "$@"
 
+echo "== docs (sphinx -W, nitpicky) and docstring lint"
+# The whole site with warnings as errors (conf.py: nitpicky, so every geomtex name must resolve);
+# tests/test_api_docs.py, run by pytest above, checks that docs/api/ lists every public name.
+python -m sphinx -W --keep-going -q -b html docs docs/_build/html
+# pydocstyle's rules (numpy convention) as pyproject.toml configures them for python/geomtex.
+python -m ruff check python/geomtex
+
 echo "== type stubs (mypy.stubtest) and mypy"
 # The extension alone: importing geomtex adds nothing to geomtex._core (tests/test_bridge.py), so
 # stubtest sees what _core.pyi describes and nothing the package wrote.

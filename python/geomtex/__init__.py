@@ -16,6 +16,7 @@ from typing import Any, Callable, Literal
 os.environ.setdefault("NODEVICE_SELECT", "1")
 
 from . import _check, _core, _progress, gdm, igt  # noqa: E402
+from ._bridge import spelled_out as _spelled_out  # noqa: E402
 from ._camera import Camera  # noqa: E402
 from ._check import number as _number  # noqa: E402
 from ._core import __version__  # noqa: E402
@@ -38,6 +39,7 @@ from ._render import DirectionalLight, PointLight, Renderer  # noqa: E402
 from ._scene import Scene  # noqa: E402
 from ._set import GeometryTextureSet  # noqa: E402
 from ._surfels import Surfels  # noqa: E402
+from ._viewstate import SHOW_KEYWORDS as _SHOW_KEYWORDS  # noqa: E402
 
 __all__ = [
     "AppearanceWarning",
@@ -62,6 +64,7 @@ __all__ = [
     "Surfels",
     "__version__",
     "as_mesh",
+    "batch",
     "convert",
     "gdm",
     "igt",
@@ -69,7 +72,11 @@ __all__ = [
     "load",
     "load_mesh",
     "load_surfels",
+    "reference",
     "show",
+    "testing",
+    "viewer",
+    # "data",  # gt.data.bunny(): the bundled mesh (issue 40, another change)
 ]
 
 ProgressCallback = Callable[[str, float], "bool | None"]
@@ -101,86 +108,133 @@ def convert(
     max_bytes: int | None = None,
     progress: bool | ProgressCallback | None = None,
 ) -> GeometryTextureSet:
-    """Converts a mesh into geometry textures.
+    """Converts a mesh into geometry textures: height-map patches in oriented boxes.
 
-    mesh: a :class:`Mesh`, ``trimesh.Trimesh`` or a mesh file path.
-
-    With none of ``max_resolution``, ``texel_size``, ``max_error``, ``max_error_rel`` and
-    ``max_bytes`` the conversion is error-driven with the cone partition: ``max_error_rel=2e-4``
-    for a mesh that shows no more outline for its area than the Stanford bunny, tighter by
-    10.5 / ``stats["outline_ratio"]`` for one that shows more (outline length over projected
-    area times the diagonal, on its three axis projections; thin parts lose more IoU for the
-    same error, homer: 15.9, 1.32e-4), at most 4x tighter; within ``max_bytes`` = the mesh's
+    With none of `max_resolution`, `texel_size`, `max_error`, `max_error_rel` and `max_bytes` the
+    conversion is error-driven with the cone partition: ``max_error_rel=2e-4`` for a mesh that
+    shows no more outline for its area than the Stanford bunny, tighter by
+    10.5 / ``stats["outline_ratio"]`` for one that shows more (outline length over projected area
+    times the diagonal, on its three axis projections; thin parts lose more IoU for the same
+    error, homer: 15.9, 1.32e-4), at most 4x tighter; within ``max_bytes`` = the mesh's
     float32/uint32 bytes, or for a mesh under 50,000 faces an allowance of 4 MB x (1 - faces /
     50,000) x 2e-4 / bound if that is more. A rough mesh that cannot meet the bound within them
     gets the least error the budget buys (``stats["max_bytes_binding"]`` is 1, and a
     :class:`CapWarning` says by how much it missed and how to meet it). Any of those keywords
     converts as before.
 
-    max_resolution: longest side of any patch in texels (default 256; 1024 with ``max_error``,
-        where it only caps a chart's memory). Without ``max_error`` one texel size serves every
-        patch, chosen so the largest chart just fits.
-    texel_size: world size of a texel (grown if a chart would exceed ``max_resolution``).
-    max_error: error-driven resolution, in world units. Each chart gets its own texel size,
-        from long-side resolutions ``max_resolution`` down to 2 in steps of 2^(1/4), chosen for
-        the fewest bytes that keep the reconstruction error within ``max_error`` (see
-        ``error_scope``); ``max_resolution`` stays the cap. Error is the 99th percentile, by
-        area, of the distances from points on a chart's triangles to its height field and from
-        its rim texels to the triangles they copy, measured on the maps as stored.
-        ``stats["patch_resolution"]``, ``["patch_texel"]`` and ``["patch_error"]`` give each
-        chart's choice; ``stats["texel_size"]`` is then the finest chart's texel. Without it
-        one texel size serves every chart.
-    max_error_rel: ``max_error`` as a fraction of the bounding-box diagonal.
-    error_scope: ``"set"`` (default) bounds the set's error, ``stats["reconstruction_error_p99"]``,
-        with the fewest bytes: charts whose tail (a crease, a steep rim) would be dear to remove
-        keep it while cheaper charts get finer. ``"chart"`` bounds every chart's own error,
-        which costs more where charts differ.
-    partition: how the mesh is cut into charts (default ``"cone"`` when error-driven without
-        ``charts`` or ``chart_error``, else ``"vsa"``). ``"vsa"``: the paper's Variational Shape
-        Approximation, driven by ``chart_error`` or ``charts`` (the keywords below). ``"cone"``:
-        each chart grows from a seed while its face normals stay within ``cone_angle`` degrees
-        (default 60) of one axis, so no face comes near folding, and within ``chart_size``
-        (default 0.1) of the bounding-box diagonal from its seed; VSA's L2,1 error only orders
-        the faces a chart takes, a chart turns away faces that would lie over or under its
-        surface (a second sheet), and small charts merge into a neighbour while the cone and
-        size still fit. No cap, no folding repair, linear time (see bench/partition.py).
-        ``stats["charts_capped"]`` is 1 when ``max_charts`` stopped VSA before its target
-        (a warning is also issued).
-    cone_angle: half-angle of a cone chart's normal cone, degrees, in (0, 85].
-    chart_size: largest distance from a cone chart's seed to its faces, as a fraction of the
-        bounding-box diagonal; without ``max_error`` the largest chart sets every patch's
-        texel, so smaller charts mean finer texels and more bytes.
-    charts: exact VSA chart count; by default charts are added until the area-weighted mean
-        L2,1 error ``sum(area |n - N|^2) / sum(area)`` is at most ``chart_error`` (0.1 by
-        default; with ``max_error``, ``partition="vsa"`` and neither ``charts`` nor
-        ``chart_error`` given, 0.1, 0.2 and 0.3 are tried and the set within the bound with
-        the fewest bytes is kept, since a chart with its own texel no longer sets everyone's
-        and fewer, larger charts draw fewer ring faces twice; ``stats["chart_error"]`` says which).
-    max_charts: most VSA charts (default 4096). compactness: weight of the distance term that
-        keeps charts round (default 1.0). lloyd_iterations: VSA refinement rounds (default 6).
-    overlap_rings: rings of neighbouring faces each patch also draws (default 1: seamless
-        borders).
-    dilation: texels of normal/color dilation into empty space (default 2).
-    frame: in-plane axes from the minimum-area rectangle (default) or 2D PCA (the paper's).
-    normals: ``"crease"`` (default): smooth within a surface, split at edges where the faces'
-        normals differ by ``crease_angle`` degrees or more (default 20, trimesh's
-        ``smooth_shade``; in (0, 180]); ``"smooth"``: vertex normals averaged over every edge;
-        ``"flat"``: face normals. Vertex normals are weighted by corner angle, as trimesh's.
-    height_bits: 16 (default) or 8. Eight bits halve the height maps' bytes (a texel then takes
-        4 bytes instead of 5, 8 instead of 9 with colors) and round each height to 1/254 of its
-        patch's height range; ``stats["max_quantization_error"]`` gives the worst rounding in
-        world units.
-    max_bytes: most bytes the maps may take (``stats["bytes"]``): the conversion is repeated
-        with a coarser texel (scaled by the square root of the excess) until they fit, at most
-        6 times (``stats["max_bytes_coarsenings"]``). With ``max_error`` each chart's level is
-        chosen within the budget instead: the bound where it fits, else the least area over it
-        (``stats["max_bytes_binding"]`` is 1 and a :class:`CapWarning` says by how much the
-        bound was missed; not with ``error_scope="chart"``). If they still do
-        not fit, ``stats["max_bytes_exceeded"]`` is 1 and a :class:`CapWarning` says so, as it
-        does when VSA stops at ``max_charts`` above its error target (``stats["charts_capped"]``).
-    progress: True for a tqdm bar, or ``callback(stage, fraction)``; returning False cancels.
-
     The work runs in Rust on all cores with the GIL released.
+
+    Parameters
+    ----------
+    mesh : Mesh, trimesh.Trimesh, trimesh.Scene or path
+        The mesh to convert; a path is read with :func:`load_mesh`, a trimesh object with
+        :meth:`Mesh.from_trimesh`.
+    max_resolution : int, optional
+        Longest side of any patch in texels (default 256; 1024 with `max_error`, where it only
+        caps a chart's memory). Without `max_error` one texel size serves every patch, chosen so
+        the largest chart just fits.
+    texel_size : float, optional
+        World size of a texel (grown if a chart would exceed `max_resolution`).
+    max_error : float, optional
+        Error-driven resolution, in world units. Each chart gets its own texel size, from
+        long-side resolutions `max_resolution` down to 2 in steps of 2^(1/4), chosen for the
+        fewest bytes that keep the reconstruction error within `max_error` (see `error_scope`);
+        `max_resolution` stays the cap. Error is the 99th percentile, by area, of the distances
+        from points on a chart's triangles to its height field and from its rim texels to the
+        triangles they copy, measured on the maps as stored. ``stats["patch_resolution"]``,
+        ``["patch_texel"]`` and ``["patch_error"]`` give each chart's choice;
+        ``stats["texel_size"]`` is then the finest chart's texel. Without it one texel size
+        serves every chart.
+    max_error_rel : float, optional
+        `max_error` as a fraction of the bounding-box diagonal.
+    error_scope : {"set", "chart"}, optional
+        ``"set"`` (default) bounds the set's error, ``stats["reconstruction_error_p99"]``, with
+        the fewest bytes: charts whose tail (a crease, a steep rim) would be dear to remove keep
+        it while cheaper charts get finer. ``"chart"`` bounds every chart's own error, which
+        costs more where charts differ.
+    partition : {"cone", "vsa"}, optional
+        How the mesh is cut into charts (default ``"cone"`` when error-driven without `charts`
+        or `chart_error`, else ``"vsa"``). ``"vsa"``: the paper's Variational Shape
+        Approximation, driven by `chart_error` or `charts`. ``"cone"``: each chart grows from a
+        seed while its face normals stay within `cone_angle` degrees of one axis, so no face
+        comes near folding, and within `chart_size` of the bounding-box diagonal from its seed;
+        VSA's L2,1 error only orders the faces a chart takes, a chart turns away faces that
+        would lie over or under its surface (a second sheet), and small charts merge into a
+        neighbour while the cone and size still fit. No cap, no folding repair, linear time
+        (see bench/partition.py).
+    cone_angle : float, optional
+        Half-angle of a cone chart's normal cone, degrees, in (0, 85] (default 60).
+    chart_size : float, optional
+        Largest distance from a cone chart's seed to its faces, as a fraction of the
+        bounding-box diagonal (default 0.1); without `max_error` the largest chart sets every
+        patch's texel, so smaller charts mean finer texels and more bytes.
+    charts : int, optional
+        Exact VSA chart count. By default charts are added until the area-weighted mean L2,1
+        error ``sum(area |n - N|^2) / sum(area)`` is at most `chart_error`.
+    chart_error : float, optional
+        VSA's target mean L2,1 error (default 0.1; with `max_error`, ``partition="vsa"`` and
+        neither `charts` nor `chart_error` given, 0.1, 0.2 and 0.3 are tried and the set within
+        the bound with the fewest bytes is kept, since a chart with its own texel no longer sets
+        everyone's and fewer, larger charts draw fewer ring faces twice; ``stats["chart_error"]``
+        says which).
+    max_charts : int, optional
+        Most VSA charts (default 4096). ``stats["charts_capped"]`` is 1 when it stopped VSA
+        before its target (a :class:`CapWarning` is also issued).
+    compactness : float, optional
+        Weight of the distance term that keeps VSA charts round (default 1.0).
+    lloyd_iterations : int, optional
+        VSA refinement rounds (default 6).
+    overlap_rings : int, optional
+        Rings of neighbouring faces each patch also draws (default 1: seamless borders).
+    dilation : int, optional
+        Texels of normal/color dilation into empty space (default 2).
+    frame : {"min_area", "pca"}, optional
+        In-plane axes from the minimum-area rectangle (default) or 2D PCA (the paper's).
+    normals : {"crease", "smooth", "flat"}, optional
+        ``"crease"`` (default): smooth within a surface, split at edges where the faces' normals
+        differ by `crease_angle` degrees or more (trimesh's ``smooth_shade``); ``"smooth"``:
+        vertex normals averaged over every edge; ``"flat"``: face normals. Vertex normals are
+        weighted by corner angle, as trimesh's.
+    crease_angle : float, optional
+        Degrees, in (0, 180] (default 20).
+    height_bits : {16, 8}, optional
+        16 (default) or 8. Eight bits halve the height maps' bytes (a texel then takes 4 bytes
+        instead of 5, 8 instead of 9 with colors) and round each height to 1/254 of its patch's
+        height range; ``stats["max_quantization_error"]`` gives the worst rounding in world
+        units.
+    max_bytes : int, optional
+        Most bytes the maps may take (``stats["bytes"]``): the conversion is repeated with a
+        coarser texel (scaled by the square root of the excess) until they fit, at most 6 times
+        (``stats["max_bytes_coarsenings"]``). With `max_error` each chart's level is chosen
+        within the budget instead: the bound where it fits, else the least area over it
+        (``stats["max_bytes_binding"]`` is 1 and a :class:`CapWarning` says by how much the
+        bound was missed; not with ``error_scope="chart"``). If they still do not fit,
+        ``stats["max_bytes_exceeded"]`` is 1 and a :class:`CapWarning` says so.
+    progress : bool or callable, optional
+        True for a tqdm bar, or ``callback(stage, fraction)``; returning False cancels.
+
+    Returns
+    -------
+    GeometryTextureSet
+        The patches; ``stats`` holds the conversion's figures (charts, bytes, texel_size,
+        reconstruction_error_p99, the caps above, per-stage seconds, ...).
+
+    Raises
+    ------
+    MeshError
+        The mesh is unusable (NaN or infinite vertices, bad indices, no faces).
+    ParameterError
+        A keyword is out of range, of the wrong type, or contradicts another.
+    FileError, FormatError
+        A mesh path that cannot be read, or does not hold a mesh.
+    CancelledError
+        The progress callback returned False.
+
+    Warns
+    -----
+    CapWarning
+        A cap was hit: VSA stopped at `max_charts`, the maps exceed `max_bytes`, or the error
+        bound was missed within the byte budget. The set is returned all the same.
     """
     m = as_mesh(mesh)
     integers = {name: _number(name, value, int) for name, value in [
@@ -243,24 +297,68 @@ def _warn_caps(stats: dict[str, Any], default_budget: bool = False) -> None:
                       stacklevel=3)
 
 
+@_spelled_out(*_SHOW_KEYWORDS)
 def show(obj: Any, **options: Any) -> Any:
-    """An interactive viewer in Jupyter (drag to orbit, scroll to zoom, quality / LOD / shading
-    selectors, the original mesh beside or over it with ``mesh=``); see `geomtex.viewer.show`."""
+    """An interactive viewer in Jupyter: drag to orbit, scroll to zoom, quality / LOD / shading
+    selectors, the original mesh beside or over it with ``mesh=``.
+
+    The keywords and what they do are :func:`geomtex.viewer.show`'s (this imports the viewer on
+    first use).
+
+    Returns
+    -------
+    geomtex.viewer.Viewer
+        The view; Jupyter shows it as widgets, front ends without widgets as a PNG.
+    """
     from .viewer import show as _show
 
     return _show(obj, **options)
 
 
 def load(path: str | os.PathLike[str]) -> GeometryTextureSet:
-    """Reads a .gtex file. Raises FormatError for anything that is not an intact .gtex file
-    (versions 1 to 5). Files hold no stage timings, so a loaded set's ``stats["seconds"]`` is
-    empty."""
+    """Reads a .gtex file (:meth:`GeometryTextureSet.save`, versions 1 to 5).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file.
+
+    Returns
+    -------
+    GeometryTextureSet
+        The set as saved. Files hold no stage timings, so its ``stats["seconds"]`` is empty.
+
+    Raises
+    ------
+    FileError
+        There is no such file, or it cannot be read.
+    FormatError
+        The file is not an intact .gtex file (truncated, corrupt, or of an unknown version).
+    """
     return GeometryTextureSet._wrap(_core.load(_check.path("path", path, exists=True)))
 
 
 def load_surfels(path: str | os.PathLike[str]) -> Surfels:
-    """Reads a .gtsurf file (``Surfels.save``): the set and tile size it holds, the hierarchy
-    rebuilt from them. Raises FormatError for anything that is not an intact one."""
+    """Reads a .gtsurf file (:meth:`Surfels.save`): the set and tile size it holds, the hierarchy
+    rebuilt from them.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file.
+
+    Returns
+    -------
+    Surfels
+        The hierarchy.
+
+    Raises
+    ------
+    FileError
+        There is no such file, or it cannot be read.
+    FormatError
+        The file is not an intact .gtsurf file.
+    """
     return Surfels._wrap(_core.load_surfels(_check.path("path", path, exists=True)))
 
 
@@ -280,4 +378,6 @@ def __getattr__(name: str) -> Any:
 
 
 def __dir__() -> list[str]:
-    return sorted({*globals(), *_LAZY_SUBMODULES})
+    """The public names only (``__all__``, the lazy submodules among them): ``dir(gt)`` and tab
+    completion show what users may use, not the modules and helpers the package imports."""
+    return sorted(__all__)

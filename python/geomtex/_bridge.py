@@ -10,7 +10,10 @@ object, `unwrap` turns a public object back into what the extension takes.
 
 from __future__ import annotations
 
-from typing import Any, ClassVar, Generic, TypeVar, overload
+import dataclasses
+import inspect
+import typing
+from typing import Any, Callable, ClassVar, Generic, TypeVar, overload
 
 import numpy as np
 
@@ -31,6 +34,7 @@ class Wrapped:
     is made, for a class users do not construct (``X(...)`` is then a ParameterError saying so)."""
 
     _core: Any
+    _made_by: ClassVar[str | None] = None
     #: The public class of each extension class `wrap` meets.
     _public: ClassVar[dict[type, type[Wrapped]]] = {}
 
@@ -39,6 +43,9 @@ class Wrapped:
         if core is not None:
             Wrapped._public[core] = cls
         if made_by is not None:
+            #: How one is made, for the API reference (which then shows no constructor).
+            cls._made_by = made_by
+
             def refuse(cls: type, *args: Any, **kwargs: Any) -> Any:
                 name = cls.__name__
                 article = "an" if name[0] in "AEIOU" else "a"
@@ -99,3 +106,57 @@ class forward(Generic[T]):
 
     def __set__(self, obj: object, value: Any) -> None:
         raise AttributeError(f"{self.name} is read-only")
+
+
+class _Unchanged:
+    """The default shown for a keyword whose absence leaves a setting as it is."""
+
+    def __repr__(self) -> str:
+        return "<unchanged>"
+
+
+#: Shown as the default of a keyword that, left out, changes nothing (``Viewer.set``).
+UNCHANGED: Any = _Unchanged()
+
+
+def _written(annotation: Any) -> Any:
+    """An annotation as the source wrote it (a TypedDict holds its keys' as ForwardRefs)."""
+    return annotation.__forward_arg__ if isinstance(annotation, typing.ForwardRef) else annotation
+
+
+def keyword_parameters(source: Any, *, default: Any = None, drop: tuple[str, ...] = ()) -> list[inspect.Parameter]:
+    """Keyword-only parameters named after `source`: a TypedDict (its keys, each with `default`),
+    a dataclass (its fields that have defaults, with those) or a function (its keyword-only
+    parameters as they are); names in `drop` are left out. Annotations stay as written (strings
+    under ``from __future__ import annotations``): ``help()`` shows ``Real | None``, not the union
+    it stands for."""
+    if isinstance(source, type) and hasattr(source, "__total__"):  # a TypedDict
+        return [inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, default=default, annotation=_written(hint))
+                for name, hint in source.__annotations__.items() if name not in drop]
+    if dataclasses.is_dataclass(source):
+        return [inspect.Parameter(f.name, inspect.Parameter.KEYWORD_ONLY, annotation=_written(f.type),
+                                  default=f.default if default is None else default)
+                for f in dataclasses.fields(source) if f.name not in drop and f.default is not dataclasses.MISSING]
+    return [p for p in inspect.signature(source).parameters.values()
+            if p.kind is inspect.Parameter.KEYWORD_ONLY and p.name not in drop]
+
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+def spelled_out(*keywords: inspect.Parameter) -> Callable[[F], F]:
+    """Gives a function that takes its keywords as ``**options`` (to check them itself: an
+    unknown one is a ParameterError naming it, not a TypeError) a ``__signature__`` naming them,
+    so ``help()``, ``inspect.signature``, IPython and the API reference show the real keywords.
+    The ``**`` parameter is replaced by `keywords` (see `keyword_parameters`); type checkers see
+    the function as written (``**options: Unpack[SomeTypedDict]`` types them there)."""
+
+    def decorate(func: F) -> F:
+        sig = inspect.signature(func)
+        params = [p for p in sig.parameters.values() if p.kind is not inspect.Parameter.VAR_KEYWORD]
+        taken = {p.name for p in params}
+        params += [p for p in keywords if p.name not in taken]
+        func.__signature__ = sig.replace(parameters=params)  # type: ignore[attr-defined]
+        return func
+
+    return decorate

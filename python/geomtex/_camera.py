@@ -15,9 +15,13 @@ CameraState = tuple[str, npt.NDArray[np.float64], list[float], "float | None"]
 
 class Camera(Wrapped, core=_core.Camera,
              made_by="Camera.look_at, Camera.from_intrinsics or Camera.orthographic"):
-    """A camera: OpenGL-style pose (looks down -Z, +Y up) as pyrender and trimesh use; made by
-    `look_at`, `from_intrinsics` (OpenCV) or `orthographic`. ``near`` (every constructor): a
-    fixed near plane distance, or None to choose one from the scene's bounds at render time."""
+    """A camera: OpenGL-style pose (looks down -Z, +Y up) as pyrender and trimesh use.
+
+    Made by `look_at`, `from_intrinsics` (OpenCV) or `orthographic`; ``Camera(...)`` is a
+    ParameterError. ``near`` (every constructor): a fixed near plane distance, or None to choose
+    one from the scene's bounds at render time. Invalid poses, fields of view and intrinsics
+    raise :class:`ParameterError`. Cameras pickle.
+    """
 
     _core: _core.Camera
 
@@ -29,21 +33,64 @@ class Camera(Wrapped, core=_core.Camera,
     @staticmethod
     def look_at(eye: npt.ArrayLike, target: npt.ArrayLike, up: npt.ArrayLike | None = None,
                 yfov_deg: Real | None = None, near: Real | None = None) -> Camera:
-        """Perspective camera at `eye` looking at `target`; `yfov_deg` is the vertical field of view
-        (default 45), `up` defaults to +Y."""
+        """A perspective camera at `eye` looking at `target`.
+
+        Parameters
+        ----------
+        eye, target : (3,) array-like
+            World positions; they must differ.
+        up : (3,) array-like, optional
+            The world direction that is up in the image (default +Y); not along the view.
+        yfov_deg : float, optional
+            Vertical field of view in degrees, in (0, 180) (default 45).
+        near : float, optional
+            A fixed near plane distance (default: chosen from the scene's bounds).
+
+        Returns
+        -------
+        Camera
+        """
         return Camera._wrap(_core.Camera.look_at(eye, target, up, yfov_deg, near))
 
     @staticmethod
     def from_intrinsics(K: npt.ArrayLike, world_from_camera: npt.ArrayLike, width: Int, height: Int,
                         near: Real | None = None) -> Camera:
-        """OpenCV intrinsics K (3x3) with an OpenCV camera-to-world pose (looks down +Z, +Y down),
-        for an image of width x height."""
+        """A camera from OpenCV intrinsics and pose, for an image of `width` x `height`.
+
+        Parameters
+        ----------
+        K : (3, 3) array-like
+            OpenCV intrinsics (fx, fy, cx, cy in pixels).
+        world_from_camera : (4, 4) array-like
+            OpenCV camera-to-world pose (looks down +Z, +Y down).
+        width, height : int
+            The image size the intrinsics are for; render at this size.
+        near : float, optional
+            A fixed near plane distance (default: chosen from the scene's bounds).
+
+        Returns
+        -------
+        Camera
+        """
         return Camera._wrap(_core.Camera.from_intrinsics(K, world_from_camera, width, height, near))
 
     @staticmethod
     def orthographic(world_from_camera: npt.ArrayLike, ymag: Real, near: Real | None = None) -> Camera:
-        """Orthographic camera with an OpenGL pose; `ymag` is half the view's height in world
-        units."""
+        """An orthographic camera.
+
+        Parameters
+        ----------
+        world_from_camera : (4, 4) array-like
+            OpenGL camera-to-world pose (looks down -Z, +Y up).
+        ymag : float
+            Half the view's height in world units (the width follows the image's aspect).
+        near : float, optional
+            A fixed near plane distance (default: chosen from the scene's bounds).
+
+        Returns
+        -------
+        Camera
+        """
         return Camera._wrap(_core.Camera.orthographic(world_from_camera, ymag, near))
 
     @staticmethod

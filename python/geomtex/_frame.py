@@ -18,8 +18,13 @@ EXTRAS = ("shadow", "stats", "face_id", "barycentric", "width", "height")
 
 class Frame(Wrapped, core=_core.Frame,
             made_by="Renderer.render"):
-    """One rendered image (``Renderer.render``): numpy arrays, row 0 at the top. In Jupyter it
-    shows as its color image; ``save`` writes that image."""
+    """One rendered image (:meth:`Renderer.render`): numpy arrays, row 0 at the top.
+
+    The per-pixel outputs are `color`, `albedo`, `depth`, `normal` and `patch_id` (those the
+    render asked for: `outputs`), `shadow` with a light, `face_id` and `barycentric` with an IGT
+    mesh; `stats` holds the render's figures. In Jupyter it shows as its color image; `save`
+    writes that image. Frames pickle (the arrays they hold).
+    """
 
     _core: _core.Frame
 

@@ -191,7 +191,7 @@ def _shader_cache() -> str:
 
 
 class Info(dict):  # type: ignore[type-arg]
-    """A dict of what geomtex runs on, printed as a table."""
+    """What :func:`geomtex.info` returns: a dict of what geomtex runs on, printed as a table."""
 
     def __str__(self) -> str:
         rows: list[tuple[str, str]] = []
@@ -212,17 +212,35 @@ class Info(dict):  # type: ignore[type-arg]
 
 
 def info(check: bool = True) -> Info:
-    """What geomtex runs on: its version, the GPU adapter picked (name, backend, device type,
-    driver), the optional features in use (64-bit atomics, timestamps), the limits that bind
-    (largest texture side, largest storage binding and buffer), Mesa's shader cache, and with
-    ``check`` a self-check: a 64² frame of a unit sphere drawn by every object kind (mesh, set,
-    surfels, IGT mesh, GDM shell) and traced by ray queries, each compared with the exact
-    intersection of the same rays with the sphere (``self_check[kind]["passed"]``, IoU and depth
-    p90 in radii). Then what this process has made on the adapter: ``devices_made`` (one per
-    process: every Renderer, ray query, preview and the viewer share it), ``target_sets_made``
-    (one per image size drawn), ``target_sizes_kept`` and ``uploads`` (objects copied to the
-    adapter, each once while it lives). Raises DeviceError when no usable adapter is found (the
-    message says why and how to fix it)."""
+    """What geomtex runs on, and a self-check that it draws correctly there.
+
+    ``print(gt.info())`` shows it as a table; ``python -m geomtex info`` prints the same.
+
+    Parameters
+    ----------
+    check : bool, default True
+        Run the self-check: a 64² frame of a unit sphere drawn by every object kind (mesh, set,
+        surfels, IGT mesh, GDM shell), traced by ray queries and shadowed, each compared with
+        the exact intersection of the same rays with the sphere. Takes a second or two.
+
+    Returns
+    -------
+    Info
+        A dict: ``version``; the GPU adapter picked (``name``, ``backend``, ``device_type``,
+        ``driver``, ``driver_info``), the optional features in use (64-bit atomics,
+        timestamps) and the limits that bind (largest texture side, largest storage binding and
+        buffer); ``shader_cache`` (Mesa's); with `check`, ``self_check`` (per kind:
+        ``passed``, IoU and depth p90 in radii, or the ``error`` it raised; and ``seconds``);
+        then what this process has made on the adapter: ``devices_made`` (one per process:
+        every Renderer, ray query, preview and the viewer share it), ``target_sets_made`` (one
+        per image size drawn), ``target_sizes_kept`` and ``uploads`` (objects copied to the
+        adapter, each once while it lives).
+
+    Raises
+    ------
+    DeviceError
+        No usable adapter was found (the message says why and how to fix it).
+    """
     from ._render import shared_renderer
 
     result = Info(version=_core.__version__)

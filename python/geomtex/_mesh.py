@@ -262,7 +262,30 @@ def _flatten_scene(scene: Any) -> Any:
 
 def load_mesh(path: str | os.PathLike[str]) -> Mesh:
     """Reads OBJ/PLY/STL/OFF (anything trimesh reads) into a :class:`Mesh`, without merging or
-    dropping anything."""
+    dropping anything.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The mesh file; its colors, texture coordinates and texture come along where trimesh
+        reads them.
+
+    Returns
+    -------
+    Mesh
+        The mesh.
+
+    Raises
+    ------
+    ParameterError
+        `path` is not a str or path.
+    FileError
+        There is no such file.
+    FormatError
+        trimesh cannot read it, or it holds no triangles.
+    MeshError
+        The triangles it holds are unusable (the message names the file).
+    """
     import trimesh
 
     if not isinstance(path, (str, os.PathLike)):
@@ -283,7 +306,15 @@ def load_mesh(path: str | os.PathLike[str]) -> Mesh:
 
 
 def as_mesh(obj: Any) -> Mesh:
-    """A geomtex Mesh from a Mesh, a trimesh.Trimesh, a trimesh.Scene (flattened) or a path."""
+    """A geomtex :class:`Mesh` from a Mesh (returned as it is), a ``trimesh.Trimesh``, a
+    ``trimesh.Scene`` (its meshes moved by their transforms and joined) or a mesh file path
+    (:func:`load_mesh`).
+
+    Raises
+    ------
+    MeshError
+        `obj` is none of those, or its triangles are unusable.
+    """
     if isinstance(obj, Mesh):
         return obj
     if isinstance(obj, (str, os.PathLike)):

@@ -3,7 +3,7 @@ a few plain lines where the output goes to a log or a pipe, so a log gets one li
 (or per tenth of a job) instead of hundreds of carriage-return redraws.
 
 The line form is written here because tqdm has no newline mode: on a non-terminal it still
-redraws with "\\r" on every refresh.
+redraws with a carriage return on every refresh.
 """
 
 from __future__ import annotations

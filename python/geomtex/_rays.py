@@ -17,9 +17,6 @@ import numpy.typing as npt
 
 from . import _check, _core
 
-_Quality = Literal["fast", "balanced", "exact"]
-_Method = Literal["linear_binary", "maxmip"]
-
 _lock = threading.Lock()
 _renderer: _core.Renderer | None = None
 
@@ -34,14 +31,19 @@ def _query_renderer() -> _core.Renderer:
 
 
 class RayHits(NamedTuple):
-    """Per ray: hit point (NaN on a miss), distance along the unit direction (inf), patch id
-    (-2 - k for the scene's k-th mesh, as in frames; -1 on a miss), world unit normal (0) and
-    whether it hit."""
+    """What ``intersects_first`` returns: per ray the hit point, distance, patch id, normal and
+    whether it hit (a NamedTuple: ``hits.distances`` or ``locations, distances, *_ = hits``)."""
 
+    #: (N, 3) float64 world hit points, NaN on a miss.
     locations: npt.NDArray[np.float64]
+    #: (N,) float64 distance along each ray's unit direction, +inf on a miss.
     distances: npt.NDArray[np.float64]
+    #: (N,) int32 patch index, -1 on a miss, -2 - k for the scene's k-th mesh or displacement
+    #: shell (counted together, in order), as in ``Frame.patch_id``.
     patch_ids: npt.NDArray[np.int32]
+    #: (N, 3) float32 world unit normals at the hits, 0 on a miss.
     normals: npt.NDArray[np.float32]
+    #: (N,) bool, whether each ray hit.
     hit: npt.NDArray[np.bool_]
 
 
@@ -98,7 +100,8 @@ class RayQueries:
 
     @_check.keywords
     def intersects_first(self, origins: npt.ArrayLike | None = None, directions: npt.ArrayLike | None = None,
-                         *, quality: _Quality | None = None, method: _Method | None = None,
+                         *, quality: Literal["fast", "balanced", "exact"] | None = None,
+                         method: Literal["linear_binary", "maxmip"] | None = None,
                          ray_origins: npt.ArrayLike | None = None, ray_directions: npt.ArrayLike | None = None
                          ) -> RayHits:
         """The nearest hit of every ray (``quality`` "exact" by default): origins (N, 3) or one
@@ -113,9 +116,10 @@ class RayQueries:
 
     @_check.keywords
     def intersects_location(self, origins: npt.ArrayLike | None = None, directions: npt.ArrayLike | None = None,
-                            multiple_hits: bool = False, *, quality: _Quality | None = None,
-                            method: _Method | None = None, ray_origins: npt.ArrayLike | None = None,
-                            ray_directions: npt.ArrayLike | None = None
+                            multiple_hits: bool = False, *,
+                            quality: Literal["fast", "balanced", "exact"] | None = None,
+                            method: Literal["linear_binary", "maxmip"] | None = None,
+                            ray_origins: npt.ArrayLike | None = None, ray_directions: npt.ArrayLike | None = None
                             ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.int32]]:
         """Like trimesh's: (hit locations (M, 3), index of the ray of each (M,), patch id of each
         (M,)) for the rays that hit; the nearest hit only (``multiple_hits=True`` is refused)."""
@@ -128,7 +132,8 @@ class RayQueries:
 
     @_check.keywords
     def intersects_any(self, origins: npt.ArrayLike | None = None, directions: npt.ArrayLike | None = None, *,
-                       quality: _Quality | None = None, method: _Method | None = None,
+                       quality: Literal["fast", "balanced", "exact"] | None = None,
+                       method: Literal["linear_binary", "maxmip"] | None = None,
                        ray_origins: npt.ArrayLike | None = None, ray_directions: npt.ArrayLike | None = None
                        ) -> npt.NDArray[np.bool_]:
         """Whether each ray hits anything (each stops at the first hit found)."""

@@ -4,20 +4,17 @@ objects and mesh files read as meshes first), the lights, and the render keyword
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Literal, Mapping, Sequence, TypedDict
+from typing import Any, Literal, Mapping, Sequence, TypedDict, Unpack
 
 import numpy as np
 import numpy.typing as npt
 
 from . import _check, _core
-from ._bridge import Flag, Int, Real, Wrapped, forward, unwrap
+from ._bridge import Flag, Int, Real, Wrapped, forward, keyword_parameters, spelled_out, unwrap
 from ._camera import Camera
 from ._errors import ParameterError
 from ._frame import Frame
 from ._kinds import renderable
-
-if TYPE_CHECKING:
-    from typing_extensions import Unpack
 
 
 @dataclass(frozen=True)
@@ -25,6 +22,7 @@ class DirectionalLight:
     """Parallel light travelling along ``direction`` (world space, three finite numbers, any
     length but zero): pass it as ``render(..., light=...)`` for shadows."""
 
+    #: (3,) float64 world direction the light travels along, as given (not normalised).
     direction: npt.ArrayLike
 
     def __post_init__(self) -> None:
@@ -36,6 +34,7 @@ class PointLight:
     """Light from ``position`` (world space, three finite numbers): pass it as
     ``render(..., light=...)`` for shadows."""
 
+    #: (3,) float64 world position of the light.
     position: npt.ArrayLike
 
     def __post_init__(self) -> None:
@@ -116,10 +115,24 @@ RayHitArrays = tuple[npt.NDArray[np.float64], npt.NDArray[np.int32], npt.NDArray
 
 
 class Renderer(Wrapped, core=_core.Renderer):
-    """A headless renderer of an image size (``resize`` changes it). Every Renderer of a process
-    shares one GPU device, its pipelines and the objects uploaded to it: making a second
-    Renderer, drawing at a second size or tracing rays costs no new device and no new upload.
-    See ``render`` for the keywords."""
+    """A headless renderer of an image size (`resize` changes it).
+
+    Every Renderer of a process shares one GPU device, its pipelines and the objects uploaded to
+    it: making a second Renderer, drawing at a second size or tracing rays costs no new device
+    and no new upload. See `render` for the keywords.
+
+    Parameters
+    ----------
+    width, height : int
+        The image size in pixels.
+
+    Raises
+    ------
+    ParameterError
+        A size that is not an integer in [1, 16384].
+    DeviceError
+        No usable GPU adapter (``gt.info()`` says why).
+    """
 
     _core: _core.Renderer
 
@@ -137,43 +150,116 @@ class Renderer(Wrapped, core=_core.Renderer):
 
     def resize(self, width: Int, height: Int) -> None:
         """Makes later frames `width` x `height`; the device, pipelines and uploads are kept (every
-        Renderer shares them), and so are the targets of sizes drawn lately."""
+        Renderer shares them), and so are the targets of sizes drawn lately.
+
+        Raises
+        ------
+        ParameterError
+            A size that is not an integer in [1, 16384].
+        """
         self._core.resize(width, height)
 
+    @spelled_out(*keyword_parameters(RenderOptions))
     def render(self, obj: Any, camera: Camera, **options: Unpack[RenderOptions]) -> Frame:
-        """Renders a Scene or any one object a Scene takes (a set, Mesh, Surfels, IgtMesh,
-        gdm.Shell, trimesh or mesh path) seen by `camera`.
+        """Renders a Scene or any one object a Scene takes, seen by `camera`.
 
-        `quality` picks measured settings ("fast", "balanced" or "exact", the default); `method`
-        ("linear_binary" or "maxmip") and the step keywords (`steps_per_texel`,
-        `min_linear_steps`, `max_linear_steps`, `binary_steps`, `max_traversal_steps`) override
-        them. `count_fetches` uses a counting build of the pipeline and reports height fetches in
-        `frame.stats`. `lod` (max-pyramid search only) stops each patch's descent where its nodes
-        are about a pixel. `background`: RGBA where nothing is hit. `light` (a DirectionalLight or
-        a PointLight) casts shadows: `frame.shadow`, and shadowed pixels at half brightness.
-        `max_pixel_error` (Surfels only, default 1): a cut of each patch's tiles and the nodes
-        above them is drawn, each part at its coarsest level whose perpendicular error projects to
-        at most this many pixels of depth (1/16 of it where a silhouette may show). `primary`
-        ("tiles", default, or "boxes") picks how camera rays meet the texture sets' boxes: per
-        pixel nearest first, stopping behind the nearest hit, or every box over a pixel searched.
-        `outputs` (names among "color", "albedo", "depth", "normal", "patch_id"; default all)
-        are the arrays read back (a depth-only frame skips the others' copies and conversions):
-        the frame's other arrays raise ParameterError when read, and without "patch_id" its
-        per-pixel figures are None. An unknown keyword is a ParameterError naming it."""
+        Every keyword is None by default, which means the extension's own default.
+
+        Parameters
+        ----------
+        obj : Scene, GeometryTextureSet, Mesh, Surfels, igt.IgtMesh, gdm.Shell, trimesh or path
+            What to draw; a trimesh object or a mesh path is read as a :class:`Mesh`.
+        camera : Camera
+            Where it is seen from.
+        quality : {"fast", "balanced", "exact"}, optional
+            Measured settings of the height-field search (default ``"exact"``).
+        method : {"linear_binary", "maxmip"}, optional
+            The search: linear steps then a binary refinement, or a max-pyramid descent.
+            Overrides `quality`'s, as do the step keywords.
+        steps_per_texel : float, optional
+            Linear search steps per texel crossed, overriding `quality`'s.
+        min_linear_steps, max_linear_steps, binary_steps, max_traversal_steps : int, optional
+            The search's step counts, overriding `quality`'s.
+        count_fetches : bool, optional
+            Use a counting build of the pipeline and report height fetches in ``frame.stats``
+            (fetches, fetches_per_pixel, fetches_per_search, piece_tests_per_pixel).
+        lod : bool, optional
+            Max-pyramid search only: stop each patch's descent where its nodes are about a
+            pixel.
+        background : array-like of 4 numbers, optional
+            RGBA where nothing is hit (uint8 values, or floats in [0, 1]).
+        light : DirectionalLight or PointLight, optional
+            Casts shadows: ``frame.shadow``, and shadowed pixels at half brightness.
+        max_pixel_error : float, optional
+            Surfels only (default 1): a cut of each patch's tiles and the nodes above them is
+            drawn, each part at its coarsest level whose perpendicular error projects to at
+            most this many pixels of depth (1/16 of it where a silhouette may show).
+        primary : {"tiles", "boxes"}, optional
+            How camera rays meet the texture sets' boxes: per pixel nearest first, stopping
+            behind the nearest hit (``"tiles"``, default), or every box over a pixel searched.
+        outputs : str or sequence of str, optional
+            The arrays read back, among ``"color"``, ``"albedo"``, ``"depth"``, ``"normal"``
+            and ``"patch_id"`` (default all): a depth-only frame skips the others' copies and
+            conversions. The frame's other arrays raise ParameterError when read, and without
+            ``"patch_id"`` its per-pixel figures are None.
+
+        Returns
+        -------
+        Frame
+            The image's arrays and ``stats``.
+
+        Raises
+        ------
+        ParameterError
+            An unknown keyword (named in the message), a value of the wrong type or out of
+            range, or an object the renderer does not draw.
+        DeviceError
+            No usable GPU adapter, or the GPU refused a resource.
+        """
         check_render_options(options)
         return Frame._wrap(self._core.render(renderable(obj), unwrap(camera), **options))
 
     def intersect(self, obj: Any, origins: npt.ArrayLike, directions: npt.ArrayLike, *,
                   any_hit: bool | None = None, quality: Literal["fast", "balanced", "exact"] | None = None,
                   method: Literal["linear_binary", "maxmip"] | None = None) -> RayHitArrays:
-        """Ray queries on the GPU against a Scene or any one object a Scene takes: texture sets,
-        meshes and displacement shells are traced (surfels and IGT meshes are a ParameterError:
-        query the set or the detailed mesh instead). Per ray the distance to the nearest hit along
-        its unit direction (+inf on a miss), the patch id (-1 on a miss, -2 - k for the k-th mesh
-        or shell, as in frames) and the world normal. `any_hit` stops
-        each ray at the first hit found (shadow-style visibility, not the nearest). `quality`
-        defaults to "exact" here. ``Scene.intersects_*`` and ``GeometryTextureSet.intersects_*``
-        are the trimesh-shaped form."""
+        """Ray queries on the GPU against a Scene or any one object a Scene takes.
+
+        Texture sets, meshes and displacement shells are traced; surfels and IGT meshes are a
+        ParameterError (query the set or the detailed mesh instead).
+        ``Scene.intersects_first`` and ``GeometryTextureSet.intersects_first`` (and
+        ``intersects_location``, ``intersects_any``) are the trimesh-shaped form.
+
+        Parameters
+        ----------
+        obj : Scene, GeometryTextureSet, Mesh, gdm.Shell, trimesh or path
+            What to trace; a trimesh object or a mesh path is read as a :class:`Mesh`.
+        origins : (N, 3) array-like
+            Ray origins, world space.
+        directions : (N, 3) array-like
+            Ray directions, any length but zero.
+        any_hit : bool, optional
+            Stop each ray at the first hit found (shadow-style visibility, not the nearest).
+        quality : {"fast", "balanced", "exact"}, optional
+            As for `render`; ``"exact"`` by default here.
+        method : {"linear_binary", "maxmip"}, optional
+            As for `render`.
+
+        Returns
+        -------
+        distances : (N,) float64 ndarray
+            Distance to the nearest hit along each ray's unit direction, +inf on a miss.
+        patch_ids : (N,) int32 ndarray
+            The patch hit, -1 on a miss, -2 - k for the scene's k-th mesh or shell, as in
+            ``Frame.patch_id``.
+        normals : (N, 3) float32 ndarray
+            World unit normals at the hits, 0 on a miss.
+
+        Raises
+        ------
+        ParameterError
+            Rays of the wrong shape or not finite, a zero direction, or an object that is not
+            traced.
+        """
         return self._core.intersect(renderable(obj), origins, directions, any_hit=any_hit, quality=quality,
                                     method=method)
 
@@ -185,7 +271,7 @@ _SHARED: dict[tuple[int, int], Renderer] = {}
 
 
 def shared_renderer(width: int, height: int) -> Renderer:
-    """This process's renderer of that size, made on first use and kept."""
+    """The renderer of that size for this process, made on first use and kept."""
     r = _SHARED.get((width, height))
     if r is None:
         r = _SHARED[(width, height)] = Renderer(width, height)

@@ -17,10 +17,21 @@ Placed = tuple[Any, npt.NDArray[np.float64], "str | None", "float | None"]
 
 
 class Scene(RayQueries, Wrapped):
-    """Objects of every kind geomtex draws (sets, meshes, surfels, IGT meshes, displacement
-    shells; trimesh objects and mesh files are read as meshes), each placed by a
-    ``world_from_object`` 4x4 matrix. Render it with ``Renderer.render``, trace rays through it
-    with ``intersects_first`` / ``intersects_location`` / ``intersects_any``."""
+    """Objects of every kind geomtex draws, each placed by a ``world_from_object`` 4x4 matrix.
+
+    Sets, meshes, surfels, IGT meshes and displacement shells mix in one scene (trimesh objects
+    and mesh files are read as meshes). Render it with :meth:`Renderer.render`, trace rays
+    through it with `intersects_first`, `intersects_location` and `intersects_any`. ``Scene()``
+    is empty; `add` fills it, and ``len(scene)`` counts what was added. Pickles with its
+    objects.
+
+    Examples
+    --------
+    >>> scene = gt.Scene()
+    >>> scene.add(gts)                                   # identity placement
+    >>> scene.add("bunny.obj", np.diag([2.0, 2.0, 2.0, 1.0]), normals="flat")
+    >>> frame = gt.Renderer(512, 512).render(scene, camera)
+    """
 
     _core: _core.Scene
 
@@ -36,18 +47,38 @@ class Scene(RayQueries, Wrapped):
 
     def add(self, obj: Any, world_from_object: npt.ArrayLike | None = None, *, normals: Normals | None = None,
             crease_angle: float | None = None) -> int:
-        """Adds `obj` (a set, Mesh, Surfels, IgtMesh, gdm.Shell, trimesh, trimesh.Scene or mesh
-        path) placed by `world_from_object` (any 4x4 array-like, default identity); returns its
-        index.
+        """Adds an object to the scene.
 
-        A mesh is shaded by the same rule as ``convert``: ``normals="crease"`` (default) smooths
-        within a surface and splits at edges whose faces' normals differ by ``crease_angle``
-        degrees or more (default 20, in (0, 180]); ``"smooth"`` averages across every edge;
-        ``"flat"`` gives each face its own normal. (The other kinds carry their own normals:
-        these keywords are for meshes only.)
+        Parameters
+        ----------
+        obj : GeometryTextureSet, Mesh, Surfels, igt.IgtMesh, gdm.Shell, trimesh or path
+            What to add; a ``trimesh.Trimesh``, ``trimesh.Scene`` or mesh path is read as a
+            :class:`Mesh` once, here.
+        world_from_object : (4, 4) array-like, optional
+            Its placement (default identity): affine (last row 0, 0, 0, 1), invertible and
+            finite.
+        normals : {"crease", "smooth", "flat"}, optional
+            Meshes only (the other kinds carry their own normals): the same rule as
+            :func:`convert`'s. ``"crease"`` (default) smooths within a surface and splits at
+            edges whose faces' normals differ by `crease_angle` degrees or more; ``"smooth"``
+            averages across every edge; ``"flat"`` gives each face its own normal.
+        crease_angle : float, optional
+            Meshes only: degrees, in (0, 180] (default 20).
 
-        `world_from_object` must be affine (last row 0, 0, 0, 1), invertible and finite; any
-        other matrix is a ParameterError."""
+        Returns
+        -------
+        int
+            The object's index among everything added, sets included. (``Frame.patch_id``
+            numbers only the meshes, IGT meshes and shells, -2 - k in the order added.)
+
+        Raises
+        ------
+        ParameterError
+            A matrix that is not affine, invertible and finite, normals keywords for a kind
+            that is not a mesh, or a value out of range.
+        MeshError
+            `obj` is no kind the renderer draws, or an unusable mesh.
+        """
         placement = None if world_from_object is None else _check.affine("world_from_object", world_from_object)
         kind, item = _kinds.adopt(obj)
         index: int = self._core.add(kind.core_of(item), placement, normals=normals, crease_angle=crease_angle)

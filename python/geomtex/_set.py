@@ -35,9 +35,16 @@ def from_bytes_arg(data: Any) -> bytes:
 class GeometryTextureSet(RayQueries, Wrapped, core=_core.GeometryTextureSet,
                          made_by="geomtex.convert, geomtex.load, GeometryTextureSet.from_bytes or "
                                  "GeometryTextureSet.from_heightmaps"):
-    """Height-map patches in oriented boxes, converted from a mesh (``geomtex.convert``), loaded
-    from a .gtex file (``geomtex.load``) or built from height grids (``from_heightmaps``).
-    ``len(gts)`` is its number of patches."""
+    """Height-map patches in oriented boxes, converted from a mesh (:func:`geomtex.convert`),
+    loaded from a .gtex file (:func:`geomtex.load`) or built from height grids
+    (`from_heightmaps`).
+
+    ``len(gts)`` is its number of patches. Render it with :meth:`Renderer.render`, trace rays
+    with `intersects_first`, `intersects_location` and `intersects_any`, place it in a
+    :class:`Scene`. It pickles as its .gtex bytes (`to_bytes`), and shows as an overview picture
+    in Jupyter. Made by the functions above only: ``GeometryTextureSet(...)`` is a
+    ParameterError.
+    """
 
     _core: _core.GeometryTextureSet
 
@@ -49,14 +56,38 @@ class GeometryTextureSet(RayQueries, Wrapped, core=_core.GeometryTextureSet,
                         height_bits: Literal[8, 16] | None = None) -> GeometryTextureSet:
         """Builds a set straight from regular height grids (horizons, terrain).
 
-        grids: one (rows, columns) array, a stack of them, or a sequence of arrays of any shapes;
-            NaN marks missing samples. extent: ``(x0, x1, y0, y1)`` for all grids or one per grid.
-        properties: optional arrays of the grids' shapes, colored through the matplotlib colormap
-            `cmap` (a name or a ``matplotlib.colors.Colormap``) over `property_range` (default:
-            their finite min and max).
-        max_resolution: samples per tile side (default 256); tiles share their border samples, so
-            the surface has no cracks. height_bits: 16 (default) or 8.
         The tiling runs in Rust with the GIL released.
+
+        Parameters
+        ----------
+        grids : array-like or sequence of array-likes
+            One (rows, columns) array, a stack of them, or a sequence of arrays of any shapes;
+            NaN marks missing samples.
+        extent : (x0, x1, y0, y1), or one per grid
+            World extent of the grids.
+        properties : array-like or sequence of array-likes, optional
+            Arrays of the grids' shapes, colored through `cmap`.
+        cmap : str or matplotlib.colors.Colormap, default "viridis"
+            The matplotlib colormap of `properties`.
+        property_range : (float, float), optional
+            The values mapped to the colormap's ends (default: the properties' finite min and
+            max).
+        max_resolution : int, optional
+            Samples per tile side (default 256); tiles share their border samples, so the
+            surface has no cracks.
+        height_bits : {16, 8}, optional
+            As for :func:`geomtex.convert` (default 16).
+
+        Returns
+        -------
+        GeometryTextureSet
+            One patch per tile.
+
+        Raises
+        ------
+        ParameterError
+            Grids, extents or properties of the wrong shape or type, or a grid with no finite
+            sample.
         """
         prepared = _grids.prepare(grids, extent, properties, cmap, property_range)
         return GeometryTextureSet._wrap(_core.GeometryTextureSet._from_prepared_grids(
@@ -64,13 +95,25 @@ class GeometryTextureSet(RayQueries, Wrapped, core=_core.GeometryTextureSet,
 
     @staticmethod
     def from_bytes(data: bytes | bytearray | memoryview) -> GeometryTextureSet:
-        """A set from the bytes of a .gtex file (`to_bytes`, or a file read by the caller);
-        FormatError for anything that is not an intact one."""
+        """A set from the bytes of a .gtex file (`to_bytes`, or a file read by the caller).
+
+        Raises
+        ------
+        ParameterError
+            `data` is not bytes-like.
+        FormatError
+            The bytes are not an intact .gtex file.
+        """
         return GeometryTextureSet._wrap(_core.GeometryTextureSet.from_bytes(from_bytes_arg(data)))
 
     stats = forward[dict[str, Any]](
-        "Figures of the conversion, with per-stage wall-clock seconds under \"seconds\" (empty for a "
-        "loaded set) and per-patch arrays under their own names.")
+        "Figures of the conversion: the mesh (faces, vertices, diagonal, degenerate_faces, "
+        "boundary_edges, ...), the partition (charts, vsa_charts, chart_error, charts_capped, ...), "
+        "the maps (bytes, texels, texel_size, empty_fraction, height_bits, "
+        "max_quantization_error), the error (reconstruction_error_p99 and _max, max_error, "
+        "max_bytes, max_bytes_binding, max_bytes_exceeded, ...), per-patch arrays (patch_resolution, "
+        "patch_texel, patch_error) and per-stage wall-clock seconds under \"seconds\" (empty for a "
+        "loaded set). ``convert``'s keywords say which keys answer them.")
     texel_size = forward[float]("World size of one texel (the finest patch's where texels differ).")
     world_from_patch = forward[npt.NDArray[np.float64]](
         "(P, 4, 4) float64: each patch's world_from_patch (unit cube -> world box).")
@@ -100,21 +143,65 @@ class GeometryTextureSet(RayQueries, Wrapped, core=_core.GeometryTextureSet,
     def first_hits(self, origins: npt.ArrayLike,
                    directions: npt.ArrayLike) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int32]]:
         """Exact first hits of world rays on the set's surface, computed on the CPU in f64 (the
-        reference the GPU searches are tested against): ((N,) float64 distances along the rays,
-        +inf on a miss; (N,) int32 patch indices, -1 on a miss). Directions must be unit vectors."""
+        reference the GPU searches are tested against).
+
+        Parameters
+        ----------
+        origins : (N, 3) array-like
+            Ray origins, world space.
+        directions : (N, 3) array-like
+            Unit ray directions.
+
+        Returns
+        -------
+        distances : (N,) float64 ndarray
+            Distance along each ray to its first hit, +inf on a miss.
+        patch_ids : (N,) int32 ndarray
+            The patch hit, -1 on a miss.
+        """
         return self._core.first_hits(origins, directions)
 
     def to_surfels(self, tile: Int | None = None) -> Surfels:
         """The surfel hierarchy of this set: every surface texel a surfel, tiles of `tile` x `tile`
-        texels (a power of two up to 64, default 8) merged 2x2 per level."""
+        texels merged 2x2 per level.
+
+        Parameters
+        ----------
+        tile : int, optional
+            Tile side in texels, a power of two up to 64 (default 8).
+
+        Returns
+        -------
+        Surfels
+            The hierarchy; render it like the set.
+
+        Raises
+        ------
+        ParameterError
+            `tile` is not a power of two in [1, 64].
+        """
         from ._surfels import Surfels
 
         return Surfels._wrap(self._core.to_surfels(tile))
 
     def filtered(self, kind: MapFilter, sigma: Real, *, gain: Real | None = None) -> GeometryTextureSet:
-        """A copy with every height map filtered: "gaussian" (low-pass) or "high_pass" (unsharp
-        masking, h + gain (h - gaussian h); `gain` is refused for "gaussian"); `sigma` in world
-        units. Normals are filtered by the same weights in world space."""
+        """A copy with every height map filtered; normals are filtered by the same weights in
+        world space.
+
+        Parameters
+        ----------
+        kind : {"gaussian", "high_pass"}
+            Low-pass, or unsharp masking: h + gain (h - gaussian h).
+        sigma : float
+            The Gaussian's standard deviation, world units.
+        gain : float, optional
+            ``"high_pass"`` only (refused for ``"gaussian"``).
+
+        Returns
+        -------
+        GeometryTextureSet
+            The filtered copy.
+        """
         return GeometryTextureSet._wrap(self._core.filtered(kind, sigma, gain=gain))
 
     def seam_gaps(self, mesh: Any) -> npt.NDArray[np.float64]:
@@ -131,7 +218,14 @@ class GeometryTextureSet(RayQueries, Wrapped, core=_core.GeometryTextureSet,
         return self._core.seam_normal_steps(as_mesh(mesh)._core)
 
     def save(self, path: str | os.PathLike[str]) -> None:
-        """Writes a .gtex file atomically (no half file is ever left behind)."""
+        """Writes a .gtex file atomically (no half file is ever left behind); :func:`geomtex.load`
+        reads it.
+
+        Raises
+        ------
+        FileError
+            The file cannot be written.
+        """
         self._core.save(path)
 
     def to_bytes(self) -> bytes:

@@ -5,6 +5,7 @@
 >>> batch.render_views(["out/a-1f3c.gtex"], cameras, "views.zarr", width=256, height=256)
 
 What runs where:
+
 - The calling process (the *client*) lists the inputs, reads and writes the manifest, creates the
   Zarr arrays, and submits one task per input (conversion) or per block of views (rendering). It
   never converts or renders itself.
@@ -44,8 +45,13 @@ from typing import Any
 import numpy as np
 
 from . import _check, _optional, _progress
+from . import convert as _convert
+from ._bridge import keyword_parameters, spelled_out
 from ._camera import Camera
 from ._errors import CancelledError, FileError, GeomtexError, ParameterError
+from ._render import RenderOptions
+
+__all__ = ["convert_many", "read_manifest", "render_views"]
 
 MANIFEST = "manifest.json"
 JOURNAL = "manifest.journal"
@@ -340,6 +346,7 @@ def _convert_one(source: Any, out_path: str, options: dict[str, Any]) -> dict[st
             "error": error, "worker_pid": os.getpid()}
 
 
+@spelled_out(*keyword_parameters(_convert, drop=("progress",)))
 def convert_many(
     inputs: Iterable[Any],
     out_dir: str | os.PathLike[str],
@@ -350,20 +357,45 @@ def convert_many(
     progress: bool = True,
     **convert_options: Any,
 ) -> list[dict[str, Any]]:
-    """Converts every input (mesh paths, Mesh or trimesh objects) to ``out_dir/<key>.gtex`` on
-    Dask workers, with `convert_options` as for `geomtex.convert` (``progress`` is the job's).
+    """Converts every input to ``out_dir/<key>.gtex`` on Dask workers.
 
-    client: a ``dask.distributed.Client``, a scheduler address, or None for a LocalCluster of
-        `n_workers` processes (default: the cores, at most 4) for this call.
-    retry_failed: convert inputs that failed in an earlier run again (they are skipped by
-        default: a bad mesh fails the same way twice).
-    progress: a tqdm bar over the inputs (the client's dashboard, where it has one, shows the
-        tasks too).
+    A worker that dies mid-task has its task run again elsewhere (Dask's ``allowed-failures``);
+    an input whose tasks keep killing workers is recorded as failed. Inputs already done in an
+    earlier run with the same options are skipped.
 
-    Returns the manifest rows of these inputs, in input order; each input gets exactly one row,
-    ``status`` "done" or "failed" (with ``error``). A worker that dies mid-task has its task run
-    again elsewhere (Dask's ``allowed-failures``); an input whose tasks keep killing workers is
-    recorded as failed. Inputs already done in an earlier run with the same options are skipped.
+    Parameters
+    ----------
+    inputs : iterable
+        Mesh paths, Mesh or trimesh objects.
+    out_dir : str or os.PathLike
+        The output folder, made if missing; it holds the manifest.
+    client : dask.distributed.Client or str, optional
+        A client, a scheduler address, or None for a LocalCluster of `n_workers` processes
+        (default: the cores, at most 4) for this call.
+    n_workers : int, optional
+        Workers of the LocalCluster made without `client`.
+    retry_failed : bool, default False
+        Convert inputs that failed in an earlier run again (they are skipped by default: a bad
+        mesh fails the same way twice).
+    progress : bool, default True
+        A tqdm bar over the inputs (the client's dashboard, where it has one, shows the tasks
+        too).
+    **convert_options
+        As for :func:`geomtex.convert` (its ``progress`` aside: ``progress`` is the job's).
+
+    Returns
+    -------
+    list of dict
+        The manifest rows of these inputs, in input order; each input gets exactly one row,
+        ``status`` "done" or "failed" (with ``error``).
+
+    Raises
+    ------
+    ParameterError
+        A bad option (checked before any worker starts), an input named twice, or a folder
+        holding a job converted with other options.
+    FileError
+        The output folder cannot be made.
     """
     out = _check.path("out_dir", out_dir)
     _check_job(client, n_workers, progress)
@@ -502,6 +534,7 @@ def _render_block(obj: Any, set_index: int, views: list[tuple[int, Any]], store:
     return {"seconds": time.perf_counter() - start, "views": len(views), "worker_pid": os.getpid()}
 
 
+@spelled_out(*keyword_parameters(RenderOptions, drop=("outputs",)))
 def render_views(
     objects: Sequence[Any],
     cameras: Sequence[Camera] | Sequence[Sequence[Camera]],
@@ -519,15 +552,36 @@ def render_views(
     """Renders every object (sets, meshes, scenes, or .gtex / mesh paths) from every camera into a
     Zarr store at `out` and returns it opened as a ``zarr.Group``.
 
-    cameras: one list for every object, or one list per object (all of the same length).
-    outputs: any of "depth", "normal", "color", "albedo", "patch_id"; each becomes an array of
-        shape (objects, views, height, width[, channels]) chunked one view per chunk, with the
-        frame's dtype and miss value. ``done`` (objects, views) marks the views written, so a
-        rerun into the same store renders only the views not yet done.
-    render_options: as for `Renderer.render` (quality, lod, background, light, ...).
-
     Views are rendered in tasks of `views_per_task` views of one object; each worker keeps one
     Renderer for its life. Depth is bit-identical to `Renderer.render` in this process.
+
+    Parameters
+    ----------
+    objects : sequence
+        Sets, meshes, scenes, or .gtex / mesh paths.
+    cameras : sequence of Camera, or one sequence per object
+        One list for every object, or one list per object (all of the same length).
+    out : str or os.PathLike
+        The Zarr store.
+    width, height : int
+        The image size.
+    outputs : sequence of str, default ("depth", "normal", "color", "patch_id")
+        Any of "depth", "normal", "color", "albedo", "patch_id"; each becomes an array of shape
+        (objects, views, height, width[, channels]) chunked one view per chunk, with the
+        frame's dtype and miss value. ``done`` (objects, views) marks the views written, so a
+        rerun into the same store renders only the views not yet done.
+    client, n_workers, progress
+        As for `convert_many`.
+    views_per_task : int, default 8
+        Views of one object per Dask task.
+    **render_options
+        As for `Renderer.render` (quality, lod, background, light, ...), checked before any
+        worker starts.
+
+    Returns
+    -------
+    zarr.Group
+        The store, opened.
     """
     from ._render import check_render_options
 

@@ -26,6 +26,18 @@ from . import _check, _core, _optional
 from ._bridge import Wrapped
 from ._errors import MeshError, ParameterError
 
+__all__ = [
+    "CompressedGDM",
+    "DistanceFunction",
+    "Shell",
+    "Volume",
+    "box_uv",
+    "direction_vectors",
+    "seam_fins",
+    "tile_surface",
+    "uv_torus",
+]
+
 Pattern = Literal["chain", "weave", "lattice"]
 DEFAULT_DIRECTIONS = (16, 32)
 DEFAULT_SIZE = (64, 64, 16)
@@ -197,9 +209,14 @@ class DistanceFunction:
     distance to the slab's top or bottom (``hit`` False there); with ``lower_bound``, the
     conservative table of ``Volume.distance_function(lower_bound=True)``."""
 
+    #: The volume it was computed from.
     volume: Volume
+    #: (nx, ny, nz, theta, phi) float32 distances in voxels.
     distance: npt.NDArray[np.float32]
+    #: (nx, ny, nz, theta, phi) bool: whether the ray from each voxel in each direction hits
+    #: solid (False where ``distance`` is the distance to the slab's top or bottom instead).
     hit: npt.NDArray[np.bool_]
+    #: Whether the table is the conservative one (``distance_function(lower_bound=True)``).
     lower_bound: bool = False
     _svd: Any = field(default=None, repr=False)
 
@@ -209,6 +226,7 @@ class DistanceFunction:
 
     @property
     def directions(self) -> tuple[int, int]:
+        """The direction counts (theta, phi) the table samples."""
         return self.distance.shape[3], self.distance.shape[4]
 
     @property
@@ -252,11 +270,13 @@ _FLOAT_SLACK = (1e-3, 1e-5)
 
 
 def _conservative(packed: CompressedGDM, bound: npt.NDArray[np.float32]) -> CompressedGDM:
-    """The SVD of a lower-bound table kept a lower bound: per row (x, y, phi), the largest amount
-    by which the k terms overshoot the table over that row's (theta, z), stored as one more term
-    with a constant eigen-map of -1. Interpolation is linear, so subtracting the interpolated
-    margin keeps every interpolated value at or below the interpolated bound. (One global margin
-    instead costs far more skip: a few rows overshoot by much more than most.)"""
+    """The SVD of a lower-bound table kept a lower bound.
+
+    Per row (x, y, phi), the largest amount by which the k terms overshoot the table over that
+    row's (theta, z) is stored as one more term with a constant eigen-map of -1. Interpolation is
+    linear, so subtracting the interpolated margin keeps every interpolated value at or below the
+    interpolated bound. (One global margin instead costs far more skip: a few rows overshoot by
+    much more than most.)"""
     terms = np.einsum("xypk,ktz->xyztp", packed.weights.astype(np.float64), packed.eigen.astype(np.float64))
     margin = np.maximum((terms - bound).max(axis=(2, 3)), 0.0)  # (x, y, phi)
     margin += _FLOAT_SLACK[0] + _FLOAT_SLACK[1] * float(np.abs(bound).max())
@@ -275,10 +295,16 @@ class CompressedGDM:
     ``conservative`` one (from a lower-bound table) holds one more term: its per-row margin
     (weights) times -1 (eigen-map), so the sum stays at or below the bound."""
 
-    weights: npt.NDArray[np.float32]  # (nx, ny, phi, k [+ 1])
-    eigen: npt.NDArray[np.float32]  # (k [+ 1], theta, nz)
+    #: (nx, ny, phi, k [+ 1]) float32 weight maps W_i.
+    weights: npt.NDArray[np.float32]
+    #: (k [+ 1], theta, nz) float32 eigen-maps E_i.
+    eigen: npt.NDArray[np.float32]
+    #: The full table's shape (nx, ny, nz, theta, phi).
     shape: tuple[int, ...]
+    #: Reconstruction error in voxels over the whole table: rms, max, p99, and relative (the
+    #: dropped singular values' share of the spectrum's norm).
     error: dict[str, float] = field(default_factory=dict)
+    #: Whether the last term is a lower bound's margin (see the class).
     conservative: bool = False
 
     @property
@@ -288,6 +314,7 @@ class CompressedGDM:
 
     @property
     def nbytes(self) -> int:
+        """Bytes of the weight maps and eigen-maps."""
         return int(self.weights.nbytes + self.eigen.nbytes)
 
     def reconstruct(self) -> npt.NDArray[np.float32]:

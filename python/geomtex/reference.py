@@ -14,6 +14,25 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _optional
+from ._bridge import keyword_parameters, spelled_out
+from ._render import RenderOptions
+
+__all__ = [
+    "RayCaster",
+    "agreement",
+    "albedo_difference",
+    "base_colors",
+    "compare",
+    "corner_normals",
+    "diagonal",
+    "mesh_to_points",
+    "normal_angles",
+    "occlusion",
+    "points_to_mesh",
+    "raycast",
+    "raycast_albedo",
+    "shading_normals",
+]
 
 # trimesh's triangle closest-point test compares products of squared edge lengths with an
 # absolute tolerance (~1e-12), so millimetre triangles in metre units land in the wrong Voronoi
@@ -31,6 +50,7 @@ def _trimesh(mesh: Any) -> Any:
 
 
 def diagonal(mesh: Any) -> float:
+    """Length of the bounding-box diagonal of `mesh` (a Mesh or trimesh), by trimesh."""
     tm = _trimesh(mesh)
     return float(np.linalg.norm(tm.bounds[1] - tm.bounds[0]))
 
@@ -358,6 +378,7 @@ def compare(frame: Any, ref: dict[str, npt.NDArray[Any]], diagonal: float,
     return out
 
 
+@spelled_out(*keyword_parameters(RenderOptions))
 def agreement(renderer: Any, gts: Any, mesh: Any, camera: Any, **render_options: Any) -> dict[str, float]:
     """Renders ``gts`` and compares it (``compare``) with trimesh's ray cast of ``mesh`` seen by
     the same camera at the renderer's size; ``nan`` counts NaN depths and normals together."""

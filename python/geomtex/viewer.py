@@ -13,23 +13,24 @@ ipyevents; without ipyevents the buttons and sliders still orbit and zoom).
 from __future__ import annotations
 
 import io
-from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 from PIL import Image
 
 from . import _check, _optional
+from ._bridge import UNCHANGED, keyword_parameters, spelled_out
 from ._camera import Camera
 from ._errors import ParameterError
 from ._kinds import adopt
 from ._preview import patch_tint
 from ._scene import Scene
 from ._set import GeometryTextureSet
+from ._viewstate import SHOW_KEYWORDS, Compare, ViewState
 
-Shading = Literal["shaded", "patches", "normals", "depth"]
-Compare = Literal["textures", "mesh", "beside", "overlay"]
+__all__ = ["ViewState", "Viewer", "show"]
+
 _SHADINGS = ("shaded", "patches", "normals", "depth")
 _COMPARES = ("textures", "mesh", "beside", "overlay")
 _QUALITIES = ("fast", "balanced", "exact")
@@ -58,22 +59,6 @@ def _bounds(obj: Any) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]
     return every.min(axis=0), every.max(axis=0)
 
 
-@dataclass
-class ViewState:
-    """Where the camera is and what is drawn; every control of the viewer edits one field."""
-
-    azimuth_deg: float = 30.0
-    elevation_deg: float = 20.0
-    #: Camera distance from the box centre, in bounding-box diagonals.
-    distance: float = 1.3
-    yfov_deg: float = 40.0
-    quality: str = "exact"
-    lod: bool = False
-    shading: str = "shaded"
-    compare: str = "textures"
-    stats: dict[str, Any] = field(default_factory=dict)
-
-
 class Viewer:
     """The state, the rendering and the widgets of one view. `orbit`, `zoom` and `set` change the
     view and redraw; the widgets' callbacks call them, and so can code (or a test)."""
@@ -83,6 +68,7 @@ class Viewer:
     #: Distance factor per wheel notch (100 units of deltaY).
     ZOOM_PER_NOTCH = 1.15
 
+    @spelled_out(*keyword_parameters(ViewState, drop=("stats",)))
     def __init__(self, obj: Any, *, mesh: Any = None, width: int = 512, height: int = 384,
                  compare: Compare | None = None, **state: Any) -> None:
         from ._mesh import as_mesh
@@ -103,12 +89,15 @@ class Viewer:
     # -- the view -------------------------------------------------------------------------------
 
     def camera(self) -> Camera:
+        """The camera of the current view: orbiting the box centre about world +Y at
+        ``state.distance`` diagonals."""
         s = self.state
         az, el = np.radians(s.azimuth_deg), np.radians(s.elevation_deg)
         direction = np.array([np.cos(el) * np.sin(az), np.sin(el), np.cos(el) * np.cos(az)])
         eye = self.centre + direction * s.distance * self.diagonal
         return Camera.look_at(eye, self.centre, up=(0.0, 1.0, 0.0), yfov_deg=s.yfov_deg)
 
+    @spelled_out(*keyword_parameters(ViewState, default=UNCHANGED, drop=("stats",)))
     def set(self, redraw: bool = True, **changes: Any) -> None:
         """Changes any ViewState fields and redraws. Every value is checked before any is set, so
         a bad one changes nothing."""
@@ -139,6 +128,7 @@ class Viewer:
             self.redraw()
 
     def orbit(self, d_azimuth_deg: float, d_elevation_deg: float) -> None:
+        """Turns the camera by these many degrees of azimuth and elevation and redraws."""
         self.set(azimuth_deg=self.state.azimuth_deg + _check.real("d_azimuth_deg", d_azimuth_deg),
                  elevation_deg=self.state.elevation_deg + _check.real("d_elevation_deg", d_elevation_deg))
 
@@ -186,11 +176,13 @@ class Viewer:
         return ((ours.astype(np.uint16) + theirs) // 2).astype(np.uint8)
 
     def png(self) -> bytes:
+        """The current image as PNG bytes."""
         buf = io.BytesIO()
         Image.fromarray(self.image).save(buf, format="PNG")
         return buf.getvalue()
 
     def redraw(self) -> None:
+        """Renders the view again and updates the widget, where one is shown."""
         self.image = self.render()
         if self._widget is not None:
             self._widgets["image"].value = self.png()
@@ -267,6 +259,7 @@ class Viewer:
         return self.png()
 
 
+@spelled_out(*SHOW_KEYWORDS)
 def show(obj: Any, *, mesh: Any = None, width: int = 512, height: int = 384, **view: Any) -> Viewer:
     """An interactive view of `obj` (anything a Scene takes: a set, Mesh, trimesh, surfels, an
     IgtMesh, a gdm.Shell, a Scene, or a mesh path) in Jupyter: drag to

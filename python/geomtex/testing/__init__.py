@@ -1,5 +1,6 @@
-"""Meshes for stress-testing conversion and rendering, used by geomtex's own tests and benchmarks
-and by anyone checking their own meshes:
+"""Meshes for stress-testing conversion and rendering.
+
+Used by geomtex's own tests and benchmarks, and by anyone checking their own meshes:
 
 - ``damage``: damaged and transformed copies (soup, flipped faces, holes, fins, slivers, similar);
 - ``shapes``: generated meshes and height grids (``GENERATED`` by name, height fields, horizons);
