@@ -108,7 +108,8 @@ class GeometryTextureSet(RayQueries, Wrapped, core=_core.GeometryTextureSet,
 
     stats = forward[dict[str, Any]](
         "Figures of the conversion: the mesh (faces, vertices, diagonal, degenerate_faces, "
-        "boundary_edges, ...), the partition (charts, vsa_charts, chart_error, charts_capped, ...), "
+        "boundary_edges, ...), the partition (charts, cone_partition: 1 for the cone partition, 0 for VSA, "
+        "vsa_charts: its charts before repair, chart_error for VSA, charts_capped, ...), "
         "the maps (bytes, texels, texel_size, empty_fraction, height_bits, "
         "max_quantization_error), the error (reconstruction_error_p99 and _max, max_error, "
         "max_bytes, max_bytes_binding, max_bytes_exceeded, ...), per-patch arrays (patch_resolution, "
