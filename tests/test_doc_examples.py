@@ -27,6 +27,7 @@ import importlib.util
 import re
 import traceback
 import types
+import warnings
 from pathlib import Path
 
 import pytest
@@ -106,7 +107,11 @@ def test_page_examples_run(page: Path, tmp_path: Path, monkeypatch: pytest.Monke
             skipped |= needs
             continue
         try:
-            exec(compile(code, f"{page.relative_to(ROOT)}:{line}", "exec"), namespace)
+            with warnings.catch_warnings():
+                # An example a reader copies must not print numpy's warnings (NaN or inf in
+                # arithmetic): it would teach them to ignore warnings.
+                warnings.simplefilter("error", RuntimeWarning)
+                exec(compile(code, f"{page.relative_to(ROOT)}:{line}", "exec"), namespace)
         except Exception:
             pytest.fail(f"{page.relative_to(ROOT)}, the block at line {line} failed:\n{code}\n"
                         f"{traceback.format_exc()}", pytrace=False)
