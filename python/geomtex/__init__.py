@@ -15,7 +15,7 @@ from typing import Any, Callable, Literal
 # machines; geomtex picks its adapter itself, so the layer is not needed.
 os.environ.setdefault("NODEVICE_SELECT", "1")
 
-from . import _check, _core, gdm, igt  # noqa: E402
+from . import _check, _core, data, gdm, igt  # noqa: E402
 from ._camera import Camera  # noqa: E402
 from ._check import number as _number  # noqa: E402
 from ._core import __version__  # noqa: E402
@@ -63,6 +63,7 @@ __all__ = [
     "__version__",
     "as_mesh",
     "convert",
+    "data",
     "gdm",
     "igt",
     "info",

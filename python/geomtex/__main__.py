@@ -18,13 +18,10 @@ from geomtex._files import save_image
 from geomtex._preview import overview
 
 
-def default_mesh() -> Path:
-    """The 56,172-face watertight bunny in the pymeshlab wheel: every install has a real mesh."""
-    try:
-        import pymeshlab
-    except ImportError:
-        raise SystemExit("no mesh given and pymeshlab (which ships the default bunny) is not installed")
-    return Path(pymeshlab.__file__).parent / "tests" / "sample_meshes" / "bunny.obj"
+def default_mesh() -> tuple[Path, gt.Mesh]:
+    """The 56,172-face watertight bunny bundled with geomtex (gt.data.bunny()) and the file it
+    ships in, whose stem names the outputs: every install has a real mesh."""
+    return Path(gt.data.__file__).with_name("bunny.npz"), gt.data.bunny()
 
 
 def stats_table(gts: gt.GeometryTextureSet) -> str:
@@ -83,9 +80,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--quiet", action="store_true", help="no progress bar")
     args = ap.parse_args(argv)
 
-    path = Path(args.mesh) if args.mesh else default_mesh()
+    path, mesh = (Path(args.mesh), None) if args.mesh else default_mesh()
     try:
-        mesh = gt.load_mesh(path)
+        mesh = gt.load_mesh(path) if mesh is None else mesh
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", gt.CapWarning)
             gts = gt.convert(mesh, max_resolution=args.max_resolution, charts=args.charts,
