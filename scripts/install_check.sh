@@ -4,7 +4,7 @@
 # checkout on its path), and there
 #   (a) runs README.md's quick start (the first ```python block under "## Quick start") in an
 #       empty folder and checks it wrote bunny.png, and that the picture is not one flat color;
-#   (b) prints gt.info() (the adapter and a self-check of every object kind);
+#   (b) prints gt.info() (the adapter and a self-check of every object kind), all passing;
 #   (c) executes examples/quickstart.ipynb and examples/batch.ipynb top to bottom in a Jupyter
 #       kernel of that venv (nbclient), failing on any cell's error.
 # Called by .ci/run before scripts/test.sh (see there why before). Needs the network for pip.
@@ -84,7 +84,12 @@ PY
 step "(a) took $(seconds "$t") s"
 
 step "(b) gt.info()"
-run_clean "$work" -c "import geomtex as gt; print(gt.info())"
+# Every kind's self-check must pass with only what the wheel's dependencies brought.
+run_clean "$work" -c 'import geomtex as gt
+info = gt.info()
+print(info)
+failed = [k for k, r in info["self_check"].items() if not r["passed"]]
+assert not failed, f"self-checks failed: {failed}"'
 
 step "(c) the example notebooks"
 # A kernel spec of this venv, so the notebooks cannot run in some other Python's kernel.
