@@ -28,8 +28,13 @@ command -v cargo >/dev/null 2>&1 || {
   echo "setup: $PY is older than Python 3.11" >&2; exit 1; }
 
 # A Vulkan driver for the renderer: Mesa's lavapipe (software) where no other is installed.
-if ! ls /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json >/dev/null 2>&1 \
-   || ! ldconfig -p 2>/dev/null | grep -q libvulkan.so.1; then
+# (Any one driver manifest will do: `ls` of both folders' globs failed when either was empty.)
+has_vulkan_icd() {
+  local f
+  for f in /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json; do [ -e "$f" ] && return 0; done
+  return 1
+}
+if ! has_vulkan_icd || ! ldconfig -p 2>/dev/null | grep libvulkan.so.1 >/dev/null; then
   if command -v apt-get >/dev/null 2>&1; then
     say "installing Mesa's software Vulkan driver (mesa-vulkan-drivers, libvulkan1) with apt-get"
     as_root apt-get update -qq
