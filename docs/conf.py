@@ -66,7 +66,7 @@ html_title = "geomtex"
 #: documented as ``geomtex.Camera``. Filled from the public modules' ``__all__``.
 _PUBLIC: dict[str, str] = {}
 _PUBLIC_MODULES = ("geomtex", "geomtex.igt", "geomtex.gdm", "geomtex.batch", "geomtex.reference",
-                   "geomtex.viewer", "geomtex.testing")
+                   "geomtex.viewer", "geomtex.testing", "geomtex.data")
 
 
 def _public_names() -> dict[str, str]:

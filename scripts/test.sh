@@ -3,7 +3,17 @@
 # ruff), Rust core tests (no Python; the one GPU test skips without an adapter), pytest, and the type stubs.
 # Any failure — including pytest finding no tests (exit 5) — fails the script.
 set -euo pipefail
-. "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
+# The lints need rustfmt and clippy (the demo does not): checked before the set-up's long steps
+# (a missing cargo is the set-up's to report).
+[ -x "$HOME/.cargo/bin/cargo" ] && export PATH="$HOME/.cargo/bin:$PATH"
+if command -v cargo >/dev/null 2>&1; then
+  for tool in clippy fmt; do
+    cargo "$tool" --version >/dev/null 2>&1 || {
+      echo "test: cargo $tool is missing; install it with: rustup component add ${tool/fmt/rustfmt}" >&2; exit 1; }
+  done
+fi
+# Every extra (test, bench, docs, notebook, gdm, distributed) on top of the demo's packages.
+GEOMTEX_SETUP=test . "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 
 echo "== rustfmt, clippy (core and binding layer together), ruff"
 cargo fmt --check

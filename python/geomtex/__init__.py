@@ -15,7 +15,7 @@ from typing import Any, Callable, Literal
 # machines; geomtex picks its adapter itself, so the layer is not needed.
 os.environ.setdefault("NODEVICE_SELECT", "1")
 
-from . import _check, _core, _progress, gdm, igt  # noqa: E402
+from . import _check, _core, _progress, data, gdm, igt  # noqa: E402
 from ._bridge import spelled_out as _spelled_out  # noqa: E402
 from ._camera import Camera  # noqa: E402
 from ._check import number as _number  # noqa: E402
@@ -66,6 +66,7 @@ __all__ = [
     "as_mesh",
     "batch",
     "convert",
+    "data",
     "gdm",
     "igt",
     "info",
@@ -76,11 +77,9 @@ __all__ = [
     "show",
     "testing",
     "viewer",
-    # "data",  # gt.data.bunny(): the bundled mesh (issue 40, another change)
 ]
 
 ProgressCallback = Callable[[str, float], "bool | None"]
-
 
 
 def convert(

@@ -1,6 +1,6 @@
 """Command line: convert a mesh file to geometry textures, write the .gtex, a PNG and a stats table.
 
-    python -m geomtex                      # the bunny that ships inside pymeshlab
+    python -m geomtex                      # the bunny that ships inside geomtex (gt.data.bunny())
     python -m geomtex mesh.obj -o out/ --max-resolution 512
     python -m geomtex info                 # adapter, features, limits and a self-check per kind
 """
@@ -21,13 +21,10 @@ from geomtex._files import save_image
 from geomtex._preview import overview
 
 
-def default_mesh() -> Path:
-    """The 56,172-face watertight bunny in the pymeshlab wheel: every install has a real mesh."""
-    try:
-        import pymeshlab
-    except ImportError:
-        raise SystemExit("no mesh given and pymeshlab (which ships the default bunny) is not installed")
-    return Path(pymeshlab.__file__).parent / "tests" / "sample_meshes" / "bunny.obj"
+def default_mesh() -> tuple[Path, gt.Mesh]:
+    """The 56,172-face watertight bunny bundled with geomtex (gt.data.bunny()) and the file it
+    ships in, whose stem names the outputs: every install has a real mesh."""
+    return Path(gt.data.__file__).with_name("bunny.npz"), gt.data.bunny()
 
 
 def _charts_row(st: dict[str, Any]) -> str:
@@ -95,7 +92,7 @@ def main(argv: list[str] | None = None) -> int:
     if argv[:1] == ["info"]:
         return info_main()
     ap = argparse.ArgumentParser(prog="python -m geomtex", description=__doc__.splitlines()[0])
-    ap.add_argument("mesh", nargs="?", help="mesh file (OBJ/PLY/STL/OFF); default: pymeshlab's bunny")
+    ap.add_argument("mesh", nargs="?", help="mesh file (OBJ/PLY/STL/OFF); default: the bunny bundled with geomtex")
     ap.add_argument("-o", "--out", default="out", help="output folder (default: out/)")
     ap.add_argument("--version", action="version", version=f"geomtex {gt.__version__}")
     ap.add_argument("--max-resolution", type=int, default=None,
@@ -111,9 +108,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="no progress (a bar on a terminal, a line per stage in a log otherwise)")
     args = ap.parse_args(argv)
 
-    path = Path(args.mesh) if args.mesh else default_mesh()
+    path, mesh = (Path(args.mesh), None) if args.mesh else default_mesh()
     try:
-        mesh = gt.load_mesh(path)
+        mesh = gt.load_mesh(path) if mesh is None else mesh
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", gt.CapWarning)
             gts = gt.convert(mesh, max_resolution=args.max_resolution, charts=args.charts,

@@ -76,8 +76,12 @@ def prepare(grids: Any, extent: Any, properties: Any, cmap: Any, property_range:
 
 
 def _colorize(props: Sequence[npt.NDArray[np.float64]], cmap: Any, property_range: Any) -> list[npt.NDArray[np.uint8]]:
-    import matplotlib
-    from matplotlib.colors import Colormap
+    try:
+        import matplotlib
+        from matplotlib.colors import Colormap
+    except ImportError as e:
+        raise ImportError(f"properties are colored through a matplotlib colormap, and matplotlib is not installed "
+                          f"({e}); pip install matplotlib, or geomtex[notebook]") from e
 
     if isinstance(cmap, Colormap):
         colormap = cmap
