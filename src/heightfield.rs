@@ -75,22 +75,44 @@ fn outline_at_texel(p: &Patch, i: i64, j: i64) -> f64 {
 /// row by row from texel (-1, -1). The atlas stores maps so (src/render/atlas.rs), so that the
 /// shader reads the continued border with a plain clamped load instead of computing it per
 /// read (which cost lavapipe a third of a tiled frame).
-fn padded<T>(p: &Patch, value: impl Fn(i64, i64) -> T) -> Vec<T> {
+/// `inside` gives a texel's value inside the map (what `border` gives there, read directly),
+/// `border` one continued past the edge.
+fn padded<T>(p: &Patch, inside: impl Fn(usize) -> T, border: impl Fn(i64, i64) -> T) -> Vec<T> {
     let (w, h) = (i64::from(p.width), i64::from(p.height));
     (-1..=h)
         .flat_map(|j| (-1..=w).map(move |i| (i, j)))
-        .map(|(i, j)| value(i, j))
+        .map(|(i, j)| {
+            if (0..w).contains(&i) && (0..h).contains(&j) {
+                inside((j * w + i) as usize)
+            } else {
+                border(i, j)
+            }
+        })
         .collect()
 }
 
-/// Height codes with the continued border (`padded`).
+/// Height codes with the continued border (`padded`). Inside, `code_at_texel` is the stored
+/// code kept within 1..=code_max (0 for an empty texel).
 pub(crate) fn padded_heights(p: &Patch) -> Vec<u16> {
-    padded(p, |i, j| code_at_texel(p, i, j) as u16)
+    let code_max = p.code_max();
+    padded(
+        p,
+        |t| match p.heights[t] {
+            0 => 0,
+            q => q.clamp(1, code_max),
+        },
+        |i, j| code_at_texel(p, i, j) as u16,
+    )
 }
 
-/// Outline codes with the continued border (`padded`).
+/// Outline codes with the continued border (`padded`). Inside, `outline_at_texel` is the
+/// stored code kept within -127..=127.
 pub(crate) fn padded_outline(p: &Patch) -> Vec<i8> {
-    padded(p, |i, j| outline_at_texel(p, i, j) as i8)
+    padded(
+        p,
+        |t| p.outline[t].max(-127),
+        |i, j| outline_at_texel(p, i, j) as i8,
+    )
 }
 
 /// The cell whose lower-left texel centre is (i, j) (values continued past the map's edge);
@@ -341,14 +363,22 @@ pub fn min_max_pyramid(p: &Patch) -> Vec<(u32, u32, Vec<u32>)> {
             (hi << 16) | lo
         }
     };
-    let (w, h) = (p.width as i64, p.height as i64);
-    let (cw, ch) = (w as u32 + 1, h as u32 + 1);
+    let (cw, ch) = (p.width + 1, p.height + 1);
+    // Cell (c - 1, r - 1) as `cell_at` makes it, read from the padded maps: its corners are
+    // padded texels (c, r) to (c + 1, r + 1), each continued once rather than four times.
+    let (codes, outline) = (padded_heights(p), padded_outline(p));
+    let padded_width = p.width as usize + 2;
     let mut base = Vec::with_capacity((cw * ch) as usize);
-    for r in 0..ch as i64 {
-        for c in 0..cw as i64 {
-            base.push(match cell_at(p, c - 1, r - 1) {
-                Some(cell) => pack(&mut cell.codes.into_iter().map(|q| q as u32)),
-                None => 0,
+    for r in 0..ch as usize {
+        for c in 0..cw as usize {
+            let corners = [0, 1, padded_width, padded_width + 1].map(|d| r * padded_width + c + d);
+            let filled = corners.iter().all(|&t| codes[t] > 0);
+            // decode_outline keeps the sign, so a corner inside has a code >= 0.
+            let some_inside = corners.iter().any(|&t| outline[t] >= 0);
+            base.push(if filled && some_inside {
+                pack(&mut corners.iter().map(|&t| u32::from(codes[t])))
+            } else {
+                0
             });
         }
     }
@@ -400,6 +430,40 @@ pub(crate) fn test_patch(w: u32, h: u32, bits: u8, f: impl Fn(u32, u32) -> Optio
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The padded maps' fast interior read and the pyramid built from them agree with the
+    /// per-texel definitions (`code_at_texel`, `outline_at_texel`, `cell_at`) everywhere, on a
+    /// patch with holes, ragged outline codes (-128 included) and both code widths.
+    #[test]
+    fn padded_maps_and_pyramid_match_their_definitions() {
+        for bits in [8, 16] {
+            let mut p = patch_bits(13, 9, bits, |i, j| {
+                ((i * 7 + j * 3) % 11 != 0).then(|| f64::from((i * 5 + j * 9) % 17) / 16.0)
+            });
+            p.outline = (0..p.texels())
+                .map(|t| [-128, -40, -1, 0, 3, 90, 127][t % 7])
+                .collect();
+            let (heights, outline) = (padded_heights(&p), padded_outline(&p));
+            let (w, h) = (i64::from(p.width), i64::from(p.height));
+            for j in -1..=h {
+                for i in -1..=w {
+                    let t = ((j + 1) * (w + 2) + i + 1) as usize;
+                    assert_eq!(f64::from(heights[t]), code_at_texel(&p, i, j), "{i} {j}");
+                    assert_eq!(f64::from(outline[t]), outline_at_texel(&p, i, j), "{i} {j}");
+                }
+            }
+            let base = &min_max_pyramid(&p)[0].2;
+            for r in 0..=h {
+                for c in 0..=w {
+                    let want = cell_at(&p, c - 1, r - 1).map_or(0, |cell| {
+                        let codes = cell.codes.map(|q| q as u32);
+                        (codes.iter().max().unwrap() << 16) | codes.iter().min().unwrap()
+                    });
+                    assert_eq!(base[(r * (w + 1) + c) as usize], want, "cell {c} {r}");
+                }
+            }
+        }
+    }
 
     fn patch(w: u32, h: u32, f: impl Fn(u32, u32) -> Option<f64>) -> Patch {
         patch_bits(w, h, 16, f)

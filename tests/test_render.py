@@ -467,3 +467,17 @@ def test_scenes_past_float32_are_refused_not_drawn_blank() -> None:
                 gts.intersects_first(origin, down)
     with pytest.raises(gt.ParameterError, match="float32"):
         gt.Renderer(64, 64).render(gt.Mesh(sphere.vertices, sphere.faces), gt.Camera.orthographic(np.eye(4), 1e-300))
+
+
+def test_a_sets_first_frame_reports_its_one_off_setup() -> None:
+    """What a set's first frame makes for later ones (maps uploaded, ownership, tile pieces) is
+    reported as setup_ms, part of cpu_ms, and not again: the second frame reports 0 and draws
+    the same pixels. A set made here, so no other test has drawn it before."""
+    mesh = converted("sphere").mesh
+    gts = gt.convert(mesh, max_resolution=96)
+    renderer = gt.Renderer(96, 96)
+    camera = look_from(mesh, (1, 0.6, 0.8))
+    first, second = renderer.render(gts, camera), renderer.render(gts, camera)
+    assert 0 < first.stats["setup_ms"] <= first.stats["cpu_ms"], first.stats
+    assert second.stats["setup_ms"] == 0
+    np.testing.assert_array_equal(first.depth, second.depth)

@@ -71,7 +71,8 @@ class Frame(Wrapped, core=_core.Frame,
     stats = forward[dict[str, Any]](
         "gpu_ms (GPU timestamps, None where unsupported), cpu_ms (the whole call), patches_drawn, "
         "patches_culled (boxes outside the view), meshes_drawn, texture_bytes (the drawn sets' maps and "
-        "pyramids on the adapter), near, method, primary, covered_pixels, searches and "
+        "pyramids on the adapter), setup_ms (of cpu_ms, the one-off a set's first frame pays: upload, "
+        "ownership, tile pieces; 0 after), near, method, primary, covered_pixels, searches and "
         "searches_per_pixel (covered_pixels and the per-pixel figures None without \"patch_id\" in "
         "``outputs``); with a light the shadow pass's figures (shadow_ms, shadowed_pixels, ...); "
         "with surfels their counts (surfels_drawn, ...); with count_fetches also fetches, "

@@ -13,6 +13,7 @@ use super::device::{texture_2d, Gpu};
 use crate::error::{GeomtexError, Result};
 use crate::gtex::{GeometryTextureSet, NEUTRAL_COLOR};
 use crate::heightfield::{min_max_pyramid, padded_heights, padded_outline};
+use rayon::prelude::*;
 
 /// A patch's min-max pyramid: per level its width, height and packed values.
 pub(crate) type Pyramid = Vec<(u32, u32, Vec<u32>)>;
@@ -299,19 +300,42 @@ pub(crate) fn pack_node(v: u32, height_bits: u8) -> u16 {
 pub(crate) const EMPTY_NODE: u16 = 0x00ff;
 
 /// Every patch's min-max pyramid in one R16Uint texture (`pack_node`), row by row, and where
-/// each patch's starts. Made and packed one patch at a time, so the full-width pyramids of a
-/// large set never sit in memory together.
+/// each patch's starts. Made on all cores a few patches at a time and packed in patch order,
+/// so the full-width pyramids of a large set never sit in memory together.
+/// Texels whose patches' full-width pyramids are made together: 16 M texels hold about 90 MB
+/// of u32 nodes (a patch larger than that is made alone).
+const PYRAMID_TEXELS_AT_ONCE: usize = 1 << 24;
+
+/// Consecutive runs of `patches` holding at most `texels` texels each (at least one patch).
+fn texel_chunks(patches: &[crate::gtex::Patch], texels: usize) -> Vec<&[crate::gtex::Patch]> {
+    let mut chunks = Vec::new();
+    let (mut start, mut held) = (0, 0);
+    for (i, p) in patches.iter().enumerate() {
+        if held + p.texels() > texels && i > start {
+            chunks.push(&patches[start..i]);
+            (start, held) = (i, 0);
+        }
+        held += p.texels();
+    }
+    if start < patches.len() {
+        chunks.push(&patches[start..]);
+    }
+    chunks
+}
+
 fn upload_pyramids(
     gpu: &Gpu,
     set: &GeometryTextureSet,
 ) -> Result<(wgpu::TextureView, Vec<[u32; 2]>, u64)> {
     let mut values: Vec<u16> = Vec::new();
     let mut pyramid_at = Vec::with_capacity(set.patches.len());
-    for p in &set.patches {
-        let levels: Pyramid = min_max_pyramid(p);
-        pyramid_at.push([values.len() as u32, levels.len() as u32]);
-        for (_, _, v) in levels {
-            values.extend(v.iter().map(|&v| pack_node(v, p.height_bits)));
+    for chunk in texel_chunks(&set.patches, PYRAMID_TEXELS_AT_ONCE) {
+        let made: Vec<Pyramid> = chunk.par_iter().map(min_max_pyramid).collect();
+        for (p, levels) in chunk.iter().zip(made) {
+            pyramid_at.push([values.len() as u32, levels.len() as u32]);
+            for (_, _, v) in levels {
+                values.extend(v.iter().map(|&v| pack_node(v, p.height_bits)));
+            }
         }
     }
     let side = gpu.device.limits().max_texture_dimension_2d;

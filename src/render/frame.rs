@@ -33,6 +33,10 @@ pub struct Frame {
     pub meshes_drawn: usize,
     /// Bytes the drawn texture sets' maps and pyramids take on the adapter.
     pub texture_bytes: u64,
+    /// Milliseconds of this frame's `cpu_ms` spent making what a texture set's first frame
+    /// needs (maps and pyramids uploaded, ownership, tile pieces; kinds/gtex): a one-off, 0 for
+    /// sets drawn before.
+    pub setup_ms: f64,
     pub near: f64,
     /// The height-map search the frame was drawn with.
     pub method: Method,
@@ -183,6 +187,7 @@ impl Frame {
             ("patches_culled", count(self.patches_culled)),
             ("meshes_drawn", count(self.meshes_drawn)),
             ("texture_bytes", StatValue::Int(self.texture_bytes as i64)),
+            ("setup_ms", StatValue::Float(self.setup_ms)),
             ("near", StatValue::Float(self.near)),
             ("method", StatValue::Text(self.method.as_str())),
             ("primary", StatValue::Text(self.primary.as_str())),
@@ -252,6 +257,7 @@ mod tests {
             patches_culled: 1,
             meshes_drawn: 0,
             texture_bytes: 0,
+            setup_ms: 0.0,
             near: 0.25,
             method: Method::MaxMip,
             primary: Primary::Tiles,
@@ -275,6 +281,7 @@ mod tests {
             "patches_culled",
             "meshes_drawn",
             "texture_bytes",
+            "setup_ms",
             "near",
             "method",
             "primary",
@@ -285,7 +292,7 @@ mod tests {
         assert_eq!(names(&frame(None)), plain);
         let counted = frame(Some(30));
         assert_eq!(
-            names(&counted)[12..],
+            names(&counted)[13..],
             [
                 "fetches",
                 "fetches_per_pixel",
@@ -296,16 +303,16 @@ mod tests {
         let stats = counted.stats();
         assert_eq!(stats[0].1, StatValue::Absent);
         assert_eq!(stats[2].1, StatValue::Int(3));
-        assert_eq!(stats[7].1, StatValue::Text("maxmip"));
+        assert_eq!(stats[8].1, StatValue::Text("maxmip"));
         // Nothing covered and no searches: the figures divide by one, not zero.
-        assert_eq!(stats[13].1, StatValue::Float(30.0));
         assert_eq!(stats[14].1, StatValue::Float(30.0));
-        assert_eq!(stats[15].1, StatValue::Float(60.0));
+        assert_eq!(stats[15].1, StatValue::Float(30.0));
+        assert_eq!(stats[16].1, StatValue::Float(60.0));
         // Without the patch ids the per-pixel figures are not known, not zero.
         let mut depth_only = frame(Some(30));
         depth_only.keep_only(Outputs::parse(&["depth"]).unwrap());
         let stats = depth_only.stats();
-        assert_eq!(stats[9], ("covered_pixels", StatValue::Absent));
-        assert_eq!(stats[13].1, StatValue::Absent);
+        assert_eq!(stats[10], ("covered_pixels", StatValue::Absent));
+        assert_eq!(stats[14].1, StatValue::Absent);
     }
 }

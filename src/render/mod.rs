@@ -397,6 +397,7 @@ impl Renderer {
             patches_culled: tally.patches_culled,
             meshes_drawn: tally.meshes_drawn,
             texture_bytes: tally.texture_bytes,
+            setup_ms: tally.setup_ms,
             near: lens.near,
             method: search.method,
             primary: search.primary,

@@ -16,9 +16,11 @@ pub(crate) mod boxes;
 mod owners;
 
 use std::sync::{Arc, Mutex, OnceLock};
+use std::time::Instant;
 
 use bytemuck::Zeroable;
 use glam::{DMat3, DMat4, DVec3};
+use rayon::prelude::*;
 
 use super::{storage_buffer, DrawCall, FrameView, Kind, KindContext, Tally, TraceCall, UploadCache};
 use crate::bvh::{Aabb, Bvh};
@@ -58,6 +60,8 @@ pub(crate) struct GtexUpload {
     /// Parallel queries' tiles, one per placement of the set (a scene may hold it several
     /// times), all along the last direction asked for.
     parallel: Mutex<Vec<Arc<ParallelTiles>>>,
+    /// Seconds spent making the above and not yet reported in a frame's `setup_ms`.
+    unreported_seconds: Mutex<f64>,
 }
 
 /// Placements of one set whose parallel tiles are kept (each a few MB at most: the bunny's take
@@ -96,13 +100,33 @@ struct Tracing {
 
 impl GtexUpload {
     fn new(gpu: &Gpu, set: &GeometryTextureSet) -> Result<GtexUpload> {
+        let start = Instant::now();
+        let atlas = Atlas::upload(gpu, set)?;
         Ok(GtexUpload {
-            atlas: Atlas::upload(gpu, set)?,
+            atlas,
             owned: OnceLock::new(),
             tracing: OnceLock::new(),
             tile_pieces: OnceLock::new(),
             parallel: Mutex::new(Vec::new()),
+            unreported_seconds: Mutex::new(start.elapsed().as_secs_f64()),
         })
+    }
+
+    /// `make`'s result, its time counted for the next frame's `setup_ms`.
+    fn timed<T>(&self, make: impl FnOnce() -> T) -> T {
+        let start = Instant::now();
+        let made = make();
+        *self.unreported() += start.elapsed().as_secs_f64();
+        made
+    }
+
+    fn unreported(&self) -> std::sync::MutexGuard<'_, f64> {
+        (self.unreported_seconds.lock()).unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// The one-off setup seconds not yet reported, and none left to report.
+    fn take_setup_seconds(&self) -> f64 {
+        std::mem::take(&mut *self.unreported())
     }
 
     fn tracing(&self, gpu: &Gpu, set: &GeometryTextureSet) -> &Tracing {
@@ -120,11 +144,15 @@ impl GtexUpload {
 
     fn tile_pieces(&self, gpu: &Gpu, set: &GeometryTextureSet) -> &Pieces {
         self.tile_pieces
-            .get_or_init(|| Pieces::for_tiles(gpu, set, self.owned(set)))
+            .get_or_init(|| {
+                let owned = self.owned(set); // timed on its own, not twice
+                self.timed(|| Pieces::for_tiles(gpu, set, owned))
+            })
     }
 
     fn owned(&self, set: &GeometryTextureSet) -> &[Vec<u16>] {
-        self.owned.get_or_init(|| owners::owned_heights(set))
+        self.owned
+            .get_or_init(|| self.timed(|| owners::owned_heights(set)))
     }
 
     /// The tiles for rays along `direction` (unit, in the query frame `view_from_world`) through
@@ -177,10 +205,9 @@ impl Pieces {
     /// 20,000 landed 0.10 of the diagonal nearer through the hierarchy; trimesh agreed with the
     /// tiles).
     fn new(gpu: &Gpu, set: &GeometryTextureSet, owned: &[Vec<u16>]) -> Pieces {
-        let list: Vec<PatchBoxGpu> = (0..)
-            .zip(set.patches.iter().zip(owned))
-            .flat_map(|(i, (p, heights))| patch_boxes(i, p, heights, &owned_pyramid(p, heights)))
-            .collect();
+        let list = per_patch(set, owned, |i, p, heights| {
+            patch_boxes(i, p, heights, &owned_pyramid(p, heights))
+        });
         Self::upload(gpu, list, Vec::new())
     }
 
@@ -189,12 +216,12 @@ impl Pieces {
     /// loaded machine) level 4 (16 texels) started 1.15-1.18 searches per covered pixel, level 5
     /// 1.24-1.31 in about 0.8x the frame time (shorter lists), level 6 1.8-2.0.
     fn for_tiles(gpu: &Gpu, set: &GeometryTextureSet, owned: &[Vec<u16>]) -> Pieces {
-        let (list, spans_column): (Vec<PatchBoxGpu>, Vec<bool>) = (0..)
-            .zip(set.patches.iter().zip(owned))
-            .flat_map(|(i, (p, heights))| {
+        let (list, spans_column): (Vec<PatchBoxGpu>, Vec<bool>) =
+            per_patch(set, owned, |i, p, heights| {
                 let pyramid = owned_pyramid(p, heights);
                 tile_pieces(i, p, heights, &pyramid, TILE_LEVEL, TILE_MIN_THICKNESS)
             })
+            .into_iter()
             .unzip();
         Self::upload(gpu, list, spans_column)
     }
@@ -219,11 +246,31 @@ impl Pieces {
     }
 }
 
-/// The min-max pyramid of a patch's owned heights.
+/// `make`'s pieces of every patch (index, patch, owned heights), made on all cores and listed
+/// in patch order, as a serial walk lists them.
+fn per_patch<T: Send>(
+    set: &GeometryTextureSet,
+    owned: &[Vec<u16>],
+    make: impl Fn(u32, &Patch, &[u16]) -> Vec<T> + Sync,
+) -> Vec<T> {
+    let lists: Vec<Vec<T>> = (0..set.patches.len())
+        .into_par_iter()
+        .map(|i| make(i as u32, &set.patches[i], &owned[i]))
+        .collect();
+    lists.into_iter().flatten().collect()
+}
+
+/// The min-max pyramid of a patch's owned heights (a copy of the patch's geometry with them:
+/// its normal, color and face lists are not needed, so not copied).
 fn owned_pyramid(p: &Patch, heights: &[u16]) -> Vec<(u32, u32, Vec<u32>)> {
     min_max_pyramid(&Patch {
         heights: heights.to_vec(),
-        ..p.clone()
+        outline: p.outline.clone(),
+        normals: Vec::new(),
+        colors: Vec::new(),
+        faces: Vec::new(),
+        ring_faces: Vec::new(),
+        ..*p
     })
 }
 
@@ -600,6 +647,7 @@ impl Kind for GtexKind {
         let (records, placements) = Self::records(&placing, set, &upload.atlas);
         tally.patch_ids += set.patches.len() as i32;
         tally.texture_bytes += upload.atlas.bytes;
+        tally.setup_ms += upload.take_setup_seconds() * 1e3;
         let visible = placements.iter().flatten().count();
         tally.patches_drawn += visible;
         tally.patches_culled += set.patches.len() - visible;
@@ -622,6 +670,7 @@ impl Kind for GtexKind {
             });
         }
         let pieces = upload.tile_pieces(gpu, set);
+        tally.setup_ms += upload.take_setup_seconds() * 1e3;
         let tiles = TileLists::build(piece_corners(pieces, &placements), frame.lens, frame.size)?;
         let buffers = tile_buffers(device, &tiles);
         let extra = tile_entries(pieces, &buffers);
