@@ -233,8 +233,9 @@ def info(check: bool = True) -> Info:
         ``passed``, IoU and depth p90 in radii, or the ``error`` it raised; and ``seconds``);
         then what this process has made on the adapter: ``devices_made`` (one per process:
         every Renderer, ray query, preview and the viewer share it), ``target_sets_made`` (one
-        per image size drawn), ``target_sizes_kept`` and ``uploads`` (objects copied to the
-        adapter, each once while it lives).
+        per image size drawn), ``target_sizes_kept``, ``kinds_made`` (object kinds whose
+        pipelines were made, each when its first object is drawn) and ``uploads`` (objects
+        copied to the adapter, each once while it lives).
 
     Raises
     ------

@@ -39,6 +39,7 @@ import os
 import tempfile
 import time
 import traceback
+import uuid
 from collections.abc import Iterable, Iterator, Sequence
 from typing import Any
 
@@ -425,12 +426,15 @@ def _run_conversions(todo: list[tuple[str, str, dict[str, Any], Any]], out: str,
                      manifest: dict[str, Any], client: Any, n_workers: int | None, progress: bool) -> None:
     distributed = _dask()
     _write_json_atomically(os.path.join(out, MANIFEST), manifest)  # the options, and any replayed rows
+    # Task keys name the input and this run: a key the scheduler still holds from an earlier run
+    # on the same client (released lazily) would hand back that run's result without converting.
+    run = uuid.uuid4().hex[:8]
     with _client(client, n_workers) as c, _Journal(os.path.join(out, JOURNAL)) as journal:
         futures = {}
         for key, desc, fp, source in todo:
             shipped = os.path.abspath(os.fspath(source)) if isinstance(source, (str, os.PathLike)) else source
             future = c.submit(_convert_one, shipped, os.path.join(out, f"{key}.gtex"), options,
-                              key=f"geomtex-convert-{key}", pure=False)
+                              key=f"geomtex-convert-{key}-{run}", pure=False)
             futures[future] = (key, desc, fp)
         bar = _bar(len(futures), "converting", progress, c)
         for future in distributed.as_completed(futures):

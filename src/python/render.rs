@@ -341,7 +341,11 @@ pub fn device_counts(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     let counts = match renderer {
         // Waits for a frame another thread is drawing: without the GIL.
         Some(r) => py.detach(|| lock(&r).counts()),
-        None => vec![("target_sets_made", 0), ("target_sizes_kept", 0)],
+        None => vec![
+            ("target_sets_made", 0),
+            ("target_sizes_kept", 0),
+            ("kinds_made", 0),
+        ],
     };
     for (k, v) in counts {
         d.set_item(k, v)?;

@@ -161,11 +161,14 @@ impl Renderer {
     }
 
     /// What this renderer has made so far: target sets (one per image size drawn), the image
-    /// sizes it keeps targets for, and uploads of objects to the adapter (every kind's).
+    /// sizes it keeps targets for, the object kinds whose pipelines it made (each on its first
+    /// object), and uploads of objects to the adapter (every kind's).
     pub fn counts(&self) -> Vec<(&'static str, u64)> {
+        let kinds_made = self.kinds.kinds.iter().filter(|k| k.is_made()).count();
         vec![
             ("target_sets_made", self.targets_made),
             ("target_sizes_kept", self.targets.len() as u64),
+            ("kinds_made", kinds_made as u64),
             ("uploads", kinds::uploads_made()),
         ]
     }

@@ -49,7 +49,7 @@ macro_rules! kinds {
         #[allow(clippy::vec_init_then_push)]
         pub(crate) fn registered(context: &KindContext) -> Registry {
             let mut kinds: Vec<Box<dyn AnyKind>> = Vec::new();
-            $($(#[$attr])* kinds.push(Box::new($module::$kind::new(context)));)*
+            $($(#[$attr])* kinds.push(Box::new(Lazy::new(context, $module::$kind::new)));)*
             Registry::new(kinds)
         }
     };
@@ -226,6 +226,10 @@ pub(crate) trait AnyKind: Send {
     fn casts_shadows(&self) -> bool;
     fn shadow_offset(&self, object: &Object, scale: f64) -> f64;
     fn purge(&mut self);
+    /// Whether the kind has been made (`Lazy`); a plain kind always is.
+    fn is_made(&self) -> bool {
+        true
+    }
 }
 
 /// The payload of `object`, which the registry routed to kind `K`.
@@ -291,6 +295,100 @@ impl<K: Kind> AnyKind for K {
 
     fn purge(&mut self) {
         Kind::purge(self)
+    }
+}
+
+/// A kind made when its first object is uploaded: its pipelines cost nothing until a scene
+/// holds one. Making every kind's pipelines took most of a new renderer's second on lavapipe,
+/// for kinds most scenes never draw. Every other call comes after the object's upload
+/// (`Renderer::upload_scene`), so finds the kind made.
+pub(crate) struct Lazy<K: Kind> {
+    make: fn(&KindContext) -> K,
+    frame_layout: wgpu::BindGroupLayout,
+    query_layout: wgpu::BindGroupLayout,
+    kind: Option<K>,
+}
+
+impl<K: Kind> Lazy<K> {
+    fn new(context: &KindContext, make: fn(&KindContext) -> K) -> Lazy<K> {
+        Lazy {
+            make,
+            frame_layout: context.frame_layout.clone(),
+            query_layout: context.query_layout.clone(),
+            kind: None,
+        }
+    }
+
+    fn made(&self) -> &K {
+        (self.kind.as_ref()).expect("a kind is made when its first object is uploaded")
+    }
+}
+
+impl<K: Kind> AnyKind for Lazy<K> {
+    fn payload_type(&self) -> TypeId {
+        TypeId::of::<K::Payload>()
+    }
+
+    fn upload(
+        &mut self,
+        gpu: &Gpu,
+        object: &Object,
+        view_from_object: &DMat4,
+        depth: &mut DepthRange,
+    ) -> Result<()> {
+        let (make, frame_layout, query_layout) =
+            (self.make, &self.frame_layout, &self.query_layout);
+        let kind = self.kind.get_or_insert_with(|| {
+            make(&KindContext {
+                gpu,
+                frame_layout,
+                query_layout,
+            })
+        });
+        AnyKind::upload(kind, gpu, object, view_from_object, depth)
+    }
+
+    fn draw(
+        &self,
+        gpu: &Gpu,
+        frame: &FrameView,
+        placed: &SceneObject,
+        tally: &mut Tally,
+    ) -> Vec<DrawCall> {
+        AnyKind::draw(self.made(), gpu, frame, placed, tally)
+    }
+
+    fn draw_surface(&self, gpu: &Gpu, frame: &FrameView, placed: &SceneObject) -> Option<DrawCall> {
+        AnyKind::draw_surface(self.made(), gpu, frame, placed)
+    }
+
+    fn trace(
+        &self,
+        gpu: &Gpu,
+        view_from_world: DMat4,
+        placed: &SceneObject,
+        ids: &mut Tally,
+        direction: Option<DVec3>,
+    ) -> Result<Option<TraceCall>> {
+        AnyKind::trace(self.made(), gpu, view_from_world, placed, ids, direction)
+    }
+
+    fn casts_shadows(&self) -> bool {
+        AnyKind::casts_shadows(self.made())
+    }
+
+    fn shadow_offset(&self, object: &Object, scale: f64) -> f64 {
+        AnyKind::shadow_offset(self.made(), object, scale)
+    }
+
+    fn purge(&mut self) {
+        if let Some(kind) = &mut self.kind {
+            AnyKind::purge(kind);
+        }
+    }
+
+    fn is_made(&self) -> bool {
+        self.kind.is_some()
     }
 }
 
