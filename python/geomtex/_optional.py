@@ -1,6 +1,7 @@
 """Optional dependencies, imported where a feature first needs them (``import geomtex`` needs
-none of them). A missing one is an ImportError that names the feature, the package and the pip
-command that brings it, never a bare "No module named …" from deep inside a call."""
+none of them; scipy is a runtime dependency, so it is imported plainly). A missing one is an
+ImportError that names the feature, the package and the pip command that brings it, never a
+bare "No module named …" from deep inside a call."""
 
 from __future__ import annotations
 
@@ -14,7 +15,6 @@ PACKAGES: dict[str, tuple[str, str | None]] = {
     "skimage": ("scikit-image", "gdm"),
     "ipywidgets": ("ipywidgets", "notebook"),
     "pymeshlab": ("pymeshlab", "igt"),
-    "scipy": ("scipy", None),
     "rtree": ("rtree", None),
     "embreex": ("embreex", "notebook"),
     "matplotlib": ("matplotlib", "notebook"),

@@ -154,7 +154,7 @@ def attach(
     igt.check_near(v, f)  # before the grids' nearest-face search, which a far mesh makes slow
     face_grid = np.zeros(len(f), dtype=np.int64)
     if igt.primary == "charts":
-        cKDTree = _optional.need("scipy.spatial", "geomtex.igt (charts as the primary grid)").cKDTree
+        from scipy.spatial import cKDTree
 
         listed = np.flatnonzero(igt.face_grid >= 0)
         centroids = igt.vertices[igt.faces[listed]].mean(axis=1)

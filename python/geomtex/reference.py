@@ -72,8 +72,8 @@ def mesh_to_points(mesh: Any, points: npt.ArrayLike, samples: int = 200_000, see
     """Distance from area-uniform samples of the mesh surface to the nearest of ``points``
     (how well the points cover the surface)."""
     import trimesh
+    from scipy.spatial import cKDTree
 
-    cKDTree = _optional.need("scipy.spatial", "geomtex.reference.mesh_to_points").cKDTree
     tm = _trimesh(mesh)
     samp, _ = trimesh.sample.sample_surface(tm, samples, seed=seed)
     d, _ = cKDTree(np.asarray(points, dtype=np.float64)).query(samp)
@@ -248,9 +248,8 @@ def corner_normals(mesh: Any, normals: str = "crease", crease_angle: float = 20.
 def _fan_normals(tm: Any, crease_angle: float) -> npt.NDArray[np.float64]:
     """``corner_normals``' fan rule: corners (3 f + k) joined across smooth edges at their shared
     vertices, then each connected set of corners takes its angle-weighted mean normal."""
-    coo_matrix = _optional.need("scipy.sparse", "geomtex.reference.corner_normals").coo_matrix
-    connected_components = _optional.need("scipy.sparse.csgraph", "geomtex.reference.corner_normals"
-                                          ).connected_components
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
 
     smooth = tm.face_adjacency_angles < np.radians(crease_angle)
     pairs, edges = tm.face_adjacency[smooth], tm.face_adjacency_edges[smooth]
