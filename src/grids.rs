@@ -195,6 +195,7 @@ fn tile_patch(g: &HeightGrid, (i0, j0): (usize, usize), tile: usize, bits: u8) -
         ring_faces: vec![],
         // A grid's surface ends at its missing samples: the texel grid is its outline.
         outline: vec![OUTLINE_INSIDE; tw * th],
+        error_bound: None,
     };
     for (i, j) in samples {
         let z = g.at(i, j);

@@ -424,6 +424,7 @@ pub(crate) fn test_patch(w: u32, h: u32, bits: u8, f: impl Fn(u32, u32) -> Optio
         faces: vec![],
         ring_faces: vec![],
         outline: vec![crate::gtex::OUTLINE_INSIDE; (w * h) as usize],
+        error_bound: None,
     }
 }
 

@@ -30,6 +30,7 @@ impl PatchBox {
             faces,
             ring_faces,
             outline: maps.outline,
+            error_bound: None,
         }
     }
 }

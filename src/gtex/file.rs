@@ -256,6 +256,7 @@ fn read_patch(r: &mut Reader, k: usize, version: u32) -> Result<Patch, String> {
         faces: ids[..nf].to_vec(),
         ring_faces: ids[nf..].to_vec(),
         outline,
+        error_bound: None,
     })
 }
 
@@ -380,6 +381,7 @@ mod tests {
             faces: vec![4, 5],
             ring_faces: vec![9],
             outline: vec![127, -3, 0, 5, -127, 1],
+            error_bound: None,
         };
         let mut stats = Stats::default();
         stats.set("charts", 1.0);

@@ -41,6 +41,7 @@ fn sample() -> Vec<u8> {
         faces: vec![0, 3],
         ring_faces: vec![5],
         outline: (0..w * h).map(|t| (t * 53 % 255) as u8 as i8).collect(),
+        error_bound: None,
     };
     let mut stats = Stats::default();
     stats.set("faces", 6.0);

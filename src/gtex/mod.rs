@@ -18,6 +18,9 @@
 
 use glam::{DMat4, DVec3, DVec4};
 
+pub use bound::ErrorBoundMap;
+
+pub mod bound;
 pub mod file;
 #[cfg(test)]
 mod fuzz_tests;
@@ -83,6 +86,9 @@ pub struct Patch {
     pub ring_faces: Vec<u32>,
     /// Signed distance codes to the drawn faces' outline, one per texel (`decode_outline`).
     pub outline: Vec<i8>,
+    /// Per-cell bounds on the distance from the stored surface to the source mesh (`bound`),
+    /// None where unknown (files written before version 6, filtered or hand-made sets).
+    pub error_bound: Option<ErrorBoundMap>,
 }
 
 impl Patch {
@@ -204,6 +210,22 @@ impl Patch {
             .iter()
             .map(|&n| encode_snorm8(decode_normal(n)))
             .collect()
+    }
+
+    /// The error bound (world units) of the cell holding texel-centre point (x, y) (see
+    /// `bound`), taking the largest of the cells within `slack` texels (a point found in f32 may
+    /// lie a hair across a cell's side); None without a bound map.
+    pub fn error_bound_near(&self, x: f64, y: f64, slack: f64) -> Option<f64> {
+        let map = self.error_bound.as_ref()?;
+        let (i0, i1) = ((x - slack).floor() as i64, (x + slack).floor() as i64);
+        let (j0, j1) = ((y - slack).floor() as i64, (y + slack).floor() as i64);
+        let mut bound = 0.0f64;
+        for j in j0..=j1 {
+            for i in i0..=i1 {
+                bound = bound.max(map.at_cell(self.width, self.height, i, j));
+            }
+        }
+        Some(bound)
     }
 
     /// Bytes the maps take (`map_bytes`).

@@ -176,6 +176,7 @@ mod tests {
             faces: vec![0, 1],
             ring_faces: vec![2],
             outline: vec![127, 0, -5, 127],
+            error_bound: None,
         };
         let mut stats = Stats::default();
         stats.set("faces", 3.0);

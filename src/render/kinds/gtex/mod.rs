@@ -270,6 +270,7 @@ fn owned_pyramid(p: &Patch, heights: &[u16]) -> Vec<(u32, u32, Vec<u32>)> {
         colors: Vec::new(),
         faces: Vec::new(),
         ring_faces: Vec::new(),
+        error_bound: None,
         ..*p
     })
 }
