@@ -133,6 +133,7 @@ def convert(
     crease_angle: float | None = None,
     height_bits: int | None = None,
     max_bytes: int | None = None,
+    guarantee: bool | None = None,
     progress: Callable[[str, float], bool | None] | None = None,
 ) -> GeometryTextureSet: ...
 def load(path: str | os.PathLike[str]) -> GeometryTextureSet: ...

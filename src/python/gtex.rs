@@ -411,7 +411,7 @@ pub fn load(py: Python<'_>, path: &Bound<'_, PyAny>) -> PyResult<PyGeometryTextu
     chart_size = None, charts = None, chart_error = None, max_charts = None,
     compactness = None, lloyd_iterations = None, overlap_rings = None, dilation = None,
     frame = None, normals = None, crease_angle = None, height_bits = None, max_bytes = None,
-    progress = None))]
+    guarantee = None, progress = None))]
 #[allow(clippy::too_many_arguments)] // one per keyword of geomtex.convert
 pub fn convert(
     py: Python<'_>,
@@ -436,6 +436,7 @@ pub fn convert(
     crease_angle: Option<f64>,
     height_bits: Option<i64>,
     max_bytes: Option<i64>,
+    guarantee: Option<bool>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<PyGeometryTextureSet> {
     let options = ConvertArgs {
@@ -465,6 +466,7 @@ pub fn convert(
         crease_angle,
         height_bits,
         max_bytes,
+        guarantee,
     }
     .into_options()?;
     let set = convert_reporting(py, mesh.get().inner.clone(), &options, progress)?;
