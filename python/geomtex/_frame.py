@@ -25,8 +25,9 @@ class Frame(Wrapped, core=_core.Frame,
     `coverage_uncertain` by default), `shadow` with a light, `face_id` and `barycentric` with an
     IGT mesh; `stats` holds the render's figures. `error_bound` is a per-pixel bound on the
     distance from the drawn point to the source mesh (NaN where nothing is drawn or no bound is
-    known), `coverage_uncertain` the pixels whose coverage could differ from the source mesh's. In Jupyter it shows as its color image; `save`
-    writes that image. Frames pickle (the arrays they hold).
+    known), `coverage_uncertain` the pixels whose coverage could differ from the source mesh's.
+    In Jupyter it shows as its color image; `save` writes that image. Frames pickle (the arrays
+    they hold).
     """
 
     _core: _core.Frame

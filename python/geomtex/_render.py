@@ -194,9 +194,10 @@ class Renderer(Wrapped, core=_core.Renderer):
         light : DirectionalLight or PointLight, optional
             Casts shadows: ``frame.shadow``, and shadowed pixels at half brightness.
         max_pixel_error : float, optional
-            With ``lod``, the level-of-detail rule by bound above. Surfels (default 1): a cut of each patch's tiles and the nodes above them is
-            drawn, each part at its coarsest level whose perpendicular error projects to at
-            most this many pixels of depth (1/16 of it where a silhouette may show).
+            With ``lod``, the level-of-detail rule by bound above. Surfels (default 1): a cut
+            of each patch's tiles and the nodes above them is drawn, each part at its coarsest
+            level whose perpendicular error projects to at most this many pixels of depth (1/16
+            of it where a silhouette may show).
         primary : {"tiles", "boxes"}, optional
             How camera rays meet the texture sets' boxes: per pixel nearest first, stopping
             behind the nearest hit (``"tiles"``, default), or every box over a pixel searched.

@@ -312,7 +312,10 @@ impl PyGeometryTextureSet {
     /// A copy of the set whose patches carry error-bound maps made from per-cell bounds (one
     /// (h + 1, w + 1) float64 array of world bounds per patch, rows from cell -1, or None for no
     /// map): for tests of what frames make of the maps before conversion computes them.
-    fn _with_cell_bounds(&self, cell_bounds: Vec<Option<PyReadonlyArray2<'_, f64>>>) -> PyResult<Self> {
+    fn _with_cell_bounds(
+        &self,
+        cell_bounds: Vec<Option<PyReadonlyArray2<'_, f64>>>,
+    ) -> PyResult<Self> {
         let mut set = (**self.payload()).clone();
         if cell_bounds.len() != set.patches.len() {
             return Err(GeomtexError::Parameter(format!(
@@ -339,7 +342,9 @@ impl PyGeometryTextureSet {
                         ))
                         .into());
                     }
-                    Some(crate::gtex::ErrorBoundMap::from_cells(p.width, p.height, &values))
+                    Some(crate::gtex::ErrorBoundMap::from_cells(
+                        p.width, p.height, &values,
+                    ))
                 }
             };
         }

@@ -504,15 +504,17 @@ impl PyRenderer {
     /// `quality` picks measured settings ("fast", "balanced" or "exact", the default); `method`
     /// and the step keywords override them. `count_fetches` uses a counting build of the pipeline
     /// and reports height fetches in `frame.stats`. `lod` (max-pyramid search only) stops each
-    /// patch's descent where its nodes are about a pixel. `light` (a DirectionalLight or a
+    /// patch's descent where its nodes are about a pixel, or with `max_pixel_error` at its
+    /// coarsest level whose error bound projects to at most that many pixels. `light` (a DirectionalLight or a
     /// PointLight) casts shadows: `frame.shadow`, and shadowed pixels at half brightness.
     /// `max_pixel_error` (Surfels only, default 1): a cut of each patch's tiles and the nodes
     /// above them is drawn, each part at its coarsest level whose perpendicular error projects to
     /// at most this many pixels of depth (1/16 of it where a silhouette may show). `primary` ("tiles", default, or
     /// "boxes") picks how camera rays meet the texture sets' boxes: per pixel nearest first,
     /// stopping behind the nearest hit, or every box over a pixel searched. `outputs` (names
-    /// among "color", "albedo", "depth", "normal", "patch_id"; default all) are the arrays read
-    /// back: a frame's other arrays raise ParameterError when read, and a frame without
+    /// among "color", "albedo", "depth", "normal", "patch_id", "error_bound",
+    /// "coverage_uncertain"; default all but "coverage_uncertain") are the arrays read back or
+    /// computed: a frame's other arrays raise ParameterError when read, and a frame without
     /// "patch_id" reports no per-pixel figures in `stats`.
     #[pyo3(signature = (obj, camera, *, quality = None, method = None, steps_per_texel = None,
         min_linear_steps = None, max_linear_steps = None, binary_steps = None,

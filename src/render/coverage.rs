@@ -71,7 +71,8 @@ impl CoverageInputs<'_> {
     /// How far (pixels) drawn pixel `i`'s surface may stand off the mesh's outline: its bound and
     /// outline allowance projected at its depth, NaN where unknown.
     fn stand_off(&self, i: usize) -> f64 {
-        let world = f64::from(self.bounds[i]) + self.sources.outline_allowance(self.pixels.patch_id[i]);
+        let world =
+            f64::from(self.bounds[i]) + self.sources.outline_allowance(self.pixels.patch_id[i]);
         world / pixel_size(self.lens, f64::from(self.pixels.depth[i]))
     }
 
@@ -86,7 +87,13 @@ impl CoverageInputs<'_> {
             neighbours(x, y, w, self.height as usize)
                 .filter(|&j| self.drawn(j))
                 .map(|j| self.stand_off(j))
-                .fold(0.0f64, |m, d| if m.is_nan() || d.is_nan() { f64::NAN } else { m.max(d) })
+                .fold(0.0f64, |m, d| {
+                    if m.is_nan() || d.is_nan() {
+                        f64::NAN
+                    } else {
+                        m.max(d)
+                    }
+                })
         };
         d + PROBE_MARGIN_PX
     }
@@ -183,6 +190,9 @@ mod tests {
         }
         let t = transitions(&drawn, 5, 4);
         // Every pixel of columns 0..=3 is beside the block; column 4 is not.
-        assert_eq!(t, vec![0, 1, 2, 3, 5, 6, 7, 8, 10, 11, 12, 13, 15, 16, 17, 18]);
+        assert_eq!(
+            t,
+            vec![0, 1, 2, 3, 5, 6, 7, 8, 10, 11, 12, 13, 15, 16, 17, 18]
+        );
     }
 }

@@ -115,5 +115,9 @@ pub(crate) fn bound_lod_level(
     let pixel = nearest_pixel(view_from_patch, lens);
     let fits = |b: &f64| *b / pixel <= max_pixels;
     // Bounds grow with the level, so the levels that fit are a prefix.
-    level_bounds.iter().take_while(|b| fits(b)).count().saturating_sub(1) as u32
+    level_bounds
+        .iter()
+        .take_while(|b| fits(b))
+        .count()
+        .saturating_sub(1) as u32
 }

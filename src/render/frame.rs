@@ -296,7 +296,10 @@ impl Frame {
             stats.extend([
                 ("error_bound_max", float(b.max)),
                 ("error_bound_median", float(b.median)),
-                ("error_bound_unknown_pixels", StatValue::Int(b.unknown_pixels as i64)),
+                (
+                    "error_bound_unknown_pixels",
+                    StatValue::Int(b.unknown_pixels as i64),
+                ),
                 ("error_bound_search", StatValue::Text(search)),
             ]);
         }

@@ -39,8 +39,8 @@ mod targets;
 use std::time::Instant;
 
 pub use camera::{Camera, Lens, Projection};
-pub use device::Gpu;
 pub use coverage::CoverageFigures;
+pub use device::Gpu;
 pub use error_bound::BoundFigures;
 pub use frame::{Frame, LodRule, Shadows, SurfelCounts};
 pub use kinds::uploads_made;
@@ -506,7 +506,11 @@ impl Renderer {
 
 /// Drawn patches per level-of-detail stop level, from level 0 to the coarsest picked.
 fn lod_histogram(picks: &[LodPick]) -> Vec<u64> {
-    let levels = picks.iter().map(|p| p.level as usize + 1).max().unwrap_or(1);
+    let levels = picks
+        .iter()
+        .map(|p| p.level as usize + 1)
+        .max()
+        .unwrap_or(1);
     let mut counts = vec![0u64; levels];
     for p in picks {
         counts[p.level as usize] += 1;

@@ -159,7 +159,20 @@ mod tests {
     fn bounds_read_the_depth_and_patch_ids_they_are_made_from() {
         let o = Outputs::parse(&["error_bound"]).unwrap();
         assert_eq!(o.to_read().names(), ["depth", "patch_id", "error_bound"]);
-        assert_eq!(Outputs::parse(&["color"]).unwrap().to_read().names(), ["color"]);
-        assert!(!Outputs::DEFAULT.coverage_uncertain && Outputs::DEFAULT.error_bound);
+        assert_eq!(
+            Outputs::parse(&["color"]).unwrap().to_read().names(),
+            ["color"]
+        );
+        assert_eq!(
+            Outputs::DEFAULT.names(),
+            [
+                "color",
+                "albedo",
+                "depth",
+                "normal",
+                "patch_id",
+                "error_bound"
+            ]
+        );
     }
 }
