@@ -63,12 +63,12 @@ def test_a_depth_only_frame_holds_the_full_frames_depth(sphere_set: gt.GeometryT
     r = gt.Renderer(96, 64)
     full = r.render(sphere_set, camera)
     depth_only = r.render(sphere_set, camera, outputs=("depth",))
-    assert full.outputs == ["color", "albedo", "depth", "normal", "patch_id"]
+    assert full.outputs == ["color", "albedo", "depth", "normal", "patch_id", "error_bound"]
     assert depth_only.outputs == ["depth"]
     assert (depth_only.width, depth_only.height) == (96, 64)
     np.testing.assert_array_equal(depth_only.depth, full.depth)
     assert np.isfinite(full.depth).mean() > 0.2
-    for name in ("color", "albedo", "normal", "patch_id"):
+    for name in ("color", "albedo", "normal", "patch_id", "error_bound"):
         with pytest.raises(gt.ParameterError, match=f"no {name}.*outputs="):
             getattr(depth_only, name)
     # Without the ids the per-pixel figures are unknown (None), not zero.
