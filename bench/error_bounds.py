@@ -120,9 +120,13 @@ class Distances:
         self.k = 1000.0 / float(np.linalg.norm(hi - lo))
         local = (v - self.centre) * self.k
         self.sample = sample
+        o3d = None
         if not force_trimesh and importlib.util.find_spec("open3d") is not None:
-            import open3d as o3d
-
+            try:
+                import open3d as o3d
+            except ImportError as e:  # e.g. the wheel's libusb-1.0 is not installed
+                print(f"  open3d does not import ({e}); measuring with trimesh on a sample", flush=True)
+        if o3d is not None:
             self.kind = "open3d"
             self.o3d = o3d
             self.scene = o3d.t.geometry.RaycastingScene()
@@ -459,6 +463,30 @@ def table(d: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+def summary_rows(d: dict[str, Any]) -> list[dict[str, Any]]:
+    """One flat record per mesh x conversion (the benchmark page's first table)."""
+    rows = []
+    for name, m in d["meshes"].items():
+        for label, c in m["conversions"].items():
+            if "refused" in c:
+                rows.append({"mesh": name, "conversion": label, "refused": c["refused"][:80]})
+                continue
+            s = c["summary"]
+            ch = c.get("cheap", {})
+            rows.append({
+                "mesh": name, "conversion": label, "bytes": c["set"]["bytes"], "bytes_over_default": c["bytes_over_default"],
+                "convert_s": c["seconds"], "holds": s["holds"], "holds_tol": s["holds_tol"], "exceptions": s["exceptions"],
+                "max_dist_over_bound": s["max_dist_over_bound"], "tight_worst_view": s["tight_worst_view"],
+                "dist_max_rel": s["dist_max_rel"],
+                "set_bound_max_rel": c["set"].get("error_bound_max", float("nan")) / m["diagonal"],
+                "coverage_differing": s["coverage_differing"], "coverage_inside": s["coverage_inside"],
+                "coverage_ratio": s["coverage_ratio"],
+                "error_bound_ms_ratio": ch.get("standard", {}).get("over_base", {}).get("+error_bound"),
+                "coverage_uncertain_ms_ratio": ch.get("standard", {}).get("over_base", {}).get("+coverage_uncertain"),
+                "bound_bytes_over_maps": c["set"].get("bound_over_maps")})
+    return rows
+
+
 def verdicts(d: dict[str, Any]) -> dict[str, Any]:
     """Each target against the worst figure over the meshes and conversions."""
     rows = [(n, lab, c) for n, m in d["meshes"].items() for lab, c in m["conversions"].items() if "summary" in c]
@@ -551,6 +579,7 @@ def main() -> None:
             print(f"  skipped {name}: {e}", flush=True)
         gc.collect()
     d["verdicts"] = verdicts(d)
+    d = {"table": summary_rows(d), **d}
     d["loadavg_after"] = list(os.getloadavg())
     d["seconds"] = time.perf_counter() - t_start
     RESULTS.mkdir(exist_ok=True)
