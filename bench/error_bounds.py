@@ -81,8 +81,8 @@ STANDARD = ("color", "albedo", "depth", "normal", "patch_id")
 #: good to ~1e-7 of the diagonal at these views; 1e-6 of it is ten times that.
 FLOAT_TOL_REL = 1e-6
 LOD_PIXEL_ERRORS = (1.0, 4.0)
-#: (distance, bound) pairs kept per mesh x conversion for the plot (and the JSON).
-PLOT_SAMPLES = 400
+#: (distance, bound) pairs kept per view for the plot (and the JSON, to four digits).
+PLOT_SAMPLES = 100
 
 TARGETS = {"holds": 0.9999, "tight": 4.0, "coverage_inside": 1.0, "coverage_ratio": 3.0,
            "bound_bytes_ratio": 0.10}
@@ -351,7 +351,7 @@ def measure_mesh(name: str, views: list[tuple[str, Any, Any]], size: int, args: 
                   f"tight {h.get('tight', float('nan')):.2f} max d/b {h.get('max_dist_over_bound', float('nan')):.3g} "
                   f"cov diff {c['differing']} inside {c.get('inside', float('nan')):.3f} "
                   f"ratio {c.get('ratio', float('nan')):.2f}", flush=True)
-        rec["samples_rel"] = np.concatenate(keep).round(9).tolist() if keep else []
+        rec["samples_rel"] = [[float(f"{x:.4g}") for x in row] for row in np.concatenate(keep)] if keep else []
         rec["summary"] = summarise(rec, diag)
         if label == "default":
             first_v, first_cam = cams[0]
@@ -414,10 +414,15 @@ def save_picture(gts: Any, mesh: gt.Mesh) -> None:
     cam = testing.look_from(mesh, (0, 0, 1), up=(0, 1, 0))
     frame = gt.Renderer(512, 512).render(gts, cam, outputs=("color", "depth", "error_bound"))
     rel = np.asarray(frame.error_bound, np.float64) / float(mesh.diagonal)
+    color = np.asarray(frame.color)
+    # Cropped to the drawn pixels with a margin.
+    rows, cols = np.nonzero(np.isfinite(np.asarray(frame.depth)))
+    r0, r1 = max(rows.min() - 8, 0), min(rows.max() + 9, rel.shape[0])
+    c0, c1 = max(cols.min() - 8, 0), min(cols.max() + 9, rel.shape[1])
+    rel, color = rel[r0:r1, c0:c1], color[r0:r1, c0:c1]
     finite = rel[np.isfinite(rel) & (rel > 0)]
-    fig, axes = plt.subplots(1, 2, figsize=(8.4, 3.8), gridspec_kw={"width_ratios": [1, 1.22]})
-    axes[0].imshow(np.asarray(frame.color)[..., :3] * (np.asarray(frame.color)[..., 3:] > 0)
-                   + 255 * (np.asarray(frame.color)[..., 3:] == 0))
+    fig, axes = plt.subplots(1, 2, figsize=(8.4, 3.6), gridspec_kw={"width_ratios": [1, 1.22]})
+    axes[0].imshow(np.where(color[..., 3:] > 0, color[..., :3], 255))
     axes[0].set_title("frame.color")
     im = axes[1].imshow(np.ma.masked_invalid(np.where(rel > 0, rel, np.nan)), cmap="viridis",
                         norm=LogNorm(vmin=max(finite.min(), finite.max() / 1e3), vmax=finite.max()))
@@ -429,7 +434,7 @@ def save_picture(gts: Any, mesh: gt.Mesh) -> None:
     PICTURE.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(PICTURE, dpi=80)
     plt.close(fig)
-    print(f"  wrote {PICTURE.relative_to(REPO)} ({PICTURE.stat().st_size // 1024} KB)", flush=True)
+    print(f"  wrote {PICTURE} ({PICTURE.stat().st_size // 1024} KB)", flush=True)
 
 
 def fmt(x: Any, spec: str = ".3g") -> str:
