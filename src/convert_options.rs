@@ -163,6 +163,9 @@ pub struct ConvertOptions {
     /// fits, else the least area over it). `None`: no budget, or with no keyword that sets the
     /// resolution `default_budget`.
     pub max_bytes: Option<u64>,
+    /// With `max_error`: each chart's level is chosen by its cells' error bounds (`bound`), so
+    /// that every drawn point is within `max_error` of the mesh, not a sampled quantile.
+    pub guarantee: bool,
 }
 
 impl Default for ConvertOptions {
@@ -187,6 +190,7 @@ impl Default for ConvertOptions {
             normals: NormalRule::default(),
             height_bits: 16,
             max_bytes: None,
+            guarantee: false,
         }
     }
 }
@@ -285,6 +289,13 @@ impl ConvertOptions {
                 ))
             }
             _ => {}
+        }
+        if self.guarantee && !self.error_driven() {
+            return parameter(
+                "guarantee=True bounds every drawn point by max_error: give max_error or \
+                 max_error_rel"
+                    .into(),
+            );
         }
         self.validate_resolution()?;
         self.validate_partition()?;
@@ -424,6 +435,7 @@ pub struct ConvertArgs {
     pub crease_angle: Option<f64>,
     pub height_bits: Option<i64>,
     pub max_bytes: Option<i64>,
+    pub guarantee: Option<bool>,
 }
 
 /// A count that must not be negative.
@@ -487,6 +499,7 @@ impl ConvertArgs {
                         .or_else(|_| parameter(format!("max_bytes must be >= 1, got {b}")))
                 })
                 .transpose()?,
+            guarantee: self.guarantee.unwrap_or(default.guarantee),
         };
         opts.validate()?;
         Ok(opts)

@@ -620,6 +620,10 @@ pub fn filtered(
         texel_size: set.texel_size,
         stats: set.stats.clone(),
     };
+    // A filtered surface has no bound to the mesh (see refit): its figures go with it.
+    out.stats
+        .values
+        .retain(|(name, _)| !name.starts_with("error_bound"));
     out.stats.set("filter_sigma", sigma);
     out.stats.set("filter_texels_cut", cut.len() as f64);
     out.stats.set("bytes", out.map_bytes() as f64);
@@ -794,6 +798,8 @@ fn refit(p: &Patch, moves: &[Option<TexelMove>], rises: &[f64]) -> Patch {
     let lo = filled().fold(f64::INFINITY, f64::min);
     let hi = filled().fold(f64::NEG_INFINITY, f64::max);
     let mut q = p.clone();
+    // The bound was of the unfiltered surface to the mesh; the filter moves it (and has no mesh).
+    q.error_bound = None;
     if lo > hi {
         return q; // an empty patch stays empty
     }

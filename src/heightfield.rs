@@ -22,14 +22,14 @@ use crate::gtex::{decode_outline, Patch};
 /// The four corners of a cell, in the order (i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1):
 /// height codes and outline distances (texels).
 #[derive(Clone, Copy, Debug)]
-struct Cell {
-    codes: [f64; 4],
-    outline: [f64; 4],
+pub(crate) struct Cell {
+    pub(crate) codes: [f64; 4],
+    pub(crate) outline: [f64; 4],
 }
 
 impl Cell {
     /// Bilinear blend of the corner outline distances at fractions (fx, fy) in the cell.
-    fn outline_at(&self, fx: f64, fy: f64) -> f64 {
+    pub(crate) fn outline_at(&self, fx: f64, fy: f64) -> f64 {
         let o = self.outline;
         (o[0] * (1.0 - fx) + o[1] * fx) * (1.0 - fy) + (o[2] * (1.0 - fx) + o[3] * fx) * fy
     }
@@ -117,7 +117,7 @@ pub(crate) fn padded_outline(p: &Patch) -> Vec<i8> {
 
 /// The cell whose lower-left texel centre is (i, j) (values continued past the map's edge);
 /// None unless all four corners hold a height and some of the cell lies inside the outline.
-fn cell_at(p: &Patch, i: i64, j: i64) -> Option<Cell> {
+pub(crate) fn cell_at(p: &Patch, i: i64, j: i64) -> Option<Cell> {
     let corners = [(i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1)];
     let codes = corners.map(|(x, y)| code_at_texel(p, x, y));
     let outline = corners.map(|(x, y)| decode_outline(outline_at_texel(p, x, y)));

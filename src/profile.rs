@@ -28,9 +28,10 @@ pub enum Phase {
     Corners,
     OutlineDistance,
     IntoMaps,
+    Bound,
 }
 
-const PHASES: [&str; 10] = [
+const PHASES: [&str; 11] = [
     "samples",
     "rasterize",
     "gaps",
@@ -41,10 +42,11 @@ const PHASES: [&str; 10] = [
     "corners",
     "outline_distance",
     "into_maps",
+    "bound",
 ];
 
-static NANOS: [AtomicU64; 10] = [const { AtomicU64::new(0) }; 10];
-static COUNTS: [AtomicU64; 10] = [const { AtomicU64::new(0) }; 10];
+static NANOS: [AtomicU64; 11] = [const { AtomicU64::new(0) }; 11];
+static COUNTS: [AtomicU64; 11] = [const { AtomicU64::new(0) }; 11];
 
 /// Whether `GEOMTEX_PROFILE` asks for timers (read once).
 fn enabled() -> bool {

@@ -18,6 +18,7 @@ os.environ.setdefault("NODEVICE_SELECT", "1")
 from . import _check, _core, _progress, data, gdm, igt  # noqa: E402
 from ._bridge import spelled_out as _spelled_out  # noqa: E402
 from ._camera import Camera  # noqa: E402
+from ._check import flag as _flag  # noqa: E402
 from ._check import number as _number  # noqa: E402
 from ._core import __version__  # noqa: E402
 from ._errors import (  # noqa: E402
@@ -105,6 +106,7 @@ def convert(
     crease_angle: float | None = None,
     height_bits: Literal[8, 16] | None = None,
     max_bytes: int | None = None,
+    guarantee: bool | None = None,
     progress: bool | ProgressCallback | None = None,
 ) -> GeometryTextureSet:
     """Converts a mesh into geometry textures: height-map patches in oriented boxes.
@@ -209,6 +211,12 @@ def convert(
         (``stats["max_bytes_binding"]`` is 1 and a :class:`CapWarning` says by how much the
         bound was missed; not with ``error_scope="chart"``). If they still do not fit,
         ``stats["max_bytes_exceeded"]`` is 1 and a :class:`CapWarning` says so.
+    guarantee : bool, optional
+        With `max_error` (or `max_error_rel`): choose each chart's level by its cells' error
+        bounds instead of a sampled percentile, so that every point of the stored surface is
+        within `max_error` of the mesh (``stats["error_bound_max"]`` <= ``stats["max_error"]``;
+        see :doc:`/guides/error-bounds`). Raises :class:`ParameterError` where that cannot be
+        met: a chart over the bound at `max_resolution`, or more bytes than `max_bytes`.
     progress : bool or callable, optional
         True for a tqdm bar, or ``callback(stage, fraction)``; returning False cancels.
 
@@ -216,7 +224,10 @@ def convert(
     -------
     GeometryTextureSet
         The patches; ``stats`` holds the conversion's figures (charts, bytes, texel_size,
-        reconstruction_error_p99, the caps above, per-stage seconds, ...).
+        reconstruction_error_p99, error_bound_max and error_bound_p99 (world units: the largest
+        and 99th-percentile bound on the distance from a stored surface point to the mesh, over
+        the bound map's blocks) and error_bound_bytes (counted in bytes), the caps above,
+        per-stage seconds, ...).
 
     Raises
     ------
@@ -257,7 +268,8 @@ def convert(
     try:
         gts = GeometryTextureSet._wrap(_core.convert(
             m._core, **integers, **reals, error_scope=error_scope, partition=partition, frame=frame,
-            normals=normals, progress=callback))
+            normals=normals, guarantee=None if guarantee is None else _flag("guarantee", guarantee),
+            progress=callback))
     finally:
         if bar is not None:
             bar.close()

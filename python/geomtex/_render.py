@@ -185,23 +185,30 @@ class Renderer(Wrapped, core=_core.Renderer):
             (fetches, fetches_per_pixel, fetches_per_search, piece_tests_per_pixel).
         lod : bool, optional
             Max-pyramid search only: stop each patch's descent where its nodes are about a
-            pixel.
+            pixel, or, with `max_pixel_error`, at each patch's coarsest pyramid level whose
+            error bound (the nodes' height range plus the cells' bounds) projects to at most
+            that many pixels at the patch's nearest point (``stats['lod_rule']``,
+            ``stats['lod_levels']``).
         background : array-like of 4 numbers, optional
             RGBA where nothing is hit (uint8 values, or floats in [0, 1]).
         light : DirectionalLight or PointLight, optional
             Casts shadows: ``frame.shadow``, and shadowed pixels at half brightness.
         max_pixel_error : float, optional
-            Surfels only (default 1): a cut of each patch's tiles and the nodes above them is
-            drawn, each part at its coarsest level whose perpendicular error projects to at
-            most this many pixels of depth (1/16 of it where a silhouette may show).
+            With ``lod``, the level-of-detail rule by bound above. Surfels (default 1): a cut
+            of each patch's tiles and the nodes above them is drawn, each part at its coarsest
+            level whose perpendicular error projects to at most this many pixels of depth (1/16
+            of it where a silhouette may show).
         primary : {"tiles", "boxes"}, optional
             How camera rays meet the texture sets' boxes: per pixel nearest first, stopping
             behind the nearest hit (``"tiles"``, default), or every box over a pixel searched.
         outputs : str or sequence of str, optional
-            The arrays read back, among ``"color"``, ``"albedo"``, ``"depth"``, ``"normal"``
-            and ``"patch_id"`` (default all): a depth-only frame skips the others' copies and
-            conversions. The frame's other arrays raise ParameterError when read, and without
-            ``"patch_id"`` its per-pixel figures are None.
+            The arrays read back or computed, among ``"color"``, ``"albedo"``, ``"depth"``,
+            ``"normal"``, ``"patch_id"``, ``"error_bound"`` and ``"coverage_uncertain"``
+            (default all but ``"coverage_uncertain"``, which casts probe rays): a depth-only
+            frame skips the others' copies and conversions. ``"error_bound"`` and
+            ``"coverage_uncertain"`` are computed from the depth and patch ids, read for them
+            (and not returned unless named). The frame's other arrays raise ParameterError when
+            read, and without ``"patch_id"`` its per-pixel figures are None.
 
         Returns
         -------

@@ -4,10 +4,12 @@
 //! Space: world (mesh, frames, texel sizes, errors); the maps are patch-local (see raster).
 
 use super::accuracy::{self, AreaSample, WeightedError, ERROR_QUANTILE, SAMPLES_PER_CHART};
+use super::bound;
 use super::raster::{self, Maps};
 use crate::charts::frame::ChartFrame;
 use crate::charts::frame::PatchBox;
 use crate::convert_options::ConvertOptions;
+use crate::gtex::ErrorBoundMap;
 use crate::profile::{timed, Phase};
 use rayon::prelude::*;
 
@@ -38,6 +40,9 @@ pub struct Drawn {
     pub maps: Maps,
     pub errors: Vec<WeightedError>,
     pub error: f64,
+    /// The cells' error bounds (`bound`): made by the final raster, and by every level the
+    /// resolution search tries under `guarantee` (whose `error` is then their largest).
+    pub bound: Option<ErrorBoundMap>,
 }
 
 /// What every chart is drawn with: the mesh, its corner normals, the options, and the set's one texel
@@ -137,20 +142,29 @@ impl ChartDrawer<'_> {
         let mut errors = timed(Phase::Gaps, || {
             accuracy::gaps(&probe, &accuracy::thinned(samples, texel))
         });
+        let bound = (corner_normals.is_some() || opts.guarantee).then(|| {
+            timed(Phase::Bound, || {
+                bound::error_bound_map(self.mesh, &job.faces, &probe)
+            })
+        });
         maps.heights = probe.heights;
         maps.outline = probe.outline;
         let texel_len = ((bx.extent.x / bx.width as f64) * (bx.extent.y / bx.height as f64)).sqrt();
         timed(Phase::PastTheMesh, || {
             errors.extend(accuracy::past_the_mesh(&maps, texel_len))
         });
-        let error = timed(Phase::Quantile, || {
-            accuracy::quantile(&mut errors, ERROR_QUANTILE)
-        });
+        let error = match &bound {
+            Some(b) if opts.guarantee => f64::from(b.scale),
+            _ => timed(Phase::Quantile, || {
+                accuracy::quantile(&mut errors, ERROR_QUANTILE)
+            }),
+        };
         Drawn {
             bx,
             maps,
             errors,
             error,
+            bound,
         }
     }
 }

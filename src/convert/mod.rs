@@ -6,6 +6,7 @@
 //! Space: world (the mesh's coordinates, f64) in, patch boxes in world out.
 
 pub mod accuracy;
+pub mod bound;
 pub mod draw;
 pub mod figures;
 pub mod raster;
@@ -51,6 +52,9 @@ pub fn convert(
         outline.get()
     });
     let mut set = convert_any(mesh, opts, progress)?;
+    if opts.guarantee {
+        check_guarantee(&set, opts.max_bytes)?;
+    }
     if let Some(ratio) = outline.get() {
         set.stats.set("outline_ratio", ratio);
     }
@@ -65,6 +69,29 @@ pub fn convert(
             Ok(set)
         }
         None => Ok(set),
+    }
+}
+
+/// Under `guarantee`, the set's bound within `max_error` everywhere and its bytes within
+/// `max_bytes`, or a ParameterError saying which failed and what would meet it.
+fn check_guarantee(set: &GeometryTextureSet, max_bytes: Option<u64>) -> Result<()> {
+    let stat = |n: &str| set.stats.get(n).unwrap_or(f64::NAN);
+    let (bound, max_error) = (stat("error_bound_max"), stat("max_error"));
+    if bound.is_nan() || bound > max_error {
+        let over = set.stats.get("charts_over_max_error").unwrap_or(0.0);
+        return Err(GeomtexError::Parameter(format!(
+            "guarantee=True cannot bound every point by max_error={max_error:.6e}: {over:.0} \
+             chart(s) stay over it at max_resolution (largest bound {bound:.6e}); a larger \
+             max_resolution or a larger max_error meets it"
+        )));
+    }
+    let bytes = set.map_bytes() as u64;
+    match max_bytes {
+        Some(limit) if bytes > limit => Err(GeomtexError::Parameter(format!(
+            "guarantee=True at max_error={max_error:.6e} needs {bytes} bytes, over \
+             max_bytes={limit}; a larger max_bytes or a larger max_error meets it"
+        ))),
+        _ => Ok(()),
     }
 }
 
@@ -182,12 +209,13 @@ fn share_of_runs(
 /// their error.
 fn preference(set: &GeometryTextureSet) -> (bool, f64) {
     let stat = |n: &str| set.stats.get(n).unwrap_or(f64::INFINITY);
-    let within = stat("reconstruction_error_p99") <= stat("max_error");
-    let measure = if within {
-        "bytes"
+    let error = if stat("guarantee") == 1.0 {
+        "error_bound_max"
     } else {
         "reconstruction_error_p99"
     };
+    let within = stat(error) <= stat("max_error");
+    let measure = if within { "bytes" } else { error };
     (!within, stat(measure))
 }
 
@@ -358,7 +386,18 @@ fn convert_once(
         .into_iter()
         .zip(charted.rings)
         .zip(drawn)
-        .map(|((c, ring), Drawn { bx, maps, .. })| bx.into_patch(maps, c.faces, ring.faces))
+        .map(
+            |(
+                (c, ring),
+                Drawn {
+                    bx, maps, bound, ..
+                },
+            )| {
+                let mut patch = bx.into_patch(maps, c.faces, ring.faces);
+                patch.error_bound = bound;
+                patch
+            },
+        )
         .collect();
     // The set's texel size: the one texel, or the finest chart's when each has its own.
     let texel_size = match max_error {

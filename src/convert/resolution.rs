@@ -32,7 +32,13 @@ pub fn chart_texels(
     progress: Progress,
 ) -> Result<Vec<f64>> {
     let levels = resolution_levels(drawer.opts.resolution_cap());
-    let picks = match drawer.opts.error_scope {
+    // Under `guarantee` every chart's own bound must hold: the chart scope, measured by bounds.
+    let scope = if drawer.opts.guarantee {
+        ErrorScope::Chart
+    } else {
+        drawer.opts.error_scope
+    };
+    let picks = match scope {
         ErrorScope::Chart => each_chart(jobs, progress, "resolution", |j| {
             let s = drawer.samples(j);
             coarsest_within(&levels, max_error, |r| {

@@ -1,4 +1,4 @@
-//! The .gtex file format, version 5 (versions 1 to 4 are still read). Little-endian throughout.
+//! The .gtex file format, version 6 (versions 1 to 5 are still read). Little-endian throughout.
 //!
 //! ```text
 //! header (32 bytes): magic b"GTEX\r\n\x1a\n" | version u32 | reserved u32 | payload length u64 |
@@ -10,8 +10,11 @@
 //!          height bits u32 (8 or 16) | color map u32 (0 or 1) | faces u32 | ring faces u32 |
 //!          face ids u32[] | ring face ids u32[] | heights u8[w*h] or u16[w*h] |
 //!          normals i8[w*h*2] (octahedral, `gtex::encode_normal`) |
-//!          colors u8[w*h*4] (only with a color map) | outline i8[w*h]
+//!          colors u8[w*h*4] (only with a color map) | outline i8[w*h] |
+//!          error-bound map u32 (0 or 1), then with one: scale f32 | codes u8[bw*bh]
+//!          (`gtex::bound`: one per block of 2 x 2 cells, bw = ceil((w + 1) / 2))
 //! ```
+//! Version 5 has no error-bound field: its patches have no bound (NaN in frames).
 //! A file whose bytes pass the checksum must still hold a possible set
 //! (`GeometryTextureSet::validate`: finite orthonormal frames, positive extents, 1 to 4096 texels a
 //! side, codes within their bits, face ids within the "faces" stat, per-patch stats per patch).
@@ -32,7 +35,7 @@ use super::{GeometryTextureSet, Patch, Stats};
 use crate::error::GeomtexError;
 
 pub const MAGIC: &[u8; 8] = b"GTEX\r\n\x1a\n";
-pub const VERSION: u32 = 5;
+pub const VERSION: u32 = 6;
 const HEADER: usize = 32;
 
 pub(crate) fn put_f64s(out: &mut Vec<u8>, v: &[f64]) {
@@ -99,6 +102,14 @@ pub fn encode(set: &GeometryTextureSet) -> Vec<u8> {
         p.extend_from_slice(bytemuck::cast_slice(&patch.normals));
         p.extend_from_slice(bytemuck::cast_slice(&patch.colors));
         p.extend_from_slice(bytemuck::cast_slice(&patch.outline));
+        match &patch.error_bound {
+            None => p.extend_from_slice(&0u32.to_le_bytes()),
+            Some(map) => {
+                p.extend_from_slice(&1u32.to_le_bytes());
+                p.extend_from_slice(&map.scale.to_le_bytes());
+                p.extend_from_slice(&map.codes);
+            }
+        }
     }
     let mut out = Vec::with_capacity(HEADER + p.len());
     out.extend_from_slice(MAGIC);
@@ -243,6 +254,11 @@ fn read_patch(r: &mut Reader, k: usize, version: u32) -> Result<Patch, String> {
     } else {
         vec![super::OUTLINE_INSIDE; texels]
     };
+    let error_bound = if version >= 6 {
+        read_error_bound(r, &what, w, h)?
+    } else {
+        None
+    };
     Ok(Patch {
         origin,
         axes,
@@ -256,8 +272,40 @@ fn read_patch(r: &mut Reader, k: usize, version: u32) -> Result<Patch, String> {
         faces: ids[..nf].to_vec(),
         ring_faces: ids[nf..].to_vec(),
         outline,
-        error_bound: None,
+        error_bound,
     })
+}
+
+/// A patch's error-bound field (version 6): a flag, then the map's scale and codes.
+fn read_error_bound(
+    r: &mut Reader,
+    what: &str,
+    w: u32,
+    h: u32,
+) -> Result<Option<super::ErrorBoundMap>, String> {
+    match r.u32(what)? {
+        0 => Ok(None),
+        1 => {
+            let scale = f32::from_le_bytes(
+                r.take(4, &format!("{what} error-bound scale"))?
+                    .try_into()
+                    .unwrap(),
+            );
+            if !(scale.is_finite() && scale >= 0.0) {
+                return Err(format!(
+                    "{what}: the error-bound scale must be finite and >= 0, found {scale}"
+                ));
+            }
+            let (bw, bh) = super::bound::block_dims(w, h);
+            let codes = r
+                .take(bw * bh, &format!("{what} error-bound codes"))?
+                .to_vec();
+            Ok(Some(super::ErrorBoundMap { scale, codes }))
+        }
+        f => Err(format!(
+            "{what}: the error-bound flag must be 0 or 1, found {f}"
+        )),
+    }
 }
 
 pub fn decode(bytes: &[u8]) -> Result<GeometryTextureSet, String> {
@@ -442,7 +490,7 @@ mod tests {
         let v5 = encode(s);
         let mut p = v5[HEADER..].to_vec();
         // Header part of the payload up to the first patch: re-encode it by slicing the v5 one.
-        let patches_at = p.len() - s.patches.iter().map(patch_len_v5).sum::<usize>();
+        let patches_at = p.len() - s.patches.iter().map(patch_len_v6).sum::<usize>();
         p.truncate(patches_at);
         for patch in &s.patches {
             for v in [
@@ -475,9 +523,48 @@ mod tests {
         p
     }
 
-    /// Bytes one 16-bit patch takes in a version 5 file.
-    fn patch_len_v5(p: &Patch) -> usize {
-        15 * 8 + 6 * 4 + 4 * (p.faces.len() + p.ring_faces.len()) + p.map_bytes()
+    /// Bytes one 16-bit patch takes in a version 6 file (bound map flag and map included).
+    fn patch_len_v6(p: &Patch) -> usize {
+        let bound = p.error_bound.as_ref().map_or(0, |m| m.bytes());
+        15 * 8 + 6 * 4 + 4 * (p.faces.len() + p.ring_faces.len()) + p.map_bytes() - bound
+            + 4
+            + bound
+    }
+
+    /// A bound map round-trips exactly; a version 5 file (no bound field) reads with none; a
+    /// crafted flag or scale is a format error.
+    #[test]
+    fn error_bound_maps_round_trip_and_version_5_has_none() {
+        let mut s = as_filed(sample());
+        let cells: Vec<f64> = (0..12).map(|k| 1e-3 * (k as f64 + 1.0)).collect();
+        s.patches[0].error_bound = Some(crate::gtex::ErrorBoundMap::from_cells(2, 3, &cells));
+        let bytes = encode(&s);
+        assert_eq!(decode(&bytes).unwrap(), s);
+        // 2 x 3 texels: 3 x 4 cells, 2 x 2 blocks: flag + scale + 4 codes.
+        let without = {
+            let mut n = s.clone();
+            n.patches[0].error_bound = None;
+            encode(&n)
+        };
+        assert_eq!(bytes.len(), without.len() + 4 + 4);
+        // Version 5: the same payload without the (last) flag.
+        let v5 = file(5, &without[HEADER..without.len() - 4]);
+        let mut none = s.clone();
+        none.patches[0].error_bound = None;
+        assert_eq!(decode(&v5).unwrap(), none);
+        // A flag of 2, and a NaN scale: named format errors.
+        let mut p = without[HEADER..].to_vec();
+        let at = p.len() - 4;
+        p[at] = 2;
+        assert!(decode(&file(VERSION, &p))
+            .unwrap_err()
+            .contains("error-bound flag"));
+        let mut p = bytes[HEADER..].to_vec();
+        let at = p.len() - 8;
+        p[at..at + 4].copy_from_slice(&f32::NAN.to_le_bytes());
+        assert!(decode(&file(VERSION, &p))
+            .unwrap_err()
+            .contains("error-bound scale"));
     }
 
     #[test]
@@ -523,7 +610,7 @@ mod tests {
         assert_eq!(back, s);
         assert_eq!(back.patches[0].color(3), crate::gtex::NEUTRAL_COLOR);
         // The flag is 0 or 1 only (offset: 15 f64, w, h, bits after the patch count).
-        let flag = b.len() - patch_len_v5(&s.patches[0]) + 15 * 8 + 3 * 4;
+        let flag = b.len() - patch_len_v6(&s.patches[0]) + 15 * 8 + 3 * 4;
         assert_eq!(&b[flag..flag + 4], &0u32.to_le_bytes());
         let mut payload = b[HEADER..].to_vec();
         payload[flag - HEADER] = 2;

@@ -230,7 +230,12 @@ impl Patch {
 
     /// Bytes the maps take (`map_bytes`).
     pub fn map_bytes(&self) -> usize {
-        map_bytes(self.texels(), self.height_bits, self.has_colors())
+        map_bytes(self.texels(), self.height_bits, self.has_colors()) + self.error_bound_bytes()
+    }
+
+    /// Bytes the error-bound map takes (0 without one).
+    pub fn error_bound_bytes(&self) -> usize {
+        self.error_bound.as_ref().map_or(0, ErrorBoundMap::bytes)
     }
 }
 
@@ -442,6 +447,14 @@ pub enum StatValue {
     Absent,
 }
 
+/// A set's error bounds in brief (`GeometryTextureSet::error_bound_figures`), world units.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ErrorBoundFigures {
+    pub max: f64,
+    pub p99: f64,
+    pub bytes: usize,
+}
+
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct GeometryTextureSet {
     pub patches: Vec<Patch>,
@@ -470,6 +483,32 @@ impl GeometryTextureSet {
 
     pub fn map_bytes(&self) -> usize {
         self.patches.iter().map(Patch::map_bytes).sum()
+    }
+
+    /// The error bounds of the whole set (`bound`): the largest, the 99th percentile over the
+    /// blocks holding surface, and the maps' bytes; None unless every patch has a bound map.
+    pub fn error_bound_figures(&self) -> Option<ErrorBoundFigures> {
+        let maps: Option<Vec<&ErrorBoundMap>> = self
+            .patches
+            .iter()
+            .map(|p| p.error_bound.as_ref())
+            .collect();
+        let maps = maps?;
+        let mut bounds: Vec<f64> = maps
+            .iter()
+            .flat_map(|m| m.decoded())
+            .filter(|&b| b > 0.0)
+            .collect();
+        bounds.sort_by(f64::total_cmp);
+        let p99 = bounds
+            .get(((bounds.len() as f64 * 0.99) as usize).min(bounds.len().saturating_sub(1)))
+            .copied()
+            .unwrap_or(0.0);
+        Some(ErrorBoundFigures {
+            max: bounds.last().copied().unwrap_or(0.0),
+            p99,
+            bytes: maps.iter().map(|m| m.bytes()).sum(),
+        })
     }
 
     /// The patch holding each source face, -1 for faces left out (degenerate ones). As long as

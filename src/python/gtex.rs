@@ -309,6 +309,48 @@ impl PyGeometryTextureSet {
         Ok(Self::wrap(set))
     }
 
+    /// A copy of the set whose patches carry error-bound maps made from per-cell bounds (one
+    /// (h + 1, w + 1) float64 array of world bounds per patch, rows from cell -1, or None for no
+    /// map): for tests of what frames make of the maps before conversion computes them.
+    fn _with_cell_bounds(
+        &self,
+        cell_bounds: Vec<Option<PyReadonlyArray2<'_, f64>>>,
+    ) -> PyResult<Self> {
+        let mut set = (**self.payload()).clone();
+        if cell_bounds.len() != set.patches.len() {
+            return Err(GeomtexError::Parameter(format!(
+                "one bound array (or None) per patch: {} patches, {} given",
+                set.patches.len(),
+                cell_bounds.len()
+            ))
+            .into());
+        }
+        for (p, cells) in set.patches.iter_mut().zip(&cell_bounds) {
+            p.error_bound = match cells {
+                None => None,
+                Some(a) => {
+                    let fits = a.shape() == [p.height as usize + 1, p.width as usize + 1];
+                    let values = a.as_slice().map(<[f64]>::to_vec).unwrap_or_default();
+                    if !fits || values.iter().any(|v| !v.is_finite() || *v < 0.0) {
+                        return Err(GeomtexError::Parameter(format!(
+                            "a patch of {}x{} texels takes a ({}, {}) contiguous array of finite \
+                             bounds >= 0",
+                            p.width,
+                            p.height,
+                            p.height + 1,
+                            p.width + 1
+                        ))
+                        .into());
+                    }
+                    Some(crate::gtex::ErrorBoundMap::from_cells(
+                        p.width, p.height, &values,
+                    ))
+                }
+            };
+        }
+        Ok(Self::wrap(set))
+    }
+
     fn __repr__(&self) -> String {
         let s = &self.inner;
         format!(
@@ -411,7 +453,7 @@ pub fn load(py: Python<'_>, path: &Bound<'_, PyAny>) -> PyResult<PyGeometryTextu
     chart_size = None, charts = None, chart_error = None, max_charts = None,
     compactness = None, lloyd_iterations = None, overlap_rings = None, dilation = None,
     frame = None, normals = None, crease_angle = None, height_bits = None, max_bytes = None,
-    progress = None))]
+    guarantee = None, progress = None))]
 #[allow(clippy::too_many_arguments)] // one per keyword of geomtex.convert
 pub fn convert(
     py: Python<'_>,
@@ -436,6 +478,7 @@ pub fn convert(
     crease_angle: Option<f64>,
     height_bits: Option<i64>,
     max_bytes: Option<i64>,
+    guarantee: Option<bool>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<PyGeometryTextureSet> {
     let options = ConvertArgs {
@@ -465,6 +508,7 @@ pub fn convert(
         crease_angle,
         height_bits,
         max_bytes,
+        guarantee,
     }
     .into_options()?;
     let set = convert_reporting(py, mesh.get().inner.clone(), &options, progress)?;

@@ -407,7 +407,7 @@ fn light_of(obj: &Bound<'_, PyAny>) -> PyResult<Light> {
 /// `render`'s `outputs`: names (a str for one), every output when `None`.
 fn outputs_of(obj: Option<&Bound<'_, PyAny>>) -> PyResult<Outputs> {
     let Some(obj) = obj else {
-        return Ok(Outputs::ALL);
+        return Ok(Outputs::DEFAULT);
     };
     let names: Vec<String> = match obj.extract::<String>() {
         Ok(one) => vec![one],
@@ -504,15 +504,17 @@ impl PyRenderer {
     /// `quality` picks measured settings ("fast", "balanced" or "exact", the default); `method`
     /// and the step keywords override them. `count_fetches` uses a counting build of the pipeline
     /// and reports height fetches in `frame.stats`. `lod` (max-pyramid search only) stops each
-    /// patch's descent where its nodes are about a pixel. `light` (a DirectionalLight or a
+    /// patch's descent where its nodes are about a pixel, or with `max_pixel_error` at its
+    /// coarsest level whose error bound projects to at most that many pixels. `light` (a DirectionalLight or a
     /// PointLight) casts shadows: `frame.shadow`, and shadowed pixels at half brightness.
     /// `max_pixel_error` (Surfels only, default 1): a cut of each patch's tiles and the nodes
     /// above them is drawn, each part at its coarsest level whose perpendicular error projects to
     /// at most this many pixels of depth (1/16 of it where a silhouette may show). `primary` ("tiles", default, or
     /// "boxes") picks how camera rays meet the texture sets' boxes: per pixel nearest first,
     /// stopping behind the nearest hit, or every box over a pixel searched. `outputs` (names
-    /// among "color", "albedo", "depth", "normal", "patch_id"; default all) are the arrays read
-    /// back: a frame's other arrays raise ParameterError when read, and a frame without
+    /// among "color", "albedo", "depth", "normal", "patch_id", "error_bound",
+    /// "coverage_uncertain"; default all but "coverage_uncertain") are the arrays read back or
+    /// computed: a frame's other arrays raise ParameterError when read, and a frame without
     /// "patch_id" reports no per-pixel figures in `stats`.
     #[pyo3(signature = (obj, camera, *, quality = None, method = None, steps_per_texel = None,
         min_linear_steps = None, max_linear_steps = None, binary_steps = None,
@@ -680,6 +682,8 @@ pub struct PyFrame {
     depth: Option<Py<PyArray2<f32>>>,
     normal: Option<Py<PyArray3<f32>>>,
     patch_id: Option<Py<PyArray2<i32>>>,
+    error_bound: Option<Py<PyArray2<f32>>>,
+    coverage_uncertain: Option<Py<PyArray2<bool>>>,
     stats: Py<PyDict>,
 }
 
@@ -690,6 +694,8 @@ type FrameArrays<'py> = (
     Option<Bound<'py, PyArray2<f32>>>,
     Option<Bound<'py, PyArray3<f32>>>,
     Option<Bound<'py, PyArray2<i32>>>,
+    Option<Bound<'py, PyArray2<f32>>>,
+    Option<Bound<'py, PyArray2<bool>>>,
 );
 
 impl PyFrame {
@@ -697,6 +703,9 @@ impl PyFrame {
         let (h, w) = (frame.height as usize, frame.width as usize);
         let stats = PyDict::new(py);
         set_stats(&stats, &frame.stats())?;
+        if let Some((levels, _)) = &frame.lod_levels {
+            stats.set_item("lod_levels", levels.clone())?;
+        }
         Ok(PyFrame {
             width: w,
             height: h,
@@ -708,6 +717,8 @@ impl PyFrame {
             depth: (frame.depth).map(|d| matrix(py, d, h, w).unbind()),
             normal: (frame.normal).map(|n| image(py, n, (h, w, 3)).unbind()),
             patch_id: (frame.patch_id).map(|p| matrix(py, p, h, w).unbind()),
+            error_bound: (frame.error_bound).map(|b| matrix(py, b, h, w).unbind()),
+            coverage_uncertain: (frame.coverage_uncertain).map(|c| matrix(py, c, h, w).unbind()),
             stats: stats.unbind(),
         })
     }
@@ -734,7 +745,8 @@ impl PyFrame {
     /// again), None for outputs not asked for; ParameterError when they do not fit together.
     #[staticmethod]
     #[pyo3(signature = (color, albedo, depth, normal, patch_id, shadow, stats, face_id = None,
-        barycentric = None, width = None, height = None))]
+        barycentric = None, width = None, height = None, error_bound = None,
+        coverage_uncertain = None))]
     #[allow(clippy::too_many_arguments)] // one per output of a frame
     fn _from_arrays(
         color: Option<Bound<'_, PyArray3<u8>>>,
@@ -748,6 +760,8 @@ impl PyFrame {
         barycentric: Option<Bound<'_, PyArray3<f32>>>,
         width: Option<usize>,
         height: Option<usize>,
+        error_bound: Option<Bound<'_, PyArray2<f32>>>,
+        coverage_uncertain: Option<Bound<'_, PyArray2<bool>>>,
     ) -> PyResult<Self> {
         let known = depth.as_ref().map(|d| (d.shape()[0], d.shape()[1]));
         let (h, w) = match (height, width, known) {
@@ -773,6 +787,8 @@ impl PyFrame {
             && fits(shadow.as_ref().map(|a| a.shape()), None)
             && fits(face_id.as_ref().map(|a| a.shape()), None)
             && fits(barycentric.as_ref().map(|a| a.shape()), Some(3))
+            && fits(error_bound.as_ref().map(|a| a.shape()), None)
+            && fits(coverage_uncertain.as_ref().map(|a| a.shape()), None)
             && face_id.is_some() == barycentric.is_some();
         if !fits {
             return Err(parameter_error(format!(
@@ -790,12 +806,15 @@ impl PyFrame {
             depth: owned_opt(&depth)?,
             normal: owned_opt(&normal)?,
             patch_id: owned_opt(&patch_id)?,
+            error_bound: owned_opt(&error_bound)?,
+            coverage_uncertain: owned_opt(&coverage_uncertain)?,
             stats: stats.copy()?.unbind(),
         })
     }
 
-    /// The per-pixel outputs as `_from_arrays` takes them: color, albedo, depth, normal and
-    /// patch_id, None for those the render did not ask for.
+    /// The per-pixel outputs in `Outputs::NAMES` order: color, albedo, depth, normal, patch_id,
+    /// error_bound and coverage_uncertain, None for those the render did not ask for (the first
+    /// five are `_from_arrays`' first arguments, the last two its keywords of those names).
     fn _arrays<'py>(&self, py: Python<'py>) -> FrameArrays<'py> {
         (
             bound(py, &self.color),
@@ -803,6 +822,8 @@ impl PyFrame {
             bound(py, &self.depth),
             bound(py, &self.normal),
             bound(py, &self.patch_id),
+            bound(py, &self.error_bound),
+            bound(py, &self.coverage_uncertain),
         )
     }
 
@@ -815,6 +836,8 @@ impl PyFrame {
             self.depth.is_some(),
             self.normal.is_some(),
             self.patch_id.is_some(),
+            self.error_bound.is_some(),
+            self.coverage_uncertain.is_some(),
         ];
         (Outputs::NAMES.iter().zip(held))
             .filter_map(|(n, h)| h.then_some(*n))
@@ -884,6 +907,20 @@ impl PyFrame {
     #[getter]
     fn patch_id(&self, py: Python<'_>) -> PyResult<Py<PyArray2<i32>>> {
         self.output(py, &self.patch_id, "patch_id")
+    }
+
+    /// (H, W) float32: per drawn pixel a bound (world units) on the distance from the point it
+    /// shows to the source mesh; NaN where nothing is drawn or no bound is known.
+    #[getter]
+    fn error_bound(&self, py: Python<'_>) -> PyResult<Py<PyArray2<f32>>> {
+        self.output(py, &self.error_bound, "error_bound")
+    }
+
+    /// (H, W) bool: true where the pixel's coverage (drawn or not) could differ from the source
+    /// mesh's.
+    #[getter]
+    fn coverage_uncertain(&self, py: Python<'_>) -> PyResult<Py<PyArray2<bool>>> {
+        self.output(py, &self.coverage_uncertain, "coverage_uncertain")
     }
 
     /// gpu_ms (GPU timestamps, None where unsupported), cpu_ms (the whole call), patches_drawn,

@@ -75,24 +75,49 @@ pub(crate) fn in_frustum(clip_from_box: &DMat4, perspective: bool) -> bool {
         || (perspective && outside(&|c| c.w <= 0.0)))
 }
 
-/// The pyramid level at which a patch's nodes are about one pixel: from its texel size and the
-/// pixel footprint at the nearest corner of its box (so no part of the patch gets coarser than
-/// a pixel; far parts of a long patch get finer than they need).
-pub(crate) fn lod_level(view_from_patch: &DMat4, p: &Patch, lens: &Lens, levels: u32) -> u32 {
+/// World size of a pixel at a patch's nearest box corner (never nearer than the near plane):
+/// the footprint both level-of-detail rules project to.
+pub(crate) fn nearest_pixel(view_from_patch: &DMat4, lens: &Lens) -> f64 {
     let nearest = unit_cube_corners()
         .iter()
         .map(|&c| -view_from_patch.transform_point3(c).z)
         .fold(f64::INFINITY, f64::min)
         .max(lens.near);
-    let pixel = if lens.orthographic {
+    if lens.orthographic {
         lens.ray[1].abs()
     } else {
         nearest * lens.ray[1].abs()
-    };
+    }
+}
+
+/// The pyramid level at which a patch's nodes are about one pixel: from its texel size and the
+/// pixel footprint at the nearest corner of its box (so no part of the patch gets coarser than
+/// a pixel; far parts of a long patch get finer than they need).
+pub(crate) fn lod_level(view_from_patch: &DMat4, p: &Patch, lens: &Lens, levels: u32) -> u32 {
+    let pixel = nearest_pixel(view_from_patch, lens);
     let texel = (p.extent.x / p.width as f64).min(p.extent.y / p.height as f64);
     let texels_per_pixel = pixel / texel;
     if texels_per_pixel.is_nan() || texels_per_pixel < 2.0 {
         return 0;
     }
     (texels_per_pixel.log2().floor() as u32).min(levels.saturating_sub(1))
+}
+
+/// The coarsest pyramid level whose bound (`level_bounds`: per level, world units, growing with
+/// the level) projects to at most `max_pixels` pixels at the patch's nearest corner, as
+/// `lod_level` projects; 0 when none does.
+pub(crate) fn bound_lod_level(
+    view_from_patch: &DMat4,
+    lens: &Lens,
+    level_bounds: &[f64],
+    max_pixels: f64,
+) -> u32 {
+    let pixel = nearest_pixel(view_from_patch, lens);
+    let fits = |b: &f64| *b / pixel <= max_pixels;
+    // Bounds grow with the level, so the levels that fit are a prefix.
+    level_bounds
+        .iter()
+        .take_while(|b| fits(b))
+        .count()
+        .saturating_sub(1) as u32
 }

@@ -5,6 +5,8 @@
 
 use crate::gtex::StatValue;
 
+use super::coverage::CoverageFigures;
+use super::error_bound::BoundFigures;
 use super::outputs::Outputs;
 use super::search::{Method, Primary};
 
@@ -57,7 +59,41 @@ pub struct Frame {
     pub face_id: Option<Vec<i32>>,
     /// With `face_id`: the barycentric coordinates in that face, three per pixel (0 where none).
     pub barycentric: Option<Vec<f32>>,
+    /// Per pixel a bound (world units) on the distance from the drawn point to the source mesh
+    /// (error_bound.rs); NaN where nothing is drawn or no bound is known.
+    pub error_bound: Option<Vec<f32>>,
+    /// With `error_bound`: its figures over the drawn pixels.
+    pub bound_figures: Option<BoundFigures>,
+    /// Per pixel, whether its coverage could differ from the source mesh's (coverage.rs).
+    pub coverage_uncertain: Option<Vec<bool>>,
+    /// With `coverage_uncertain`: the probes it cast and its time.
+    pub coverage: Option<CoverageFigures>,
+    /// With `lod`: drawn patches per level-of-detail stop level (0: exact), and whether the
+    /// levels were picked by the node's pixel size or by the bound (`SearchOptions`).
+    pub lod_levels: Option<(Vec<u64>, LodRule)>,
 }
+
+/// How a frame with `lod` picked each patch's stop level.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LodRule {
+    /// Nodes about a pixel wide.
+    Pixel,
+    /// The coarsest level whose error bound projects to at most `max_pixel_error` pixels.
+    Bound,
+}
+
+impl LodRule {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            LodRule::Pixel => "pixel",
+            LodRule::Bound => "bound",
+        }
+    }
+}
+
+/// What `error_bound_search` says of a search that may step over a thin feature (linear steps).
+const DRAWN_POINTS_ONLY: &str =
+    "drawn points only: a linear search can step over a thin feature, leaving it undrawn";
 
 /// A frame's shadows (shadow.rs), made in one piece after its pixels are read back.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -144,6 +180,8 @@ impl Frame {
             depth: self.depth.is_some(),
             normal: self.normal.is_some(),
             patch_id: self.patch_id.is_some(),
+            error_bound: self.error_bound.is_some(),
+            coverage_uncertain: self.coverage_uncertain.is_some(),
         }
     }
 
@@ -163,6 +201,14 @@ impl Frame {
         }
         if !keep.patch_id {
             self.patch_id = None;
+        }
+        if !keep.error_bound {
+            self.error_bound = None;
+            self.bound_figures = None;
+        }
+        if !keep.coverage_uncertain {
+            self.coverage_uncertain = None;
+            self.coverage = None;
         }
     }
 
@@ -195,6 +241,7 @@ impl Frame {
             ("searches", StatValue::Int(self.searches as i64)),
             ("searches_per_pixel", per_pixel(self.searches)),
         ];
+        stats.extend(self.bound_stats());
         if let Some(s) = &self.shadow {
             let shadowed = s.mask.iter().filter(|&&s| s).count();
             stats.extend([
@@ -236,6 +283,37 @@ impl Frame {
         }
         stats
     }
+
+    /// The figures of the error bounds, coverage and level of detail, where the frame has them.
+    fn bound_stats(&self) -> Vec<(&'static str, StatValue)> {
+        let float = |v: Option<f64>| v.map_or(StatValue::Absent, StatValue::Float);
+        let mut stats = Vec::new();
+        if let Some(b) = &self.bound_figures {
+            let search = match self.method {
+                Method::MaxMip => "exact",
+                Method::LinearBinary => DRAWN_POINTS_ONLY,
+            };
+            stats.extend([
+                ("error_bound_max", float(b.max)),
+                ("error_bound_median", float(b.median)),
+                (
+                    "error_bound_unknown_pixels",
+                    StatValue::Int(b.unknown_pixels as i64),
+                ),
+                ("error_bound_search", StatValue::Text(search)),
+            ]);
+        }
+        if let Some(c) = &self.coverage {
+            stats.extend([
+                ("coverage_probes", StatValue::Int(c.probes as i64)),
+                ("coverage_ms", StatValue::Float(c.ms)),
+            ]);
+        }
+        if let Some((_, rule)) = &self.lod_levels {
+            stats.push(("lod_rule", StatValue::Text(rule.as_str())));
+        }
+        stats
+    }
 }
 
 #[cfg(test)]
@@ -268,6 +346,11 @@ mod tests {
             surfels: None,
             face_id: None,
             barycentric: None,
+            error_bound: None,
+            bound_figures: None,
+            coverage_uncertain: None,
+            coverage: None,
+            lod_levels: None,
         }
     }
 

@@ -17,8 +17,10 @@
 
 mod atlas;
 pub mod camera;
+mod coverage;
 mod cull;
 pub mod device;
+mod error_bound;
 mod frame;
 mod frame_bindings;
 mod gpu_types;
@@ -37,8 +39,10 @@ mod targets;
 use std::time::Instant;
 
 pub use camera::{Camera, Lens, Projection};
+pub use coverage::CoverageFigures;
 pub use device::Gpu;
-pub use frame::{Frame, Shadows, SurfelCounts};
+pub use error_bound::BoundFigures;
+pub use frame::{Frame, LodRule, Shadows, SurfelCounts};
 pub use kinds::uploads_made;
 pub use outputs::Outputs;
 pub use query::RayHits;
@@ -47,10 +51,12 @@ pub use search::{Method, Primary, Quality, SearchOptions, SearchOverrides};
 pub use shadow::Light;
 
 use crate::error::{GeomtexError, Result};
+use coverage::CoverageInputs;
 use cull::DepthRange;
 use device::guarded;
+use error_bound::{pixel_bounds, DrawnPixels, ObjectIds, PixelSources};
 use frame_bindings::FrameBindings;
-use kinds::{DrawCall, FrameView, KindContext, Registry, Tally};
+use kinds::{DrawCall, FrameView, KindContext, LodPick, Registry, Tally};
 use pipelines::DepthCopy;
 use targets::{Readback, Targets};
 
@@ -80,12 +86,12 @@ pub struct FrameRequest {
 }
 
 impl FrameRequest {
-    /// Every output of a `width` x `height` frame on the default background.
+    /// The default outputs of a `width` x `height` frame on the default background.
     pub fn new(width: u32, height: u32) -> FrameRequest {
         FrameRequest {
             width,
             height,
-            outputs: Outputs::ALL,
+            outputs: Outputs::DEFAULT,
             background: None,
         }
     }
@@ -102,6 +108,15 @@ struct Prepared {
     /// Draws of the surface pass (kinds/igt.rs), run after the scene pass when there are any.
     surface_draws: Vec<DrawCall>,
     tally: Tally,
+    /// The ids each scene object took, in scene order.
+    ids: Vec<ObjectIds>,
+}
+
+/// What a frame's bounds are made from besides its pixels (error_bound.rs).
+struct BoundInputs {
+    lens: Lens,
+    ids: Vec<ObjectIds>,
+    lod_picks: Vec<LodPick>,
 }
 
 /// A `ParameterError` unless `width` x `height` fits an adapter whose largest image side is `max`.
@@ -208,20 +223,80 @@ impl Renderer {
         search.validate()?;
         self.check_size(request.width, request.height)?;
         let device = self.gpu.device.clone();
-        guarded(&device, || {
-            let start = Instant::now();
-            let prepared = self.prepare(scene, camera, search, request)?;
-            let (counters, tallies) = self.encode_passes(&prepared, request);
+        let start = Instant::now();
+        // The bounds are made from the depth and patch ids: read them whenever bounds are asked.
+        let read = FrameRequest {
+            outputs: request.outputs.to_read(),
+            ..*request
+        };
+        let (mut frame, inputs) = guarded(&device, || {
+            let prepared = self.prepare(scene, camera, search, &read)?;
+            let (counters, tallies) = self.encode_passes(&prepared, &read);
             let targets = &self.targets[0];
-            let readback = targets.read_back(&self.gpu, counters, request.outputs)?;
+            let readback = targets.read_back(&self.gpu, counters, read.outputs)?;
             let surfels = SurfelCounts::read(&self.gpu, &tallies)?;
             let surface = (!prepared.surface_draws.is_empty())
                 .then(|| targets.read_surface(&self.gpu))
                 .transpose()?;
+            let inputs = BoundInputs {
+                lens: prepared.lens,
+                ids: prepared.ids.clone(),
+                lod_picks: prepared.tally.lod_picks.clone(),
+            };
             let mut frame = self.finish(prepared, readback, surfels, search, start);
             (frame.face_id, frame.barycentric) = surface.unzip();
-            Ok(frame)
-        })
+            Ok((frame, inputs))
+        })?;
+        if request.outputs.needs_bounds() {
+            self.add_bounds(scene, camera, search, request.outputs, &inputs, &mut frame)?;
+            frame.cpu_ms = start.elapsed().as_secs_f64() * 1e3;
+        }
+        frame.keep_only(request.outputs);
+        Ok(frame)
+    }
+
+    /// Computes the frame's error bounds and, where asked, which pixels' coverage is uncertain
+    /// (error_bound.rs, coverage.rs), from its depth and patch ids.
+    fn add_bounds(
+        &mut self,
+        scene: &Scene,
+        camera: &Camera,
+        search: &SearchOptions,
+        outputs: Outputs,
+        inputs: &BoundInputs,
+        frame: &mut Frame,
+    ) -> Result<()> {
+        let (Some(depth), Some(patch_id)) = (&frame.depth, &frame.patch_id) else {
+            return Err(GeomtexError::Internal(
+                "error bounds need the frame's depth and patch ids read back".into(),
+            ));
+        };
+        let sources = PixelSources::new(scene, &inputs.ids, &inputs.lod_picks, camera.eye());
+        let pixels = DrawnPixels {
+            width: frame.width,
+            lines: camera.pixel_lines(&inputs.lens),
+            forward: camera.forward(),
+            depth,
+            patch_id,
+        };
+        let bounds = pixel_bounds(&sources, &pixels);
+        let figures = BoundFigures::of(&bounds, |i| pixels.point(i).is_some());
+        let coverage = if outputs.coverage_uncertain {
+            let coverage_inputs = CoverageInputs {
+                pixels: &pixels,
+                height: frame.height,
+                bounds: &bounds,
+                sources: &sources,
+                lens: &inputs.lens,
+            };
+            Some(self.coverage_uncertain(scene, camera, search, &coverage_inputs)?)
+        } else {
+            None
+        };
+        (frame.coverage_uncertain, frame.coverage) = coverage.unzip();
+        frame.error_bound = Some(bounds);
+        frame.bound_figures = Some(figures);
+        Ok(())
     }
 
     /// Uploads what is new, chooses the near plane from the scene's depth range, writes the
@@ -248,14 +323,16 @@ impl Renderer {
             search,
         };
         let mut tally = Tally::default();
-        let draws = scene
-            .objects
-            .iter()
-            .zip(&owners)
-            .flat_map(|(placed, &owner)| {
-                self.kinds.kinds[owner].draw(&self.gpu, &frame, placed, &mut tally)
-            })
-            .collect();
+        let mut draws = Vec::with_capacity(scene.objects.len());
+        let mut ids = Vec::with_capacity(scene.objects.len());
+        for (placed, &owner) in scene.objects.iter().zip(&owners) {
+            let (patches, meshes) = (tally.patch_ids, tally.meshes_drawn);
+            draws.extend(self.kinds.kinds[owner].draw(&self.gpu, &frame, placed, &mut tally));
+            ids.push(ObjectIds {
+                patches: patches..tally.patch_ids,
+                meshes: meshes..tally.meshes_drawn,
+            });
+        }
         let surface_draws: Vec<DrawCall> = (scene.objects.iter().zip(&owners))
             .filter_map(|(placed, &owner)| {
                 self.kinds.kinds[owner].draw_surface(&self.gpu, &frame, placed)
@@ -271,6 +348,7 @@ impl Renderer {
             draws,
             surface_draws,
             tally,
+            ids,
         })
     }
 
@@ -411,6 +489,31 @@ impl Renderer {
             surfels,
             face_id: None,
             barycentric: None,
+            error_bound: None,
+            bound_figures: None,
+            coverage_uncertain: None,
+            coverage: None,
+            lod_levels: search.lod.then(|| {
+                let rule = match search.lod_bound_pixels {
+                    Some(_) => LodRule::Bound,
+                    None => LodRule::Pixel,
+                };
+                (lod_histogram(&tally.lod_picks), rule)
+            }),
         }
     }
+}
+
+/// Drawn patches per level-of-detail stop level, from level 0 to the coarsest picked.
+fn lod_histogram(picks: &[LodPick]) -> Vec<u64> {
+    let levels = picks
+        .iter()
+        .map(|p| p.level as usize + 1)
+        .max()
+        .unwrap_or(1);
+    let mut counts = vec![0u64; levels];
+    for p in picks {
+        counts[p.level as usize] += 1;
+    }
+    counts
 }

@@ -114,6 +114,10 @@ pub struct SearchOptions {
     /// Surfels: each tile's coarsest level whose perpendicular error projects to at most this
     /// many pixels.
     pub max_pixel_error: f32,
+    /// With `lod`, when the caller gave `max_pixel_error`: each patch's stop level is its
+    /// coarsest whose error bound (kinds/gtex/lod.rs) projects to at most this many pixels at
+    /// its nearest point; None: the level whose nodes are about a pixel wide.
+    pub lod_bound_pixels: Option<f32>,
     /// How frames meet texture sets' boxes.
     pub primary: Primary,
 }
@@ -130,6 +134,7 @@ impl Default for SearchOptions {
             count_fetches: false,
             lod: false,
             max_pixel_error: 1.0,
+            lod_bound_pixels: None,
             primary: Primary::Tiles,
         }
     }
@@ -203,6 +208,8 @@ impl SearchOverrides {
     /// The preset of the quality, then each given override, validated.
     pub fn resolve(&self) -> Result<SearchOptions> {
         let preset = SearchOptions::preset(self.quality.unwrap_or_default());
+        let lod = self.lod.unwrap_or(preset.lod);
+        let max_pixel_error = self.max_pixel_error.unwrap_or(preset.max_pixel_error);
         let options = SearchOptions {
             method: self.method.unwrap_or(preset.method),
             steps_per_texel: self.steps_per_texel.unwrap_or(preset.steps_per_texel),
@@ -213,8 +220,9 @@ impl SearchOverrides {
                 .max_traversal_steps
                 .unwrap_or(preset.max_traversal_steps),
             count_fetches: self.count_fetches.unwrap_or(preset.count_fetches),
-            lod: self.lod.unwrap_or(preset.lod),
-            max_pixel_error: self.max_pixel_error.unwrap_or(preset.max_pixel_error),
+            lod,
+            max_pixel_error,
+            lod_bound_pixels: (lod && self.max_pixel_error.is_some()).then_some(max_pixel_error),
             primary: self.primary.unwrap_or(preset.primary),
         };
         options.validate()?;
@@ -259,5 +267,16 @@ mod tests {
             ..Default::default()
         };
         assert!(lod_without_maxmip.resolve().is_err());
+        let by_bound = SearchOverrides {
+            lod: Some(true),
+            max_pixel_error: Some(0.5),
+            ..Default::default()
+        };
+        assert_eq!(by_bound.resolve().unwrap().lod_bound_pixels, Some(0.5));
+        let by_pixel = SearchOverrides {
+            lod: Some(true),
+            ..Default::default()
+        };
+        assert_eq!(by_pixel.resolve().unwrap().lod_bound_pixels, None);
     }
 }

@@ -497,6 +497,17 @@ pub(crate) struct Tally {
     /// Milliseconds spent making what the drawn sets' first frame needs (maps and pyramids
     /// uploaded, ownership, tile pieces), 0 once made.
     pub setup_ms: f64,
+    /// With `lod`: the stop level each drawn patch got (kinds/gtex).
+    pub lod_picks: Vec<LodPick>,
+}
+
+/// The level-of-detail stop level a drawn patch got, and the bound (world units) on how far its
+/// points drawn there lie from the source mesh (kinds/gtex/lod.rs); level 0 is the exact search.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct LodPick {
+    pub patch_id: i32,
+    pub level: u32,
+    pub bound: f64,
 }
 
 impl Tally {

@@ -13,6 +13,7 @@
 //! bounds; for queries, world space translated near the rays) and clip (the lens's, for culling).
 
 pub(crate) mod boxes;
+mod lod;
 mod owners;
 
 use std::sync::{Arc, Mutex, OnceLock};
@@ -22,14 +23,17 @@ use bytemuck::Zeroable;
 use glam::{DMat3, DMat4, DVec3};
 use rayon::prelude::*;
 
-use super::{storage_buffer, DrawCall, FrameView, Kind, KindContext, Tally, TraceCall, UploadCache};
+use super::{
+    storage_buffer, DrawCall, FrameView, Kind, KindContext, LodPick, Tally, TraceCall, UploadCache,
+};
 use crate::bvh::{Aabb, Bvh};
 use crate::error::Result;
 use crate::gtex::{GeometryTextureSet, Patch};
 use crate::heightfield::min_max_pyramid;
 use crate::render::atlas::Atlas;
-use crate::render::cull::{in_frustum, lod_level, DepthRange};
+use crate::render::cull::{bound_lod_level, in_frustum, lod_level, DepthRange};
 use crate::render::device::Gpu;
+use crate::render::error_bound::largest_singular_value;
 use crate::render::gpu_types::{gpu_matrix, normal_matrix, PatchGpu};
 use crate::render::pipelines::{
     compute_pipeline, storage_entry, texture_entry, RasterPipeline, VERTEX_AND_FRAGMENT,
@@ -57,6 +61,9 @@ pub(crate) struct GtexUpload {
     owned: OnceLock<Vec<Vec<u16>>>,
     tracing: OnceLock<Tracing>,
     tile_pieces: OnceLock<Pieces>,
+    /// Per patch, per pyramid level, the bound on a drawn point's distance to the source mesh
+    /// (lod.rs), in the set's units; made on the first frame with `lod`.
+    level_bounds: OnceLock<Vec<Vec<f64>>>,
     /// Parallel queries' tiles, one per placement of the set (a scene may hold it several
     /// times), all along the last direction asked for.
     parallel: Mutex<Vec<Arc<ParallelTiles>>>,
@@ -107,6 +114,7 @@ impl GtexUpload {
             owned: OnceLock::new(),
             tracing: OnceLock::new(),
             tile_pieces: OnceLock::new(),
+            level_bounds: OnceLock::new(),
             parallel: Mutex::new(Vec::new()),
             unreported_seconds: Mutex::new(start.elapsed().as_secs_f64()),
         })
@@ -148,6 +156,12 @@ impl GtexUpload {
                 let owned = self.owned(set); // timed on its own, not twice
                 self.timed(|| Pieces::for_tiles(gpu, set, owned))
             })
+    }
+
+    fn level_bounds(&self, set: &GeometryTextureSet) -> &[Vec<f64>] {
+        self.level_bounds.get_or_init(|| {
+            self.timed(|| set.patches.par_iter().map(lod::level_bounds).collect())
+        })
     }
 
     fn owned(&self, set: &GeometryTextureSet) -> &[Vec<u16>] {
@@ -359,8 +373,24 @@ struct Placing<'a> {
     view_from_object: DMat4,
     world_from_object: DMat4,
     lens: Option<&'a crate::render::camera::Lens>,
-    lod: bool,
+    lod: LodRule<'a>,
     first_id: i32,
+}
+
+/// How a frame picks each patch's level-of-detail stop level.
+#[derive(Clone, Copy)]
+enum LodRule<'a> {
+    /// Exact search (level 0).
+    Off,
+    /// The level whose nodes are about a pixel wide (cull::lod_level).
+    Pixel,
+    /// The coarsest level whose bound (per patch, per level, in the set's units, scaled to the
+    /// world by `scale`) projects to at most `max_pixels` (cull::bound_lod_level).
+    Bound {
+        max_pixels: f64,
+        level_bounds: &'a [Vec<f64>],
+        scale: f64,
+    },
 }
 
 impl GtexKind {
@@ -480,8 +510,13 @@ impl GtexKind {
                 });
                 let axes = DMat3::from_cols(p.axes[0], p.axes[1], p.axes[2]);
                 let [first_value, levels] = atlas.pyramid_at[i];
-                let lod = match placing.lens {
-                    Some(lens) if placing.lod => lod_level(&view_from_patch, p, lens, levels),
+                let lod = match (placing.lens, placing.lod) {
+                    (Some(lens), LodRule::Pixel) => lod_level(&view_from_patch, p, lens, levels),
+                    (Some(lens), LodRule::Bound { max_pixels, level_bounds, scale }) => {
+                        let world: Vec<f64> = level_bounds[i].iter().map(|b| b * scale).collect();
+                        bound_lod_level(&view_from_patch, lens, &world, max_pixels)
+                            .min(levels.saturating_sub(1))
+                    }
                     _ => 0,
                 };
                 let record = PatchGpu {
@@ -519,7 +554,7 @@ impl GtexKind {
             view_from_object: view_from_world * placed.world_from_object,
             world_from_object: placed.world_from_object,
             lens: None,
-            lod: false,
+            lod: LodRule::Off,
             first_id: ids.patch_ids,
         };
         ids.patch_ids += set.patches.len() as i32;
@@ -561,6 +596,26 @@ impl GtexKind {
             entries: &entries,
         })
     }
+}
+
+/// The stop level of each drawn patch (`records` of a set, in patch order) and its bound, scaled
+/// to the world by `scale`.
+fn lod_picks<'a>(
+    records: &'a [PatchGpu],
+    placements: &'a [Option<DMat4>],
+    level_bounds: &'a [Vec<f64>],
+    scale: f64,
+) -> impl Iterator<Item = LodPick> + 'a {
+    (records.iter().zip(placements).zip(level_bounds))
+        .filter(|((_, placement), _)| placement.is_some())
+        .map(move |((record, _), bounds)| {
+            let level = record.pyramid_at[3];
+            LodPick {
+                patch_id: record.ids[1],
+                level,
+                bound: bounds.get(level as usize).copied().unwrap_or(0.0) * scale,
+            }
+        })
 }
 
 /// The corners of each piece whose patch is placed (by its view_from_patch), with the piece's
@@ -638,14 +693,28 @@ impl Kind for GtexKind {
         tally: &mut Tally,
     ) -> Option<DrawCall> {
         let upload = self.uploads.get(set)?;
+        let scale = largest_singular_value(&placed.world_from_object);
+        let level_bounds = frame.search.lod.then(|| upload.level_bounds(set));
+        let lod = match (level_bounds, frame.search.lod_bound_pixels) {
+            (None, _) => LodRule::Off,
+            (Some(_), None) => LodRule::Pixel,
+            (Some(level_bounds), Some(p)) => LodRule::Bound {
+                max_pixels: f64::from(p),
+                level_bounds,
+                scale,
+            },
+        };
         let placing = Placing {
             view_from_object: frame.view_from_world * placed.world_from_object,
             world_from_object: placed.world_from_object,
             lens: Some(frame.lens),
-            lod: frame.search.lod,
+            lod,
             first_id: tally.patch_ids,
         };
         let (records, placements) = Self::records(&placing, set, &upload.atlas);
+        if let Some(level_bounds) = level_bounds {
+            tally.lod_picks.extend(lod_picks(&records, &placements, level_bounds, scale));
+        }
         tally.patch_ids += set.patches.len() as i32;
         tally.texture_bytes += upload.atlas.bytes;
         tally.setup_ms += upload.take_setup_seconds() * 1e3;

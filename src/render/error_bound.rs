@@ -1,0 +1,396 @@
+//! Per-pixel error bounds of a frame (`Frame::error_bound`): for each drawn pixel a bound on the
+//! distance from the point it shows to the source mesh, computed on the CPU after read-back from
+//! the depth and patch ids. A set's pixel takes the bound of the cell its point falls in
+//! (`Patch::error_bound_near`), or its patch's level bound when drawn at a coarser level of
+//! detail (kinds/gtex/lod.rs); a plain mesh's pixel is the mesh itself. Every bound adds a term
+//! for the f32 rounding of the drawn point (`FLOAT_ULPS`). NaN where nothing is drawn or no bound
+//! is known: sets without bound maps, surfels, IGT meshes and displacement shells.
+//!
+//! Spaces: world (the scene's), each object's own (placed by `world_from_object`), patch-local and
+//! texel-centre coordinates x = u w - 1/2, y = v h - 1/2 (heightfield.rs); images row-major from
+//! the top; bounds in world units.
+
+use std::ops::Range;
+use std::sync::Arc;
+
+use glam::{DMat3, DMat4, DVec3};
+use rayon::prelude::*;
+
+use super::camera::{Lens, PixelLines};
+use super::kinds::LodPick;
+use super::scene::{Scene, ShadedMesh};
+use crate::gtex::GeometryTextureSet;
+
+/// Texels of slack around a point's cell: the point comes from an f32 depth and an f32 search,
+/// so it may lie a hair across the side of the cell its surface was found in.
+const CELL_SLACK: f64 = 0.02;
+
+/// f32 steps (relative to the drawn point's distance from the eye plus the size of what drew it)
+/// that cover the rounding of a drawn point: the GPU works in f32 relative to the camera, the
+/// depth is stored in f32 and a mesh's vertices are f32 about its centre. Measured on the bunny
+/// (three views, 256², distance across the surface: along-ray error x |cos| to the shading
+/// normal): a set's drawn points lie within 2.0 of these steps of the exact f64 hits of its stored
+/// surface (GeometryTextureSet.first_hits; p99 1.3), a mesh's within 2.5 of trimesh's f64 hits
+/// (p99 0.8). Along the ray, at grazing angles, they reach 25 steps.
+pub(crate) const FLOAT_ULPS: f64 = 4.0;
+
+/// Where each id of a frame came from, as far as its bound goes: `patches` indexed by patch id,
+/// `meshes` by k for id -2 - k.
+pub(crate) struct PixelSources {
+    sets: Vec<PlacedSet>,
+    patches: Vec<IdSource>,
+    meshes: Vec<IdSource>,
+    eye: DVec3,
+}
+
+/// A set as a scene places it.
+struct PlacedSet {
+    set: Arc<GeometryTextureSet>,
+    object_from_world: DMat4,
+    /// How much the placement stretches a length at most (its largest singular value).
+    scale: f64,
+}
+
+#[derive(Clone, Copy)]
+enum IdSource {
+    /// Patch `patch` of `sets[set]`; `lod_bound` its level bound (world units) when drawn at a
+    /// level of detail coarser than the exact cells.
+    Patch {
+        set: usize,
+        patch: usize,
+        lod_bound: Option<f64>,
+    },
+    /// A plain mesh: the source itself; `reach` is its bounding box's diagonal (world units).
+    Mesh {
+        reach: f64,
+    },
+    Unknown,
+}
+
+/// The ids each scene object took in a frame (patch ids, and k of mesh ids -2 - k).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct ObjectIds {
+    pub patches: Range<i32>,
+    pub meshes: Range<usize>,
+}
+
+impl PixelSources {
+    /// The sources of a frame of `scene` whose objects took `ids` (in scene order), with the
+    /// level-of-detail picks of its patches, seen from `eye`.
+    pub fn new(scene: &Scene, ids: &[ObjectIds], lod_picks: &[LodPick], eye: DVec3) -> Self {
+        let patch_count = ids.iter().map(|r| r.patches.end).max().unwrap_or(0).max(0);
+        let mesh_count = ids.iter().map(|r| r.meshes.end).max().unwrap_or(0);
+        let mut sources = PixelSources {
+            sets: Vec::new(),
+            patches: vec![IdSource::Unknown; patch_count as usize],
+            meshes: vec![IdSource::Unknown; mesh_count],
+            eye,
+        };
+        for (placed, taken) in scene.objects.iter().zip(ids) {
+            let scale = largest_singular_value(&placed.world_from_object);
+            if let Some(set) = placed.object.payload::<GeometryTextureSet>() {
+                for (patch, id) in taken.patches.clone().enumerate() {
+                    sources.patches[id as usize] = IdSource::Patch {
+                        set: sources.sets.len(),
+                        patch,
+                        lod_bound: None,
+                    };
+                }
+                sources.sets.push(PlacedSet {
+                    set,
+                    object_from_world: placed.world_from_object.inverse(),
+                    scale,
+                });
+            } else if let Some(shaded) = placed.object.payload::<ShadedMesh>() {
+                let reach = bounding_diagonal(&shaded.mesh.positions) * scale;
+                for k in taken.meshes.clone() {
+                    sources.meshes[k] = IdSource::Mesh { reach };
+                }
+            }
+        }
+        for pick in lod_picks.iter().filter(|p| p.level > 0) {
+            if let Some(IdSource::Patch { lod_bound, .. }) =
+                sources.patches.get_mut(pick.patch_id as usize)
+            {
+                *lod_bound = Some(pick.bound);
+            }
+        }
+        sources
+    }
+
+    fn source(&self, id: i32) -> IdSource {
+        let found = match id {
+            0.. => self.patches.get(id as usize),
+            ..=-2 => self.meshes.get((-2 - id) as usize),
+            _ => None,
+        };
+        found.copied().unwrap_or(IdSource::Unknown)
+    }
+
+    /// The bound (world units) of world point `point` drawn with id `id`; NaN where none is
+    /// known.
+    pub fn bound_at(&self, point: DVec3, id: i32) -> f64 {
+        let rounding = |reach: f64| {
+            FLOAT_ULPS * f64::from(f32::EPSILON) * ((point - self.eye).length() + reach)
+        };
+        match self.source(id) {
+            IdSource::Unknown => f64::NAN,
+            IdSource::Mesh { reach } => rounding(reach),
+            IdSource::Patch {
+                set,
+                patch,
+                lod_bound,
+            } => {
+                let placed = &self.sets[set];
+                let p = &placed.set.patches[patch];
+                let reach = p.extent.length() * placed.scale;
+                // Without a map nothing is known, whatever the level.
+                let Some(cell) = p.error_bound.as_ref().and_then(|_| {
+                    let local = p.world_to_local(placed.object_from_world.transform_point3(point));
+                    let (x, y) = (
+                        local.x * f64::from(p.width) - 0.5,
+                        local.y * f64::from(p.height) - 0.5,
+                    );
+                    p.error_bound_near(x, y, CELL_SLACK)
+                }) else {
+                    return f64::NAN;
+                };
+                lod_bound.map_or(cell * placed.scale, |b| b.max(cell * placed.scale))
+                    + rounding(reach)
+            }
+        }
+    }
+
+    /// How far (world units) a drawn outline may stand off the mesh's beyond the surface's own
+    /// bound: a tenth of a texel for a set's patch (its outline codes and their bilinear blend
+    /// round by about that), none for a mesh, NaN where unknown.
+    pub fn outline_allowance(&self, id: i32) -> f64 {
+        match self.source(id) {
+            IdSource::Unknown => f64::NAN,
+            IdSource::Mesh { .. } => 0.0,
+            IdSource::Patch { set, patch, .. } => {
+                let placed = &self.sets[set];
+                0.1 * placed.set.patches[patch].texel_size() * placed.scale
+            }
+        }
+    }
+}
+
+/// What a frame's per-pixel bounds are made from: its size, pixel rays, depth and ids.
+pub(crate) struct DrawnPixels<'a> {
+    pub width: u32,
+    pub lines: PixelLines,
+    pub forward: DVec3,
+    pub depth: &'a [f32],
+    pub patch_id: &'a [i32],
+}
+
+impl DrawnPixels<'_> {
+    /// The world point pixel `i` shows, or None where nothing is drawn.
+    pub fn point(&self, i: usize) -> Option<DVec3> {
+        let depth = self.depth[i];
+        if !depth.is_finite() || self.patch_id[i] == -1 {
+            return None;
+        }
+        let w = self.width as usize;
+        let (o, d) = self.lines.at((i % w) as f64 + 0.5, (i / w) as f64 + 0.5);
+        // d is not of unit length: the division makes the step one of z-depth all the same.
+        Some(o + d * (f64::from(depth) / d.dot(self.forward)))
+    }
+}
+
+/// Every pixel's bound (world units, rounded up to f32), rows in parallel; NaN where nothing is
+/// drawn or no bound is known.
+pub(crate) fn pixel_bounds(sources: &PixelSources, pixels: &DrawnPixels) -> Vec<f32> {
+    let mut bounds = vec![f32::NAN; pixels.depth.len()];
+    let w = pixels.width as usize;
+    bounds
+        .par_chunks_mut(w.max(1))
+        .enumerate()
+        .for_each(|(row, out)| {
+            for (x, b) in out.iter_mut().enumerate() {
+                let i = row * w + x;
+                if let Some(point) = pixels.point(i) {
+                    *b = f32_at_least(sources.bound_at(point, pixels.patch_id[i]));
+                }
+            }
+        });
+    bounds
+}
+
+/// The least f32 not below `v` (NaN stays NaN).
+fn f32_at_least(v: f64) -> f32 {
+    let r = v as f32;
+    if f64::from(r) < v {
+        r.next_up()
+    } else {
+        r
+    }
+}
+
+/// The largest singular value of a placement's linear part: the most it stretches a length.
+/// Closed form over the eigenvalues of the symmetric MᵀM (the trigonometric solution).
+pub(crate) fn largest_singular_value(m: &DMat4) -> f64 {
+    let l = DMat3::from_mat4(*m);
+    let a = l.transpose() * l;
+    let off = a.x_axis.y.powi(2) + a.x_axis.z.powi(2) + a.y_axis.z.powi(2);
+    let diagonal = [a.x_axis.x, a.y_axis.y, a.z_axis.z];
+    let largest = if off <= 1e-30 * diagonal.iter().map(|d| d * d).sum::<f64>() {
+        diagonal.into_iter().fold(0.0, f64::max)
+    } else {
+        let q = diagonal.iter().sum::<f64>() / 3.0;
+        let p = ((diagonal.iter().map(|d| (d - q).powi(2)).sum::<f64>() + 2.0 * off) / 6.0).sqrt();
+        let b = (a - DMat3::from_diagonal(DVec3::splat(q))) * (1.0 / p);
+        let phi = (b.determinant() / 2.0).clamp(-1.0, 1.0).acos() / 3.0;
+        q + 2.0 * p * phi.cos()
+    };
+    // A hair up, so that rounding never makes it smaller than it is.
+    largest.max(0.0).sqrt() * (1.0 + 1e-12)
+}
+
+/// The diagonal of the box around `points`.
+fn bounding_diagonal(points: &[DVec3]) -> f64 {
+    let (lo, hi) = points.iter().fold(
+        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+        |(lo, hi), &p| (lo.min(p), hi.max(p)),
+    );
+    if points.is_empty() {
+        0.0
+    } else {
+        (hi - lo).length()
+    }
+}
+
+/// A frame's bound figures: the largest and median bound over the drawn pixels with one, and
+/// the drawn pixels without one.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BoundFigures {
+    pub max: Option<f64>,
+    pub median: Option<f64>,
+    pub unknown_pixels: usize,
+}
+
+impl BoundFigures {
+    pub(crate) fn of(bounds: &[f32], drawn: impl Fn(usize) -> bool) -> BoundFigures {
+        let mut known: Vec<f32> = Vec::new();
+        let mut unknown_pixels = 0;
+        for (_, &b) in bounds.iter().enumerate().filter(|(i, _)| drawn(*i)) {
+            if b.is_nan() {
+                unknown_pixels += 1;
+            } else {
+                known.push(b);
+            }
+        }
+        let max = known
+            .iter()
+            .copied()
+            .fold(None, |m: Option<f32>, b| Some(m.map_or(b, |m| m.max(b))));
+        let median = (!known.is_empty()).then(|| {
+            let mid = known.len() / 2;
+            *known.select_nth_unstable_by(mid, f32::total_cmp).1
+        });
+        BoundFigures {
+            max: max.map(f64::from),
+            median: median.map(f64::from),
+            unknown_pixels,
+        }
+    }
+}
+
+/// A lens's smaller pixel side at z-depth `depth` (world units): a world distance over it is
+/// never fewer pixels than the distance covers.
+pub(crate) fn pixel_size(lens: &Lens, depth: f64) -> f64 {
+    let side = lens.ray[0].abs().min(lens.ray[1].abs());
+    if lens.orthographic {
+        side
+    } else {
+        side * depth
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gtex::ErrorBoundMap;
+    use crate::heightfield::test_patch;
+    use crate::render::scene::{Object, SceneObject};
+    use glam::DQuat;
+
+    #[test]
+    fn largest_singular_value_of_rotations_and_stretches() {
+        let r = DMat4::from_quat(DQuat::from_euler(glam::EulerRot::XYZ, 0.3, -1.1, 2.0));
+        let stretch = DMat4::from_scale(DVec3::new(0.5, 3.0, 2.0));
+        assert!((largest_singular_value(&(r * stretch * r.transpose())) - 3.0).abs() < 1e-9);
+        assert!((largest_singular_value(&DMat4::from_scale(DVec3::splat(2.5))) - 2.5).abs() < 1e-9);
+        let shear = DMat4::from_cols_array(&[
+            1.0, 0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0,
+        ]);
+        // [[1, 1], [0, 1]]: singular values are the golden ratio and its inverse.
+        let golden = (1.0 + 5f64.sqrt()) / 2.0;
+        assert!((largest_singular_value(&shear) - golden).abs() < 1e-9);
+    }
+
+    /// A scene of one flat 4 x 4 patch over the unit square (height 1/2) with cell bounds
+    /// `cell(i, j)`, placed by `world_from_object`.
+    fn flat_scene(world_from_object: DMat4, cell: impl Fn(i64, i64) -> f64) -> Scene {
+        let mut p = test_patch(4, 4, 16, |_, _| Some(0.5));
+        let cells: Vec<f64> = (-1..4)
+            .flat_map(|j| (-1..4).map(move |i| (i, j)))
+            .map(|(i, j)| cell(i, j))
+            .collect();
+        p.error_bound = Some(ErrorBoundMap::from_cells(4, 4, &cells));
+        let set = GeometryTextureSet {
+            patches: vec![p],
+            texel_size: 0.25,
+            ..Default::default()
+        };
+        Scene {
+            objects: vec![SceneObject {
+                object: Object::new(Arc::new(set)),
+                world_from_object,
+            }],
+        }
+    }
+
+    #[test]
+    fn a_point_takes_its_cells_decoded_bound_scaled_by_the_placement() {
+        // Blocks of 2 x 2 cells: cells (-1..1) x (-1..1) are block (0, 0), (1..3) block (1, 0).
+        let bound = |i: i64, j: i64| if i >= 1 && j <= 0 { 0.02 } else { 0.001 };
+        let ids = [ObjectIds {
+            patches: 0..1,
+            meshes: 0..0,
+        }];
+        let eye = DVec3::new(0.0, 0.0, 10.0);
+        for scale in [1.0, 3.0] {
+            let scene = flat_scene(DMat4::from_scale(DVec3::splat(scale)), bound);
+            let sources = PixelSources::new(&scene, &ids, &[], eye);
+            // Texel-centre (1.5, 0.5) lies in cell (1, 0): u = 2 / 4, v = 1 / 4.
+            let point = DVec3::new(0.5, 0.25, 0.5) * scale;
+            let map = ErrorBoundMap::from_cells(1, 1, &[0.02, 0.0, 0.0, 0.0]);
+            let decoded = ErrorBoundMap::decode(map.codes[0], f64::from(map.scale));
+            let rounding = FLOAT_ULPS * f64::from(f32::EPSILON);
+            let got = sources.bound_at(point, 0);
+            let float = rounding * ((point - eye).length() + 3f64.sqrt() * scale);
+            assert!((got - (decoded * scale + float)).abs() < 1e-12, "{got}");
+            // Cell (0, 2) is in a block of 0.001s.
+            let low = sources.bound_at(DVec3::new(0.125, 0.625, 0.5) * scale, 0);
+            assert!(low < 0.0011 * scale + 1e-5, "{low}");
+            assert!(sources.bound_at(point, 1).is_nan() && sources.bound_at(point, -2).is_nan());
+        }
+    }
+
+    #[test]
+    fn figures_skip_the_background_and_count_the_unknown() {
+        let bounds = [f32::NAN, 1.0, 3.0, 2.0, f32::NAN];
+        let f = BoundFigures::of(&bounds, |i| i > 0);
+        assert_eq!(
+            (f.max, f.median, f.unknown_pixels),
+            (Some(3.0), Some(2.0), 1)
+        );
+        assert_eq!(
+            f32_at_least(0.1),
+            0.1f32.max(f32::from_bits(0.1f32.to_bits()))
+        );
+        assert!(f64::from(f32_at_least(0.1)) >= 0.1);
+    }
+}

@@ -1,0 +1,174 @@
+"""Per-pixel error bounds of frames (issue 43): `frame.error_bound` looks up the bound maps of the
+drawn patches (hand-made here with `_with_cell_bounds`, until conversion fills them), scales them
+with the placement, adds a float32 rounding term; `lod` with `max_pixel_error` picks levels by
+bound; `frame.coverage_uncertain` marks the pixels whose coverage could differ from the mesh's."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+import geomtex as gt
+from geomtex.testing.views import look_from
+
+SIZE = 128
+#: f32 steps of (distance from the eye + patch box diagonal) the bound adds for rounding
+#: (src/render/error_bound.rs, FLOAT_ULPS).
+FLOAT_ULPS = 4.0
+EPS = float(np.finfo(np.float32).eps)
+
+
+@pytest.fixture(scope="module")
+def bunny() -> tuple[gt.Mesh, gt.GeometryTextureSet]:
+    mesh = gt.data.bunny()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return mesh, gt.convert(mesh, max_resolution=256)
+
+
+def with_bounds(gts: gt.GeometryTextureSet, bound_of_patch) -> gt.GeometryTextureSet:
+    """The set with every cell of patch k bounded by ``bound_of_patch(k)`` (None: no map)."""
+    cells = []
+    for k in range(len(gts)):
+        h, w = gts.patch(k)["height"].shape
+        b = bound_of_patch(k)
+        cells.append(None if b is None else np.full((h + 1, w + 1), b, np.float64))
+    return gt.GeometryTextureSet._wrap(gts._core._with_cell_bounds(cells))
+
+
+def drawn_points(cam: gt.Camera, depth: np.ndarray) -> np.ndarray:
+    """World points of each pixel from its z-depth, (H, W, 3)."""
+    o, d = cam.rays(depth.shape[1], depth.shape[0])
+    return o + d * (depth.astype(np.float64) / (d @ np.asarray(cam.forward)))[..., None]
+
+
+def float_term(cam: gt.Camera, points: np.ndarray, reach: np.ndarray | float) -> np.ndarray:
+    eye = np.asarray(cam.world_from_camera)[:3, 3]
+    return FLOAT_ULPS * EPS * (np.linalg.norm(points - eye, axis=-1) + reach)
+
+
+def test_each_pixel_takes_its_patchs_decoded_bound(bunny) -> None:
+    mesh, gts = bunny
+    # Distinct bounds per patch, every third patch without a map (NaN).
+    bounds = {k: 1e-4 * (1 + k / 7) for k in range(len(gts)) if k % 3}
+    bset = with_bounds(gts, bounds.get)
+    r = gt.Renderer(SIZE, SIZE)
+    cam = look_from(mesh, (1, 0.3, 0.2), up=(0, 1, 0))
+    f = r.render(bset, cam, outputs=["depth", "patch_id", "error_bound"])
+    eb, pid = f.error_bound, f.patch_id
+    assert np.isnan(eb[pid == -1]).all()  # misses
+    known = np.isin(pid, list(bounds))
+    assert np.isnan(eb[(pid >= 0) & ~known]).all()  # patches without a map
+    assert f.stats["error_bound_unknown_pixels"] == ((pid >= 0) & ~known).sum() > 0
+    # A map of one value decodes to it rounded up to f32 (its scale, top code).
+    cell = np.array([np.float32(bounds.get(k, 0.0)) for k in range(len(gts))], np.float64)
+    cell = np.where(cell < np.array([bounds.get(k, 0.0) for k in range(len(gts))]),
+                    np.nextafter(cell.astype(np.float32), np.float32(1)), cell)
+    diag = np.linalg.norm(np.linalg.norm(gts.world_from_patch[:, :3, :3], axis=1), axis=1)
+    points = drawn_points(cam, f.depth)
+    expected = cell[np.maximum(pid, 0)] + float_term(cam, points, diag[np.maximum(pid, 0)])
+    error = np.abs(eb[known] - expected[known]) / expected[known]
+    # Measured: at most 1.15e-7 relative (one f32 step of the output); allowed 3.6e-7.
+    assert error.max() <= 3.6e-7, error.max()
+    assert f.stats["error_bound_search"] == "exact"
+    assert f.stats["error_bound_max"] == pytest.approx(float(np.nanmax(eb)))
+    balanced = r.render(bset, cam, quality="balanced", outputs=["error_bound"])
+    assert balanced.stats["error_bound_search"].startswith("drawn points only")
+    assert balanced.outputs == ["error_bound"]
+
+
+def test_a_scaled_placement_scales_the_bound(bunny) -> None:
+    mesh, gts = bunny
+    bset = with_bounds(gts, lambda k: 2e-4)
+    r = gt.Renderer(SIZE, SIZE)
+    cam = look_from(mesh, (1, 0.3, 0.2), up=(0, 1, 0))
+    pose = np.asarray(cam.world_from_camera)
+    scaled_pose = pose.copy()
+    scaled_pose[:3, 3] *= 3.0
+    cam3 = gt.Camera.look_at(scaled_pose[:3, 3], 3.0 * (pose[:3, 3] + np.asarray(cam.forward)),
+                             up=(0, 1, 0), yfov_deg=40.0)
+    scene = gt.Scene()
+    scene.add(bset, np.diag([3.0, 3.0, 3.0, 1.0]))
+    f = r.render(scene, cam3, outputs=["depth", "error_bound"])
+    hit = np.isfinite(f.depth)
+    less_rounding = f.error_bound[hit] - float_term(cam3, drawn_points(cam3, f.depth), 0.0)[hit]
+    # 3 x 2e-4 plus the rounding term of 3x the patch diagonals (measured: 6.0012e-4 to
+    # 6.0026e-4, 2.6e-7 over); allowed 8e-7 over.
+    assert less_rounding.min() >= 6e-4
+    assert less_rounding.max() <= 6e-4 + 8e-7, less_rounding.max()
+
+
+def test_a_plain_mesh_frame_bounds_only_its_rounding(bunny) -> None:
+    mesh, _ = bunny
+    r = gt.Renderer(SIZE, SIZE)
+    cam = look_from(mesh, (-1, 0.5, -0.3), up=(0, 1, 0))
+    f = r.render(mesh, cam)
+    assert "error_bound" in f.outputs and "coverage_uncertain" not in f.outputs
+    hit = np.isfinite(f.depth)
+    eb = f.error_bound
+    assert np.isnan(eb[~hit]).all() and np.isfinite(eb[hit]).all()
+    # Measured: 1.11e-6 to 1.36e-6 on the unit-diagonal bunny (4 f32 steps of ~2.6); allowed
+    # 4.2e-6.
+    assert eb[hit].max() <= 4.2e-6 * mesh.diagonal, eb[hit].max()
+
+
+def test_lod_by_bound_coarsens_with_the_pixel_error_and_stays_within_the_bound(bunny) -> None:
+    mesh, gts = bunny
+    bset = with_bounds(gts, lambda k: 1e-6)
+    r = gt.Renderer(SIZE, SIZE)
+    cam = look_from(mesh, (1, 0.3, 0.2), up=(0, 1, 0))
+    exact = r.render(bset, cam, quality="exact", outputs=["depth", "patch_id", "normal"])
+    assert r.render(bset, cam, lod=True).stats["lod_rule"] == "pixel"
+    o, d = cam.rays(SIZE, SIZE)
+    along = np.abs(np.einsum("ijk,ijk->ij", exact.normal.astype(np.float64), d)) / (d @ np.asarray(cam.forward))
+    mean_levels = []
+    for p in [0.01, 0.5, 2.0, 8.0]:
+        f = r.render(bset, cam, lod=True, max_pixel_error=p, outputs=["depth", "patch_id", "error_bound"])
+        assert f.stats["lod_rule"] == "bound"
+        counts = np.asarray(f.stats["lod_levels"])
+        mean_levels.append(float(np.dot(np.arange(len(counts)), counts) / counts.sum()))
+        same = (f.patch_id == exact.patch_id) & (exact.patch_id >= 0)
+        # Distance between the level-of-detail point and the exact one, across the surface.
+        with np.errstate(invalid="ignore"):  # inf - inf on misses
+            apart = np.abs(f.depth.astype(np.float64) - exact.depth) * along
+        # Measured: at most 0.25 of the pixel's bound (p = 2; 0.48 at 256 px, p = 4); allowed 0.75.
+        ratio = apart[same] / f.error_bound[same]
+        assert (ratio <= 0.75).all(), (p, ratio.max())
+    assert mean_levels[0] == 0.0
+    assert mean_levels == sorted(mean_levels) and mean_levels[-1] > 1.0, mean_levels
+
+
+def test_coverage_uncertain_holds_every_pixel_whose_coverage_differs(bunny) -> None:
+    mesh, gts = bunny
+    # Every cell bounded by the conversion's largest measured reconstruction error: an analytic
+    # stand-in for the conversion's own maps (not yet computed).
+    bset = with_bounds(gts, lambda k: gts.stats["reconstruction_error_max"])
+    r = gt.Renderer(SIZE, SIZE)
+    for direction in [(1, 0.3, 0.2), (0, 0, 1)]:
+        cam = look_from(mesh, direction, up=(0, 1, 0))
+        f = r.render(bset, cam, outputs=["depth", "coverage_uncertain"])
+        m = r.render(mesh, cam, outputs=["depth"])
+        differ = np.isfinite(f.depth) != np.isfinite(m.depth)
+        assert not (differ & ~f.coverage_uncertain).any()
+        assert f.stats["coverage_probes"] % 8 == 0 and f.stats["coverage_ms"] > 0
+        # Measured: 46 and 43 uncertain of 2036 and 2756 drawn (0 pixels differ at 128 px; one at
+        # 256 px, among 128 uncertain); allowed 3% of the drawn + 50 (about 2.4x).
+        assert f.coverage_uncertain.sum() <= 0.03 * np.isfinite(f.depth).sum() + 50
+        # Sets without maps leave every transition pixel uncertain.
+        bare = r.render(gts, cam, outputs=["coverage_uncertain"])
+        assert bare.coverage_uncertain.sum() >= f.coverage_uncertain.sum()
+
+
+def test_frames_with_bounds_pickle(bunny) -> None:
+    import pickle
+
+    mesh, gts = bunny
+    bset = with_bounds(gts, lambda k: 1e-4)
+    r = gt.Renderer(32, 32)
+    f = r.render(bset, look_from(mesh, (0, 0, 1)), outputs=["color", "error_bound", "coverage_uncertain"])
+    g = pickle.loads(pickle.dumps(f))
+    assert g.outputs == f.outputs == ["color", "error_bound", "coverage_uncertain"]
+    assert np.array_equal(g.error_bound, f.error_bound, equal_nan=True)
+    assert np.array_equal(g.coverage_uncertain, f.coverage_uncertain)
