@@ -13,14 +13,15 @@ Per mesh x conversion x view:
 * **holds**: every drawn pixel's world point (the pixel's ray at its z-depth: ``t = depth /
   (direction . camera.forward)``) is measured against the source mesh, scaled to a 1000-unit
   diagonal about its box centre (as ``geomtex.reference`` does) and scaled back. The distance is
-  Open3D's ``RaycastingScene.compute_distance`` (exact point-triangle distance over a BVH, float32)
-  on every drawn pixel where ``open3d`` imports (``pip install open3d-cpu``; on Debian it needs
-  ``libusb-1.0-0``), else trimesh's ``closest_point`` on a random sample of ``--sample`` drawn
-  pixels per view (the JSON says which and how many). Reported: the fraction of drawn pixels
-  (with a known bound) whose distance is <= ``frame.error_bound`` (target >= 99.99%), the same
-  with a float tolerance of 1e-6 of the diagonal (the float32 depth and the reference's float32
-  are good to about 1e-7 of it), the exceptions (count, worst excess in diagonals and relative
-  to the bound) and the largest distance / bound.
+  Open3D's ``RaycastingScene.compute_distance`` (exact point-triangle distance over a BVH,
+  float32) on every drawn pixel where ``open3d`` imports (``pip install open3d-cpu``, not in the
+  bench extra: it brings dash, flask and a pytest plugin; on Debian it needs ``libusb-1.0-0``),
+  else trimesh's ``closest_point`` on a random sample of ``--sample`` drawn pixels per view (the
+  JSON says which and how many). Reported: the fraction of drawn pixels (with a known bound) whose
+  distance is <= ``frame.error_bound`` (target >= 99.99%), the same with a float tolerance of 1e-6
+  of the diagonal (the float32 depth and the reference's float32 are good to about 1e-7 of it),
+  the exceptions (count, worst excess in diagonals and relative to the bound) and the largest
+  distance / bound.
 * **tight**: median bound / median distance over the drawn pixels (target <= 4).
 * **coverage**: trimesh + embree ray casting of the original mesh with the frame's own pixel
   rays (``reference.RayCaster``); the pixels where it and the frame disagree about a hit; the
