@@ -1,0 +1,133 @@
+"""Per-pixel error bounds (issue 43) against the source mesh, on the bundled bunny.
+
+Each drawn pixel's world point (its ray at its z-depth) is measured against the original mesh by
+trimesh (``reference.points_to_mesh``: exact closest points on a 1000-unit-diagonal copy), never by
+geomtex; ``frame.error_bound`` must be at least that distance, coverage differences against
+trimesh's ray casting must all lie inside ``frame.coverage_uncertain``, and ``guarantee=True``
+must keep its promise. bench/error_bounds.py measures the same on five meshes and views.
+Uses only the bundled bunny (no ../shared): runs as a plain clone does.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+
+import geomtex as gt
+from geomtex import reference, testing
+
+SIZE = 256
+VIEWS = [((0, 0, 1), (0, 1, 0)), ((1, 0.8, 1), (0, 1, 0))]
+#: Float noise of a drawn point (float32 depth, the reference's own rounding): ~1e-7 of the
+#: diagonal at these views; an exception within this much of its bound is float, not a bound
+#: that fails.
+FLOAT_TOL_REL = 1e-6
+
+
+@pytest.fixture(scope="module")
+def bunny() -> gt.Mesh:
+    return gt.data.bunny()
+
+
+@pytest.fixture(scope="module")
+def default_set(bunny: gt.Mesh) -> Any:
+    return gt.convert(bunny)
+
+
+@pytest.fixture(scope="module")
+def cameras(bunny: gt.Mesh) -> list[gt.Camera]:
+    return [testing.look_from(bunny, d, up=u) for d, u in VIEWS]
+
+
+def drawn(frame: Any, camera: gt.Camera) -> tuple[np.ndarray, np.ndarray]:
+    """World points of the drawn pixels (their rays at their z-depth) and the pixels' mask."""
+    depth = np.asarray(frame.depth, np.float64)
+    mask = np.isfinite(depth)
+    origins, directions = camera.rays(SIZE, SIZE)
+    t = depth[mask] / (directions[mask] @ np.asarray(camera.forward))
+    return origins[mask] + directions[mask] * t[:, None], mask
+
+
+def measured(renderer: gt.Renderer, gts: Any, mesh: gt.Mesh, camera: gt.Camera) -> dict[str, Any]:
+    frame = renderer.render(gts, camera, outputs=("depth", "error_bound", "coverage_uncertain"))
+    points, mask = drawn(frame, camera)
+    bound = np.asarray(frame.error_bound, np.float64)
+    return {"frame": frame, "mask": mask, "bound": bound[mask], "dist": reference.points_to_mesh(points, mesh)}
+
+
+@pytest.fixture(scope="module")
+def default_views(bunny: gt.Mesh, default_set: Any, cameras: list[gt.Camera]) -> list[dict[str, Any]]:
+    renderer = gt.Renderer(SIZE, SIZE)
+    return [measured(renderer, default_set, bunny, cam) for cam in cameras]
+
+
+def test_bound_known_exactly_where_drawn(default_views: list[dict[str, Any]]) -> None:
+    for v in default_views:
+        bound = np.asarray(v["frame"].error_bound)
+        assert bound.shape == v["mask"].shape and bound.dtype == np.float32
+        assert np.isfinite(bound[v["mask"]]).all(), "a drawn pixel of a fresh conversion has no bound"
+        assert np.isnan(bound[~v["mask"]]).all(), "a pixel where nothing is drawn has a bound"
+        assert (bound[v["mask"]] >= 0).all()
+
+
+def test_bound_holds_at_drawn_pixels(bunny: gt.Mesh, default_views: list[dict[str, Any]]) -> None:
+    diag = float(bunny.diagonal)
+    for i, v in enumerate(default_views):
+        excess = v["dist"] - v["bound"]
+        bad = np.flatnonzero(excess > 0)
+        listed = [(float(v["dist"][k] / diag), float(v["bound"][k] / diag)) for k in bad[np.argsort(-excess[bad])][:5]]
+        assert len(bad) <= 1e-4 * len(excess), (f"view {i}: {len(bad)} of {len(excess)} drawn pixels farther from "
+                                                 f"the mesh than their bound; worst (dist, bound)/diag: {listed}")
+        # Every exception is float noise, not a bound that fails.
+        assert (excess <= FLOAT_TOL_REL * diag).all(), (f"view {i}: an exception past float noise: {listed}")
+
+
+def test_bound_is_tight(default_views: list[dict[str, Any]]) -> None:
+    for i, v in enumerate(default_views):
+        ratio = np.median(v["bound"]) / np.median(v["dist"])
+        # Measured 6.94 (front) and 6.72 (oblique) on 2026-12-06 (main 18733ed); the issue's target
+        # is <= 4, not met yet (bench/error_bounds.py: the same on the other meshes). This guards
+        # against a looser bound.
+        assert ratio <= 10.0, f"view {i}: median bound / median distance = {ratio:.2f}"
+
+
+def test_coverage_differences_are_uncertain(bunny: gt.Mesh, cameras: list[gt.Camera],
+                                            default_views: list[dict[str, Any]]) -> None:
+    caster = reference.RayCaster(bunny)
+    for i, (cam, v) in enumerate(zip(cameras, default_views)):
+        hit = caster.cast(cam, SIZE, SIZE)["hit"]
+        differ = hit ^ v["mask"]
+        uncertain = np.asarray(v["frame"].coverage_uncertain, bool)
+        assert uncertain.shape == hit.shape
+        outside = differ & ~uncertain
+        assert not outside.any(), (f"view {i}: {outside.sum()} of {differ.sum()} pixels where coverage differs "
+                                   f"from trimesh are not in coverage_uncertain: {np.argwhere(outside)[:10].tolist()}")
+        # Uncertain pixels per differing one: measured 137 / 9 (front) and 139 / 7 (oblique); the
+        # issue's target is <= 3, not met yet. This guards against a looser mask.
+        assert uncertain.sum() <= 40 * max(differ.sum(), 1), (f"view {i}: {uncertain.sum()} uncertain pixels for "
+                                                             f"{differ.sum()} that differ")
+
+
+def test_guarantee_keeps_its_promise() -> None:
+    # Not the bunny: at 1e-3 of the diagonal its conversion refuses (three charts stay over the
+    # bound at the default max_resolution; 143 s, measured 2026-12-06) and at 1e-2 it takes 34 s,
+    # over this file's time. A coarse icosphere (320 faces: facets the bilinear cells must follow)
+    # at 1e-2 converts in ~3.5 s.
+    import trimesh
+
+    ball = gt.Mesh.from_trimesh(trimesh.creation.icosphere(subdivisions=2))
+    diag = float(ball.diagonal)
+    e = 1e-2 * diag
+    gts = gt.convert(ball, max_error=e, guarantee=True)
+    assert gts.stats["error_bound_max"] <= e
+    renderer = gt.Renderer(SIZE, SIZE)
+    for i, (d, u) in enumerate(VIEWS):
+        cam = testing.look_from(ball, d, up=u)
+        v = measured(renderer, gts, ball, cam)
+        assert v["mask"].sum() > 1000
+        assert v["dist"].max() <= e * (1 + 1e-6), f"view {i}: a drawn point {v['dist'].max() / diag:.3g} diag away"
+        assert np.nanmax(np.asarray(v["frame"].error_bound)) <= e * (1 + 1e-6)
+    with pytest.raises(gt.ParameterError, match="max_bytes"):
+        gt.convert(ball, max_error=e, guarantee=True, max_bytes=2_000)
