@@ -74,9 +74,10 @@ class Frame(Wrapped, core=_core.Frame,
         "to the source mesh: its cell's bound from the set's error-bound maps (or its patch's level "
         "bound under ``lod``), plus 4 float32 steps of its distance from the eye and of its patch box's "
         "size for rounding; a plain Mesh's pixels only that rounding term. NaN where nothing is drawn "
-        "or no bound is known: patches without a bound map, Surfels, IgtMesh and gdm.Shell pixels. It "
-        "bounds drawn points only: with a linear search (quality 'fast' or 'balanced') a thin "
-        "feature can be stepped over and left undrawn (``stats['error_bound_search']``).")
+        "or no bound is known: patches without a bound map, Surfels, IgtMesh and gdm.Shell pixels, and "
+        "every set pixel of a linear search (quality 'fast' or 'balanced'), whose hits stop within "
+        "its last step off the stored surface (``stats['error_bound_search']``). It bounds drawn "
+        "points only: a surface left undrawn is what ``coverage_uncertain`` is for.")
     coverage_uncertain = forward[npt.NDArray[np.bool_]](
         "(H, W) bool: true where the pixel's coverage (drawn or not) could differ from the source "
         "mesh's. Only pixels beside a coverage transition are candidates: eight probe rays around "
@@ -104,7 +105,7 @@ class Frame(Wrapped, core=_core.Frame,
         "fetches_per_pixel, fetches_per_search and piece_tests_per_pixel; with \"error_bound\" "
         "error_bound_max and error_bound_median (world units, over the drawn pixels with a bound; None "
         "without any), error_bound_unknown_pixels (drawn, NaN bound) and error_bound_search (\"exact\" "
-        "for the max-pyramid search, else a note that the bound covers drawn points only); with "
+        "for the max-pyramid search, else a note that sets get no bound, NaN); with "
         "\"coverage_uncertain\" coverage_probes and coverage_ms; with ``lod`` lod_rule (\"pixel\", or "
         "\"bound\" with max_pixel_error) and lod_levels (drawn patches per stop level, 0 = exact).")
 

@@ -41,6 +41,10 @@ pub(crate) struct PixelSources {
     patches: Vec<IdSource>,
     meshes: Vec<IdSource>,
     eye: DVec3,
+    /// Whether the frame's search finds the stored surface exactly (the max-pyramid descent);
+    /// a linear search's hits stop within its last step, off the surface by more than a cell's
+    /// bound, so its patch pixels get NaN.
+    pub exact_search: bool,
 }
 
 /// A set as a scene places it.
@@ -82,6 +86,7 @@ impl PixelSources {
         let mesh_count = ids.iter().map(|r| r.meshes.end).max().unwrap_or(0);
         let mut sources = PixelSources {
             sets: Vec::new(),
+            exact_search: true,
             patches: vec![IdSource::Unknown; patch_count as usize],
             meshes: vec![IdSource::Unknown; mesh_count],
             eye,
@@ -136,6 +141,7 @@ impl PixelSources {
         match self.source(id) {
             IdSource::Unknown => f64::NAN,
             IdSource::Mesh { reach } => rounding(reach),
+            IdSource::Patch { .. } if !self.exact_search => f64::NAN,
             IdSource::Patch {
                 set,
                 patch,

@@ -92,8 +92,8 @@ impl LodRule {
 }
 
 /// What `error_bound_search` says of a search that may step over a thin feature (linear steps).
-const DRAWN_POINTS_ONLY: &str =
-    "drawn points only: a linear search can step over a thin feature, leaving it undrawn";
+const DRAWN_POINTS_ONLY: &str = "none for sets (NaN): a linear search's hits stop within its \
+     last step, off the stored surface, and it can step over a thin feature";
 
 /// A frame's shadows (shadow.rs), made in one piece after its pixels are read back.
 #[derive(Clone, Debug, Default, PartialEq)]

@@ -271,7 +271,8 @@ impl Renderer {
                 "error bounds need the frame's depth and patch ids read back".into(),
             ));
         };
-        let sources = PixelSources::new(scene, &inputs.ids, &inputs.lod_picks, camera.eye());
+        let mut sources = PixelSources::new(scene, &inputs.ids, &inputs.lod_picks, camera.eye());
+        sources.exact_search = search.method == crate::render::search::Method::MaxMip;
         let pixels = DrawnPixels {
             width: frame.width,
             lines: camera.pixel_lines(&inputs.lens),
