@@ -165,10 +165,10 @@ def test_a_bound_missed_within_the_byte_budget_is_a_cap_warning(tmp_path, capsys
         warnings.simplefilter("error", gt.CapWarning)
         free = gt.convert(rough, max_error_rel=float(f"{rel:.6g}")).stats
     assert free["reconstruction_error_p99"] <= free["max_error"] and free["bytes"] > s["max_bytes"]
-    # pymeshlab's bunny misses by 5%: p99 2.10e-4 against 2.0e-4 (2e-4 of its diagonal) in
-    # 1,007,110 of 1,011,120 bytes (without the budget it meets it, p99 0.995 of the bound, in
-    # 1,016,200 bytes).
-    with pytest.warns(gt.CapWarning, match=r"is 1\.0\dx max_error"):
+    # pymeshlab's bunny misses by 11%: p99 2.22e-4 against 2.0e-4 (2e-4 of its diagonal) within
+    # 1,011,120 bytes, its error-bound maps (about 5% of them) included (5% before they were
+    # counted).
+    with pytest.warns(gt.CapWarning, match=r"is 1\.[01]\dx max_error"):
         b = gt.convert(gt.load_mesh(pymeshlab_bunny_path())).stats
     assert 1.0 < b["reconstruction_error_p99"] / b["max_error"] <= 1.15 and b["max_bytes_binding"] == 1
     # A conversion within its bound (the open sheet: p99 0.983 of it, in 2.4% of its budget)

@@ -174,7 +174,10 @@ fn level_costs(
         let over = over_rungs(&d.errors, max_error);
         let area: f64 = d.errors.iter().map(|e| e.area).sum();
         let texels = d.bx.width as usize * d.bx.height as usize;
-        let bytes = crate::gtex::map_bytes(texels, d.bx.height_bits, colored) as f64;
+        // The final raster adds the error-bound map (`gtex::bound`), counted in the set's bytes.
+        let (bw, bh) = crate::gtex::bound::block_dims(d.bx.width, d.bx.height);
+        let bound_bytes = bw * bh + 4;
+        let bytes = (crate::gtex::map_bytes(texels, d.bx.height_bits, colored) + bound_bytes) as f64;
         costs.push(LevelCost {
             resolution,
             bytes,
