@@ -177,7 +177,8 @@ fn level_costs(
         // The final raster adds the error-bound map (`gtex::bound`), counted in the set's bytes.
         let (bw, bh) = crate::gtex::bound::block_dims(d.bx.width, d.bx.height);
         let bound_bytes = bw * bh + 4;
-        let bytes = (crate::gtex::map_bytes(texels, d.bx.height_bits, colored) + bound_bytes) as f64;
+        let bytes =
+            (crate::gtex::map_bytes(texels, d.bx.height_bits, colored) + bound_bytes) as f64;
         costs.push(LevelCost {
             resolution,
             bytes,
