@@ -621,9 +621,7 @@ pub fn filtered(
         stats: set.stats.clone(),
     };
     // A filtered surface has no bound to the mesh (see refit): its figures go with it.
-    out.stats
-        .values
-        .retain(|(name, _)| !name.starts_with("error_bound"));
+    out.sync_error_bound_stats();
     out.stats.set("filter_sigma", sigma);
     out.stats.set("filter_texels_cut", cut.len() as f64);
     out.stats.set("bytes", out.map_bytes() as f64);

@@ -45,7 +45,10 @@ def test_round_trip_is_bit_exact(sheet: Converted, tmp_path, bits: int) -> None:
         sheet.gts.save(tmp_path / "wide.gtex")
         texels = gts.stats["texels"]
         assert (tmp_path / "wide.gtex").stat().st_size - path.stat().st_size == pytest.approx(texels, abs=64)
-        assert gts.stats["bytes"] == 4 * texels and sheet.gts.stats["bytes"] == 5 * texels
+        # Plus the error-bound map (one byte per 2 x 2 cells), the same for both.
+        assert gts.stats["error_bound_bytes"] == sheet.gts.stats["error_bound_bytes"] > 0
+        assert gts.stats["bytes"] - gts.stats["error_bound_bytes"] == 4 * texels
+        assert sheet.gts.stats["bytes"] - sheet.gts.stats["error_bound_bytes"] == 5 * texels
         assert not any(gts.patch(i)["has_colors"] for i in range(len(gts)))
 
 
@@ -170,20 +173,24 @@ def test_version_4_files_still_read(tmp_path) -> None:
         cos = np.sum(na[some] * nb[some], -1) / np.linalg.norm(na[some], axis=-1) / np.linalg.norm(nb[some], axis=-1)
         worst = max(worst, float(np.degrees(np.arccos(np.clip(cos.min(), -1, 1)))))
     assert worst <= 1.5, worst
-    # Saved again, it is a version-5 file with the same content.
-    old.save(tmp_path / "v5.gtex")
-    assert int.from_bytes((tmp_path / "v5.gtex").read_bytes()[8:12], "little") == 5
-    assert gt.load(tmp_path / "v5.gtex").stats["texels"] == colored.stats["texels"]
+    # Saved again, it is a current (version-6) file with the same content and no error-bound
+    # maps (version 4 had none; a load never invents them).
+    old.save(tmp_path / "v6.gtex")
+    assert int.from_bytes((tmp_path / "v6.gtex").read_bytes()[8:12], "little") == 6
+    again = gt.load(tmp_path / "v6.gtex")
+    assert again.stats["texels"] == colored.stats["texels"]
+    assert again.stats.get("error_bound_bytes", 0) == 0
 
 
 def test_maps_hold_only_what_the_mesh_has(sheet: Converted) -> None:
     """No color map for a mesh without colors (the dict still shows neutral colors), one for a
-    mesh with them; stats["bytes"] counts 5 and 9 bytes per 16-bit texel."""
+    mesh with them; stats["bytes"] counts 5 and 9 bytes per 16-bit texel, plus the error-bound
+    map."""
     plain = sheet.gts
     colored = gt.convert(gt.Mesh(sheet.mesh.vertices, sheet.mesh.faces,
                                  vertex_colors=np.tile([[10, 200, 30]], (len(sheet.mesh.vertices), 1))))
-    assert plain.stats["bytes"] == 5 * plain.stats["texels"]
-    assert colored.stats["bytes"] == 9 * colored.stats["texels"]
+    for gts, per_texel in ((plain, 5), (colored, 9)):
+        assert gts.stats["bytes"] - gts.stats["error_bound_bytes"] == per_texel * gts.stats["texels"]
     p, q = plain.patch(0), colored.patch(0)
     assert not p["has_colors"] and (p["color"] == [200, 200, 200, 255]).all()
     assert q["has_colors"] and (q["color"][q["height"] > 0] == [10, 200, 30, 255]).all()

@@ -24,8 +24,9 @@ use crate::gtex::{ErrorBoundMap, Patch};
 use crate::heightfield::{cell_at, Cell};
 use crate::mesh::Mesh;
 
-/// Splits of a cell the hull bound may take where the outline crosses it (down to 1/16 texel).
-const MAX_SPLITS: u32 = 4;
+/// Splits of a cell the hull bound may take where the outline crosses it (down to 1/4 texel):
+/// deeper splits tighten the bunny's largest bound by a fifth at 16 times the raster time.
+const MAX_SPLITS: u32 = 2;
 
 /// A drawn face in the patch's frame: corners in texel-centre x, y and world height z, and
 /// whether it faces the patch's z (its projection keeps its winding).
@@ -231,7 +232,7 @@ impl<'a> CellBounds<'a> {
             return 0.0;
         }
         let gap = self.gap_bound(surface, rect, k);
-        let good_enough = |b: f64| b <= reference * 1.25;
+        let good_enough = |b: f64| b <= reference * 2.0;
         if good_enough(gap) {
             return gap;
         }

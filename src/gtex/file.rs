@@ -355,12 +355,13 @@ pub fn decode(bytes: &[u8]) -> Result<GeometryTextureSet, String> {
             payload.len() - r.pos
         ));
     }
-    let set = GeometryTextureSet {
+    let mut set = GeometryTextureSet {
         patches,
         texel_size,
         stats,
     };
     set.validate()?;
+    set.sync_error_bound_stats();
     Ok(set)
 }
 
@@ -538,6 +539,8 @@ mod tests {
         let mut s = as_filed(sample());
         let cells: Vec<f64> = (0..12).map(|k| 1e-3 * (k as f64 + 1.0)).collect();
         s.patches[0].error_bound = Some(crate::gtex::ErrorBoundMap::from_cells(2, 3, &cells));
+        // A load sets the stats from the maps ("bytes" counts the map).
+        s.sync_error_bound_stats();
         let bytes = encode(&s);
         assert_eq!(decode(&bytes).unwrap(), s);
         // 2 x 3 texels: 3 x 4 cells, 2 x 2 blocks: flag + scale + 4 codes.
@@ -551,6 +554,7 @@ mod tests {
         let v5 = file(5, &without[HEADER..without.len() - 4]);
         let mut none = s.clone();
         none.patches[0].error_bound = None;
+        none.sync_error_bound_stats();
         assert_eq!(decode(&v5).unwrap(), none);
         // A flag of 2, and a NaN scale: named format errors.
         let mut p = without[HEADER..].to_vec();

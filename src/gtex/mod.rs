@@ -485,6 +485,26 @@ impl GeometryTextureSet {
         self.patches.iter().map(Patch::map_bytes).sum()
     }
 
+    /// Sets the `error_bound_*` stats from the maps, or drops them where a patch has none: the
+    /// stats say what the set holds, whatever a file or an older set claimed. `bytes` follows.
+    pub fn sync_error_bound_stats(&mut self) {
+        // In place where present: the stats' order is part of the file's bytes.
+        match self.error_bound_figures() {
+            Some(b) => {
+                self.stats.set("error_bound_max", b.max);
+                self.stats.set("error_bound_p99", b.p99);
+                self.stats.set("error_bound_bytes", b.bytes as f64);
+            }
+            None => self
+                .stats
+                .values
+                .retain(|(name, _)| !name.starts_with("error_bound")),
+        }
+        if self.stats.get("bytes").is_some() {
+            self.stats.set("bytes", self.map_bytes() as f64);
+        }
+    }
+
     /// The error bounds of the whole set (`bound`): the largest, the 99th percentile over the
     /// blocks holding surface, and the maps' bytes; None unless every patch has a bound map.
     pub fn error_bound_figures(&self) -> Option<ErrorBoundFigures> {

@@ -348,6 +348,7 @@ impl PyGeometryTextureSet {
                 }
             };
         }
+        set.sync_error_bound_stats();
         Ok(Self::wrap(set))
     }
 
