@@ -133,7 +133,10 @@ class GeometryTextureSet(RayQueries, Wrapped, core=_core.GeometryTextureSet,
         where none), color (H, W, 4) uint8 (neutral 200, 200, 200, 255 without a color map),
         has_colors (bool), outline (H, W) int8 (signed distance from each texel centre to the
         faces' outline, 127 = 2 texels, positive inside), world_from_patch (4, 4), origin (3,),
-        axes (3, 3) (rows x, y, z), extent (3,), faces and ring_faces (uint32)."""
+        axes (3, 3) (rows x, y, z), extent (3,), faces and ring_faces (uint32), and error_bound
+        (H + 1, W + 1) float64: each cell's bound (world units) on the distance from the stored
+        surface over it to the mesh, rows and columns from cell -1 (the cell between texel
+        rows/columns -1 and 0), as its 2 x 2 block stores it; None for a set without bounds."""
         return self._core.patch(index)
 
     def to_points(self) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float32]]:

@@ -96,6 +96,16 @@ fn patch_dict<'py>(py: Python<'py>, p: &Patch) -> PyResult<Bound<'py, PyDict>> {
     d.set_item("extent", PyArray1::from_slice(py, &p.extent.to_array()))?;
     d.set_item("faces", PyArray1::from_slice(py, &p.faces))?;
     d.set_item("ring_faces", PyArray1::from_slice(py, &p.ring_faces))?;
+    // Per cell (rows and columns from cell -1, as `_with_cell_bounds` takes them), each cell
+    // showing its 2 x 2 block's stored bound.
+    let bound = p.error_bound.as_ref().map(|map| {
+        let cells: Vec<f64> = (-1..i64::from(p.height))
+            .flat_map(|j| (-1..i64::from(p.width)).map(move |i| (i, j)))
+            .map(|(i, j)| map.at_cell(p.width, p.height, i, j))
+            .collect();
+        matrix(py, cells, h + 1, w + 1)
+    });
+    d.set_item("error_bound", bound)?;
     Ok(d)
 }
 
@@ -159,7 +169,8 @@ impl PyGeometryTextureSet {
     /// none), color (H, W, 4) uint8 (neutral 200, 200, 200, 255 without a color map),
     /// has_colors (bool), outline (H, W) int8 (signed distance from each texel centre to the
     /// faces' outline, 127 = 2 texels, positive inside), world_from_patch (4, 4),
-    /// origin (3,), axes (3, 3) (rows x, y, z), extent (3,), faces and ring_faces (uint32).
+    /// origin (3,), axes (3, 3) (rows x, y, z), extent (3,), faces and ring_faces (uint32),
+    /// error_bound (H + 1, W + 1) float64 per cell from cell -1, or None.
     fn patch<'py>(
         &self,
         py: Python<'py>,
