@@ -175,3 +175,21 @@ def test_frames_with_bounds_pickle(bunny) -> None:
     assert g.outputs == f.outputs == ["color", "error_bound", "coverage_uncertain"]
     assert np.array_equal(g.error_bound, f.error_bound, equal_nan=True)
     assert np.array_equal(g.coverage_uncertain, f.coverage_uncertain)
+
+
+def test_patch_dicts_show_each_cells_stored_bound(bunny) -> None:
+    """`gts.patch(k)["error_bound"]` is (H + 1, W + 1), its largest value is the set's
+    error_bound_max, each 2 x 2 block holds one value, and handing the arrays back through
+    `_with_cell_bounds` stores the same maps (the codes round up onto themselves)."""
+    _, gts = bunny
+    arrays = [gts.patch(k)["error_bound"] for k in range(len(gts))]
+    for k, a in enumerate(arrays):
+        assert a.shape == tuple(np.add(gts.patch(k)["height"].shape, 1))
+        blocks = a[: a.shape[0] // 2 * 2, : a.shape[1] // 2 * 2].reshape(a.shape[0] // 2, 2, a.shape[1] // 2, 2)
+        assert (blocks == blocks[:, :1, :, :1]).all(), k
+    assert max(a.max() for a in arrays) == pytest.approx(gts.stats["error_bound_max"], rel=1e-12)
+    again = gt.GeometryTextureSet._wrap(gts._core._with_cell_bounds(arrays))
+    for k, a in enumerate(arrays):
+        assert np.array_equal(again.patch(k)["error_bound"], a), k
+    bare = with_bounds(gts, lambda k: None)
+    assert bare.patch(0)["error_bound"] is None and "error_bound_max" not in bare.stats

@@ -133,3 +133,6 @@ def test_guarantee_keeps_its_promise() -> None:
         assert np.nanmax(np.asarray(v["frame"].error_bound)) <= e * (1 + 3e-4)
     with pytest.raises(gt.ParameterError, match="max_bytes"):
         gt.convert(ball, max_error=e, guarantee=True, max_bytes=2_000)
+    # A bound no level reaches: the refusal names the patches over it, with their bounds.
+    with pytest.raises(gt.ParameterError, match=r"patch\(es\) stay over it .*patch \(bound\): \d+ \("):
+        gt.convert(ball, max_error=1e-3 * diag, guarantee=True, max_resolution=8)
