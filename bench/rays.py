@@ -1,5 +1,7 @@
 """Benchmark of ray queries and shadows: geomtex's GPU tracer against trimesh + embree with its
-intersector kept (``mesh.ray`` caches its BVH; ``reference.RayCaster`` does the same), in one run.
+intersector kept (``mesh.ray`` caches its BVH; ``reference.RayCaster`` does the same; one core)
+and, where installed (``pip install open3d-cpu``), Open3D's ``RaycastingScene`` with its scene
+kept on every core (bench/peers.py), in one run.
 
 Rays: from random points on a sphere (radius one diagonal) around the Stanford bunny toward
 random points in its bounding box, as in tests/test_rays.py. Per ray count: wall time of
@@ -36,6 +38,7 @@ from typing import Any, Callable
 
 import numpy as np
 from _meta import write_json  # noqa: E402  (bench/ is on sys.path: run as python bench/<name>.py)
+from peers import Open3dCaster, open3d_caster  # type: ignore[import-not-found]
 
 import geomtex as gt
 from geomtex.testing.views import rays_around
@@ -75,7 +78,25 @@ def parallel_rays(mesh: gt.Mesh, n: int, seed: int = 7) -> tuple[np.ndarray, np.
     return origins, np.tile(d, (n, 1))
 
 
-def measure(gts: Any, caster: Any, mesh: gt.Mesh, n: int, parallel: bool = False) -> dict[str, Any]:
+def open3d_figures(o3d: Open3dCaster | None, origins: np.ndarray, dirs: np.ndarray, ref: np.ndarray,
+                   diag: float, repeats: int, gt_ms: float, mesh_ms: float) -> dict[str, Any]:
+    """Open3D's first hits of the same rays (bench/peers.py: scene kept, every core), timed like
+    the others, and their agreement with embree's; empty without Open3D."""
+    if o3d is None:
+        return {}
+    rays = o3d.tensor(origins, dirs)
+    ans, ms = timed(lambda: o3d.cast(rays), repeats)
+    t = ans["t_hit"].numpy().astype(np.float64)
+    both = np.isfinite(t) & np.isfinite(ref)
+    err = np.abs(t[both] - ref[both]) / diag
+    return {"open3d_ms": ms, "open3d_mrays_s": len(t) / ms / 1e3, "open3d_threads": o3d.threads,
+            "open3d_over_geomtex": gt_ms / ms, "open3d_over_mesh": mesh_ms / ms,
+            "open3d_hit_agreement": float(np.mean(np.isfinite(t) == np.isfinite(ref))),
+            "open3d_distance_p99": float(np.percentile(err, 99)) if err.size else None}
+
+
+def measure(gts: Any, caster: Any, mesh: gt.Mesh, n: int, parallel: bool = False,
+            o3d: Open3dCaster | None = None) -> dict[str, Any]:
     origins, dirs = parallel_rays(mesh, n) if parallel else rays_around(mesh, n)
     diag = mesh.diagonal
     repeats = 3 if n <= 100_000 else 1
@@ -87,13 +108,15 @@ def measure(gts: Any, caster: Any, mesh: gt.Mesh, n: int, parallel: bool = False
     as_mesh = gt.Scene()
     as_mesh.add(mesh)
     mesh_hits, mesh_ms = timed(lambda: as_mesh.intersects_first(origins, dirs), repeats)
-    busy = foreign.stop()
     ref = caster.first_distances(origins, dirs)
+    peer = open3d_figures(o3d, origins, dirs, ref, diag, repeats, gt_ms, mesh_ms)
+    busy = foreign.stop()
     both = hits.hit & np.isfinite(ref)
     err = np.abs(hits.distances[both] - ref[both]) / diag
     mesh_both = mesh_hits.hit & np.isfinite(ref)
     mesh_err = np.abs(mesh_hits.distances[mesh_both] - ref[mesh_both]) / diag
     return {
+        **peer, "embree_threads": 1,
         "mesh_first_ms": mesh_ms, "mesh_mrays_s": n / mesh_ms / 1e3, "embree_over_mesh": mesh_ms / embree_ms,
         "mesh_hit_agreement": float(np.mean(mesh_hits.hit == np.isfinite(ref))),
         "mesh_distance_p99": float(np.percentile(mesh_err, 99)), "mesh_distance_max": float(mesh_err.max()),
@@ -172,7 +195,10 @@ def plot(records: list[dict[str, Any]], path: Path, adapter: str) -> None:
     ax.loglog(n, [r["geomtex_first_ms"] for r in records], "o-", label="geomtex intersects_first")
     ax.loglog(n, [r["geomtex_any_ms"] for r in records], "s--", label="geomtex intersects_any")
     ax.loglog(n, [r["mesh_first_ms"] for r in records], "d-.", label="geomtex, the bunny as a mesh")
-    ax.loglog(n, [r["embree_ms"] for r in records], "^-", label="trimesh + embree, intersector kept")
+    ax.loglog(n, [r["embree_ms"] for r in records], "^-", label="trimesh + embree, intersector kept (1 core)")
+    if records and "open3d_ms" in records[0]:
+        ax.loglog(n, [r["open3d_ms"] for r in records], "v-",
+                  label=f"Open3D RaycastingScene, kept ({records[0]['open3d_threads']} threads)")
     ax.set_xlabel("rays per call")
     ax.set_ylabel("wall time (ms)")
     ax.set_title(f"Ray queries, Stanford bunny (256-texel maps), {adapter}")
@@ -200,17 +226,24 @@ def main() -> None:
         write_json(OUT / "shadows.json", result, indent=2)
         return
     caster, build_s = ray_caster(mesh)
+    o3d = open3d_caster(mesh)
+    print("Open3D:", f"{o3d.version}, scene built in {o3d.build_s:.2f} s (kept), {o3d.threads} threads"
+          if o3d else "not installed (pip install open3d-cpu); its columns are left out")
     records = []
     for n in COUNTS_QUICK if args.quick else COUNTS_FULL:
         wait_idle(args.wait_idle)
-        records.append(measure(gts, caster, mesh, n))
+        records.append(measure(gts, caster, mesh, n, o3d=o3d))
         r = records[-1]
+        if o3d:
+            print(f"{n:>9,} rays: Open3D {r['open3d_ms']:7.1f} ms ({r['open3d_threads']} threads), "
+                  f"{r['open3d_over_geomtex']:.1f}x the set's speed, {r['open3d_over_mesh']:.1f}x the mesh's; "
+                  f"agreement with embree {r['open3d_hit_agreement']:.5f}, p99 {r['open3d_distance_p99']:.1e}")
         print(f"{n:>9,} rays: geomtex {r['geomtex_first_ms']:8.1f} ms (any {r['geomtex_any_ms']:8.1f}), "
               f"embree {r['embree_ms']:7.1f} ms, embree {r['embree_over_geomtex']:.1f}x faster; agreement "
               f"{r['hit_agreement']:.5f}, p99 {r['distance_p99']:.1e} of the diagonal; as a mesh "
               f"{r['mesh_first_ms']:8.1f} ms, agreement {r['mesh_hit_agreement']:.5f}, p99 {r['mesh_distance_p99']:.1e}")
     wait_idle(args.wait_idle)
-    parallel = measure(gts, caster, mesh, COUNTS_QUICK[-1] if args.quick else COUNTS_FULL[-1], parallel=True)
+    parallel = measure(gts, caster, mesh, COUNTS_QUICK[-1] if args.quick else COUNTS_FULL[-1], parallel=True, o3d=o3d)
     print(f"{parallel['rays']:>9,} parallel rays: geomtex {parallel['geomtex_first_ms']:8.1f} ms, embree "
           f"{parallel['embree_ms']:7.1f} ms ({parallel['embree_over_geomtex']:.1f}x); agreement "
           f"{parallel['hit_agreement']:.5f}, p99 {parallel['distance_p99']:.1e}; as a mesh {parallel['mesh_first_ms']:8.1f} ms")
@@ -218,7 +251,9 @@ def main() -> None:
     OUT.mkdir(parents=True, exist_ok=True)
     machine = machine_info()
     machine["adapter"] = dict(gt.Renderer(8, 8).adapter_info)
-    result = {"machine": machine, "embree_build_and_first_cast_s": build_s, "records": records,
+    result = {"machine": machine, "embree_build_and_first_cast_s": build_s,
+              "open3d": {"version": o3d.version, "build_and_first_cast_s": o3d.build_s, "threads": o3d.threads} if o3d else None,
+              "records": records,
               "parallel": parallel, "shadows": shadow_records}
     write_json(OUT / "rays.json", result, indent=2)
     plot(records, OUT / "rays.png", machine["adapter"]["name"])

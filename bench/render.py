@@ -45,6 +45,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 from _meta import write_json  # noqa: E402  (bench/ is on sys.path: run as python bench/<name>.py)
+from peers import Open3dCaster, open3d_caster, time_open3d_frame
 from tqdm import tqdm
 
 import geomtex as gt
@@ -263,6 +264,21 @@ def time_trimesh(caster: reference.RayCaster, cam: gt.Camera, size: int, repeats
     return ref, {"wall_ms": float(np.median(walls)), "wall_ms_runs": walls}
 
 
+def open3d_frame(o3d: Open3dCaster | None, cam: gt.Camera, ref: dict, diag: float,
+                 repeats: int) -> dict[str, Any]:
+    """Open3D's frame of the same view (bench/peers.py) and its depth against embree's; empty
+    without Open3D."""
+    if o3d is None:
+        return {}
+    depth, timing = time_open3d_frame(o3d, cam, HEADLINE_SIZE, repeats)
+    hit, ref_hit = np.isfinite(depth), ref["hit"]
+    both = hit & ref_hit
+    dz = np.abs(depth[both] - ref["depth"][both]) / diag
+    return {"open3d": {**timing, "version": o3d.version,
+                       "hit_agreement": float(np.mean(hit == ref_hit)),
+                       "depth_p99": float(np.percentile(dz, 99)) if dz.size else None}}
+
+
 def accuracy(frame: Any, ref: dict, diag: float, normals: bool = False) -> dict[str, Any]:
     """geomtex.reference.compare; the normal figures only when ``normals``."""
     out = reference.compare(frame, ref, diag)
@@ -298,6 +314,7 @@ def headline(mesh: gt.Mesh, gts: Any, repeats: int, idle: float, retries: int) -
     centre, diag = (lo + hi) / 2, float(mesh.diagonal)
     renderer = gt.Renderer(HEADLINE_SIZE, HEADLINE_SIZE)
     caster, _ = ray_caster(mesh)
+    o3d = open3d_caster(mesh)
     records = []
     for name, direction, up in tqdm(VIEWS, desc=f"headline {HEADLINE_SIZE}^2", unit="view"):
         cam = camera(centre, direction, HEADLINE_DISTANCE * diag, up)
@@ -310,7 +327,10 @@ def headline(mesh: gt.Mesh, gts: Any, repeats: int, idle: float, retries: int) -
             _, t_balanced = time_render(renderer, gts, cam, repeats, quality="balanced")
             _, t_mesh = time_render(renderer, mesh, cam, repeats)
             ref, t_tm = time_trimesh(caster, cam, HEADLINE_SIZE, TRIMESH_REPEATS)
+            peer = open3d_frame(o3d, cam, ref, diag, repeats)
             return {
+                **peer,
+                "open3d_over_geomtex": peer["open3d"]["wall_ms"] / t_gt["wall_ms"] if peer else None,
                 "work": search_work(renderer, gts, cam),
                 "view": name, "direction": direction, "up": up,
                 "distance_diag": HEADLINE_DISTANCE, "size": HEADLINE_SIZE,
@@ -444,8 +464,8 @@ def first_tiled_frame(gts: Any, cam: gt.Camera, repeats: int, copies: int = 3) -
 
 def headline_table(records: list[dict[str, Any]]) -> str:
     header = ("view", "px", "geomtex ms (wall/gpu)", "searches/px", "boxes ms (wall)", "searches/px",
-              "mesh raster ms (wall/gpu)", "trimesh ms",
-              "trimesh/geomtex", "exact/balanced", "IoU", "|dz|/diag med", "|dz|/diag p99", "normal deg med", "NaN")
+              "mesh raster ms (wall/gpu)", "trimesh ms", "Open3D ms",
+              "trimesh/geomtex", "Open3D/geomtex", "exact/balanced", "IoU", "|dz|/diag med", "|dz|/diag p99", "normal deg med", "NaN")
     rows = []
     for r in records:
         a = r["accuracy"]
@@ -456,7 +476,9 @@ def headline_table(records: list[dict[str, Any]]) -> str:
             f"{_ms(r['geomtex']['wall_ms'])} / {_ms(r['geomtex']['gpu_ms'])}", spp(r["geomtex"]),
             _ms(boxes.get("wall_ms")), spp(boxes),
             f"{_ms(r['mesh_raster']['wall_ms'])} / {_ms(r['mesh_raster']['gpu_ms'])}",
-            _ms(r["trimesh"]["wall_ms"]), f"{r['trimesh_over_geomtex']:.2f}x",
+            _ms(r["trimesh"]["wall_ms"]), _ms((r.get("open3d") or {}).get("wall_ms")),
+            f"{r['trimesh_over_geomtex']:.2f}x",
+            f"{r['open3d_over_geomtex']:.2f}x" if r.get("open3d_over_geomtex") else "-",
             f"{r['exact_over_balanced']:.2f}x" if "exact_over_balanced" in r else "-",
             f"{a['iou']:.4f}", f"{a['depth_median']:.1e}", f"{a['depth_p99']:.1e}",
             f"{a['normal_deg_median']:.2f}", str(a["nan_depth"]),
