@@ -37,21 +37,27 @@ impl Aabb {
     };
 
     /// Whether the ray o + t d meets the box for some t in [t0, t1].
+    #[cfg(test)]
     pub fn meets(&self, o: DVec3, d: DVec3, range: (f64, f64)) -> bool {
         self.meets_inverse(o, d.recip(), range)
     }
 
     /// `meets` for a direction given by its inverse (slab test; a zero direction component is
     /// an infinite inverse, which the comparisons handle): rays that share a direction share it.
-    pub fn meets_inverse(&self, o: DVec3, inverse: DVec3, (t0, t1): (f64, f64)) -> bool {
+    pub fn meets_inverse(&self, o: DVec3, inverse: DVec3, range: (f64, f64)) -> bool {
+        self.entry_inverse(o, inverse, range).is_some()
+    }
+
+    /// Where the ray enters the box within [t0, t1] (t0 if it starts inside; NaN where the
+    /// ray lies in a slab's plane, kept: conservative), or None if it misses.
+    pub fn entry_inverse(&self, o: DVec3, inverse: DVec3, (t0, t1): (f64, f64)) -> Option<f64> {
         if self.lo.cmpgt(self.hi).any() {
-            return false;
+            return None;
         }
         let (a, b) = ((self.lo - o) * inverse, (self.hi - o) * inverse);
         let near = a.min(b).max_element().max(t0);
         let far = a.max(b).min_element().min(t1);
-        // NaN (0 * inf where the ray lies in a slab's plane) keeps the ray: conservative.
-        near.partial_cmp(&far) != Some(std::cmp::Ordering::Greater)
+        (near.partial_cmp(&far) != Some(std::cmp::Ordering::Greater)).then_some(near)
     }
 
     pub fn of_points(points: impl IntoIterator<Item = DVec3>) -> Aabb {
@@ -160,24 +166,82 @@ impl Bvh {
         span: (f64, f64),
         mut hit: impl FnMut(u32) -> bool,
     ) -> bool {
+        let mut found = false;
+        self.walk(bounds, o, d, span, |item, _| {
+            found = hit(item);
+            found
+        });
+        found
+    }
+
+    /// The nearest hit of the ray o + t d for t in `span`: `hit(item, t1)` gives the item's
+    /// nearest hit before t1, if any, and each one found shortens the span. (t, item), or
+    /// (span.1, None) without one.
+    pub fn nearest(
+        &self,
+        bounds: &[Aabb],
+        o: DVec3,
+        d: DVec3,
+        span: (f64, f64),
+        mut hit: impl FnMut(u32, f64) -> Option<f64>,
+    ) -> (f64, Option<u32>) {
+        let mut best = (span.1, None);
+        self.walk(bounds, o, d, span, |item, t1| {
+            if let Some(t) = hit(item, *t1).filter(|&t| t < *t1) {
+                *t1 = t;
+                best = (t, Some(item));
+            }
+            false
+        });
+        best
+    }
+
+    /// Visits the items whose boxes the ray meets within the span, which `visit` may shorten
+    /// (its second argument, the span's end) or end (returning true).
+    fn walk(
+        &self,
+        bounds: &[Aabb],
+        o: DVec3,
+        d: DVec3,
+        (t0, mut t1): (f64, f64),
+        mut visit: impl FnMut(u32, &mut f64) -> bool,
+    ) {
+        let inverse = d.recip();
+        // Nodes with where the ray enters them; the nearer child is popped first, so the
+        // nearest hit is usually found early and shortens the span for the rest.
         let mut stack = Vec::with_capacity(64);
-        if !self.nodes.is_empty() {
-            stack.push(0usize);
+        if let Some(t) = bounds
+            .first()
+            .and_then(|b| b.entry_inverse(o, inverse, (t0, t1)))
+        {
+            stack.push((0usize, t));
         }
-        while let Some(i) = stack.pop() {
-            if !bounds[i].meets(o, d, span) {
+        while let Some((i, entry)) = stack.pop() {
+            if entry > t1 {
                 continue;
             }
             match self.nodes[i] {
                 Shape::Leaf { item } => {
-                    if hit(item) {
-                        return true;
+                    if visit(item, &mut t1) {
+                        return;
                     }
                 }
-                Shape::Interior { right } => stack.extend([right as usize, i + 1]),
+                Shape::Interior { right } => {
+                    let enter = |k: usize| {
+                        bounds[k]
+                            .entry_inverse(o, inverse, (t0, t1))
+                            .map(|t| (k, t))
+                    };
+                    let (left, right) = (enter(i + 1), enter(right as usize));
+                    let (near, far) = match (left, right) {
+                        (Some(l), Some(r)) if r.1 < l.1 => (Some(r), Some(l)),
+                        _ => (left, right),
+                    };
+                    stack.extend(far);
+                    stack.extend(near);
+                }
             }
         }
-        false
     }
 }
 
