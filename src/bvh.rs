@@ -60,6 +60,18 @@ impl Aabb {
         (near.partial_cmp(&far) != Some(std::cmp::Ordering::Greater)).then_some(near)
     }
 
+    /// The box's corners; corner k takes hi on x, y, z where bit 0, 1, 2 of k is set.
+    pub fn corners(&self) -> [DVec3; 8] {
+        let (lo, hi) = (self.lo, self.hi);
+        std::array::from_fn(|k| {
+            DVec3::new(
+                if k & 1 == 0 { lo.x } else { hi.x },
+                if k & 2 == 0 { lo.y } else { hi.y },
+                if k & 4 == 0 { lo.z } else { hi.z },
+            )
+        })
+    }
+
     pub fn of_points(points: impl IntoIterator<Item = DVec3>) -> Aabb {
         points.into_iter().fold(Aabb::EMPTY, |b, p| Aabb {
             lo: b.lo.min(p),

@@ -456,13 +456,12 @@ impl<'s> SetTracer<'s> {
             .patches
             .iter()
             .map(|p| {
-                Aabb::of_points((0..8).map(|k| {
-                    let corner = DVec3::new((k & 1) as f64, (k >> 1 & 1) as f64, (k >> 2) as f64);
-                    p.origin
-                        + p.axes[0] * (corner.x * p.extent.x)
-                        + p.axes[1] * (corner.y * p.extent.y)
-                        + p.axes[2] * (corner.z * p.extent.z)
-                }))
+                let unit = Aabb {
+                    lo: DVec3::ZERO,
+                    hi: DVec3::ONE,
+                };
+                let world_from_patch = p.world_from_patch();
+                Aabb::of_points(unit.corners().map(|c| world_from_patch.transform_point3(c)))
             })
             .collect();
         let bvh = Bvh::build(&boxes);

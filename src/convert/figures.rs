@@ -52,9 +52,7 @@ pub fn stats(
         stats.set("charts_over_max_error", over as f64);
     }
     if let Some(b) = set.error_bound_figures() {
-        stats.set("error_bound_max", b.max);
-        stats.set("error_bound_p99", b.p99);
-        stats.set("error_bound_bytes", b.bytes as f64);
+        b.write(&mut stats);
     }
     stats.set("guarantee", opts.guarantee as u8 as f64);
     for (name, v) in mesh_figures(mesh, &figures)

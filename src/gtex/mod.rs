@@ -455,6 +455,15 @@ pub struct ErrorBoundFigures {
     pub bytes: usize,
 }
 
+impl ErrorBoundFigures {
+    /// Sets stats error_bound_max, _p99 and _bytes (in place where present).
+    pub fn write(&self, stats: &mut Stats) {
+        stats.set("error_bound_max", self.max);
+        stats.set("error_bound_p99", self.p99);
+        stats.set("error_bound_bytes", self.bytes as f64);
+    }
+}
+
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct GeometryTextureSet {
     pub patches: Vec<Patch>,
@@ -490,11 +499,7 @@ impl GeometryTextureSet {
     pub fn sync_error_bound_stats(&mut self) {
         // In place where present: the stats' order is part of the file's bytes.
         match self.error_bound_figures() {
-            Some(b) => {
-                self.stats.set("error_bound_max", b.max);
-                self.stats.set("error_bound_p99", b.p99);
-                self.stats.set("error_bound_bytes", b.bytes as f64);
-            }
+            Some(b) => b.write(&mut self.stats),
             None => self
                 .stats
                 .values

@@ -12,13 +12,7 @@ use crate::gtex::Patch;
 
 /// The corners of the box [lo, hi]; corner k takes hi on x, y, z where bit 0, 1, 2 of k is set.
 pub(crate) fn box_corners(lo: DVec3, hi: DVec3) -> [DVec3; 8] {
-    std::array::from_fn(|k| {
-        DVec3::new(
-            if k & 1 == 0 { lo.x } else { hi.x },
-            if k & 2 == 0 { lo.y } else { hi.y },
-            if k & 4 == 0 { lo.z } else { hi.z },
-        )
-    })
+    crate::bvh::Aabb { lo, hi }.corners()
 }
 
 /// The corners of the unit cube (a patch's box in patch-local space).
