@@ -435,23 +435,47 @@ pub fn first_hit_in_pyramid(
     (best < hi).then_some(best)
 }
 
-/// A set made ready for nearest-hit queries on the CPU: a BVH over the patches' world boxes,
-/// and each patch's min-max pyramid (`first_hit_in_pyramid`). Spaces: rays in world space; each
-/// patch tests the ray in its patch-local unit box, where t keeps its meaning (world distance,
-/// for unit directions) since the map is affine.
-pub struct SetTracer<'s> {
-    set: &'s crate::gtex::GeometryTextureSet,
+/// A set made ready for ray queries on the CPU: a BVH over the patches' world boxes, and each
+/// patch's min-max pyramid (`first_hit_in_pyramid`). It holds no reference to the set: the
+/// caller passes the same set it was made from (the CPU backend keeps both together). Spaces:
+/// rays in the set's space; each patch tests the ray in its patch-local unit box, where t keeps
+/// its meaning (world distance, for unit directions) since the map is affine.
+pub struct SetTracer {
     pyramids: Vec<Vec<(u32, u32, Vec<u32>)>>,
     bvh: crate::bvh::Bvh,
     bounds: Vec<crate::bvh::Aabb>,
 }
 
-impl<'s> SetTracer<'s> {
+impl SetTracer {
     /// The pyramids are made on every core; the BVH over the boxes by the surface-area rule.
-    pub fn new(set: &'s crate::gtex::GeometryTextureSet) -> Self {
-        use crate::bvh::{Aabb, Bvh};
+    pub fn new(set: &crate::gtex::GeometryTextureSet) -> Self {
         use rayon::prelude::*;
-        let pyramids = set.patches.par_iter().map(min_max_pyramid).collect();
+        Self::with_pyramids(set, set.patches.par_iter().map(min_max_pyramid).collect())
+    }
+
+    /// A tracer whose pyramids hold only `heights[k]` of patch k (the others empty), while the
+    /// cells' exact test still reads the whole maps: searches skip the stretches where those
+    /// heights are empty and find the surface there in another patch (the GPU's pieces over the
+    /// texels each patch owns, render/kinds/gtex/owners.rs).
+    pub fn with_heights(set: &crate::gtex::GeometryTextureSet, heights: &[Vec<u16>]) -> Self {
+        use rayon::prelude::*;
+        let pyramids = (set.patches.par_iter().zip(heights))
+            .map(|(p, h)| {
+                let kept = Patch {
+                    heights: h.clone(),
+                    ..p.clone()
+                };
+                min_max_pyramid(&kept)
+            })
+            .collect();
+        Self::with_pyramids(set, pyramids)
+    }
+
+    fn with_pyramids(
+        set: &crate::gtex::GeometryTextureSet,
+        pyramids: Vec<Vec<(u32, u32, Vec<u32>)>>,
+    ) -> Self {
+        use crate::bvh::{Aabb, Bvh};
         let boxes: Vec<Aabb> = set
             .patches
             .iter()
@@ -467,24 +491,85 @@ impl<'s> SetTracer<'s> {
         let bvh = Bvh::build(&boxes);
         let bounds = bvh.node_bounds(&boxes);
         SetTracer {
-            set,
             pyramids,
             bvh,
             bounds,
         }
     }
 
-    /// The nearest exact hit of the world ray (origin, unit direction): (distance along the
-    /// ray, patch index), or (inf, -1).
-    pub fn first_hit(&self, origin: DVec3, dir: DVec3) -> (f64, i32) {
-        let (t, item) =
-            self.bvh
-                .nearest(&self.bounds, origin, dir, (0.0, f64::INFINITY), |k, t1| {
-                    let p = &self.set.patches[k as usize];
-                    let (o, d) = patch_local_ray(p, origin, dir);
-                    first_hit_in_pyramid(p, &self.pyramids[k as usize], o, d, 0.0, t1)
-                });
+    /// The hit of the ray (origin, direction: t along it) in patch `k`, before `t1`.
+    fn patch_hit(
+        &self,
+        set: &crate::gtex::GeometryTextureSet,
+        k: u32,
+        (origin, dir): (DVec3, DVec3),
+        (t0, t1): (f64, f64),
+    ) -> Option<f64> {
+        let p = &set.patches[k as usize];
+        let (o, d) = patch_local_ray(p, origin, dir);
+        first_hit_in_pyramid(p, &self.pyramids[k as usize], o, d, t0, t1)
+    }
+
+    /// The nearest exact hit of the ray (origin, direction) for t in `span`: (t, patch index),
+    /// or (inf, -1).
+    pub fn first_hit_within(
+        &self,
+        set: &crate::gtex::GeometryTextureSet,
+        origin: DVec3,
+        dir: DVec3,
+        span: (f64, f64),
+    ) -> (f64, i32) {
+        let (t, item) = self.bvh.nearest(&self.bounds, origin, dir, span, |k, t1| {
+            self.patch_hit(set, k, (origin, dir), (span.0, t1))
+        });
         item.map_or((f64::INFINITY, -1), |k| (t, k as i32))
+    }
+
+    /// `first_hit_within` over the whole ray.
+    pub fn first_hit(
+        &self,
+        set: &crate::gtex::GeometryTextureSet,
+        origin: DVec3,
+        dir: DVec3,
+    ) -> (f64, i32) {
+        self.first_hit_within(set, origin, dir, (0.0, f64::INFINITY))
+    }
+
+    /// Whether the ray hits any patch for t in `span` (stops at the first found).
+    pub fn any_hit(
+        &self,
+        set: &crate::gtex::GeometryTextureSet,
+        origin: DVec3,
+        dir: DVec3,
+        span: (f64, f64),
+    ) -> bool {
+        self.bvh.any(&self.bounds, origin, dir, span, |k| {
+            self.patch_hit(set, k, (origin, dir), span).is_some()
+        })
+    }
+
+    /// Every crossing of the ray with the set's surfaces for t in `span`, nearest first:
+    /// (t, patch index). Each patch's crossings are found one after the other (the search
+    /// restarted just past the last one); patches that overlap (rings) may give a crossing twice.
+    pub fn all_hits(
+        &self,
+        set: &crate::gtex::GeometryTextureSet,
+        origin: DVec3,
+        dir: DVec3,
+        span: (f64, f64),
+    ) -> Vec<(f64, i32)> {
+        let mut hits = Vec::new();
+        self.bvh.any(&self.bounds, origin, dir, span, |k| {
+            let mut from = span.0;
+            while let Some(t) = self.patch_hit(set, k, (origin, dir), (from, span.1)) {
+                hits.push((t, k as i32));
+                // Past this crossing by a relative step: the next root of the cell, if any.
+                from = t + 1e-9 * (1.0 + t.abs());
+            }
+            false
+        });
+        hits.sort_by(|a, b| a.0.total_cmp(&b.0));
+        hits
     }
 }
 
@@ -514,7 +599,7 @@ pub fn first_hits(
             if cancel.is_cancelled() {
                 return (f64::INFINITY, -1); // reported below
             }
-            tracer.first_hit(origin, dir)
+            tracer.first_hit(set, origin, dir)
         })
         .collect();
     cancel.check("casting rays on the CPU")?;

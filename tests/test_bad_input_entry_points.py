@@ -282,8 +282,6 @@ RAYS = [
     Bad("first_bool", _query("intersects_first", _origin, np.ones((1, 3), bool)), P, "directions"),
     Bad("first_complex", _query("intersects_first", _origin, np.ones((1, 3), complex)), P, "directions"),
     Bad("first_quality", _query("intersects_first", _origin, _d, quality="best"), P, "quality"),
-    Bad("location_multiple_hits", _query("intersects_location", _origin, _d, multiple_hits=True), P,
-        "multiple_hits"),
     Bad("location_multiple_hits_str", _query("intersects_location", _origin, _d, multiple_hits="no"), P,
         "multiple_hits"),
     Bad("any_unknown_keyword", _query("intersects_any", _origin, _d, speed=1), P, "speed"),

@@ -110,8 +110,6 @@ def test_location_and_any_match_first(bunny: Converted) -> None:
     np.testing.assert_array_equal(locations, first.locations[first.hit])
     np.testing.assert_array_equal(index_patch, first.patch_ids[first.hit])
     np.testing.assert_array_equal(bunny.gts.intersects_any(origins, dirs), first.hit)
-    with pytest.raises(gt.ParameterError, match="multiple_hits"):
-        bunny.gts.intersects_location(origins, dirs, multiple_hits=True)
 
 
 

@@ -94,10 +94,10 @@ def restore_scene(objects: list[tuple[Any, Any, Normals | None, float | None]]) 
     return scene
 
 
-def restore_renderer(width: int, height: int) -> Renderer:
+def restore_renderer(width: int, height: int, device: str = "auto") -> Renderer:
     from ._render import Renderer
 
-    return Renderer(width, height)
+    return Renderer(width, height, device=device)  # type: ignore[arg-type]
 
 
 def restore_frame(*arrays: Any) -> Frame:

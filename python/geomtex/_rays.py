@@ -18,16 +18,20 @@ import numpy.typing as npt
 from . import _check, _core
 
 _lock = threading.Lock()
-_renderer: _core.Renderer | None = None
+_renderers: dict[str, _core.Renderer] = {}
+
+Device = Literal["auto", "cpu", "gpu"]
 
 
-def _query_renderer() -> _core.Renderer:
-    """One renderer kept for queries (its device and uploaded sets are reused between calls)."""
-    global _renderer
+def _query_renderer(device: Device | None = None) -> _core.Renderer:
+    """One renderer per device kept for queries (its device and uploaded sets are reused
+    between calls)."""
+    key = "auto" if device is None else device
     with _lock:
-        if _renderer is None:
-            _renderer = _core.Renderer(1, 1)
-        return _renderer
+        r = _renderers.get(key)
+        if r is None:
+            r = _renderers[key] = _core.Renderer(1, 1, key)
+        return r
 
 
 class RayHits(NamedTuple):
@@ -102,13 +106,14 @@ class RayQueries:
     def intersects_first(self, origins: npt.ArrayLike | None = None, directions: npt.ArrayLike | None = None,
                          *, quality: Literal["fast", "balanced", "exact"] | None = None,
                          method: Literal["linear_binary", "maxmip"] | None = None,
-                         ray_origins: npt.ArrayLike | None = None, ray_directions: npt.ArrayLike | None = None
-                         ) -> RayHits:
+                         ray_origins: npt.ArrayLike | None = None, ray_directions: npt.ArrayLike | None = None,
+                         device: Device | None = None) -> RayHits:
         """The nearest hit of every ray (``quality`` "exact" by default): origins (N, 3) or one
         (3,) for every ray, directions (N, 3), any length but zero. Every ray query also takes
-        trimesh's names, ``ray_origins`` and ``ray_directions``."""
+        trimesh's names, ``ray_origins`` and ``ray_directions``, and ``device`` ("auto", "cpu"
+        or "gpu", as `Renderer` takes it; the CPU backend always searches exactly)."""
         o, d = _named(origins, directions, ray_origins, ray_directions)
-        dist, ids, normals = _query_renderer().intersect(self._core, o, d, quality=quality, method=method)
+        dist, ids, normals = _query_renderer(device).intersect(self._core, o, d, quality=quality, method=method)
         hit = ids != -1
         unit = d / np.linalg.norm(d, axis=1, keepdims=True)
         locations = np.where(hit[:, None], o + unit * np.where(hit, dist, 0.0)[:, None], np.nan)
@@ -119,14 +124,19 @@ class RayQueries:
                             multiple_hits: bool = False, *,
                             quality: Literal["fast", "balanced", "exact"] | None = None,
                             method: Literal["linear_binary", "maxmip"] | None = None,
-                            ray_origins: npt.ArrayLike | None = None, ray_directions: npt.ArrayLike | None = None
+                            ray_origins: npt.ArrayLike | None = None, ray_directions: npt.ArrayLike | None = None,
+                            device: Device | None = None
                             ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.int32]]:
         """Like trimesh's: (hit locations (M, 3), index of the ray of each (M,), patch id of each
-        (M,)) for the rays that hit; the nearest hit only (``multiple_hits=True`` is refused)."""
+        (M,)) for the rays that hit; the nearest hit only, or with ``multiple_hits=True`` every
+        crossing (`list_intersections`, on the CPU backend)."""
         if _check.flag("multiple_hits", multiple_hits):
-            raise _core.ParameterError("multiple_hits=True is not supported: only the nearest hit is traced")
+            o, d = _named(origins, directions, ray_origins, ray_directions)
+            index, distances, ids = self.list_intersections(o, d)
+            unit = d / np.linalg.norm(d, axis=1, keepdims=True)
+            return o[index] + unit[index] * distances[:, None], index, ids
         hits = self.intersects_first(origins, directions, quality=quality, method=method,
-                                     ray_origins=ray_origins, ray_directions=ray_directions)
+                                     ray_origins=ray_origins, ray_directions=ray_directions, device=device)
         index = np.flatnonzero(hits.hit)
         return hits.locations[index], index, hits.patch_ids[index]
 
@@ -134,9 +144,32 @@ class RayQueries:
     def intersects_any(self, origins: npt.ArrayLike | None = None, directions: npt.ArrayLike | None = None, *,
                        quality: Literal["fast", "balanced", "exact"] | None = None,
                        method: Literal["linear_binary", "maxmip"] | None = None,
-                       ray_origins: npt.ArrayLike | None = None, ray_directions: npt.ArrayLike | None = None
-                       ) -> npt.NDArray[np.bool_]:
+                       ray_origins: npt.ArrayLike | None = None, ray_directions: npt.ArrayLike | None = None,
+                       device: Device | None = None) -> npt.NDArray[np.bool_]:
         """Whether each ray hits anything (each stops at the first hit found)."""
         o, d = _named(origins, directions, ray_origins, ray_directions)
-        _, ids, _ = _query_renderer().intersect(self._core, o, d, any_hit=True, quality=quality, method=method)
+        _, ids, _ = _query_renderer(device).intersect(self._core, o, d, any_hit=True, quality=quality,
+                                                      method=method)
         return ids != -1  # type: ignore[no-any-return]
+
+    @_check.keywords
+    def list_intersections(self, origins: npt.ArrayLike | None = None, directions: npt.ArrayLike | None = None, *,
+                           ray_origins: npt.ArrayLike | None = None, ray_directions: npt.ArrayLike | None = None
+                           ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64], npt.NDArray[np.int32]]:
+        """Every crossing of every ray with the surfaces, on the CPU backend (exact searches,
+        every core, whatever adapter there is): (ray index (M,) int64, distance along the ray's
+        unit direction (M,) float64, id (M,) int32 as in ``patch_ids``), grouped by ray and
+        nearest first. A mesh gives one crossing per face crossed (a ray through a shared edge
+        or vertex may count each face there); a set one per crossing of each patch's surface,
+        and patches overlap along their seams, so there a crossing may come from both."""
+        o, d = _named(origins, directions, ray_origins, ray_directions)
+        return _query_renderer("cpu").list_intersections(self._core, o, d)
+
+    @_check.keywords
+    def count_intersections(self, origins: npt.ArrayLike | None = None, directions: npt.ArrayLike | None = None,
+                            *, ray_origins: npt.ArrayLike | None = None,
+                            ray_directions: npt.ArrayLike | None = None) -> npt.NDArray[np.int64]:
+        """How many crossings each ray has (N,) int64: `list_intersections` counted per ray."""
+        o, d = _named(origins, directions, ray_origins, ray_directions)
+        index, _, _ = self.list_intersections(o, d)
+        return np.bincount(index, minlength=len(o)).astype(np.int64)

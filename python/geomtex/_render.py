@@ -114,39 +114,52 @@ class RenderOptions(TypedDict, total=False):
 RayHitArrays = tuple[npt.NDArray[np.float64], npt.NDArray[np.int32], npt.NDArray[np.float32]]
 
 
+Device = Literal["auto", "cpu", "gpu"]
+
+
 class Renderer(Wrapped, core=_core.Renderer):
     """A headless renderer of an image size (`resize` changes it).
 
     Every Renderer of a process shares one GPU device, its pipelines and the objects uploaded to
-    it: making a second Renderer, drawing at a second size or tracing rays costs no new device
-    and no new upload. See `render` for the keywords.
+    it (and one CPU backend, its hierarchies kept per object): making a second Renderer, drawing
+    at a second size or tracing rays costs no new device and no new upload. See `render` for the
+    keywords.
 
     Parameters
     ----------
     width, height : int
         The image size in pixels.
+    device : {"auto", "cpu", "gpu"}, optional
+        Where frames and ray queries run. ``"gpu"``: wgpu on a Vulkan, Metal or DX12 adapter
+        (lavapipe counts). ``"cpu"``: the native CPU tracer, on every core, with no graphics
+        driver at all; it draws and traces texture sets and meshes (always with the exact
+        search; ``lod`` and ``count_fetches`` are refused) and raises DeviceError for other
+        kinds. ``"auto"`` (default): the GPU backend where an adapter is usable, else the CPU
+        backend (`device` says which was chosen, ``frame.stats["device"]`` which drew).
 
     Raises
     ------
     ParameterError
-        A size that is not an integer in [1, 16384].
+        A size that is not an integer in [1, 16384], or an unknown device.
     DeviceError
-        No usable GPU adapter (``gt.info()`` says why).
+        ``device="gpu"`` and no usable GPU adapter (``gt.info()`` says why).
     """
 
     _core: _core.Renderer
 
-    def __init__(self, width: Int, height: Int) -> None:
-        self._core = _core.Renderer(width, height)
+    def __init__(self, width: Int, height: Int, device: Device | None = None) -> None:
+        self._core = _core.Renderer(width, height, device)
 
     def __reduce__(self) -> tuple[Any, ...]:
         from ._pickle import restore_renderer
 
-        return restore_renderer, (self.width, self.height)
+        return restore_renderer, (self.width, self.height, self.device)
 
+    device = forward[str]("The backend frames and queries run on: \"gpu\" or \"cpu\".")
     width = forward[int]("Image width in pixels.")
     height = forward[int]("Image height in pixels.")
-    adapter_info = forward[dict[str, str]]("The GPU adapter in use: name, backend, device_type, driver, driver_info.")
+    adapter_info = forward[dict[str, str]]("The adapter in use: name, backend, device_type, driver, driver_info "
+                                           "(the CPU tracer's own on the CPU backend).")
 
     def resize(self, width: Int, height: Int) -> None:
         """Makes later frames `width` x `height`; the device, pipelines and uploads are kept (every

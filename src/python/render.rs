@@ -17,6 +17,8 @@ use super::errors::{heavy, parameter_error};
 use super::gtex::set_stats;
 use super::kinds;
 use crate::mesh::{NormalRule, NormalSource};
+use crate::error::GeomtexError;
+use crate::render::cpu::CpuRenderer;
 use crate::render::{
     check_image_size, Camera, FrameRequest, Light, Outputs, Projection, Quality, Renderer, Scene,
     SceneObject, SearchOverrides,
@@ -302,7 +304,7 @@ impl PyScene {
 /// costs no new device and no new upload.
 #[pyclass(name = "Renderer", module = "geomtex._core", frozen)]
 pub struct PyRenderer {
-    inner: Arc<Mutex<Renderer>>,
+    backend: Backend,
     size: Mutex<(u32, u32)>,
     /// The adapter's description and largest image side, read once: what needs only them does
     /// not wait for a frame another thread is drawing.
@@ -313,6 +315,71 @@ pub struct PyRenderer {
 /// This process's renderer, made on first use and kept for its life. A failure to make one is not
 /// kept: a later call tries again (and raises again).
 static SHARED: Mutex<Option<Arc<Mutex<Renderer>>>> = Mutex::new(None);
+
+/// This process's CPU renderer (its hierarchies kept per object), made on first use.
+static CPU_SHARED: Mutex<Option<Arc<Mutex<CpuRenderer>>>> = Mutex::new(None);
+
+fn cpu_shared() -> Arc<Mutex<CpuRenderer>> {
+    let mut slot = CPU_SHARED
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner());
+    slot.get_or_insert_with(|| Arc::new(Mutex::new(CpuRenderer::new())))
+        .clone()
+}
+
+/// Which backend a Renderer draws with (`device=`).
+enum Backend {
+    Gpu(Arc<Mutex<Renderer>>),
+    /// The CPU backend (render/cpu); `no_gpu` says why there is no GPU backend when `auto`
+    /// chose it, for the errors of kinds only the GPU draws.
+    Cpu {
+        cpu: Arc<Mutex<CpuRenderer>>,
+        no_gpu: Option<String>,
+    },
+}
+
+impl Backend {
+    /// `device`: "gpu" (wgpu; a DeviceError without a usable adapter), "cpu", or "auto" (the
+    /// GPU backend where an adapter is usable, else the CPU backend). Call without the GIL.
+    fn choose(device: &str) -> crate::error::Result<Backend> {
+        let cpu = |no_gpu| Backend::Cpu {
+            cpu: cpu_shared(),
+            no_gpu,
+        };
+        match device {
+            "gpu" => Ok(Backend::Gpu(shared()?)),
+            "cpu" => Ok(cpu(None)),
+            "auto" => match shared() {
+                Ok(gpu) => Ok(Backend::Gpu(gpu)),
+                Err(GeomtexError::Device(why)) => Ok(cpu(Some(why))),
+                Err(other) => Err(other),
+            },
+            other => Err(GeomtexError::Parameter(format!(
+                "device must be \"auto\", \"cpu\" or \"gpu\", got {other:?}"
+            ))),
+        }
+    }
+
+    fn name(&self) -> &'static str {
+        match self {
+            Backend::Gpu(_) => "gpu",
+            Backend::Cpu { .. } => "cpu",
+        }
+    }
+
+    /// A CPU backend's error, with why there is no GPU backend where `auto` chose it.
+    fn explained(&self, e: GeomtexError) -> GeomtexError {
+        match (self, e) {
+            (
+                Backend::Cpu {
+                    no_gpu: Some(why), ..
+                },
+                GeomtexError::Device(msg),
+            ) => GeomtexError::Device(format!("{msg}; no GPU backend here: {why}")),
+            (_, e) => e,
+        }
+    }
+}
 
 /// The process's renderer, made now if there is none (call with the GIL released: making a
 /// device takes seconds on a CPU adapter).
@@ -356,7 +423,7 @@ pub fn device_counts(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
 
 /// The renderer, even if an earlier call panicked while holding it (its state is rebuilt per
 /// frame, so a poisoned lock holds nothing half-written that a later frame reads).
-fn lock(renderer: &Mutex<Renderer>) -> MutexGuard<'_, Renderer> {
+fn lock<R>(renderer: &Mutex<R>) -> MutexGuard<'_, R> {
     renderer
         .lock()
         .unwrap_or_else(|poisoned| poisoned.into_inner())
@@ -383,6 +450,13 @@ type RayHitArrays<'py> = (
     Bound<'py, PyArray1<f64>>,
     Bound<'py, PyArray1<i32>>,
     Bound<'py, PyArray2<f32>>,
+);
+
+/// Ray index, distance and id of every crossing (`list_intersections`).
+type IntersectionArrays<'py> = (
+    Bound<'py, PyArray1<i64>>,
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<i32>>,
 );
 
 /// A light from any object with a `direction` (parallel light) or a `position` (point light)
@@ -433,9 +507,6 @@ fn scene_of(obj: &Bound<'_, PyAny>) -> PyResult<Scene> {
 }
 
 impl PyRenderer {
-    fn renderer(&self) -> MutexGuard<'_, Renderer> {
-        lock(&self.inner)
-    }
 
     fn size(&self) -> (u32, u32) {
         *self
@@ -448,23 +519,45 @@ impl PyRenderer {
 #[pymethods]
 impl PyRenderer {
     #[new]
-    fn new(py: Python<'_>, width: &Bound<'_, PyAny>, height: &Bound<'_, PyAny>) -> PyResult<Self> {
+    #[pyo3(signature = (width, height, device = None))]
+    fn new(
+        py: Python<'_>,
+        width: &Bound<'_, PyAny>,
+        height: &Bound<'_, PyAny>,
+        device: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
         let (w, h) = image_size(width, height)?;
-        let (inner, info, max_side) = heavy(py, "creating the renderer", move |_| {
-            let renderer = shared()?;
-            let (info, max_side) = {
-                let locked = lock(&renderer);
-                (locked.info(), locked.max_image_side())
+        let device = opt_text(device, "device")?.unwrap_or_else(|| "auto".into());
+        let (backend, info, max_side) = heavy(py, "creating the renderer", move |_| {
+            let backend = Backend::choose(&device)?;
+            let (info, max_side) = match &backend {
+                Backend::Gpu(gpu) => {
+                    let locked = lock(gpu);
+                    (locked.info(), locked.max_image_side())
+                }
+                Backend::Cpu { no_gpu, .. } => {
+                    let mut info = CpuRenderer::info();
+                    if let Some(why) = no_gpu {
+                        info.push(("gpu_unavailable", why.clone()));
+                    }
+                    (info, crate::render::cpu::MAX_IMAGE_SIDE)
+                }
             };
             check_image_size(w, h, max_side)?;
-            Ok((renderer, info, max_side))
+            Ok((backend, info, max_side))
         })?;
         Ok(PyRenderer {
-            inner,
+            backend,
             size: Mutex::new((w, h)),
             info,
             max_side,
         })
+    }
+
+    /// The backend frames and queries run on: "gpu" (wgpu) or "cpu" (the native tracer).
+    #[getter]
+    fn device(&self) -> &'static str {
+        self.backend.name()
     }
 
     #[getter]
@@ -589,11 +682,27 @@ impl PyRenderer {
             background,
         };
         let frame = heavy(py, "rendering", |cancel| {
-            let mut renderer = self.renderer();
-            let mut frame = renderer.render(&scene, &camera, &search, &request)?;
-            if let Some(light) = &light {
-                renderer.cast_shadows(&scene, &camera, &search, light, &mut frame, cancel)?;
-            }
+            let mut frame = match &self.backend {
+                Backend::Gpu(gpu) => {
+                    let mut renderer = lock(gpu);
+                    let mut frame = renderer.render(&scene, &camera, &search, &request)?;
+                    if let Some(light) = &light {
+                        renderer.cast_shadows(&scene, &camera, &search, light, &mut frame, cancel)?;
+                    }
+                    frame
+                }
+                Backend::Cpu { cpu, .. } => {
+                    let cpu_frame = || {
+                        let mut renderer = lock(cpu);
+                        let mut frame = renderer.render(&scene, &camera, &search, &request, cancel)?;
+                        if let Some(light) = &light {
+                            renderer.cast_shadows(&scene, &camera, light, &mut frame, cancel)?;
+                        }
+                        Ok(frame)
+                    };
+                    cpu_frame().map_err(|e| self.backend.explained(e))?
+                }
+            };
             frame.keep_only(wanted);
             Ok(frame)
         })?;
@@ -633,15 +742,51 @@ impl PyRenderer {
         let any_hit = opt_flag(any_hit, "any_hit")?.unwrap_or(false);
         let scene = scene_of(obj)?;
         let rays = rays(origins, directions)?;
-        let hits = heavy(py, "tracing rays", |cancel| {
-            self.renderer()
-                .intersect(&scene, &rays, &search, any_hit, cancel)
+        let hits = heavy(py, "tracing rays", |cancel| match &self.backend {
+            Backend::Gpu(gpu) => lock(gpu).intersect(&scene, &rays, &search, any_hit, cancel),
+            Backend::Cpu { cpu, .. } => (lock(cpu).intersect(&scene, &rays, any_hit, cancel))
+                .map_err(|e| self.backend.explained(e)),
         })?;
         let n = hits.patch_id.len();
         Ok((
             PyArray1::from_vec(py, hits.distance),
             PyArray1::from_vec(py, hits.patch_id),
             matrix(py, hits.normal, n, 3),
+        ))
+    }
+
+    /// Every crossing of each ray with a Scene, a GeometryTextureSet or a Mesh, on the CPU
+    /// backend whatever this renderer's device: (ray index (M,) int64, distance along the
+    /// unit direction (M,) float64, id (M,) int32), grouped by ray, nearest first.
+    fn list_intersections<'py>(
+        &self,
+        py: Python<'py>,
+        obj: &Bound<'py, PyAny>,
+        origins: &Bound<'py, PyAny>,
+        directions: &Bound<'py, PyAny>,
+    ) -> PyResult<IntersectionArrays<'py>> {
+        let scene = scene_of(obj)?;
+        let rays = rays(origins, directions)?;
+        let lists = heavy(py, "listing intersections", |cancel| {
+            lock(&cpu_shared()).list_intersections(&scene, &rays, cancel)
+        })?;
+        let total = lists.iter().map(Vec::len).sum();
+        let (mut index, mut distance, mut id) = (
+            Vec::with_capacity(total),
+            Vec::with_capacity(total),
+            Vec::with_capacity(total),
+        );
+        for (i, list) in lists.iter().enumerate() {
+            for &(t, k) in list {
+                index.push(i as i64);
+                distance.push(t);
+                id.push(k);
+            }
+        }
+        Ok((
+            PyArray1::from_vec(py, index),
+            PyArray1::from_vec(py, distance),
+            PyArray1::from_vec(py, id),
         ))
     }
 

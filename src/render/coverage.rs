@@ -15,8 +15,7 @@ use glam::DVec3;
 
 use super::camera::{Camera, Lens};
 use super::error_bound::{pixel_size, DrawnPixels, PixelSources};
-use super::{Renderer, Scene, SearchOptions};
-use crate::cancel::NEVER;
+use super::{RayBackend, Scene, SearchOptions};
 use crate::error::Result;
 
 /// Pixels added to every probe distance: the probe rays are traced in f32.
@@ -99,12 +98,11 @@ impl CoverageInputs<'_> {
     }
 }
 
-impl Renderer {
-    /// Per pixel, whether its coverage could differ from the source mesh's, with the figures.
-    /// Objects the tracer does not trace (surfels, IGT meshes) leave every transition pixel
-    /// uncertain, as does a pixel whose bound is unknown.
-    pub(crate) fn coverage_uncertain(
-        &mut self,
+/// Per pixel, whether its coverage could differ from the source mesh's, with the figures, the
+/// probes traced by `backend`. Objects it does not trace (surfels, IGT meshes) leave every
+/// transition pixel uncertain, as does a pixel whose bound is unknown.
+pub(crate) fn coverage_uncertain(
+        backend: &mut impl RayBackend,
         scene: &Scene,
         camera: &Camera,
         search: &SearchOptions,
@@ -114,7 +112,7 @@ impl Renderer {
         let (w, h) = (inputs.pixels.width as usize, inputs.height as usize);
         let drawn: Vec<bool> = (0..w * h).map(|i| inputs.drawn(i)).collect();
         let mut uncertain = vec![false; w * h];
-        let traced = self.all_traced(scene)?;
+        let traced = all_traced(backend, scene)?;
         let mut probed = Vec::new();
         for i in transitions(&drawn, w, h) {
             let d = inputs.probe_distance(i);
@@ -126,10 +124,9 @@ impl Renderer {
         }
         let (rays, ranges) = probe_rays(camera, inputs.lens, &probed, w);
         if !rays.is_empty() {
-            let batch = self.largest_batch();
-            let hits = self.trace_rays(scene, &rays, Some(&ranges), batch, search, true, &NEVER)?;
+            let hits = backend.probe(scene, &rays, &ranges, search)?;
             for (k, &(i, _)) in probed.iter().enumerate() {
-                let probes = &hits.patch_id[k * PROBES..(k + 1) * PROBES];
+                let probes = &hits[k * PROBES..(k + 1) * PROBES];
                 uncertain[i] = probes.iter().any(|&id| (id != -1) != drawn[i]);
             }
         }
@@ -138,17 +135,16 @@ impl Renderer {
             ms: start.elapsed().as_secs_f64() * 1e3,
         };
         Ok((uncertain, figures))
-    }
+}
 
-    /// Whether the tracer traces every object of `scene`.
-    fn all_traced(&self, scene: &Scene) -> Result<bool> {
-        for placed in &scene.objects {
-            if !self.kinds.kinds[self.kinds.kind_of(&placed.object)?].casts_shadows() {
-                return Ok(false);
-            }
+/// Whether `backend` traces every object of `scene`.
+fn all_traced(backend: &impl RayBackend, scene: &Scene) -> Result<bool> {
+    for placed in &scene.objects {
+        if !backend.traces(&placed.object)? {
+            return Ok(false);
         }
-        Ok(true)
     }
+    Ok(true)
 }
 
 /// Eight probe rays per pixel (index, distance in pixels) of a `w`-wide image, each with the

@@ -71,6 +71,8 @@ pub struct Frame {
     /// With `lod`: drawn patches per level-of-detail stop level (0: exact), and whether the
     /// levels were picked by the node's pixel size or by the bound (`SearchOptions`).
     pub lod_levels: Option<(Vec<u64>, LodRule)>,
+    /// The backend that drew it: "gpu" (wgpu) or "cpu" (render/cpu).
+    pub device: &'static str,
 }
 
 /// How a frame with `lod` picked each patch's stop level.
@@ -229,6 +231,7 @@ impl Frame {
                 self.gpu_ms.map_or(StatValue::Absent, StatValue::Float),
             ),
             ("cpu_ms", StatValue::Float(self.cpu_ms)),
+            ("device", StatValue::Text(self.device)),
             ("patches_drawn", count(self.patches_drawn)),
             ("patches_culled", count(self.patches_culled)),
             ("meshes_drawn", count(self.meshes_drawn)),
@@ -351,6 +354,7 @@ mod tests {
             coverage_uncertain: None,
             coverage: None,
             lod_levels: None,
+            device: "gpu",
         }
     }
 

@@ -18,6 +18,7 @@
 mod atlas;
 pub mod camera;
 mod coverage;
+pub mod cpu;
 mod cull;
 pub mod device;
 mod error_bound;
@@ -113,10 +114,10 @@ struct Prepared {
 }
 
 /// What a frame's bounds are made from besides its pixels (error_bound.rs).
-struct BoundInputs {
-    lens: Lens,
-    ids: Vec<ObjectIds>,
-    lod_picks: Vec<LodPick>,
+pub(crate) struct BoundInputs {
+    pub lens: Lens,
+    pub ids: Vec<ObjectIds>,
+    pub lod_picks: Vec<LodPick>,
 }
 
 /// A `ParameterError` unless `width` x `height` fits an adapter whose largest image side is `max`.
@@ -248,56 +249,11 @@ impl Renderer {
             Ok((frame, inputs))
         })?;
         if request.outputs.needs_bounds() {
-            self.add_bounds(scene, camera, search, request.outputs, &inputs, &mut frame)?;
+            add_bounds(self, scene, camera, search, request.outputs, &inputs, &mut frame)?;
             frame.cpu_ms = start.elapsed().as_secs_f64() * 1e3;
         }
         frame.keep_only(request.outputs);
         Ok(frame)
-    }
-
-    /// Computes the frame's error bounds and, where asked, which pixels' coverage is uncertain
-    /// (error_bound.rs, coverage.rs), from its depth and patch ids.
-    fn add_bounds(
-        &mut self,
-        scene: &Scene,
-        camera: &Camera,
-        search: &SearchOptions,
-        outputs: Outputs,
-        inputs: &BoundInputs,
-        frame: &mut Frame,
-    ) -> Result<()> {
-        let (Some(depth), Some(patch_id)) = (&frame.depth, &frame.patch_id) else {
-            return Err(GeomtexError::Internal(
-                "error bounds need the frame's depth and patch ids read back".into(),
-            ));
-        };
-        let mut sources = PixelSources::new(scene, &inputs.ids, &inputs.lod_picks, camera.eye());
-        sources.exact_search = search.method == crate::render::search::Method::MaxMip;
-        let pixels = DrawnPixels {
-            width: frame.width,
-            lines: camera.pixel_lines(&inputs.lens),
-            forward: camera.forward(),
-            depth,
-            patch_id,
-        };
-        let bounds = pixel_bounds(&sources, &pixels);
-        let figures = BoundFigures::of(&bounds, |i| pixels.point(i).is_some());
-        let coverage = if outputs.coverage_uncertain {
-            let coverage_inputs = CoverageInputs {
-                pixels: &pixels,
-                height: frame.height,
-                bounds: &bounds,
-                sources: &sources,
-                lens: &inputs.lens,
-            };
-            Some(self.coverage_uncertain(scene, camera, search, &coverage_inputs)?)
-        } else {
-            None
-        };
-        (frame.coverage_uncertain, frame.coverage) = coverage.unzip();
-        frame.error_bound = Some(bounds);
-        frame.bound_figures = Some(figures);
-        Ok(())
     }
 
     /// Uploads what is new, chooses the near plane from the scene's depth range, writes the
@@ -501,6 +457,7 @@ impl Renderer {
                 };
                 (lod_histogram(&tally.lod_picks), rule)
             }),
+            device: "gpu",
         }
     }
 }
@@ -517,4 +474,125 @@ fn lod_histogram(picks: &[LodPick]) -> Vec<u64> {
         counts[p.level as usize] += 1;
     }
     counts
+}
+
+/// Computes the frame's error bounds and, where asked, which pixels' coverage is uncertain
+/// (error_bound.rs, coverage.rs), from its depth and patch ids; `backend` traces the probes.
+pub(crate) fn add_bounds(
+        backend: &mut impl RayBackend,
+        scene: &Scene,
+        camera: &Camera,
+        search: &SearchOptions,
+        outputs: Outputs,
+        inputs: &BoundInputs,
+        frame: &mut Frame,
+    ) -> Result<()> {
+        let (Some(depth), Some(patch_id)) = (&frame.depth, &frame.patch_id) else {
+            return Err(GeomtexError::Internal(
+                "error bounds need the frame's depth and patch ids read back".into(),
+            ));
+        };
+        let mut sources = PixelSources::new(scene, &inputs.ids, &inputs.lod_picks, camera.eye());
+        sources.exact_search = search.method == crate::render::search::Method::MaxMip;
+        let pixels = DrawnPixels {
+            width: frame.width,
+            lines: camera.pixel_lines(&inputs.lens),
+            forward: camera.forward(),
+            depth,
+            patch_id,
+        };
+        let bounds = pixel_bounds(&sources, &pixels);
+        let figures = BoundFigures::of(&bounds, |i| pixels.point(i).is_some());
+        let coverage = if outputs.coverage_uncertain {
+            let coverage_inputs = CoverageInputs {
+                pixels: &pixels,
+                height: frame.height,
+                bounds: &bounds,
+                sources: &sources,
+                lens: &inputs.lens,
+            };
+            Some(coverage::coverage_uncertain(
+                backend,
+                scene,
+                camera,
+                search,
+                &coverage_inputs,
+            )?)
+        } else {
+            None
+        };
+        (frame.coverage_uncertain, frame.coverage) = coverage.unzip();
+        frame.error_bound = Some(bounds);
+        frame.bound_figures = Some(figures);
+        Ok(())
+    }
+
+/// What shadows (shadow.rs) and coverage probes (coverage.rs) ask of a backend: the GPU's
+/// `Renderer` or the CPU's `cpu::CpuRenderer`.
+pub(crate) trait RayBackend {
+    /// Whether the backend traces `object` (it then casts shadows and answers probes).
+    fn traces(&self, object: &Object) -> Result<bool>;
+
+    /// How far a shadow ray starts off `object`'s surface under a placement scaling by `scale`.
+    fn shadow_offset(&self, object: &Object, scale: f64) -> Result<f64>;
+
+    /// Of `count` rays (`ray(i)`, None for none), the ones that hit something within their
+    /// stretch, and how many were traced; `origin` is a point near the rays, `parallel` their
+    /// shared direction, if any.
+    #[allow(clippy::too_many_arguments)] // the query's own settings, passed through
+    fn occluded_rays(
+        &mut self,
+        scene: &Scene,
+        origin: glam::DVec3,
+        parallel: Option<glam::DVec3>,
+        count: usize,
+        ray: &(dyn Fn(usize) -> Option<query::RangedRay> + Sync),
+        search: &SearchOptions,
+        cancel: &crate::cancel::Cancel,
+    ) -> Result<(Vec<usize>, usize)>;
+
+    /// Per ray (unit direction) within its stretch, the id of the first hit found, -1 for none.
+    fn probe(
+        &mut self,
+        scene: &Scene,
+        rays: &[(glam::DVec3, glam::DVec3)],
+        ranges: &[(f64, f64)],
+        search: &SearchOptions,
+    ) -> Result<Vec<i32>>;
+}
+
+impl RayBackend for Renderer {
+    fn traces(&self, object: &Object) -> Result<bool> {
+        Ok(self.kinds.kinds[self.kinds.kind_of(object)?].casts_shadows())
+    }
+
+    fn shadow_offset(&self, object: &Object, scale: f64) -> Result<f64> {
+        Ok(self.kinds.kinds[self.kinds.kind_of(object)?].shadow_offset(object, scale))
+    }
+
+    fn occluded_rays(
+        &mut self,
+        scene: &Scene,
+        origin: glam::DVec3,
+        parallel: Option<glam::DVec3>,
+        count: usize,
+        ray: &(dyn Fn(usize) -> Option<query::RangedRay> + Sync),
+        search: &SearchOptions,
+        cancel: &crate::cancel::Cancel,
+    ) -> Result<(Vec<usize>, usize)> {
+        self.occluded(scene, origin, parallel, count, ray, search, cancel)
+    }
+
+    fn probe(
+        &mut self,
+        scene: &Scene,
+        rays: &[(glam::DVec3, glam::DVec3)],
+        ranges: &[(f64, f64)],
+        search: &SearchOptions,
+    ) -> Result<Vec<i32>> {
+        let batch = self.largest_batch();
+        let never = &crate::cancel::NEVER;
+        let hits = self.trace_rays(scene, rays, Some(ranges), batch, search, true, never)?;
+        Ok(hits.patch_id)
+    }
 }

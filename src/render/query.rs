@@ -128,7 +128,7 @@ fn stretch(ranges: Option<&[(f64, f64)]>, i: usize) -> (f64, f64) {
 /// Unit directions, or an error naming the first ray that has no direction or is not finite.
 /// Checked in parallel: a million rays is a common query, and a real GPU traces them in less
 /// time than one core takes to prepare them.
-fn checked_rays(rays: &[(DVec3, DVec3)]) -> Result<Vec<(DVec3, DVec3)>> {
+pub(crate) fn checked_rays(rays: &[(DVec3, DVec3)]) -> Result<Vec<(DVec3, DVec3)>> {
     let usable = |&(o, d): &(DVec3, DVec3)| {
         let length = d.length();
         o.is_finite() && d.is_finite() && length > 0.0 && length.is_finite()

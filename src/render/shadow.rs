@@ -11,8 +11,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use glam::DVec3;
 
 use super::frame::Shadows;
-use super::kinds::Registry;
-use super::{Camera, Frame, Renderer, Scene, SearchOptions};
+use super::{Camera, Frame, RayBackend, Renderer, Scene, SearchOptions};
 use crate::cancel::Cancel;
 use crate::error::{GeomtexError, Result};
 use crate::profile;
@@ -71,7 +70,7 @@ impl Light {
 /// How far a shadow ray starts off its surface in world units: the largest of the scene's objects'
 /// offsets, each as its kind gives it (`Kind::shadow_offset`, a placement's largest scale
 /// applied): a quarter of a set's texel, half a shell's voxel, `OFFSET_MESH_DIAGONAL` of a mesh.
-fn start_offset(kinds: &Registry, scene: &Scene) -> Result<f64> {
+fn start_offset(backend: &impl RayBackend, scene: &Scene) -> Result<f64> {
     let mut offset: f64 = 0.0;
     for placed in &scene.objects {
         let m = placed.world_from_object;
@@ -79,8 +78,7 @@ fn start_offset(kinds: &Registry, scene: &Scene) -> Result<f64> {
             .iter()
             .map(|c| c.truncate().length())
             .fold(0.0, f64::max);
-        let kind = &kinds.kinds[kinds.kind_of(&placed.object)?];
-        offset = offset.max(kind.shadow_offset(&placed.object, scale));
+        offset = offset.max(backend.shadow_offset(&placed.object, scale)?);
     }
     Ok(offset)
 }
@@ -97,6 +95,20 @@ impl Renderer {
         frame: &mut Frame,
         cancel: &Cancel,
     ) -> Result<()> {
+        cast_shadows(self, scene, camera, search, light, frame, cancel)
+    }
+}
+
+/// `cast_shadows` on either backend: the shadow rays traced by `backend`'s any-hit walk.
+pub(crate) fn cast_shadows(
+        backend: &mut impl RayBackend,
+        scene: &Scene,
+        camera: &Camera,
+        search: &SearchOptions,
+        light: &Light,
+        frame: &mut Frame,
+        cancel: &Cancel,
+    ) -> Result<()> {
         light.validate()?;
         let start = std::time::Instant::now();
         let mut t = start;
@@ -104,12 +116,11 @@ impl Renderer {
         // but do not cast them.
         let mut casters = Scene::default();
         for placed in &scene.objects {
-            let kind = &self.kinds.kinds[self.kinds.kind_of(&placed.object)?];
-            if kind.casts_shadows() {
+            if backend.traces(&placed.object)? {
                 casters.objects.push(placed.clone());
             }
         }
-        let offset = start_offset(&self.kinds, scene)?;
+        let offset = start_offset(backend, scene)?;
         profile::mark(format_args!("casters+offset"), &mut t);
         let (Some(depth), Some(normal)) = (&frame.depth, &frame.normal) else {
             return Err(GeomtexError::Internal(
@@ -142,7 +153,7 @@ impl Renderer {
                 PixelShadow::Ray(ray) => Some(ray),
             };
             let (occluded, traced_rays) =
-                self.occluded(&casters, eye, parallel, n, ray, search, cancel)?;
+                backend.occluded_rays(&casters, eye, parallel, n, &ray, search, cancel)?;
             profile::mark(format_args!("occluded"), &mut t);
             shadow = marked.into_iter().map(AtomicBool::into_inner).collect();
             let attached = shadow.iter().filter(|&&s| s).count();
@@ -170,7 +181,6 @@ impl Renderer {
             ..figures
         });
         Ok(())
-    }
 }
 
 /// What makes a frame's shadow rays: one per pixel hit, from the hit moved `offset` off the

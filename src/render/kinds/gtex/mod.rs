@@ -14,7 +14,7 @@
 
 pub(crate) mod boxes;
 mod lod;
-mod owners;
+pub(crate) mod owners;
 
 use std::sync::{Arc, Mutex, OnceLock};
 use std::time::Instant;

@@ -1,0 +1,435 @@
+//! The CPU backend: frames, ray queries and shadows of texture sets and meshes traced natively on
+//! every core (rayon), with no graphics driver at all. It answers as the GPU backend does — the
+//! same `Frame` and `RayHits`, ids, depth convention and headlight shading — from exact searches
+//! in f64: a set's min-max pyramid descent (heightfield.rs) and a mesh's triangle hierarchy
+//! (mesh.rs). Other kinds (surfels, IGT meshes, displacement shells) need the GPU backend and are
+//! refused with the reason. Each object's hierarchy is built on its first frame or query and kept
+//! while the object lives (`UploadCache`, as the GPU keeps uploads).
+//!
+//! A render reads as the GPU's: prepare (hierarchies, depth range, lens) → trace (one ray per
+//! pixel centre) → finish (error bounds, coverage, shadows as asked).
+//!
+//! Spaces: world (f64); each object's own, placed by `world_from_object`; camera rays are the
+//! GPU's (`Camera::pixel_lines`), whose parameter is the view's z-depth.
+
+mod mesh;
+mod scene;
+mod set;
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::query::RangedRay;
+use super::search::Method;
+use super::shadow::{cast_shadows, Light};
+use super::{
+    add_bounds, check_image_size, BoundInputs, Camera, Frame, FrameRequest, Object, RayBackend,
+    RayHits, Renderer, Scene, SearchOptions, ShadedMesh,
+};
+use crate::cancel::Cancel;
+use crate::error::{GeomtexError, Result};
+use crate::gtex::GeometryTextureSet;
+use crate::mesh::{Mesh, NormalRule};
+use crate::render::cull::DepthRange;
+use crate::render::kinds::UploadCache;
+pub(crate) use mesh::MeshTracer;
+use scene::{SceneTrace, Traced};
+use set::SetSearch;
+
+/// The largest image side the CPU backend draws (the GPU's usual limit; memory is the bound).
+pub const MAX_IMAGE_SIDE: u32 = 16384;
+
+/// A shadow ray's start offset in texels of a set and in diagonals of a mesh: the GPU backend's
+/// (kinds/gtex, kinds/mesh), so both shadow alike.
+const SET_OFFSET_TEXELS: f64 = 0.25;
+const MESH_OFFSET_DIAGONAL: f64 = 1e-5;
+
+/// Frames, queries and shadows on the CPU. Hierarchies are kept per object while it lives.
+#[derive(Default)]
+pub struct CpuRenderer {
+    sets: UploadCache<GeometryTextureSet, Arc<SetSearch>>,
+    /// A mesh's hierarchy per normal rule it was drawn with (the normals differ).
+    meshes: UploadCache<Mesh, Vec<(NormalRule, Arc<MeshTracer>)>>,
+}
+
+/// What the CPU backend traces of an object, or the error that names why not.
+fn traced_kind(object: &Object) -> Result<()> {
+    if object.payload::<GeometryTextureSet>().is_some() || object.payload::<ShadedMesh>().is_some()
+    {
+        return Ok(());
+    }
+    Err(GeomtexError::Device(format!(
+        "the CPU backend draws and traces texture sets and meshes only; a {} needs the GPU \
+         backend (Renderer(..., device=\"gpu\") with a Vulkan, Metal or DX12 adapter)",
+        object.payload_name()
+    )))
+}
+
+impl CpuRenderer {
+    pub fn new() -> CpuRenderer {
+        CpuRenderer::default()
+    }
+
+    /// The adapter-like description `gt.info()` and `Renderer.adapter_info` give.
+    pub fn info() -> Vec<(&'static str, String)> {
+        vec![
+            ("name", "geomtex CPU tracer".into()),
+            ("backend", "cpu".into()),
+            ("device_type", "Cpu".into()),
+            ("driver", "native".into()),
+            ("driver_info", format!("{} threads", rayon::current_num_threads())),
+        ]
+    }
+
+    /// The scene's hierarchies, built where new (on every core), and the ms that took.
+    fn prepare(&mut self, scene: &Scene) -> Result<(SceneTrace, f64)> {
+        let start = Instant::now();
+        self.sets.purge();
+        self.meshes.purge();
+        let mut objects = Vec::with_capacity(scene.objects.len());
+        for (index, placed) in scene.objects.iter().enumerate() {
+            placed.check_placement(index)?;
+            traced_kind(&placed.object)?;
+            let traced = if let Some(set) = placed.object.payload::<GeometryTextureSet>() {
+                let search = self
+                    .sets
+                    .get_or_upload(&set, |_| Ok(Arc::new(SetSearch::new(set.clone()))))?;
+                Traced::Set(search.clone())
+            } else {
+                let shaded = placed.object.payload::<ShadedMesh>().expect("checked above");
+                let rules = self.meshes.entry(&shaded.mesh);
+                let tracer = match rules.iter().find(|(rule, _)| *rule == shaded.rule) {
+                    Some((_, t)) => t.clone(),
+                    None => {
+                        let made = Arc::new(MeshTracer::new(shaded.mesh.clone(), shaded.rule));
+                        rules.push((shaded.rule, made.clone()));
+                        made
+                    }
+                };
+                Traced::Mesh(tracer)
+            };
+            objects.push((traced, placed.world_from_object));
+        }
+        Ok((
+            SceneTrace::new(objects),
+            start.elapsed().as_secs_f64() * 1e3,
+        ))
+    }
+
+    /// Renders `scene` seen by `camera` as `request` asks, on every core. The search is always
+    /// the exact one (`method` "maxmip" in the frame's stats); `lod` and `count_fetches` are
+    /// GPU-only and refused.
+    pub fn render(
+        &mut self,
+        scene: &Scene,
+        camera: &Camera,
+        search: &SearchOptions,
+        request: &FrameRequest,
+        cancel: &Cancel,
+    ) -> Result<Frame> {
+        let search = exact_search(search)?;
+        check_image_size(request.width, request.height, MAX_IMAGE_SIDE)?;
+        let start = Instant::now();
+        let (trace, setup_ms) = self.prepare(scene)?;
+        let mut depth_range = DepthRange::empty();
+        let view_from_world = camera.view_from_world();
+        for b in trace.world_boxes() {
+            depth_range.include_box(&view_from_world, b.lo, b.hi);
+        }
+        let (z_min, z_max) = depth_range.or_default();
+        let lens = camera.lens(request.width, request.height, z_min, z_max)?;
+        let background = request.background.unwrap_or(Renderer::DEFAULT_BACKGROUND);
+        let pixels = trace_pixels(&trace, camera, &lens, request, cancel)?;
+        let mut frame = pixels.into_frame(request, background, lens.near, &search);
+        frame.setup_ms = setup_ms;
+        frame.cpu_ms = start.elapsed().as_secs_f64() * 1e3;
+        if request.outputs.needs_bounds() {
+            let inputs = BoundInputs {
+                lens,
+                ids: trace.ids.clone(),
+                lod_picks: Vec::new(),
+            };
+            add_bounds(self, scene, camera, &search, request.outputs, &inputs, &mut frame)?;
+            frame.cpu_ms = start.elapsed().as_secs_f64() * 1e3;
+        }
+        frame.keep_only(request.outputs);
+        Ok(frame)
+    }
+
+    /// Shadows of a frame this backend drew (shadow.rs, traced here).
+    pub fn cast_shadows(
+        &mut self,
+        scene: &Scene,
+        camera: &Camera,
+        light: &Light,
+        frame: &mut Frame,
+        cancel: &Cancel,
+    ) -> Result<()> {
+        let search = SearchOptions::default();
+        cast_shadows(self, scene, camera, &search, light, frame, cancel)
+    }
+
+    /// The nearest hit of each ray (origin, direction of any length but zero), or with `any_hit`
+    /// the first hit found: distance along the unit direction, id, world normal (as
+    /// `Renderer::intersect`). `cancel` is polled per ray.
+    pub fn intersect(
+        &mut self,
+        scene: &Scene,
+        rays: &[(DVec3, DVec3)],
+        any_hit: bool,
+        cancel: &Cancel,
+    ) -> Result<RayHits> {
+        let rays = super::query::checked_rays(rays)?;
+        let (trace, _) = self.prepare(scene)?;
+        let found: Vec<(f64, i32, [f32; 3])> = rays
+            .par_iter()
+            .map(|&(o, d)| {
+                if cancel.is_cancelled() {
+                    return (f64::INFINITY, -1, [0.0; 3]);
+                }
+                let span = (0.0, f64::INFINITY);
+                let hit = if any_hit {
+                    trace.first_found(o, d, span)
+                } else {
+                    trace.nearest(o, d, span)
+                };
+                hit.map_or((f64::INFINITY, -1, [0.0; 3]), |h| {
+                    let (n, _) = trace.surface(&h, o, d);
+                    (h.t, trace.id(&h), n.as_vec3().to_array())
+                })
+            })
+            .collect();
+        cancel.check("tracing rays on the CPU")?;
+        Ok(RayHits {
+            distance: found.iter().map(|f| f.0).collect(),
+            patch_id: found.iter().map(|f| f.1).collect(),
+            normal: found.iter().flat_map(|f| f.2).collect(),
+        })
+    }
+
+    /// Every crossing of each ray with the scene, nearest first: per ray (distances along its
+    /// unit direction, ids). Meshes give one crossing per face crossed; sets one per crossing
+    /// of a patch's surface (patches overlap at their rings, so a crossing there may come
+    /// twice, from both patches).
+    pub fn list_intersections(
+        &mut self,
+        scene: &Scene,
+        rays: &[(DVec3, DVec3)],
+        cancel: &Cancel,
+    ) -> Result<Vec<Vec<(f64, i32)>>> {
+        let rays = super::query::checked_rays(rays)?;
+        let (trace, _) = self.prepare(scene)?;
+        let lists = rays
+            .par_iter()
+            .map(|&(o, d)| {
+                if cancel.is_cancelled() {
+                    return Vec::new();
+                }
+                trace.all(o, d, (0.0, f64::INFINITY))
+            })
+            .collect();
+        cancel.check("listing intersections on the CPU")?;
+        Ok(lists)
+    }
+}
+
+/// The search a CPU frame draws with: always the exact one; the GPU-only options refused.
+fn exact_search(search: &SearchOptions) -> Result<SearchOptions> {
+    search.validate()?;
+    if search.lod || search.count_fetches {
+        let what = if search.lod { "lod" } else { "count_fetches" };
+        return Err(GeomtexError::Parameter(format!(
+            "{what} is a GPU tracer option; the CPU backend always searches exactly and counts \
+             no fetches (use Renderer(..., device=\"gpu\"))"
+        )));
+    }
+    Ok(SearchOptions {
+        method: Method::MaxMip,
+        ..*search
+    })
+}
+
+/// What a pixel shows: z-depth, id, world normal, base color and its headlight factor.
+type PixelHit = (f32, i32, [f32; 3], [u8; 4], f64);
+
+/// A frame's per-pixel results, as traced.
+struct Pixels {
+    /// Per pixel: z-depth, id, world normal, base color and its headlight factor; None where
+    /// nothing is hit.
+    hits: Vec<Option<PixelHit>>,
+    patches: usize,
+    meshes: usize,
+}
+
+/// One camera ray per pixel centre, rows on every core; `cancel` polled per row.
+fn trace_pixels(
+    trace: &SceneTrace,
+    camera: &Camera,
+    lens: &super::Lens,
+    request: &FrameRequest,
+    cancel: &Cancel,
+) -> Result<Pixels> {
+    let lines = camera.pixel_lines(lens);
+    let (w, h) = (request.width as usize, request.height as usize);
+    // The rays' parameter is the view's z-depth (their direction has z = -1 in view space, or
+    // is the unit forward axis for an orthographic camera): the span is the lens's.
+    let span = (lens.near, lens.far);
+    let rows: Vec<Vec<_>> = (0..h)
+        .into_par_iter()
+        .map(|y| {
+            if cancel.is_cancelled() {
+                return vec![None; w];
+            }
+            (0..w)
+                .map(|x| {
+                    let (o, d) = lines.at(x as f64 + 0.5, y as f64 + 0.5);
+                    let hit = trace.nearest(o, d, span)?;
+                    let (n, color) = trace.surface(&hit, o, d);
+                    // Headlight (camera_functions.wgsl): light comes from the eye.
+                    let light = 0.25 + 0.75 * n.dot(d.normalize()).abs();
+                    let normal = n.as_vec3().to_array();
+                    Some((hit.t as f32, trace.id(&hit), normal, color, light))
+                })
+                .collect()
+        })
+        .collect();
+    cancel.check("rendering on the CPU")?;
+    let patches = trace.ids.iter().map(|i| i.patches.len()).sum();
+    let meshes = trace.ids.iter().map(|i| i.meshes.len()).sum();
+    Ok(Pixels {
+        hits: rows.into_iter().flatten().collect(),
+        patches,
+        meshes,
+    })
+}
+
+impl Pixels {
+    /// The frame of these pixels: every output made (`keep_only` drops the ones not asked).
+    fn into_frame(
+        self,
+        request: &FrameRequest,
+        background: [u8; 4],
+        near: f64,
+        search: &SearchOptions,
+    ) -> Frame {
+        let n = self.hits.len();
+        let (mut color, mut albedo) = (Vec::with_capacity(4 * n), Vec::with_capacity(4 * n));
+        let (mut depth, mut normal, mut ids) =
+            (Vec::with_capacity(n), Vec::with_capacity(3 * n), Vec::with_capacity(n));
+        for hit in &self.hits {
+            match hit {
+                Some((z, id, nrm, base, light)) => {
+                    let shaded = |c: u8| (f64::from(c) * light).round().min(255.0) as u8;
+                    color.extend([shaded(base[0]), shaded(base[1]), shaded(base[2]), base[3]]);
+                    albedo.extend(base);
+                    depth.push(*z);
+                    normal.extend(nrm);
+                    ids.push(*id);
+                }
+                None => {
+                    color.extend(background);
+                    albedo.extend([0u8; 4]);
+                    depth.push(f32::INFINITY);
+                    normal.extend([0.0f32; 3]);
+                    ids.push(-1);
+                }
+            }
+        }
+        let outputs = request.outputs;
+        Frame {
+            width: request.width,
+            height: request.height,
+            color: outputs.color.then_some(color),
+            albedo: outputs.albedo.then_some(albedo),
+            depth: Some(depth),
+            normal: Some(normal),
+            patch_id: Some(ids),
+            gpu_ms: None,
+            cpu_ms: 0.0,
+            patches_drawn: self.patches,
+            patches_culled: 0,
+            meshes_drawn: self.meshes,
+            texture_bytes: 0,
+            setup_ms: 0.0,
+            near,
+            method: search.method,
+            primary: search.primary,
+            searches: 0,
+            fetches: None,
+            piece_tests: None,
+            shadow: None,
+            surfels: None,
+            face_id: None,
+            barycentric: None,
+            error_bound: None,
+            bound_figures: None,
+            coverage_uncertain: None,
+            coverage: None,
+            lod_levels: None,
+            device: "cpu",
+        }
+    }
+}
+
+impl RayBackend for CpuRenderer {
+    fn traces(&self, object: &Object) -> Result<bool> {
+        traced_kind(object).map(|()| true)
+    }
+
+    fn shadow_offset(&self, object: &Object, scale: f64) -> Result<f64> {
+        traced_kind(object)?;
+        Ok(match object.payload::<GeometryTextureSet>() {
+            Some(set) => SET_OFFSET_TEXELS * set.texel_size * scale,
+            None => {
+                let shaded = object.payload::<ShadedMesh>().expect("checked above");
+                let (lo, hi) = shaded.mesh.bounds();
+                MESH_OFFSET_DIAGONAL * (hi - lo).length() * scale
+            }
+        })
+    }
+
+    fn occluded_rays(
+        &mut self,
+        scene: &Scene,
+        _origin: DVec3,
+        _parallel: Option<DVec3>,
+        count: usize,
+        ray: &(dyn Fn(usize) -> Option<RangedRay> + Sync),
+        _search: &SearchOptions,
+        cancel: &Cancel,
+    ) -> Result<(Vec<usize>, usize)> {
+        let (trace, _) = self.prepare(scene)?;
+        let traced = std::sync::atomic::AtomicUsize::new(0);
+        let occluded = (0..count)
+            .into_par_iter()
+            .filter(|&i| {
+                if cancel.is_cancelled() {
+                    return false;
+                }
+                let Some(((o, d), span)) = ray(i) else {
+                    return false;
+                };
+                traced.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                trace.any(o, d, span)
+            })
+            .collect();
+        cancel.check("tracing shadow rays on the CPU")?;
+        Ok((occluded, traced.into_inner()))
+    }
+
+    fn probe(
+        &mut self,
+        scene: &Scene,
+        rays: &[(DVec3, DVec3)],
+        ranges: &[(f64, f64)],
+        _search: &SearchOptions,
+    ) -> Result<Vec<i32>> {
+        let (trace, _) = self.prepare(scene)?;
+        Ok((rays.par_iter().zip(ranges))
+            .map(|(&(o, d), &span)| trace.first_found(o, d, span).map_or(-1, |h| trace.id(&h)))
+            .collect())
+    }
+}

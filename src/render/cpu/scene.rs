@@ -1,0 +1,215 @@
+//! A scene as the CPU backend traces it: each texture set and mesh with its own hierarchy (kept
+//! between frames by `CpuRenderer`), placed by its `world_from_object`, with the ids the GPU
+//! backend gives (patches 0.. across the sets in scene order, -2 - k for the k-th mesh).
+//!
+//! Spaces: rays arrive in world space (f64) and are taken into each object's space by its
+//! inverse placement, keeping their parameter t; normals return to world space by the inverse
+//! transpose.
+
+use std::sync::Arc;
+
+use glam::{DMat3, DMat4, DVec3};
+
+use super::mesh::{FaceHit, MeshTracer};
+use super::set::SetSearch;
+use crate::bvh::Aabb;
+use crate::render::error_bound::ObjectIds;
+
+/// An object's hierarchy.
+#[derive(Clone)]
+pub(crate) enum Traced {
+    Set(Arc<SetSearch>),
+    Mesh(Arc<MeshTracer>),
+}
+
+impl Traced {
+    /// The object's bounding box in its own space.
+    fn bounds(&self) -> Aabb {
+        match self {
+            Traced::Set(s) => Aabb::of_points(s.set.patches.iter().flat_map(|p| {
+                let m = p.world_from_patch();
+                crate::render::cull::unit_cube_corners().map(|c| m.transform_point3(c))
+            })),
+            Traced::Mesh(m) => {
+                let (lo, hi) = m.mesh().bounds();
+                Aabb { lo, hi }
+            }
+        }
+    }
+}
+
+struct Placed {
+    traced: Traced,
+    object_from_world: DMat4,
+    /// World normals from object normals: the inverse transpose of the placement's linear part.
+    world_normal_from_object: DMat3,
+    /// The object's box in world space (a ray that misses it skips the object).
+    world_box: Aabb,
+    /// Its first patch id (sets) or its mesh id -2 - k (meshes).
+    first_id: i32,
+}
+
+/// Where a ray met the scene: its t, the object, and the patch or face.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Hit {
+    pub t: f64,
+    pub object: usize,
+    pub part: Part,
+}
+
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Part {
+    Patch(u32),
+    Face(FaceHit),
+}
+
+pub(crate) struct SceneTrace {
+    placed: Vec<Placed>,
+    /// The ids each object took, in scene order (error_bound.rs reads them).
+    pub ids: Vec<ObjectIds>,
+}
+
+impl SceneTrace {
+    /// The scene's objects (their hierarchies and placements), ids given in scene order.
+    pub fn new(objects: Vec<(Traced, DMat4)>) -> SceneTrace {
+        let (mut patches, mut meshes) = (0i32, 0usize);
+        let mut ids = Vec::with_capacity(objects.len());
+        let placed = (objects.into_iter())
+            .map(|(traced, world_from_object)| {
+                let first_id = match &traced {
+                    Traced::Set(s) => {
+                        let n = s.set.patches.len() as i32;
+                        ids.push(ObjectIds {
+                            patches: patches..patches + n,
+                            meshes: meshes..meshes,
+                        });
+                        patches += n;
+                        patches - n
+                    }
+                    Traced::Mesh(_) => {
+                        ids.push(ObjectIds {
+                            patches: patches..patches,
+                            meshes: meshes..meshes + 1,
+                        });
+                        meshes += 1;
+                        -2 - (meshes as i32 - 1)
+                    }
+                };
+                let linear = DMat3::from_mat4(world_from_object);
+                let world_box = Aabb::of_points(
+                    (traced.bounds().corners()).map(|c| world_from_object.transform_point3(c)),
+                );
+                Placed {
+                    traced,
+                    object_from_world: world_from_object.inverse(),
+                    world_normal_from_object: linear.inverse().transpose(),
+                    world_box,
+                    first_id,
+                }
+            })
+            .collect();
+        SceneTrace { placed, ids }
+    }
+
+    /// The objects the world ray o + t d may meet within `span`, each with the ray in its space.
+    fn candidates(
+        &self,
+        o: DVec3,
+        d: DVec3,
+        span: (f64, f64),
+    ) -> impl Iterator<Item = (usize, &Placed, DVec3, DVec3)> + '_ {
+        let inverse = d.recip();
+        (self.placed.iter().enumerate())
+            .filter(move |(_, p)| p.world_box.meets_inverse(o, inverse, span))
+            .map(move |(k, p)| {
+                let m = &p.object_from_world;
+                (k, p, m.transform_point3(o), m.transform_vector3(d))
+            })
+    }
+
+    /// The nearest hit of the world ray o + t d for t in `span` (d of any length: t is its
+    /// parameter), or None.
+    pub fn nearest(&self, o: DVec3, d: DVec3, span: (f64, f64)) -> Option<Hit> {
+        let mut best: Option<Hit> = None;
+        for (object, placed, lo, ld) in self.candidates(o, d, span) {
+            let within = (span.0, best.map_or(span.1, |b| b.t));
+            let hit = match &placed.traced {
+                Traced::Set(s) => s.nearest(lo, ld, within).map(|(t, k)| (t, Part::Patch(k))),
+                Traced::Mesh(m) => m.nearest(lo, ld, within).map(|h| (h.t, Part::Face(h))),
+            };
+            if let Some((t, part)) = hit.filter(|h| h.0 <= within.1) {
+                best = Some(Hit { t, object, part });
+            }
+        }
+        best
+    }
+
+    /// The nearest hit of the first object the world ray meets within `span` (objects in
+    /// scene order): an any-hit query's answer, with a distance and normal to report.
+    pub fn first_found(&self, o: DVec3, d: DVec3, span: (f64, f64)) -> Option<Hit> {
+        self.candidates(o, d, span).find_map(|(object, placed, lo, ld)| {
+            let (t, part) = match &placed.traced {
+                Traced::Set(s) => s.nearest(lo, ld, span).map(|(t, k)| (t, Part::Patch(k)))?,
+                Traced::Mesh(m) => m.nearest(lo, ld, span).map(|h| (h.t, Part::Face(h)))?,
+            };
+            Some(Hit { t, object, part })
+        })
+    }
+
+    /// Whether the world ray meets anything for t in `span` (stops at the first found).
+    pub fn any(&self, o: DVec3, d: DVec3, span: (f64, f64)) -> bool {
+        self.candidates(o, d, span)
+            .any(|(_, placed, lo, ld)| match &placed.traced {
+                Traced::Set(s) => s.any(lo, ld, span),
+                Traced::Mesh(m) => m.any(lo, ld, span),
+            })
+    }
+
+    /// Every crossing of the world ray with the scene for t in `span`, nearest first: (t, id).
+    pub fn all(&self, o: DVec3, d: DVec3, span: (f64, f64)) -> Vec<(f64, i32)> {
+        let mut hits = Vec::new();
+        for (_, placed, lo, ld) in self.candidates(o, d, span) {
+            match &placed.traced {
+                Traced::Set(s) => hits.extend(
+                    (s.all(lo, ld, span).into_iter()).map(|(t, k)| (t, placed.first_id + k)),
+                ),
+                Traced::Mesh(m) => {
+                    hits.extend(m.all(lo, ld, span).into_iter().map(|h| (h.t, placed.first_id)))
+                }
+            }
+        }
+        hits.sort_by(|a, b| a.0.total_cmp(&b.0));
+        hits
+    }
+
+    /// The id a hit draws (as `Frame::patch_id`).
+    pub fn id(&self, hit: &Hit) -> i32 {
+        let placed = &self.placed[hit.object];
+        match hit.part {
+            Part::Patch(k) => placed.first_id + k as i32,
+            Part::Face(_) => placed.first_id,
+        }
+    }
+
+    /// The world unit normal and base color (RGBA8) of a hit of the world ray o + t d.
+    pub fn surface(&self, hit: &Hit, o: DVec3, d: DVec3) -> (DVec3, [u8; 4]) {
+        let placed = &self.placed[hit.object];
+        let (n, color) = match (&placed.traced, hit.part) {
+            (Traced::Set(s), Part::Patch(k)) => {
+                let m = &placed.object_from_world;
+                s.surface(k, m.transform_point3(o), m.transform_vector3(d), hit.t)
+            }
+            (Traced::Mesh(m), Part::Face(face)) => m.surface(&face),
+            _ => unreachable!("a set's hit is a patch, a mesh's a face"),
+        };
+        (
+            (placed.world_normal_from_object * n).normalize_or_zero(),
+            color,
+        )
+    }
+
+    /// The world bounds of every object (the frame's depth range is made from them).
+    pub fn world_boxes(&self) -> impl Iterator<Item = &Aabb> {
+        self.placed.iter().map(|p| &p.world_box)
+    }
+}
