@@ -28,7 +28,14 @@ BACKENDS = {
     "vulkan": {"WGPU_BACKEND": "vulkan"},
     "gl": {"WGPU_BACKEND": "gl"},
     "vulkan-no-int64-atomics": {"GEOMTEX_NO_INT64_ATOMICS": "1"},
+    # No Vulkan driver visible at all: the CPU backend draws sets and meshes.
+    "no-vulkan-driver": {"WGPU_BACKEND": "vulkan", "VK_ICD_FILENAMES": "/nonexistent/icd.json",
+                         "VK_DRIVER_FILES": "/nonexistent/icd.json"},
 }
+
+#: What the CPU backend draws and traces; where `auto` falls back to it (no usable GPU adapter)
+#: the other kinds are refused with the reason.
+CPU_KINDS = {"mesh", "set", "ray_query", "shadow"}
 
 
 @pytest.mark.parametrize("name", BACKENDS)
@@ -42,17 +49,27 @@ def test_each_backend_draws_every_kind_right_or_refuses_clearly(name: str) -> No
         assert "mesa-vulkan-drivers" in run.stderr and "GEOMTEX_ADAPTER" in run.stderr, run.stderr
         return
     lines = {line.split("  ")[0].removeprefix("self-check "): line for line in run.stdout.splitlines()}
+    on_cpu = "backend               cpu" in run.stdout
     for kind in KINDS:
         assert kind in lines, f"{name}: no self-check line for {kind}:\n{run.stdout}\n{run.stderr}"
+        if on_cpu and kind not in CPU_KINDS:
+            # Refused, naming the CPU backend and how to get a usable GPU adapter.
+            assert " refused (DeviceError: the CPU backend" in lines[kind], lines[kind]
+            assert "mesa-vulkan-drivers" in lines[kind], lines[kind]
+            continue
         assert " pass (" in lines[kind], f"{name}: {lines[kind]}\n{run.stderr}"
     assert run.returncode == 0, run.stdout + run.stderr
+    # Where a GPU adapter is usable it is the default's choice; the GL and driverless runs fall
+    # back to the CPU backend.
+    assert on_cpu == (name in ("gl", "no-vulkan-driver")), run.stdout
 
 
 def test_gl_is_refused_with_the_adapter_named() -> None:
-    """On this machine (lavapipe and llvmpipe both installed) GL is offered, and refused."""
+    """On this machine (lavapipe and llvmpipe both installed) GL is offered, and refused by the
+    GPU backend (``device="auto"`` then draws on the CPU backend, test above)."""
     env = {**os.environ, "WGPU_BACKEND": "gl"}
-    run = subprocess.run([sys.executable, "-c", "import geomtex as gt; gt.Renderer(8, 8)"], env=env,
-                         capture_output=True, text=True, timeout=120)
+    run = subprocess.run([sys.executable, "-c", "import geomtex as gt; gt.Renderer(8, 8, device='gpu')"],
+                         env=env, capture_output=True, text=True, timeout=120)
     if "no GPU adapter found" in run.stderr:
         pytest.skip("no GL adapter on this machine")
     assert run.returncode != 0
