@@ -16,8 +16,8 @@ use super::arrays::{image, mat4_to_numpy, matrix, ArrayPair};
 use super::errors::{heavy, parameter_error};
 use super::gtex::set_stats;
 use super::kinds;
-use crate::mesh::{NormalRule, NormalSource};
 use crate::error::GeomtexError;
+use crate::mesh::{NormalRule, NormalSource};
 use crate::render::cpu::CpuRenderer;
 use crate::render::{
     check_image_size, Camera, FrameRequest, Light, Outputs, Projection, Quality, Renderer, Scene,
@@ -507,7 +507,6 @@ fn scene_of(obj: &Bound<'_, PyAny>) -> PyResult<Scene> {
 }
 
 impl PyRenderer {
-
     fn size(&self) -> (u32, u32) {
         *self
             .size
@@ -687,14 +686,16 @@ impl PyRenderer {
                     let mut renderer = lock(gpu);
                     let mut frame = renderer.render(&scene, &camera, &search, &request)?;
                     if let Some(light) = &light {
-                        renderer.cast_shadows(&scene, &camera, &search, light, &mut frame, cancel)?;
+                        renderer
+                            .cast_shadows(&scene, &camera, &search, light, &mut frame, cancel)?;
                     }
                     frame
                 }
                 Backend::Cpu { cpu, .. } => {
                     let cpu_frame = || {
                         let mut renderer = lock(cpu);
-                        let mut frame = renderer.render(&scene, &camera, &search, &request, cancel)?;
+                        let mut frame =
+                            renderer.render(&scene, &camera, &search, &request, cancel)?;
                         if let Some(light) = &light {
                             renderer.cast_shadows(&scene, &camera, light, &mut frame, cancel)?;
                         }

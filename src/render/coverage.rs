@@ -102,39 +102,39 @@ impl CoverageInputs<'_> {
 /// probes traced by `backend`. Objects it does not trace (surfels, IGT meshes) leave every
 /// transition pixel uncertain, as does a pixel whose bound is unknown.
 pub(crate) fn coverage_uncertain(
-        backend: &mut impl RayBackend,
-        scene: &Scene,
-        camera: &Camera,
-        search: &SearchOptions,
-        inputs: &CoverageInputs,
-    ) -> Result<(Vec<bool>, CoverageFigures)> {
-        let start = Instant::now();
-        let (w, h) = (inputs.pixels.width as usize, inputs.height as usize);
-        let drawn: Vec<bool> = (0..w * h).map(|i| inputs.drawn(i)).collect();
-        let mut uncertain = vec![false; w * h];
-        let traced = all_traced(backend, scene)?;
-        let mut probed = Vec::new();
-        for i in transitions(&drawn, w, h) {
-            let d = inputs.probe_distance(i);
-            if d.is_nan() || !traced {
-                uncertain[i] = true;
-            } else {
-                probed.push((i, d));
-            }
+    backend: &mut impl RayBackend,
+    scene: &Scene,
+    camera: &Camera,
+    search: &SearchOptions,
+    inputs: &CoverageInputs,
+) -> Result<(Vec<bool>, CoverageFigures)> {
+    let start = Instant::now();
+    let (w, h) = (inputs.pixels.width as usize, inputs.height as usize);
+    let drawn: Vec<bool> = (0..w * h).map(|i| inputs.drawn(i)).collect();
+    let mut uncertain = vec![false; w * h];
+    let traced = all_traced(backend, scene)?;
+    let mut probed = Vec::new();
+    for i in transitions(&drawn, w, h) {
+        let d = inputs.probe_distance(i);
+        if d.is_nan() || !traced {
+            uncertain[i] = true;
+        } else {
+            probed.push((i, d));
         }
-        let (rays, ranges) = probe_rays(camera, inputs.lens, &probed, w);
-        if !rays.is_empty() {
-            let hits = backend.probe(scene, &rays, &ranges, search)?;
-            for (k, &(i, _)) in probed.iter().enumerate() {
-                let probes = &hits[k * PROBES..(k + 1) * PROBES];
-                uncertain[i] = probes.iter().any(|&id| (id != -1) != drawn[i]);
-            }
+    }
+    let (rays, ranges) = probe_rays(camera, inputs.lens, &probed, w);
+    if !rays.is_empty() {
+        let hits = backend.probe(scene, &rays, &ranges, search)?;
+        for (k, &(i, _)) in probed.iter().enumerate() {
+            let probes = &hits[k * PROBES..(k + 1) * PROBES];
+            uncertain[i] = probes.iter().any(|&id| (id != -1) != drawn[i]);
         }
-        let figures = CoverageFigures {
-            probes: rays.len() as u64,
-            ms: start.elapsed().as_secs_f64() * 1e3,
-        };
-        Ok((uncertain, figures))
+    }
+    let figures = CoverageFigures {
+        probes: rays.len() as u64,
+        ms: start.elapsed().as_secs_f64() * 1e3,
+    };
+    Ok((uncertain, figures))
 }
 
 /// Whether `backend` traces every object of `scene`.

@@ -364,6 +364,7 @@ mod tests {
         let plain = [
             "gpu_ms",
             "cpu_ms",
+            "device",
             "patches_drawn",
             "patches_culled",
             "meshes_drawn",
@@ -379,7 +380,7 @@ mod tests {
         assert_eq!(names(&frame(None)), plain);
         let counted = frame(Some(30));
         assert_eq!(
-            names(&counted)[13..],
+            names(&counted)[14..],
             [
                 "fetches",
                 "fetches_per_pixel",
@@ -389,17 +390,18 @@ mod tests {
         );
         let stats = counted.stats();
         assert_eq!(stats[0].1, StatValue::Absent);
-        assert_eq!(stats[2].1, StatValue::Int(3));
-        assert_eq!(stats[8].1, StatValue::Text("maxmip"));
+        assert_eq!(stats[1 + 2].1, StatValue::Int(3));
+        assert_eq!(stats[2].1, StatValue::Text("gpu"));
+        assert_eq!(stats[9].1, StatValue::Text("maxmip"));
         // Nothing covered and no searches: the figures divide by one, not zero.
-        assert_eq!(stats[14].1, StatValue::Float(30.0));
         assert_eq!(stats[15].1, StatValue::Float(30.0));
-        assert_eq!(stats[16].1, StatValue::Float(60.0));
+        assert_eq!(stats[16].1, StatValue::Float(30.0));
+        assert_eq!(stats[17].1, StatValue::Float(60.0));
         // Without the patch ids the per-pixel figures are not known, not zero.
         let mut depth_only = frame(Some(30));
         depth_only.keep_only(Outputs::parse(&["depth"]).unwrap());
         let stats = depth_only.stats();
-        assert_eq!(stats[10], ("covered_pixels", StatValue::Absent));
-        assert_eq!(stats[14].1, StatValue::Absent);
+        assert_eq!(stats[11], ("covered_pixels", StatValue::Absent));
+        assert_eq!(stats[15].1, StatValue::Absent);
     }
 }

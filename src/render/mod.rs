@@ -249,7 +249,15 @@ impl Renderer {
             Ok((frame, inputs))
         })?;
         if request.outputs.needs_bounds() {
-            add_bounds(self, scene, camera, search, request.outputs, &inputs, &mut frame)?;
+            add_bounds(
+                self,
+                scene,
+                camera,
+                search,
+                request.outputs,
+                &inputs,
+                &mut frame,
+            )?;
             frame.cpu_ms = start.elapsed().as_secs_f64() * 1e3;
         }
         frame.keep_only(request.outputs);
@@ -479,53 +487,53 @@ fn lod_histogram(picks: &[LodPick]) -> Vec<u64> {
 /// Computes the frame's error bounds and, where asked, which pixels' coverage is uncertain
 /// (error_bound.rs, coverage.rs), from its depth and patch ids; `backend` traces the probes.
 pub(crate) fn add_bounds(
-        backend: &mut impl RayBackend,
-        scene: &Scene,
-        camera: &Camera,
-        search: &SearchOptions,
-        outputs: Outputs,
-        inputs: &BoundInputs,
-        frame: &mut Frame,
-    ) -> Result<()> {
-        let (Some(depth), Some(patch_id)) = (&frame.depth, &frame.patch_id) else {
-            return Err(GeomtexError::Internal(
-                "error bounds need the frame's depth and patch ids read back".into(),
-            ));
+    backend: &mut impl RayBackend,
+    scene: &Scene,
+    camera: &Camera,
+    search: &SearchOptions,
+    outputs: Outputs,
+    inputs: &BoundInputs,
+    frame: &mut Frame,
+) -> Result<()> {
+    let (Some(depth), Some(patch_id)) = (&frame.depth, &frame.patch_id) else {
+        return Err(GeomtexError::Internal(
+            "error bounds need the frame's depth and patch ids read back".into(),
+        ));
+    };
+    let mut sources = PixelSources::new(scene, &inputs.ids, &inputs.lod_picks, camera.eye());
+    sources.exact_search = search.method == crate::render::search::Method::MaxMip;
+    let pixels = DrawnPixels {
+        width: frame.width,
+        lines: camera.pixel_lines(&inputs.lens),
+        forward: camera.forward(),
+        depth,
+        patch_id,
+    };
+    let bounds = pixel_bounds(&sources, &pixels);
+    let figures = BoundFigures::of(&bounds, |i| pixels.point(i).is_some());
+    let coverage = if outputs.coverage_uncertain {
+        let coverage_inputs = CoverageInputs {
+            pixels: &pixels,
+            height: frame.height,
+            bounds: &bounds,
+            sources: &sources,
+            lens: &inputs.lens,
         };
-        let mut sources = PixelSources::new(scene, &inputs.ids, &inputs.lod_picks, camera.eye());
-        sources.exact_search = search.method == crate::render::search::Method::MaxMip;
-        let pixels = DrawnPixels {
-            width: frame.width,
-            lines: camera.pixel_lines(&inputs.lens),
-            forward: camera.forward(),
-            depth,
-            patch_id,
-        };
-        let bounds = pixel_bounds(&sources, &pixels);
-        let figures = BoundFigures::of(&bounds, |i| pixels.point(i).is_some());
-        let coverage = if outputs.coverage_uncertain {
-            let coverage_inputs = CoverageInputs {
-                pixels: &pixels,
-                height: frame.height,
-                bounds: &bounds,
-                sources: &sources,
-                lens: &inputs.lens,
-            };
-            Some(coverage::coverage_uncertain(
-                backend,
-                scene,
-                camera,
-                search,
-                &coverage_inputs,
-            )?)
-        } else {
-            None
-        };
-        (frame.coverage_uncertain, frame.coverage) = coverage.unzip();
-        frame.error_bound = Some(bounds);
-        frame.bound_figures = Some(figures);
-        Ok(())
-    }
+        Some(coverage::coverage_uncertain(
+            backend,
+            scene,
+            camera,
+            search,
+            &coverage_inputs,
+        )?)
+    } else {
+        None
+    };
+    (frame.coverage_uncertain, frame.coverage) = coverage.unzip();
+    frame.error_bound = Some(bounds);
+    frame.bound_figures = Some(figures);
+    Ok(())
+}
 
 /// What shadows (shadow.rs) and coverage probes (coverage.rs) ask of a backend: the GPU's
 /// `Renderer` or the CPU's `cpu::CpuRenderer`.

@@ -101,86 +101,86 @@ impl Renderer {
 
 /// `cast_shadows` on either backend: the shadow rays traced by `backend`'s any-hit walk.
 pub(crate) fn cast_shadows(
-        backend: &mut impl RayBackend,
-        scene: &Scene,
-        camera: &Camera,
-        search: &SearchOptions,
-        light: &Light,
-        frame: &mut Frame,
-        cancel: &Cancel,
-    ) -> Result<()> {
-        light.validate()?;
-        let start = std::time::Instant::now();
-        let mut t = start;
-        // Kinds the tracer does not trace (surfels, shaded simplified meshes) receive shadows
-        // but do not cast them.
-        let mut casters = Scene::default();
-        for placed in &scene.objects {
-            if backend.traces(&placed.object)? {
-                casters.objects.push(placed.clone());
-            }
+    backend: &mut impl RayBackend,
+    scene: &Scene,
+    camera: &Camera,
+    search: &SearchOptions,
+    light: &Light,
+    frame: &mut Frame,
+    cancel: &Cancel,
+) -> Result<()> {
+    light.validate()?;
+    let start = std::time::Instant::now();
+    let mut t = start;
+    // Kinds the tracer does not trace (surfels, shaded simplified meshes) receive shadows
+    // but do not cast them.
+    let mut casters = Scene::default();
+    for placed in &scene.objects {
+        if backend.traces(&placed.object)? {
+            casters.objects.push(placed.clone());
         }
-        let offset = start_offset(backend, scene)?;
-        profile::mark(format_args!("casters+offset"), &mut t);
-        let (Some(depth), Some(normal)) = (&frame.depth, &frame.normal) else {
-            return Err(GeomtexError::Internal(
-                "shadows need the frame's depth and normals read back".into(),
-            ));
+    }
+    let offset = start_offset(backend, scene)?;
+    profile::mark(format_args!("casters+offset"), &mut t);
+    let (Some(depth), Some(normal)) = (&frame.depth, &frame.normal) else {
+        return Err(GeomtexError::Internal(
+            "shadows need the frame's depth and normals read back".into(),
+        ));
+    };
+    let n = depth.len();
+    let mut shadow = vec![false; n];
+    let mut figures = Shadows::default();
+    if !casters.objects.is_empty() {
+        let traced = std::time::Instant::now();
+        let seen = SeenSurface {
+            width: frame.width,
+            depth,
+            normal,
         };
-        let n = depth.len();
-        let mut shadow = vec![false; n];
-        let mut figures = Shadows::default();
-        if !casters.objects.is_empty() {
-            let traced = std::time::Instant::now();
-            let seen = SeenSurface {
-                width: frame.width,
-                depth,
-                normal,
-            };
-            let rays = ShadowRays::new(camera, seen, frame.height, light, offset)?;
-            // Shadow rays toward a directional light share one direction (the tracer tiles
-            // texture sets along it); the query frame is the camera's, as the frame's own.
-            let parallel = rays.toward_parallel.map(|(toward, _)| toward);
-            let eye = camera.world_from_camera.w_axis.truncate();
-            // Each pixel's surface is rebuilt once, as the tracer makes its ray: an attached
-            // pixel is marked there (the tracer calls in parallel, hence atomics) and gets none.
-            let marked: Vec<AtomicBool> = (0..n).map(|_| AtomicBool::new(false)).collect();
-            let ray = |i: usize| match rays.pixel(i)? {
-                PixelShadow::Attached => {
-                    marked[i].store(true, Ordering::Relaxed);
-                    None
-                }
-                PixelShadow::Ray(ray) => Some(ray),
-            };
-            let (occluded, traced_rays) =
-                backend.occluded_rays(&casters, eye, parallel, n, &ray, search, cancel)?;
-            profile::mark(format_args!("occluded"), &mut t);
-            shadow = marked.into_iter().map(AtomicBool::into_inner).collect();
-            let attached = shadow.iter().filter(|&&s| s).count();
-            for i in occluded {
-                shadow[i] = true;
+        let rays = ShadowRays::new(camera, seen, frame.height, light, offset)?;
+        // Shadow rays toward a directional light share one direction (the tracer tiles
+        // texture sets along it); the query frame is the camera's, as the frame's own.
+        let parallel = rays.toward_parallel.map(|(toward, _)| toward);
+        let eye = camera.world_from_camera.w_axis.truncate();
+        // Each pixel's surface is rebuilt once, as the tracer makes its ray: an attached
+        // pixel is marked there (the tracer calls in parallel, hence atomics) and gets none.
+        let marked: Vec<AtomicBool> = (0..n).map(|_| AtomicBool::new(false)).collect();
+        let ray = |i: usize| match rays.pixel(i)? {
+            PixelShadow::Attached => {
+                marked[i].store(true, Ordering::Relaxed);
+                None
             }
-            figures.attached = attached as u64;
-            figures.traced = traced_rays as u64;
-            figures.trace_ms = traced.elapsed().as_secs_f64() * 1e3;
+            PixelShadow::Ray(ray) => Some(ray),
+        };
+        let (occluded, traced_rays) =
+            backend.occluded_rays(&casters, eye, parallel, n, &ray, search, cancel)?;
+        profile::mark(format_args!("occluded"), &mut t);
+        shadow = marked.into_iter().map(AtomicBool::into_inner).collect();
+        let attached = shadow.iter().filter(|&&s| s).count();
+        for i in occluded {
+            shadow[i] = true;
         }
-        if let Some(color) = &mut frame.color {
-            for (i, _) in shadow.iter().enumerate().filter(|(_, s)| **s) {
-                for c in &mut color[4 * i..4 * i + 3] {
-                    *c = (f64::from(*c) * SHADOW_BRIGHTNESS).round() as u8;
-                }
+        figures.attached = attached as u64;
+        figures.traced = traced_rays as u64;
+        figures.trace_ms = traced.elapsed().as_secs_f64() * 1e3;
+    }
+    if let Some(color) = &mut frame.color {
+        for (i, _) in shadow.iter().enumerate().filter(|(_, s)| **s) {
+            for c in &mut color[4 * i..4 * i + 3] {
+                *c = (f64::from(*c) * SHADOW_BRIGHTNESS).round() as u8;
             }
         }
-        profile::mark(
-            format_args!("mark+darken ({} attached)", figures.attached),
-            &mut t,
-        );
-        frame.shadow = Some(Shadows {
-            mask: shadow,
-            ms: start.elapsed().as_secs_f64() * 1e3,
-            ..figures
-        });
-        Ok(())
+    }
+    profile::mark(
+        format_args!("mark+darken ({} attached)", figures.attached),
+        &mut t,
+    );
+    frame.shadow = Some(Shadows {
+        mask: shadow,
+        ms: start.elapsed().as_secs_f64() * 1e3,
+        ..figures
+    });
+    Ok(())
 }
 
 /// What makes a frame's shadow rays: one per pixel hit, from the hit moved `offset` off the

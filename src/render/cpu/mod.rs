@@ -80,7 +80,10 @@ impl CpuRenderer {
             ("backend", "cpu".into()),
             ("device_type", "Cpu".into()),
             ("driver", "native".into()),
-            ("driver_info", format!("{} threads", rayon::current_num_threads())),
+            (
+                "driver_info",
+                format!("{} threads", rayon::current_num_threads()),
+            ),
         ]
     }
 
@@ -99,7 +102,10 @@ impl CpuRenderer {
                     .get_or_upload(&set, |_| Ok(Arc::new(SetSearch::new(set.clone()))))?;
                 Traced::Set(search.clone())
             } else {
-                let shaded = placed.object.payload::<ShadedMesh>().expect("checked above");
+                let shaded = placed
+                    .object
+                    .payload::<ShadedMesh>()
+                    .expect("checked above");
                 let rules = self.meshes.entry(&shaded.mesh);
                 let tracer = match rules.iter().find(|(rule, _)| *rule == shaded.rule) {
                     Some((_, t)) => t.clone(),
@@ -152,7 +158,15 @@ impl CpuRenderer {
                 ids: trace.ids.clone(),
                 lod_picks: Vec::new(),
             };
-            add_bounds(self, scene, camera, &search, request.outputs, &inputs, &mut frame)?;
+            add_bounds(
+                self,
+                scene,
+                camera,
+                &search,
+                request.outputs,
+                &inputs,
+                &mut frame,
+            )?;
             frame.cpu_ms = start.elapsed().as_secs_f64() * 1e3;
         }
         frame.keep_only(request.outputs);
@@ -317,8 +331,11 @@ impl Pixels {
     ) -> Frame {
         let n = self.hits.len();
         let (mut color, mut albedo) = (Vec::with_capacity(4 * n), Vec::with_capacity(4 * n));
-        let (mut depth, mut normal, mut ids) =
-            (Vec::with_capacity(n), Vec::with_capacity(3 * n), Vec::with_capacity(n));
+        let (mut depth, mut normal, mut ids) = (
+            Vec::with_capacity(n),
+            Vec::with_capacity(3 * n),
+            Vec::with_capacity(n),
+        );
         for hit in &self.hits {
             match hit {
                 Some((z, id, nrm, base, light)) => {

@@ -147,13 +147,14 @@ impl SceneTrace {
     /// The nearest hit of the first object the world ray meets within `span` (objects in
     /// scene order): an any-hit query's answer, with a distance and normal to report.
     pub fn first_found(&self, o: DVec3, d: DVec3, span: (f64, f64)) -> Option<Hit> {
-        self.candidates(o, d, span).find_map(|(object, placed, lo, ld)| {
-            let (t, part) = match &placed.traced {
-                Traced::Set(s) => s.nearest(lo, ld, span).map(|(t, k)| (t, Part::Patch(k)))?,
-                Traced::Mesh(m) => m.nearest(lo, ld, span).map(|h| (h.t, Part::Face(h)))?,
-            };
-            Some(Hit { t, object, part })
-        })
+        self.candidates(o, d, span)
+            .find_map(|(object, placed, lo, ld)| {
+                let (t, part) = match &placed.traced {
+                    Traced::Set(s) => s.nearest(lo, ld, span).map(|(t, k)| (t, Part::Patch(k)))?,
+                    Traced::Mesh(m) => m.nearest(lo, ld, span).map(|h| (h.t, Part::Face(h)))?,
+                };
+                Some(Hit { t, object, part })
+            })
     }
 
     /// Whether the world ray meets anything for t in `span` (stops at the first found).
@@ -173,9 +174,11 @@ impl SceneTrace {
                 Traced::Set(s) => hits.extend(
                     (s.all(lo, ld, span).into_iter()).map(|(t, k)| (t, placed.first_id + k)),
                 ),
-                Traced::Mesh(m) => {
-                    hits.extend(m.all(lo, ld, span).into_iter().map(|h| (h.t, placed.first_id)))
-                }
+                Traced::Mesh(m) => hits.extend(
+                    m.all(lo, ld, span)
+                        .into_iter()
+                        .map(|h| (h.t, placed.first_id)),
+                ),
             }
         }
         hits.sort_by(|a, b| a.0.total_cmp(&b.0));
