@@ -20,10 +20,7 @@ from . import _check, _core
 _lock = threading.Lock()
 _renderers: dict[str, _core.Renderer] = {}
 
-Device = Literal["auto", "cpu", "gpu"]
-
-
-def _query_renderer(device: Device | None = None) -> _core.Renderer:
+def _query_renderer(device: Literal["auto", "cpu", "gpu"] | None = None) -> _core.Renderer:
     """One renderer per device kept for queries (its device and uploaded sets are reused
     between calls)."""
     key = "auto" if device is None else device
@@ -107,7 +104,7 @@ class RayQueries:
                          *, quality: Literal["fast", "balanced", "exact"] | None = None,
                          method: Literal["linear_binary", "maxmip"] | None = None,
                          ray_origins: npt.ArrayLike | None = None, ray_directions: npt.ArrayLike | None = None,
-                         device: Device | None = None) -> RayHits:
+                         device: Literal["auto", "cpu", "gpu"] | None = None) -> RayHits:
         """The nearest hit of every ray (``quality`` "exact" by default): origins (N, 3) or one
         (3,) for every ray, directions (N, 3), any length but zero. Every ray query also takes
         trimesh's names, ``ray_origins`` and ``ray_directions``, and ``device`` ("auto", "cpu"
@@ -125,7 +122,7 @@ class RayQueries:
                             quality: Literal["fast", "balanced", "exact"] | None = None,
                             method: Literal["linear_binary", "maxmip"] | None = None,
                             ray_origins: npt.ArrayLike | None = None, ray_directions: npt.ArrayLike | None = None,
-                            device: Device | None = None
+                            device: Literal["auto", "cpu", "gpu"] | None = None
                             ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.int32]]:
         """Like trimesh's: (hit locations (M, 3), index of the ray of each (M,), patch id of each
         (M,)) for the rays that hit; the nearest hit only, or with ``multiple_hits=True`` every
@@ -145,7 +142,7 @@ class RayQueries:
                        quality: Literal["fast", "balanced", "exact"] | None = None,
                        method: Literal["linear_binary", "maxmip"] | None = None,
                        ray_origins: npt.ArrayLike | None = None, ray_directions: npt.ArrayLike | None = None,
-                       device: Device | None = None) -> npt.NDArray[np.bool_]:
+                       device: Literal["auto", "cpu", "gpu"] | None = None) -> npt.NDArray[np.bool_]:
         """Whether each ray hits anything (each stops at the first hit found)."""
         o, d = _named(origins, directions, ray_origins, ray_directions)
         _, ids, _ = _query_renderer(device).intersect(self._core, o, d, any_hit=True, quality=quality,

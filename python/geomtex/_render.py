@@ -114,9 +114,6 @@ class RenderOptions(TypedDict, total=False):
 RayHitArrays = tuple[npt.NDArray[np.float64], npt.NDArray[np.int32], npt.NDArray[np.float32]]
 
 
-Device = Literal["auto", "cpu", "gpu"]
-
-
 class Renderer(Wrapped, core=_core.Renderer):
     """A headless renderer of an image size (`resize` changes it).
 
@@ -147,7 +144,7 @@ class Renderer(Wrapped, core=_core.Renderer):
 
     _core: _core.Renderer
 
-    def __init__(self, width: Int, height: Int, device: Device | None = None) -> None:
+    def __init__(self, width: Int, height: Int, device: Literal["auto", "cpu", "gpu"] | None = None) -> None:
         self._core = _core.Renderer(width, height, device)
 
     def __reduce__(self) -> tuple[Any, ...]:

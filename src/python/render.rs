@@ -340,7 +340,8 @@ enum Backend {
 
 impl Backend {
     /// `device`: "gpu" (wgpu; a DeviceError without a usable adapter), "cpu", or "auto" (the
-    /// GPU backend where an adapter is usable, else the CPU backend). Call without the GIL.
+    /// GPU backend where an adapter is usable, else the CPU backend; "gpu" when GEOMTEX_ADAPTER
+    /// names one). Call without the GIL.
     fn choose(device: &str) -> crate::error::Result<Backend> {
         let cpu = |no_gpu| Backend::Cpu {
             cpu: cpu_shared(),
@@ -349,6 +350,8 @@ impl Backend {
         match device {
             "gpu" => Ok(Backend::Gpu(shared()?)),
             "cpu" => Ok(cpu(None)),
+            // An adapter named in GEOMTEX_ADAPTER is asked for: no fallback past it.
+            "auto" if std::env::var_os("GEOMTEX_ADAPTER").is_some() => Ok(Backend::Gpu(shared()?)),
             "auto" => match shared() {
                 Ok(gpu) => Ok(Backend::Gpu(gpu)),
                 Err(GeomtexError::Device(why)) => Ok(cpu(Some(why))),
