@@ -132,7 +132,8 @@ class Renderer(Wrapped, core=_core.Renderer):
         driver at all; it draws and traces texture sets and meshes (always with the exact
         search; ``lod`` and ``count_fetches`` are refused) and raises DeviceError for other
         kinds. ``"auto"`` (default): the GPU backend where an adapter is usable, else the CPU
-        backend (`device` says which was chosen, ``frame.stats["device"]`` which drew).
+        backend (`device` says which was chosen, ``frame.stats["device"]`` which drew); an
+        adapter named in ``GEOMTEX_ADAPTER`` is required, with no fallback.
 
     Raises
     ------
