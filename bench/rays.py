@@ -5,7 +5,8 @@ kept on every core (bench/peers.py), in one run.
 
 Rays: from random points on a sphere (radius one diagonal) around the Stanford bunny toward
 random points in its bounding box, as in tests/test_rays.py. Per ray count: wall time of
-``gts.intersects_first`` (nearest hit, "exact" quality) and of ``gts.intersects_any``, embree's
+``gts.intersects_first`` (nearest hit, "exact" quality) and of ``gts.intersects_any`` on the GPU
+backend, of ``intersects_first`` on the CPU backend (``device="cpu"``, set and mesh), embree's
 first hits with locations, the throughput of each (million rays per second), hit/miss agreement
 and the distance error against embree (fraction of the bounding-box diagonal); and the same rays
 through the bunny *as a mesh* in a ``gt.Scene`` (the tracer's hierarchy over its triangles).
@@ -102,16 +103,20 @@ def measure(gts: Any, caster: Any, mesh: gt.Mesh, n: int, parallel: bool = False
     repeats = 3 if n <= 100_000 else 1
     foreign = ForeignCpu()
     foreign.start()
-    hits, gt_ms = timed(lambda: gts.intersects_first(origins, dirs), repeats)
-    _, any_ms = timed(lambda: gts.intersects_any(origins, dirs), repeats)
-    # The CPU search (BVH over the patches, min-max pyramid per patch; distances and patch ids).
-    (cpu_t, _), cpu_ms = timed(lambda: gts.first_hits(origins, dirs), repeats)
+    hits, gt_ms = timed(lambda: gts.intersects_first(origins, dirs, device="gpu"), repeats)
+    _, any_ms = timed(lambda: gts.intersects_any(origins, dirs, device="gpu"), repeats)
+    # The CPU backend (src/render/cpu: pieces of the patches in a BVH, min-max pyramid search).
+    cpu_hits, cpu_ms = timed(lambda: gts.intersects_first(origins, dirs, device="cpu"), repeats)
+    cpu_t = cpu_hits.distances
     _, embree_ms = timed(lambda: caster.first_hits(origins, dirs), repeats)
     as_mesh = gt.Scene()
     as_mesh.add(mesh)
-    mesh_hits, mesh_ms = timed(lambda: as_mesh.intersects_first(origins, dirs), repeats)
+    mesh_hits, mesh_ms = timed(lambda: as_mesh.intersects_first(origins, dirs, device="gpu"), repeats)
+    cpu_mesh_hits, cpu_mesh_ms = timed(lambda: as_mesh.intersects_first(origins, dirs, device="cpu"), repeats)
     ref = caster.first_distances(origins, dirs)
     peer = open3d_figures(o3d, origins, dirs, ref, diag, repeats, gt_ms, mesh_ms)
+    if peer:
+        peer.update(open3d_over_cpu_set=cpu_ms / peer["open3d_ms"], open3d_over_cpu_mesh=cpu_mesh_ms / peer["open3d_ms"])
     busy = foreign.stop()
     both = hits.hit & np.isfinite(ref)
     err = np.abs(hits.distances[both] - ref[both]) / diag
@@ -119,7 +124,12 @@ def measure(gts: Any, caster: Any, mesh: gt.Mesh, n: int, parallel: bool = False
     mesh_err = np.abs(mesh_hits.distances[mesh_both] - ref[mesh_both]) / diag
     cpu_both = np.isfinite(cpu_t) & np.isfinite(ref)
     cpu_err = np.abs(cpu_t[cpu_both] - ref[cpu_both]) / diag
+    cpu_mesh_both = cpu_mesh_hits.hit & np.isfinite(ref)
+    cpu_mesh_err = np.abs(cpu_mesh_hits.distances[cpu_mesh_both] - ref[cpu_mesh_both]) / diag
     return {
+        "cpu_mesh_first_ms": cpu_mesh_ms, "cpu_mesh_mrays_s": n / cpu_mesh_ms / 1e3,
+        "cpu_mesh_hit_agreement": float(np.mean(cpu_mesh_hits.hit == np.isfinite(ref))),
+        "cpu_mesh_distance_p99": float(np.percentile(cpu_mesh_err, 99)),
         **peer, "embree_threads": 1,
         "cpu_first_ms": cpu_ms, "cpu_mrays_s": n / cpu_ms / 1e3, "gpu_over_cpu": gt_ms / cpu_ms,
         "cpu_hit_agreement": float(np.mean(np.isfinite(cpu_t) == np.isfinite(ref))),
@@ -202,7 +212,8 @@ def plot(records: list[dict[str, Any]], path: Path, adapter: str) -> None:
     ax.loglog(n, [r["geomtex_first_ms"] for r in records], "o-", label="geomtex intersects_first")
     ax.loglog(n, [r["geomtex_any_ms"] for r in records], "s--", label="geomtex intersects_any")
     ax.loglog(n, [r["mesh_first_ms"] for r in records], "d-.", label="geomtex, the bunny as a mesh")
-    ax.loglog(n, [r["cpu_first_ms"] for r in records], "s--", label="geomtex CPU search (gts.first_hits)")
+    ax.loglog(n, [r["cpu_first_ms"] for r in records], "s--", label="geomtex set, CPU backend")
+    ax.loglog(n, [r["cpu_mesh_first_ms"] for r in records], "d--", label="geomtex mesh, CPU backend")
     ax.loglog(n, [r["embree_ms"] for r in records], "^-", label="trimesh + embree, intersector kept (1 core)")
     if records and "open3d_ms" in records[0]:
         ax.loglog(n, [r["open3d_ms"] for r in records], "v-",
@@ -242,11 +253,13 @@ def main() -> None:
         wait_idle(args.wait_idle)
         records.append(measure(gts, caster, mesh, n, o3d=o3d))
         r = records[-1]
-        print(f"{n:>9,} rays: CPU search (gts.first_hits) {r['cpu_first_ms']:8.1f} ms, {r['gpu_over_cpu']:.1f}x "
-              f"faster than the tracer here; agreement {r['cpu_hit_agreement']:.5f}, p99 {r['cpu_distance_p99']:.1e}")
+        print(f"{n:>9,} rays: CPU backend, set {r['cpu_first_ms']:8.1f} ms ({r['gpu_over_cpu']:.1f}x faster than the "
+              f"tracer here; agreement {r['cpu_hit_agreement']:.5f}, p99 {r['cpu_distance_p99']:.1e}), mesh "
+              f"{r['cpu_mesh_first_ms']:8.1f} ms (agreement {r['cpu_mesh_hit_agreement']:.5f})")
         if o3d:
             print(f"{n:>9,} rays: Open3D {r['open3d_ms']:7.1f} ms ({r['open3d_threads']} threads), "
-                  f"{r['open3d_over_geomtex']:.1f}x the set's speed, {r['open3d_over_mesh']:.1f}x the mesh's; "
+                  f"{r['open3d_over_geomtex']:.1f}x the set's speed, {r['open3d_over_mesh']:.1f}x the mesh's "
+                  f"(CPU backend: {r['open3d_over_cpu_set']:.1f}x, {r['open3d_over_cpu_mesh']:.1f}x); "
                   f"agreement with embree {r['open3d_hit_agreement']:.5f}, p99 {r['open3d_distance_p99']:.1e}")
         print(f"{n:>9,} rays: geomtex {r['geomtex_first_ms']:8.1f} ms (any {r['geomtex_any_ms']:8.1f}), "
               f"embree {r['embree_ms']:7.1f} ms, embree {r['embree_over_geomtex']:.1f}x faster; agreement "

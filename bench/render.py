@@ -312,7 +312,8 @@ def measured(block: Callable[[], dict[str, Any]], idle: float, retries: int, wha
 def headline(mesh: gt.Mesh, gts: Any, repeats: int, idle: float, retries: int) -> list[dict[str, Any]]:
     lo, hi = (np.asarray(b, dtype=np.float64) for b in mesh.bounds)
     centre, diag = (lo + hi) / 2, float(mesh.diagonal)
-    renderer = gt.Renderer(HEADLINE_SIZE, HEADLINE_SIZE)
+    renderer = gt.Renderer(HEADLINE_SIZE, HEADLINE_SIZE, device="gpu")
+    on_cpu = gt.Renderer(HEADLINE_SIZE, HEADLINE_SIZE, device="cpu")
     caster, _ = ray_caster(mesh)
     o3d = open3d_caster(mesh)
     records = []
@@ -326,11 +327,18 @@ def headline(mesh: gt.Mesh, gts: Any, repeats: int, idle: float, retries: int) -
             # The former default quality, tiled.
             _, t_balanced = time_render(renderer, gts, cam, repeats, quality="balanced")
             _, t_mesh = time_render(renderer, mesh, cam, repeats)
+            # The CPU backend (src/render/cpu), set and mesh.
+            frame_cpu, t_cpu = time_render(on_cpu, gts, cam, repeats)
+            _, t_cpu_mesh = time_render(on_cpu, mesh, cam, repeats)
             ref, t_tm = time_trimesh(caster, cam, HEADLINE_SIZE, TRIMESH_REPEATS)
             peer = open3d_frame(o3d, cam, ref, diag, repeats)
+            o3d_ms = peer["open3d"]["wall_ms"] if peer else None
             return {
                 **peer,
-                "open3d_over_geomtex": peer["open3d"]["wall_ms"] / t_gt["wall_ms"] if peer else None,
+                "open3d_over_geomtex": o3d_ms / t_gt["wall_ms"] if o3d_ms else None,
+                "cpu": t_cpu, "cpu_mesh": t_cpu_mesh, "accuracy_cpu": accuracy(frame_cpu, ref, diag, normals=True),
+                "open3d_over_cpu": o3d_ms / t_cpu["wall_ms"] if o3d_ms else None,
+                "open3d_over_cpu_mesh": o3d_ms / t_cpu_mesh["wall_ms"] if o3d_ms else None,
                 "work": search_work(renderer, gts, cam),
                 "view": name, "direction": direction, "up": up,
                 "distance_diag": HEADLINE_DISTANCE, "size": HEADLINE_SIZE,
@@ -464,8 +472,8 @@ def first_tiled_frame(gts: Any, cam: gt.Camera, repeats: int, copies: int = 3) -
 
 def headline_table(records: list[dict[str, Any]]) -> str:
     header = ("view", "px", "geomtex ms (wall/gpu)", "searches/px", "boxes ms (wall)", "searches/px",
-              "mesh raster ms (wall/gpu)", "trimesh ms", "Open3D ms",
-              "trimesh/geomtex", "Open3D/geomtex", "exact/balanced", "IoU", "|dz|/diag med", "|dz|/diag p99", "normal deg med", "NaN")
+              "mesh raster ms (wall/gpu)", "CPU set ms", "CPU mesh ms", "trimesh ms", "Open3D ms",
+              "trimesh/geomtex", "Open3D/geomtex", "Open3D/CPU set", "exact/balanced", "IoU", "|dz|/diag med", "|dz|/diag p99", "normal deg med", "NaN")
     rows = []
     for r in records:
         a = r["accuracy"]
@@ -476,9 +484,11 @@ def headline_table(records: list[dict[str, Any]]) -> str:
             f"{_ms(r['geomtex']['wall_ms'])} / {_ms(r['geomtex']['gpu_ms'])}", spp(r["geomtex"]),
             _ms(boxes.get("wall_ms")), spp(boxes),
             f"{_ms(r['mesh_raster']['wall_ms'])} / {_ms(r['mesh_raster']['gpu_ms'])}",
+            _ms((r.get("cpu") or {}).get("wall_ms")), _ms((r.get("cpu_mesh") or {}).get("wall_ms")),
             _ms(r["trimesh"]["wall_ms"]), _ms((r.get("open3d") or {}).get("wall_ms")),
             f"{r['trimesh_over_geomtex']:.2f}x",
             f"{r['open3d_over_geomtex']:.2f}x" if r.get("open3d_over_geomtex") else "-",
+            f"{r['open3d_over_cpu']:.2f}x" if r.get("open3d_over_cpu") else "-",
             f"{r['exact_over_balanced']:.2f}x" if "exact_over_balanced" in r else "-",
             f"{a['iou']:.4f}", f"{a['depth_median']:.1e}", f"{a['depth_p99']:.1e}",
             f"{a['normal_deg_median']:.2f}", str(a["nan_depth"]),

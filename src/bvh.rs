@@ -115,6 +115,9 @@ const BINS: usize = 12;
 /// Depth below which splits halve the items (at most 2^32 of them: at most 32 more levels).
 const MEDIAN_DEPTH: u32 = 16;
 
+/// Nodes a CPU walk keeps waiting at most: one per level of the deepest tree, and two more.
+const WALK_STACK: usize = MEDIAN_DEPTH as usize + 32 + 2;
+
 impl Bvh {
     /// The tree over `boxes` (at least one).
     pub fn build(boxes: &[Aabb]) -> Bvh {
@@ -220,15 +223,20 @@ impl Bvh {
     ) {
         let inverse = d.recip();
         // Nodes with where the ray enters them; the nearer child is popped first, so the
-        // nearest hit is usually found early and shortens the span for the rest.
-        let mut stack = Vec::with_capacity(64);
+        // nearest hit is usually found early and shortens the span for the rest. A fixed
+        // array: trees are at most MEDIAN_DEPTH + 32 deep, and each level leaves one child.
+        let mut stack = [(0usize, 0.0f64); WALK_STACK];
+        let mut waiting = 0;
         if let Some(t) = bounds
             .first()
             .and_then(|b| b.entry_inverse(o, inverse, (t0, t1)))
         {
-            stack.push((0usize, t));
+            stack[0] = (0usize, t);
+            waiting = 1;
         }
-        while let Some((i, entry)) = stack.pop() {
+        while waiting > 0 {
+            waiting -= 1;
+            let (i, entry) = stack[waiting];
             if entry > t1 {
                 continue;
             }
@@ -249,8 +257,10 @@ impl Bvh {
                         (Some(l), Some(r)) if r.1 < l.1 => (Some(r), Some(l)),
                         _ => (left, right),
                     };
-                    stack.extend(far);
-                    stack.extend(near);
+                    for child in [far, near].into_iter().flatten() {
+                        stack[waiting] = child;
+                        waiting += 1;
+                    }
                 }
             }
         }

@@ -279,7 +279,11 @@ impl<'p> CellRay<'p> {
     /// The first crossing for t in [t, t_next] of the ray with the surface of cell (i, j)
     /// inside the outline (the ray's stretch over the cell), or None.
     fn crossing(&self, i: f64, j: f64, t: f64, t_next: f64) -> Option<f64> {
-        let cell = cell_at(self.p, i as i64, j as i64)?;
+        self.crossing_in(&cell_at(self.p, i as i64, j as i64)?, i, j, t, t_next)
+    }
+
+    /// `crossing` with the cell's codes and outline already read.
+    fn crossing_in(&self, cell: &Cell, i: f64, j: f64, t: f64, t_next: f64) -> Option<f64> {
         // fx = ax + bx t, fy = ay + by t; code(t) = bilinear → quadratic in t.
         let (ax, bx) = (self.x0 - i, self.dx);
         let (ay, by) = (self.y0 - j, self.dy);
@@ -360,97 +364,212 @@ pub fn first_hit(p: &Patch, o: DVec3, d: DVec3, t0: f64, t1: f64) -> Option<f64>
     None
 }
 
-/// `first_hit` through the patch's min-max pyramid (`min_max_pyramid`): nodes whose height
-/// range the ray's stays clear of over the node are skipped whole, the rest visited nearest
-/// first down to the cells, where the same exact test decides. The same answers as the cell
-/// walk (tests below), in about log(cells) node visits instead of one per cell.
-pub fn first_hit_in_pyramid(
-    p: &Patch,
-    pyramid: &[(u32, u32, Vec<u32>)],
-    o: DVec3,
-    d: DVec3,
-    t0: f64,
-    t1: f64,
-) -> Option<f64> {
-    let (lo, hi) = clip_to_unit_box(o, d, t0, t1)?;
-    let ray = CellRay::new(p, o, d);
-    let top = pyramid.len().checked_sub(1)?;
-    // (level, column, row, entry t), nearest entry popped first within a parent's children.
-    // Node k of `size` level-0 cells spans texel-centre coordinates [k size - 1, (k + 1) size - 1]
-    // (level-0 cell c lies left of texel c), cut at the map's last cell.
-    let extent = |k: u32, size: u32, cells: u32| {
-        (
-            f64::from(k * size) - 1.0,
-            f64::from(((k + 1) * size).min(cells)) - 1.0,
-        )
-    };
-    let (base_w, base_h) = (pyramid[0].0, pyramid[0].1);
-    let mut stack: Vec<(usize, u32, u32, f64)> = Vec::with_capacity(4 * pyramid.len());
-    stack.push((top, 0, 0, lo));
-    let mut best = hi;
-    while let Some((level, c, r, _)) = stack.pop() {
-        let (w, _, values) = &pyramid[level];
-        let v = values[(r * w + c) as usize];
-        if v == 0 {
-            continue;
-        }
-        let size = 1u32 << level;
-        let (xs, ys) = (extent(c, size, base_w), extent(r, size, base_h));
-        let (ta, tb) = ray.over(xs, ys, lo, best);
-        if ta > tb {
-            continue;
-        }
-        // The bilinear surface stays within its corners' range; the ray's height is monotone.
-        let (za, zb) = (ray.oz + ray.dz * ta, ray.oz + ray.dz * tb);
-        let (hmin, hmax) = (
-            p.decode_height(f64::from(v & 0xffff)),
-            p.decode_height(f64::from(v >> 16)),
-        );
-        const SLACK: f64 = 1e-9;
-        if za.max(zb) < hmin - SLACK || za.min(zb) > hmax + SLACK {
-            continue;
-        }
-        if level == 0 {
-            if let Some(t) = ray.crossing(xs.0, ys.0, ta, tb) {
-                best = best.min(t);
-            }
-            continue;
-        }
-        let (cw, ch) = (pyramid[level - 1].0, pyramid[level - 1].1);
-        // The (at most four) children by entry, farthest first onto the stack, so the nearest
-        // is visited next; a fixed array, as this runs once per node visited.
-        let mut children = [(0usize, 0u32, 0u32, f64::INFINITY); 4];
-        let mut n = 0;
-        for (dc, dr) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
-            let (x, y) = (2 * c + dc, 2 * r + dr);
-            if x < cw && y < ch {
-                let (xs, ys) = (extent(x, size / 2, base_w), extent(y, size / 2, base_h));
-                children[n] = (level - 1, x, y, ray.over(xs, ys, lo, best).0);
-                n += 1;
-            }
-        }
-        children[..n].sort_unstable_by(|a, b| b.3.total_cmp(&a.3));
-        stack.extend_from_slice(&children[..n]);
-    }
-    (best < hi).then_some(best)
+/// A patch made ready for `first_hit` through a min-max pyramid (`min_max_pyramid`): nodes whose
+/// height range the ray's stays clear of over the node are skipped whole, the rest visited
+/// nearest first down to the cells, where the same exact test as the cell walk decides (the
+/// same answers, tests below, in about log(cells) node visits instead of one per cell). The
+/// cells' codes and outline are read from the maps with their continued border, made once.
+pub struct PatchSearch {
+    pyramid: Vec<(u32, u32, Vec<u32>)>,
+    /// `padded_heights` and `padded_outline` of the whole patch.
+    heights: Vec<u16>,
+    outline: Vec<i8>,
 }
 
-/// A set made ready for ray queries on the CPU: a BVH over the patches' world boxes, and each
-/// patch's min-max pyramid (`first_hit_in_pyramid`). It holds no reference to the set: the
-/// caller passes the same set it was made from (the CPU backend keeps both together). Spaces:
-/// rays in the set's space; each patch tests the ray in its patch-local unit box, where t keeps
-/// its meaning (world distance, for unit directions) since the map is affine.
+/// Nodes the descent keeps at most: each level leaves at most three siblings waiting, and maps
+/// are at most 2^16 texels a side (17 levels).
+const DESCENT_STACK: usize = 4 * 24;
+
+impl PatchSearch {
+    /// The search over the patch's own pyramid.
+    pub fn new(p: &Patch) -> PatchSearch {
+        Self::with_pyramid(p, min_max_pyramid(p))
+    }
+
+    /// The search skipping what `pyramid` leaves empty (one made from fewer heights), the cells
+    /// still tested on the whole maps.
+    pub fn with_pyramid(p: &Patch, pyramid: Vec<(u32, u32, Vec<u32>)>) -> PatchSearch {
+        PatchSearch {
+            pyramid,
+            heights: padded_heights(p),
+            outline: padded_outline(p),
+        }
+    }
+
+    /// Level-0 cell (c, r) (`cell_at(p, c - 1, r - 1)`) from the padded maps.
+    fn cell(&self, p: &Patch, c: u32, r: u32) -> Option<Cell> {
+        let padded_width = p.width as usize + 2;
+        let at = r as usize * padded_width + c as usize;
+        let corners = [at, at + 1, at + padded_width, at + padded_width + 1];
+        let codes = corners.map(|t| f64::from(self.heights[t]));
+        let outline = corners.map(|t| crate::gtex::decode_outline(f64::from(self.outline[t])));
+        let some_inside = outline.iter().any(|&d| d >= 0.0);
+        (codes.iter().all(|&c| c > 0.0) && some_inside).then_some(Cell { codes, outline })
+    }
+
+    /// The pyramid's top level.
+    fn top(&self) -> usize {
+        self.pyramid.len() - 1
+    }
+
+    /// The exact first intersection of the ray o + t d (patch-local) with `p`'s surface for t
+    /// in [t0, t1] (clipped to the box), or None; `p` is the patch this search was made for.
+    pub fn first_hit(&self, p: &Patch, o: DVec3, d: DVec3, t0: f64, t1: f64) -> Option<f64> {
+        self.first_hit_under(p, (self.top(), 0, 0), o, d, (t0, t1))
+    }
+
+    /// The level, column and row of every non-empty node at `level` (at most the top), with its
+    /// patch-local box: what the ray must enter to meet the surface under that node.
+    pub(crate) fn pieces(
+        &self,
+        p: &Patch,
+        level: usize,
+    ) -> Vec<((usize, u32, u32), crate::bvh::Aabb)> {
+        let level = level.min(self.top());
+        let (w, h, values) = &self.pyramid[level];
+        let size = 1u32 << level;
+        let (base_w, base_h) = (self.pyramid[0].0, self.pyramid[0].1);
+        let per_code = 1.0 / f64::from(p.code_max() - 1);
+        let mut pieces = Vec::new();
+        for r in 0..*h {
+            for c in 0..*w {
+                let v = values[(r * w + c) as usize];
+                if v == 0 {
+                    continue;
+                }
+                // Texel-centre coordinates x are at u = (x + 1/2) / width.
+                let side = |k: u32, cells: u32, texels: u32| {
+                    let to_u = |x: f64| ((x + 0.5) / f64::from(texels)).clamp(0.0, 1.0);
+                    (
+                        to_u(f64::from(k * size) - 1.0),
+                        to_u(f64::from(((k + 1) * size).min(cells)) - 1.0),
+                    )
+                };
+                let (u, v_) = (side(c, base_w, p.width), side(r, base_h, p.height));
+                let z = (
+                    f64::from((v & 0xffff).max(1) - 1) * per_code,
+                    f64::from((v >> 16).max(1) - 1) * per_code,
+                );
+                let lo = DVec3::new(u.0, v_.0, z.0) - 1e-9;
+                let hi = DVec3::new(u.1, v_.1, z.1) + 1e-9;
+                pieces.push(((level, c, r), crate::bvh::Aabb { lo, hi }));
+            }
+        }
+        pieces
+    }
+
+    /// `first_hit` below pyramid node (level, column, row) only: the cells under it.
+    pub fn first_hit_under(
+        &self,
+        p: &Patch,
+        (start, c0, r0): (usize, u32, u32),
+        o: DVec3,
+        d: DVec3,
+        (t0, t1): (f64, f64),
+    ) -> Option<f64> {
+        let (lo, hi) = clip_to_unit_box(o, d, t0, t1)?;
+        let ray = CellRay::new(p, o, d);
+        if self.top() >= DESCENT_STACK / 4 {
+            return first_hit(p, o, d, t0, t1); // deeper than any map made: the plain walk
+        }
+        // Node k of `size` level-0 cells spans texel-centre coordinates
+        // [k size - 1, (k + 1) size - 1] (level-0 cell c lies left of texel c), cut at the map's
+        // last cell.
+        let (base_w, base_h) = (self.pyramid[0].0, self.pyramid[0].1);
+        let extent = |k: u32, size: u32, cells: u32| {
+            (
+                f64::from(k * size) - 1.0,
+                f64::from(((k + 1) * size).min(cells)) - 1.0,
+            )
+        };
+        let span_of = |level: usize, c: u32, r: u32, t1: f64| {
+            let size = 1u32 << level;
+            let (xs, ys) = (extent(c, size, base_w), extent(r, size, base_h));
+            ray.over(xs, ys, lo, t1)
+        };
+        let per_code = 1.0 / f64::from(p.code_max() - 1);
+        // (level, column, row, the ray's span over the node), nearest popped first among
+        // siblings; a fixed array, as this runs for every patch a ray enters.
+        let mut stack = [(0usize, 0u32, 0u32, (0.0f64, 0.0f64)); DESCENT_STACK];
+        stack[0] = (start, c0, r0, span_of(start, c0, r0, hi));
+        let mut waiting = 1;
+        let mut best = hi;
+        while waiting > 0 {
+            waiting -= 1;
+            let (level, c, r, (ta, tb)) = stack[waiting];
+            let tb = tb.min(best);
+            if ta > tb {
+                continue;
+            }
+            let (w, _, values) = &self.pyramid[level];
+            let v = values[(r * w + c) as usize];
+            if v == 0 {
+                continue;
+            }
+            // The bilinear surface stays within its corners' range; the ray's height is
+            // monotone.
+            let (za, zb) = (ray.oz + ray.dz * ta, ray.oz + ray.dz * tb);
+            let hmin = f64::from((v & 0xffff).max(1) - 1) * per_code;
+            let hmax = f64::from((v >> 16).max(1) - 1) * per_code;
+            const SLACK: f64 = 1e-9;
+            if za.max(zb) < hmin - SLACK || za.min(zb) > hmax + SLACK {
+                continue;
+            }
+            if level == 0 {
+                let (i, j) = (f64::from(c) - 1.0, f64::from(r) - 1.0);
+                let hit =
+                    (self.cell(p, c, r)).and_then(|cell| ray.crossing_in(&cell, i, j, ta, tb));
+                if let Some(t) = hit {
+                    best = best.min(t);
+                }
+                continue;
+            }
+            let (cw, ch) = (self.pyramid[level - 1].0, self.pyramid[level - 1].1);
+            // The (at most four) children, pushed farthest first so the nearest is next.
+            let mut children = [(0usize, 0u32, 0u32, (f64::INFINITY, 0.0)); 4];
+            let mut n = 0;
+            for (dc, dr) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                let (x, y) = (2 * c + dc, 2 * r + dr);
+                if x < cw && y < ch {
+                    let span = span_of(level - 1, x, y, best);
+                    if span.0 <= span.1 {
+                        children[n] = (level - 1, x, y, span);
+                        n += 1;
+                    }
+                }
+            }
+            children[..n].sort_unstable_by(|a, b| b.3 .0.total_cmp(&a.3 .0));
+            stack[waiting..waiting + n].copy_from_slice(&children[..n]);
+            waiting += n;
+        }
+        (best < hi).then_some(best)
+    }
+}
+
+/// Pyramid level of the pieces a `SetTracer`'s hierarchy holds: nodes of 8 x 8 cells, whose
+/// boxes hug the surface (a patch's own box holds the whole curved chart, so a ray entered
+/// several patches' boxes before its hit and searched each from the top).
+const PIECE_LEVEL: usize = 3;
+
+/// A set made ready for ray queries on the CPU: a BVH over pieces of the patches (pyramid nodes
+/// of `PIECE_LEVEL`, each in a box around its cells' surface), each searched down its patch's
+/// min-max pyramid (`PatchSearch`). It holds no reference to the set: the caller passes the
+/// same set it was made from (the CPU backend keeps both together). Spaces: rays in the set's
+/// space; each patch tests the ray in its patch-local unit box, where t keeps its meaning
+/// (world distance, for unit directions) since the map is affine.
 pub struct SetTracer {
-    pyramids: Vec<Vec<(u32, u32, Vec<u32>)>>,
+    patches: Vec<PatchSearch>,
+    /// Per piece: its patch and pyramid node (level, column, row).
+    pieces: Vec<(u32, (usize, u32, u32))>,
     bvh: crate::bvh::Bvh,
     bounds: Vec<crate::bvh::Aabb>,
 }
 
 impl SetTracer {
-    /// The pyramids are made on every core; the BVH over the boxes by the surface-area rule.
+    /// The pyramids are made on every core; the BVH over the pieces by the surface-area rule.
     pub fn new(set: &crate::gtex::GeometryTextureSet) -> Self {
         use rayon::prelude::*;
-        Self::with_pyramids(set, set.patches.par_iter().map(min_max_pyramid).collect())
+        Self::with_searches(set, set.patches.par_iter().map(PatchSearch::new).collect())
     }
 
     /// A tracer whose pyramids hold only `heights[k]` of patch k (the others empty), while the
@@ -459,55 +578,62 @@ impl SetTracer {
     /// texels each patch owns, render/kinds/gtex/owners.rs).
     pub fn with_heights(set: &crate::gtex::GeometryTextureSet, heights: &[Vec<u16>]) -> Self {
         use rayon::prelude::*;
-        let pyramids = (set.patches.par_iter().zip(heights))
+        let searches = (set.patches.par_iter().zip(heights))
             .map(|(p, h)| {
                 let kept = Patch {
                     heights: h.clone(),
                     ..p.clone()
                 };
-                min_max_pyramid(&kept)
+                PatchSearch::with_pyramid(p, min_max_pyramid(&kept))
             })
             .collect();
-        Self::with_pyramids(set, pyramids)
+        Self::with_searches(set, searches)
     }
 
-    fn with_pyramids(
-        set: &crate::gtex::GeometryTextureSet,
-        pyramids: Vec<Vec<(u32, u32, Vec<u32>)>>,
-    ) -> Self {
+    fn with_searches(set: &crate::gtex::GeometryTextureSet, patches: Vec<PatchSearch>) -> Self {
         use crate::bvh::{Aabb, Bvh};
-        let boxes: Vec<Aabb> = set
-            .patches
-            .iter()
-            .map(|p| {
-                let unit = Aabb {
-                    lo: DVec3::ZERO,
-                    hi: DVec3::ONE,
-                };
+        use rayon::prelude::*;
+        let per_patch: Vec<Vec<(u32, (usize, u32, u32), Aabb)>> = (set.patches.par_iter())
+            .zip(&patches)
+            .enumerate()
+            .map(|(k, (p, search))| {
                 let world_from_patch = p.world_from_patch();
-                Aabb::of_points(unit.corners().map(|c| world_from_patch.transform_point3(c)))
+                (search.pieces(p, PIECE_LEVEL).into_iter())
+                    .map(|(node, local)| {
+                        let corners = local
+                            .corners()
+                            .map(|c| world_from_patch.transform_point3(c));
+                        (k as u32, node, Aabb::of_points(corners))
+                    })
+                    .collect()
             })
             .collect();
+        let all: Vec<_> = per_patch.into_iter().flatten().collect();
+        let boxes: Vec<Aabb> = all.iter().map(|piece| piece.2).collect();
         let bvh = Bvh::build(&boxes);
         let bounds = bvh.node_bounds(&boxes);
         SetTracer {
-            pyramids,
+            patches,
+            pieces: all.into_iter().map(|(k, node, _)| (k, node)).collect(),
             bvh,
             bounds,
         }
     }
 
-    /// The hit of the ray (origin, direction: t along it) in patch `k`, before `t1`.
-    fn patch_hit(
+    /// The hit of the ray (origin, direction: t along it) under piece `i`, within the span:
+    /// (t, patch).
+    fn piece_hit(
         &self,
         set: &crate::gtex::GeometryTextureSet,
-        k: u32,
+        i: u32,
         (origin, dir): (DVec3, DVec3),
-        (t0, t1): (f64, f64),
-    ) -> Option<f64> {
+        span: (f64, f64),
+    ) -> Option<(f64, u32)> {
+        let (k, node) = self.pieces[i as usize];
         let p = &set.patches[k as usize];
         let (o, d) = patch_local_ray(p, origin, dir);
-        first_hit_in_pyramid(p, &self.pyramids[k as usize], o, d, t0, t1)
+        let t = self.patches[k as usize].first_hit_under(p, node, o, d, span)?;
+        Some((t, k))
     }
 
     /// The nearest exact hit of the ray (origin, direction) for t in `span`: (t, patch index),
@@ -519,10 +645,16 @@ impl SetTracer {
         dir: DVec3,
         span: (f64, f64),
     ) -> (f64, i32) {
-        let (t, item) = self.bvh.nearest(&self.bounds, origin, dir, span, |k, t1| {
-            self.patch_hit(set, k, (origin, dir), (span.0, t1))
+        let mut patch = -1;
+        let (t, _) = self.bvh.nearest(&self.bounds, origin, dir, span, |i, t1| {
+            let (t, k) = self.piece_hit(set, i, (origin, dir), (span.0, t1))?;
+            patch = k as i32;
+            Some(t)
         });
-        item.map_or((f64::INFINITY, -1), |k| (t, k as i32))
+        if patch < 0 {
+            return (f64::INFINITY, -1);
+        }
+        (t, patch)
     }
 
     /// `first_hit_within` over the whole ray.
@@ -543,13 +675,13 @@ impl SetTracer {
         dir: DVec3,
         span: (f64, f64),
     ) -> bool {
-        self.bvh.any(&self.bounds, origin, dir, span, |k| {
-            self.patch_hit(set, k, (origin, dir), span).is_some()
+        self.bvh.any(&self.bounds, origin, dir, span, |i| {
+            self.piece_hit(set, i, (origin, dir), span).is_some()
         })
     }
 
     /// Every crossing of the ray with the set's surfaces for t in `span`, nearest first:
-    /// (t, patch index). Each patch's crossings are found one after the other (the search
+    /// (t, patch index). Each piece's crossings are found one after the other (the search
     /// restarted just past the last one); patches that overlap (rings) may give a crossing twice.
     pub fn all_hits(
         &self,
@@ -559,9 +691,9 @@ impl SetTracer {
         span: (f64, f64),
     ) -> Vec<(f64, i32)> {
         let mut hits = Vec::new();
-        self.bvh.any(&self.bounds, origin, dir, span, |k| {
+        self.bvh.any(&self.bounds, origin, dir, span, |i| {
             let mut from = span.0;
-            while let Some(t) = self.patch_hit(set, k, (origin, dir), (from, span.1)) {
+            while let Some((t, k)) = self.piece_hit(set, i, (origin, dir), (from, span.1)) {
                 hits.push((t, k as i32));
                 // Past this crossing by a relative step: the next root of the cell, if any.
                 from = t + 1e-9 * (1.0 + t.abs());

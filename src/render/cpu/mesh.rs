@@ -156,12 +156,17 @@ impl MeshTracer {
         })
     }
 
-    /// The object-space unit normal and base color (RGBA8) a hit shows.
-    pub fn surface(&self, hit: &FaceHit) -> (DVec3, [u8; 4]) {
+    /// The object-space unit normal a hit shows (its corners' normals blended).
+    pub fn normal(&self, hit: &FaceHit) -> DVec3 {
         let l = hit.barycentric.map(|w| w.clamp(0.0, 1.0));
         let corners = self.normals.face(hit.face as usize);
-        let n = corners[0] * l[0] + corners[1] * l[1] + corners[2] * l[2];
-        (n.normalize_or_zero(), self.mesh.base_color(hit.face, l))
+        (corners[0] * l[0] + corners[1] * l[1] + corners[2] * l[2]).normalize_or_zero()
+    }
+
+    /// The base color (RGBA8) a hit shows.
+    pub fn color(&self, hit: &FaceHit) -> [u8; 4] {
+        let l = hit.barycentric.map(|w| w.clamp(0.0, 1.0));
+        self.mesh.base_color(hit.face, l)
     }
 }
 

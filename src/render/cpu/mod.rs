@@ -211,7 +211,7 @@ impl CpuRenderer {
                     trace.nearest(o, d, span)
                 };
                 hit.map_or((f64::INFINITY, -1, [0.0; 3]), |h| {
-                    let (n, _) = trace.surface(&h, o, d);
+                    let n = trace.normal(&h, o, d);
                     (h.t, trace.id(&h), n.as_vec3().to_array())
                 })
             })
@@ -301,7 +301,7 @@ fn trace_pixels(
                 .map(|x| {
                     let (o, d) = lines.at(x as f64 + 0.5, y as f64 + 0.5);
                     let hit = trace.nearest(o, d, span)?;
-                    let (n, color) = trace.surface(&hit, o, d);
+                    let (n, color) = (trace.normal(&hit, o, d), trace.color(&hit, o, d));
                     // Headlight (camera_functions.wgsl): light comes from the eye.
                     let light = 0.25 + 0.75 * n.dot(d.normalize()).abs();
                     let normal = n.as_vec3().to_array();

@@ -194,21 +194,31 @@ impl SceneTrace {
         }
     }
 
-    /// The world unit normal and base color (RGBA8) of a hit of the world ray o + t d.
-    pub fn surface(&self, hit: &Hit, o: DVec3, d: DVec3) -> (DVec3, [u8; 4]) {
+    /// The world unit normal of a hit of the world ray o + t d.
+    pub fn normal(&self, hit: &Hit, o: DVec3, d: DVec3) -> DVec3 {
         let placed = &self.placed[hit.object];
-        let (n, color) = match (&placed.traced, hit.part) {
+        let n = match (&placed.traced, hit.part) {
             (Traced::Set(s), Part::Patch(k)) => {
                 let m = &placed.object_from_world;
-                s.surface(k, m.transform_point3(o), m.transform_vector3(d), hit.t)
+                s.normal(k, m.transform_point3(o), m.transform_vector3(d), hit.t)
             }
-            (Traced::Mesh(m), Part::Face(face)) => m.surface(&face),
+            (Traced::Mesh(m), Part::Face(face)) => m.normal(&face),
             _ => unreachable!("a set's hit is a patch, a mesh's a face"),
         };
-        (
-            (placed.world_normal_from_object * n).normalize_or_zero(),
-            color,
-        )
+        (placed.world_normal_from_object * n).normalize_or_zero()
+    }
+
+    /// The base color (RGBA8) of a hit of the world ray o + t d.
+    pub fn color(&self, hit: &Hit, o: DVec3, d: DVec3) -> [u8; 4] {
+        let placed = &self.placed[hit.object];
+        match (&placed.traced, hit.part) {
+            (Traced::Set(s), Part::Patch(k)) => {
+                let m = &placed.object_from_world;
+                s.color(k, m.transform_point3(o), m.transform_vector3(d), hit.t)
+            }
+            (Traced::Mesh(m), Part::Face(face)) => m.color(&face),
+            _ => unreachable!("a set's hit is a patch, a mesh's a face"),
+        }
     }
 
     /// The world bounds of every object (the frame's depth range is made from them).

@@ -45,18 +45,29 @@ impl SetSearch {
         self.tracer.all_hits(&self.set, o, d, span)
     }
 
-    /// The set-space unit normal and base color (RGBA8) at the hit of ray o + t d in patch `k`.
-    pub fn surface(&self, k: u32, o: DVec3, d: DVec3, t: f64) -> (DVec3, [u8; 4]) {
+    /// Patch `k` and the texel-centre coordinates of the hit of ray o + t d in it, clamped to
+    /// the outer texels' centres as the shader clamps them.
+    fn at(&self, k: u32, o: DVec3, d: DVec3, t: f64) -> (&Patch, f64, f64) {
         let p = &self.set.patches[k as usize];
         let local = p.world_to_local(o + d * t);
         let size = (f64::from(p.width), f64::from(p.height));
-        // Texel-centre coordinates, clamped to the outer texels' centres as the shader clamps.
         let x = (local.x * size.0).clamp(0.5, size.0 - 0.5) - 0.5;
         let y = (local.y * size.1).clamp(0.5, size.1 - 0.5) - 0.5;
+        (p, x, y)
+    }
+
+    /// The set-space unit normal at the hit of ray o + t d in patch `k`.
+    pub fn normal(&self, k: u32, o: DVec3, d: DVec3, t: f64) -> DVec3 {
+        let (p, x, y) = self.at(k, o, d, t);
         let n_local = crease_aware_normal(p, x, y);
         // Normal maps hold unit normals in the box's axes (not stretched by its extent).
-        let n = p.axes[0] * n_local.x + p.axes[1] * n_local.y + p.axes[2] * n_local.z;
-        (n.normalize_or_zero(), bilinear_color(p, x, y))
+        (p.axes[0] * n_local.x + p.axes[1] * n_local.y + p.axes[2] * n_local.z).normalize_or_zero()
+    }
+
+    /// The base color (RGBA8) at the hit of ray o + t d in patch `k`.
+    pub fn color(&self, k: u32, o: DVec3, d: DVec3, t: f64) -> [u8; 4] {
+        let (p, x, y) = self.at(k, o, d, t);
+        bilinear_color(p, x, y)
     }
 }
 
