@@ -156,3 +156,28 @@ def test_the_cpu_backend_refuses_what_it_does_not_draw(bunny: Converted) -> None
     # The exact search whatever quality is asked: stats say so.
     frame = renderer.render(bunny.gts, camera, quality="fast")
     assert frame.stats["method"] == "maxmip" and frame.stats["device"] == "cpu"
+
+
+def test_contains_by_ray_parity_matches_the_solid() -> None:
+    """``contains`` on a closed mesh equals trimesh's; on its texture set it equals the solid's
+    inside test for points more than two texels from the surface (seam crossings merged)."""
+    sphere = trimesh.creation.icosphere(subdivisions=4)
+    mesh = gt.Mesh(sphere.vertices, sphere.faces)
+    rng = np.random.default_rng(9)
+    points = rng.uniform(-1.3, 1.3, (20_000, 3))
+    scene = gt.Scene()
+    scene.add(mesh)
+    inside = scene.contains(points)
+    np.testing.assert_array_equal(inside, sphere.contains(points))
+    gts = gt.convert(mesh, max_resolution=64)
+    radius = np.linalg.norm(points, axis=1)
+    # The icosphere's faces lie within 1 - cos(edge/2) of the unit sphere: count only points
+    # clear of both it and the set's texels.
+    clear = np.abs(radius - 1) > 2 * gts.texel_size + 0.01
+    wrong = np.mean(gts.contains(points[clear]) != (radius[clear] < 1))
+    # Measured 0 of 18,673 points wrong (12 of the 1,327 nearer the surface); with the seam
+    # crossings not merged, 98 wrong (5.2e-3).
+    assert wrong <= 1e-4, wrong
+    assert 0.2 < inside.mean() < 0.3  # the ball's share of the cube: 4.19 / 17.6
+    with pytest.raises(gt.ParameterError, match="points"):
+        scene.contains([[0.0, np.nan, 0.0]])

@@ -92,6 +92,12 @@ def _named(origins: npt.ArrayLike | None, directions: npt.ArrayLike | None,
     return _rays(o, d)
 
 
+#: Directions of `contains`'s parity rays: unit, not along any axis or diagonal (an axis-aligned
+#: model's faces and edges are the likeliest to be grazed).
+_PARITY_DIRECTIONS = np.array([[0.5773, 0.5774, 0.5774], [-0.7071, 0.4082, 0.5774], [0.2357, -0.8660, 0.4410]])
+_PARITY_DIRECTIONS /= np.linalg.norm(_PARITY_DIRECTIONS, axis=1, keepdims=True)
+
+
 class RayQueries:
     """The ray queries of an object whose extension handle ``_core`` the renderer traces (a set,
     a scene). Texture sets, meshes and displacement shells are traced; a scene holding surfels or
@@ -161,6 +167,37 @@ class RayQueries:
         and patches overlap along their seams, so there a crossing may come from both."""
         o, d = _named(origins, directions, ray_origins, ray_directions)
         return _query_renderer("cpu").list_intersections(self._core, o, d)
+
+    def _merge_distance(self) -> float:
+        """How far apart two crossings of one ray may be and still be one surface's (a set's
+        seams hold the surface twice, a texel apart at most); 0 for meshes alone."""
+        return 0.0
+
+    @_check.keywords
+    def contains(self, points: npt.ArrayLike) -> npt.NDArray[np.bool_]:
+        """Whether each point (N, 3) lies inside the closed surfaces, by ray parity on the CPU
+        backend: crossings counted along three fixed directions (crossings of one ray closer
+        than a texel merged, as a set's seams hold the surface twice; 1e-9 of the distance
+        for meshes, whose rays through an edge meet both faces), a point inside when at least
+        two of the three counts are odd. Meant for closed (watertight) surfaces, as trimesh's
+        ``contains``; points within a texel of a set's surface may go either way."""
+        pts = _check.array("points", points, shape="(N, 3)")
+        if pts.ndim != 2 or pts.shape[1] != 3:
+            raise _core.ParameterError(f"points must be (N, 3); got {pts.shape}")
+        pts = np.ascontiguousarray(pts, dtype=np.float64)
+        if not np.isfinite(pts).all():
+            i = int(np.flatnonzero(~np.isfinite(pts).all(axis=1))[0])
+            raise _core.ParameterError(f"point {i}: {pts[i].tolist()} must be finite (points row {i})")
+        merge = self._merge_distance()
+        odd = np.zeros(len(pts), dtype=np.int64)
+        for direction in _PARITY_DIRECTIONS:
+            index, distances, _ = self.list_intersections(pts, np.broadcast_to(direction, pts.shape))
+            # Crossings are grouped by ray, nearest first: a crossing within `merge` of the one
+            # before it on the same ray is the same surface again.
+            again = (index[1:] == index[:-1]) & (np.diff(distances) <= np.maximum(merge, 1e-9 * distances[1:]))
+            kept = index[np.concatenate(([True], ~again))] if len(index) else index
+            odd += np.bincount(kept, minlength=len(pts)) % 2
+        return odd >= 2  # type: ignore[no-any-return]
 
     @_check.keywords
     def count_intersections(self, origins: npt.ArrayLike | None = None, directions: npt.ArrayLike | None = None,

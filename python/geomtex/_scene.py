@@ -88,6 +88,15 @@ class Scene(RayQueries, Wrapped):
     def __len__(self) -> int:
         return len(self._items)
 
+    def _merge_distance(self) -> float:
+        """The largest texel of the scene's sets, stretched by their placements; 0 without sets."""
+        merge = 0.0
+        for item, pose, _, _ in self._objects():
+            size = getattr(item, "texel_size", None)
+            if isinstance(size, float):
+                merge = max(merge, size * float(np.linalg.norm(pose[:3, :3], axis=0).max()))
+        return merge
+
     def _objects(self) -> list[Placed]:
         """The scene's objects in order, as pickling stores them: (object, world_from_object
         (4, 4), normals, crease_angle), the last two None for any kind but meshes. An object added

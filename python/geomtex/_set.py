@@ -115,6 +115,9 @@ class GeometryTextureSet(RayQueries, Wrapped, core=_core.GeometryTextureSet,
         "max_bytes, max_bytes_binding, max_bytes_exceeded, ...), per-patch arrays (patch_resolution, "
         "patch_texel, patch_error) and per-stage wall-clock seconds under \"seconds\" (empty for a "
         "loaded set). ``convert``'s keywords say which keys answer them.")
+    def _merge_distance(self) -> float:
+        return float(self.texel_size)
+
     texel_size = forward[float]("World size of one texel (the finest patch's where texels differ).")
     world_from_patch = forward[npt.NDArray[np.float64]](
         "(P, 4, 4) float64: each patch's world_from_patch (unit cube -> world box).")
