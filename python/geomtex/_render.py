@@ -131,9 +131,12 @@ class Renderer(Wrapped, core=_core.Renderer):
         (lavapipe counts). ``"cpu"``: the native CPU tracer, on every core, with no graphics
         driver at all; it draws and traces texture sets and meshes (always with the exact
         search; ``lod`` and ``count_fetches`` are refused) and raises DeviceError for other
-        kinds. ``"auto"`` (default): the GPU backend where an adapter is usable, else the CPU
-        backend (`device` says which was chosen, ``frame.stats["device"]`` which drew); an
-        adapter named in ``GEOMTEX_ADAPTER`` is required, with no fallback.
+        kinds. ``"auto"`` (default): on a GPU, the GPU backend; on a CPU adapter (lavapipe,
+        llvmpipe), the CPU backend for sets and meshes, where it is faster, and the adapter for
+        the other kinds and the GPU tracer's own options (``quality`` "fast" or "balanced",
+        ``lod``, ``count_fetches``, ``primary``); with no usable adapter, the CPU backend alone.
+        `device` says which was chosen, ``frame.stats["device"]`` which drew a frame; an adapter
+        named in ``GEOMTEX_ADAPTER`` is required, with no fallback.
 
     Raises
     ------
@@ -147,13 +150,16 @@ class Renderer(Wrapped, core=_core.Renderer):
 
     def __init__(self, width: Int, height: Int, device: Literal["auto", "cpu", "gpu"] | None = None) -> None:
         self._core = _core.Renderer(width, height, device)
+        self._requested = "auto" if device is None else device
 
     def __reduce__(self) -> tuple[Any, ...]:
         from ._pickle import restore_renderer
 
-        return restore_renderer, (self.width, self.height, self.device)
+        # The device asked for, not the one chosen here: a worker chooses for its own machine.
+        return restore_renderer, (self.width, self.height, getattr(self, "_requested", "auto"))
 
-    device = forward[str]("The backend frames and queries run on: \"gpu\" or \"cpu\".")
+    device = forward[str]("Where frames and queries run: \"gpu\", \"cpu\", or \"cpu+gpu\" (``auto`` on a CPU "
+                          "adapter: sets and meshes on the CPU backend, the rest on the adapter).")
     width = forward[int]("Image width in pixels.")
     height = forward[int]("Image height in pixels.")
     adapter_info = forward[dict[str, str]]("The adapter in use: name, backend, device_type, driver, driver_info "

@@ -336,12 +336,25 @@ enum Backend {
         cpu: Arc<Mutex<CpuRenderer>>,
         no_gpu: Option<String>,
     },
+    /// `auto` on a CPU adapter (lavapipe, llvmpipe): what the CPU backend draws goes to it
+    /// (faster there: bench/render.py, bench/rays.py), the rest to the adapter.
+    Both {
+        cpu: Arc<Mutex<CpuRenderer>>,
+        gpu: Arc<Mutex<Renderer>>,
+    },
+}
+
+/// Where one call runs.
+enum Route<'a> {
+    Gpu(&'a Arc<Mutex<Renderer>>),
+    Cpu(&'a Arc<Mutex<CpuRenderer>>),
 }
 
 impl Backend {
     /// `device`: "gpu" (wgpu; a DeviceError without a usable adapter), "cpu", or "auto" (the
-    /// GPU backend where an adapter is usable, else the CPU backend; "gpu" when GEOMTEX_ADAPTER
-    /// names one). Call without the GIL.
+    /// GPU backend on a GPU; on a CPU adapter the CPU backend for what it draws and the adapter
+    /// for the rest; the CPU backend alone without a usable adapter; the adapter alone when
+    /// GEOMTEX_ADAPTER names one). Call without the GIL.
     fn choose(device: &str) -> crate::error::Result<Backend> {
         let cpu = |no_gpu| Backend::Cpu {
             cpu: cpu_shared(),
@@ -353,7 +366,19 @@ impl Backend {
             // An adapter named in GEOMTEX_ADAPTER is asked for: no fallback past it.
             "auto" if std::env::var_os("GEOMTEX_ADAPTER").is_some() => Ok(Backend::Gpu(shared()?)),
             "auto" => match shared() {
-                Ok(gpu) => Ok(Backend::Gpu(gpu)),
+                Ok(gpu) => {
+                    let on_cpu = lock(&gpu)
+                        .info()
+                        .iter()
+                        .any(|(k, v)| *k == "device_type" && v == "Cpu");
+                    Ok(match on_cpu {
+                        true => Backend::Both {
+                            cpu: cpu_shared(),
+                            gpu,
+                        },
+                        false => Backend::Gpu(gpu),
+                    })
+                }
                 Err(GeomtexError::Device(why)) => Ok(cpu(Some(why))),
                 Err(other) => Err(other),
             },
@@ -367,6 +392,23 @@ impl Backend {
         match self {
             Backend::Gpu(_) => "gpu",
             Backend::Cpu { .. } => "cpu",
+            Backend::Both { .. } => "cpu+gpu",
+        }
+    }
+
+    /// Where a call on `scene` runs; `gpu_only` when it asks for what only the GPU tracer does.
+    fn route(&self, scene: &Scene, gpu_only: bool) -> Route<'_> {
+        match self {
+            Backend::Gpu(gpu) => Route::Gpu(gpu),
+            Backend::Cpu { cpu, .. } => Route::Cpu(cpu),
+            Backend::Both { cpu, gpu } => {
+                let drawn = (scene.objects.iter()).all(|o| CpuRenderer::draws(&o.object));
+                if drawn && !gpu_only {
+                    Route::Cpu(cpu)
+                } else {
+                    Route::Gpu(gpu)
+                }
+            }
         }
     }
 
@@ -533,7 +575,7 @@ impl PyRenderer {
         let (backend, info, max_side) = heavy(py, "creating the renderer", move |_| {
             let backend = Backend::choose(&device)?;
             let (info, max_side) = match &backend {
-                Backend::Gpu(gpu) => {
+                Backend::Gpu(gpu) | Backend::Both { gpu, .. } => {
                     let locked = lock(gpu);
                     (locked.info(), locked.max_image_side())
                 }
@@ -637,6 +679,7 @@ impl PyRenderer {
         outputs: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<PyFrame> {
         let steps = 0..=i64::from(u32::MAX);
+        let primary_named = primary.is_some_and(|p| !p.is_none());
         let search = SearchOverrides {
             quality: opt_text(quality, "quality")?
                 .map(|q| q.parse())
@@ -683,9 +726,16 @@ impl PyRenderer {
             },
             background,
         };
+        // Options only the GPU tracer has: a linear search, levels of detail, counted fetches,
+        // a primary pass named.
+        let gpu_only = search.lod
+            || search.count_fetches
+            || search.method == crate::render::Method::LinearBinary
+            || primary_named;
+        let route = self.backend.route(&scene, gpu_only);
         let frame = heavy(py, "rendering", |cancel| {
-            let mut frame = match &self.backend {
-                Backend::Gpu(gpu) => {
+            let mut frame = match route {
+                Route::Gpu(gpu) => {
                     let mut renderer = lock(gpu);
                     let mut frame = renderer.render(&scene, &camera, &search, &request)?;
                     if let Some(light) = &light {
@@ -694,7 +744,7 @@ impl PyRenderer {
                     }
                     frame
                 }
-                Backend::Cpu { cpu, .. } => {
+                Route::Cpu(cpu) => {
                     let cpu_frame = || {
                         let mut renderer = lock(cpu);
                         let mut frame =
@@ -746,9 +796,11 @@ impl PyRenderer {
         let any_hit = opt_flag(any_hit, "any_hit")?.unwrap_or(false);
         let scene = scene_of(obj)?;
         let rays = rays(origins, directions)?;
-        let hits = heavy(py, "tracing rays", |cancel| match &self.backend {
-            Backend::Gpu(gpu) => lock(gpu).intersect(&scene, &rays, &search, any_hit, cancel),
-            Backend::Cpu { cpu, .. } => (lock(cpu).intersect(&scene, &rays, any_hit, cancel))
+        let gpu_only = search.method == crate::render::Method::LinearBinary;
+        let route = self.backend.route(&scene, gpu_only);
+        let hits = heavy(py, "tracing rays", |cancel| match route {
+            Route::Gpu(gpu) => lock(gpu).intersect(&scene, &rays, &search, any_hit, cancel),
+            Route::Cpu(cpu) => (lock(cpu).intersect(&scene, &rays, any_hit, cancel))
                 .map_err(|e| self.backend.explained(e)),
         })?;
         let n = hits.patch_id.len();

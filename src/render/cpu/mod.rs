@@ -73,6 +73,11 @@ impl CpuRenderer {
         CpuRenderer::default()
     }
 
+    /// Whether this backend draws and traces `object` (texture sets and meshes).
+    pub fn draws(object: &Object) -> bool {
+        traced_kind(object).is_ok()
+    }
+
     /// The adapter-like description `gt.info()` and `Renderer.adapter_info` give.
     pub fn info() -> Vec<(&'static str, String)> {
         vec![
