@@ -190,12 +190,22 @@ pub fn graze(p: &Patch) -> f64 {
 /// The roots of a t^2 + b t + c in [lo, hi] where the ray really crosses, in increasing order
 /// (NaN for none); a dip shallower than `graze` between two roots is no crossing.
 fn crossings(a: f64, b: f64, c: f64, lo: f64, hi: f64, graze: f64) -> [f64; 2] {
-    let scale = a.abs().max(b.abs()).max(c.abs());
+    // Each term's size over the stretch: t counts world units, so a model 1e12 across has a
+    // tiny `a` whose term still bends the curve over a cell (comparing the coefficients
+    // themselves dropped it there, and hits moved by 0.8% of the distance).
+    let span = (hi - lo).abs();
+    let span = if span.is_finite() && span > 0.0 {
+        span
+    } else {
+        1.0
+    };
+    let (qa, qb) = (a.abs() * span * span, b.abs() * span);
+    let scale = qa.max(qb).max(c.abs());
     if scale == 0.0 {
         return [lo, f64::NAN]; // identically zero: the ray runs along the surface
     }
     let mut roots = [f64::NAN; 2];
-    if a.abs() <= 1e-14 * scale {
+    if qa <= 1e-14 * scale {
         if b != 0.0 {
             roots[0] = -c / b;
         }

@@ -4,6 +4,7 @@ preview shares one device and its uploads; a frame reads back only the outputs a
 from __future__ import annotations
 
 import json
+import os
 import pickle
 import subprocess
 import sys
@@ -34,7 +35,9 @@ print(json.dumps({"before": before, "info": {k: info[k] for k in before}}))
 
 
 def test_a_notebook_makes_one_device_and_uploads_a_set_once() -> None:
-    out = subprocess.run([sys.executable, "-c", _NOTEBOOK], capture_output=True, text=True, timeout=300)
+    # The GPU backend's sharing is what is counted (a CPU adapter's `auto` draws sets on the CPU).
+    env = {**os.environ, "GEOMTEX_DEVICE": "gpu"}
+    out = subprocess.run([sys.executable, "-c", _NOTEBOOK], capture_output=True, text=True, timeout=300, env=env)
     assert out.returncode == 0, out.stderr
     counts = json.loads(out.stdout.strip().splitlines()[-1])
     # Measured: devices 1, uploads 1 (the set, drawn at 256² and 1024², traced and previewed),

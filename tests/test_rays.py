@@ -206,7 +206,7 @@ def test_a_mesh_kept_on_the_device_is_traced_where_each_query_places_it(bunny: C
         scene, o, copy = placed(bunny.mesh, tm, placement, origins)
         d = dirs @ placement[:3, :3].T
         d /= np.linalg.norm(d, axis=1, keepdims=True)
-        ours = scene.intersects_first(o, d)
+        ours = scene.intersects_first(o, d, device="gpu")
         caster = reference.RayCaster(copy)
         ref = caster.first_distances(o, d)
         agree, both, err = against(ours, ref, reference.diagonal(copy))
@@ -238,8 +238,8 @@ def test_parallel_rays_walk_a_meshs_tiles_wherever_it_is_placed(bunny: Converted
     for placement in (np.eye(4), moved):
         scene, o, copy = placed(bunny.mesh, tm, placement, origins)
         d = np.tile(direction, (RAYS, 1))
-        walked, walked_any = scene.intersects_first(o, d), scene.intersects_any(o, d)
-        ours = scene.intersects_first(o, d)
+        walked, walked_any = scene.intersects_first(o, d, device="gpu"), scene.intersects_any(o, d, device="gpu")
+        ours = scene.intersects_first(o, d, device="gpu")
         caster = reference.RayCaster(copy)
         ref = caster.first_distances(o, d)
         agree, both, err = against(ours, ref, reference.diagonal(copy))
@@ -256,7 +256,7 @@ def test_parallel_rays_walk_a_meshs_tiles_wherever_it_is_placed(bunny: Converted
         assert np.array_equal(walked.hit, ours.hit), int((walked.hit != ours.hit).sum())
         gap = np.abs(walked.distances[ours.hit] - ours.distances[ours.hit])
         assert gap.max() <= 1e-6 * reference.diagonal(copy), gap.max()
-        assert np.array_equal(scene.intersects_any(o, d), walked_any)
+        assert np.array_equal(scene.intersects_any(o, d, device="gpu"), walked_any)
 
 
 def test_scenes_of_sets_and_meshes_take_the_nearest(bunny: Converted) -> None:

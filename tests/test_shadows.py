@@ -77,7 +77,8 @@ MESH_TRACED = {(0.3, -1.0, 0.2): 1306, (1.0, -0.6, -0.4): 1888, (-0.5, -1.0, 0.8
 @pytest.mark.parametrize("direction", [(0.3, -1.0, 0.2), (1.0, -0.6, -0.4), (-0.5, -1.0, 0.8)])
 def test_shadows_agree_with_embree(bunny: Converted, direction: tuple[float, float, float], as_mesh: bool) -> None:
     scene, whole, camera, diag = bunny_on_ground(bunny, as_mesh)
-    r = gt.Renderer(SIZE, SIZE)
+    # The GPU backend's shadow rays (tests/test_cpu_backend.py holds the CPU's to them).
+    r = gt.Renderer(SIZE, SIZE, device="gpu")
     plain = r.render(scene, camera)
     lit = r.render(scene, camera, light=gt.DirectionalLight(direction))
     assert plain.shadow is None and lit.shadow is not None

@@ -23,11 +23,12 @@ _renderers: dict[str, _core.Renderer] = {}
 def _query_renderer(device: Literal["auto", "cpu", "gpu"] | None = None) -> _core.Renderer:
     """One renderer per device kept for queries (its device and uploaded sets are reused
     between calls)."""
-    key = "auto" if device is None else device
+    key = "default" if device is None else device
     with _lock:
         r = _renderers.get(key)
         if r is None:
-            r = _renderers[key] = _core.Renderer(1, 1, key)
+            # None: GEOMTEX_DEVICE's default, else "auto", as every Renderer.
+            r = _renderers[key] = _core.Renderer(1, 1, device)
         return r
 
 

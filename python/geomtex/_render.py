@@ -136,7 +136,8 @@ class Renderer(Wrapped, core=_core.Renderer):
         the other kinds and the GPU tracer's own options (``quality`` "fast" or "balanced",
         ``lod``, ``count_fetches``, ``primary``); with no usable adapter, the CPU backend alone.
         `device` says which was chosen, ``frame.stats["device"]`` which drew a frame; an adapter
-        named in ``GEOMTEX_ADAPTER`` is required, with no fallback.
+        named in ``GEOMTEX_ADAPTER`` is required, with no fallback. Not given: the environment
+        variable ``GEOMTEX_DEVICE``'s value, else ``"auto"`` (ray queries' default too).
 
     Raises
     ------

@@ -571,7 +571,11 @@ impl PyRenderer {
         device: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         let (w, h) = image_size(width, height)?;
-        let device = opt_text(device, "device")?.unwrap_or_else(|| "auto".into());
+        // Not given: GEOMTEX_DEVICE's, else "auto" (a process-wide default, as GEOMTEX_ADAPTER).
+        let device = match opt_text(device, "device")? {
+            Some(d) => d,
+            None => std::env::var("GEOMTEX_DEVICE").unwrap_or_else(|_| "auto".into()),
+        };
         let (backend, info, max_side) = heavy(py, "creating the renderer", move |_| {
             let backend = Backend::choose(&device)?;
             let (info, max_side) = match &backend {

@@ -305,7 +305,14 @@ impl Camera {
         Ok(lens)
     }
 
-    fn lens_unchecked(&self, width: u32, height: u32, z_min: f64, z_max: f64) -> Result<Lens> {
+    /// `lens` without the float32 range check: for the CPU backend, which works in f64.
+    pub(crate) fn lens_unchecked(
+        &self,
+        width: u32,
+        height: u32,
+        z_min: f64,
+        z_max: f64,
+    ) -> Result<Lens> {
         let (w, h) = (width as f64, height as f64);
         match self.intrinsics(width, height)? {
             Some([fx, fy, cx, cy]) => {

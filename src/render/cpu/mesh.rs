@@ -163,6 +163,12 @@ impl MeshTracer {
         (corners[0] * l[0] + corners[1] * l[1] + corners[2] * l[2]).normalize_or_zero()
     }
 
+    /// The object-space unit normal of the face hit (what ray queries report, as the GPU's).
+    pub fn face_normal(&self, hit: &FaceHit) -> DVec3 {
+        let [a, b, c] = self.mesh.faces[hit.face as usize].map(|v| self.mesh.positions[v as usize]);
+        (b - a).cross(c - a).normalize_or_zero()
+    }
+
     /// The base color (RGBA8) a hit shows.
     pub fn color(&self, hit: &FaceHit) -> [u8; 4] {
         let l = hit.barycentric.map(|w| w.clamp(0.0, 1.0));

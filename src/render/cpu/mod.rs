@@ -92,9 +92,10 @@ impl CpuRenderer {
         ]
     }
 
-    /// The scene's hierarchies, built where new (on every core), and the ms that took.
+    /// The scene's hierarchies, built where new (on every core), and the ms the building took
+    /// (0 when every one was kept).
     fn prepare(&mut self, scene: &Scene) -> Result<(SceneTrace, f64)> {
-        let start = Instant::now();
+        let mut built = std::time::Duration::ZERO;
         self.sets.purge();
         self.meshes.purge();
         let mut objects = Vec::with_capacity(scene.objects.len());
@@ -102,9 +103,12 @@ impl CpuRenderer {
             placed.check_placement(index)?;
             traced_kind(&placed.object)?;
             let traced = if let Some(set) = placed.object.payload::<GeometryTextureSet>() {
-                let search = self
-                    .sets
-                    .get_or_upload(&set, |_| Ok(Arc::new(SetSearch::new(set.clone()))))?;
+                let search = self.sets.get_or_upload(&set, |_| {
+                    let start = Instant::now();
+                    let made = Arc::new(SetSearch::new(set.clone()));
+                    built += start.elapsed();
+                    Ok(made)
+                })?;
                 Traced::Set(search.clone())
             } else {
                 let shaded = placed
@@ -115,7 +119,9 @@ impl CpuRenderer {
                 let tracer = match rules.iter().find(|(rule, _)| *rule == shaded.rule) {
                     Some((_, t)) => t.clone(),
                     None => {
+                        let start = Instant::now();
                         let made = Arc::new(MeshTracer::new(shaded.mesh.clone(), shaded.rule));
+                        built += start.elapsed();
                         rules.push((shaded.rule, made.clone()));
                         made
                     }
@@ -124,10 +130,7 @@ impl CpuRenderer {
             };
             objects.push((traced, placed.world_from_object));
         }
-        Ok((
-            SceneTrace::new(objects),
-            start.elapsed().as_secs_f64() * 1e3,
-        ))
+        Ok((SceneTrace::new(objects), built.as_secs_f64() * 1e3))
     }
 
     /// Renders `scene` seen by `camera` as `request` asks, on every core. The search is always
@@ -151,7 +154,8 @@ impl CpuRenderer {
             depth_range.include_box(&view_from_world, b.lo, b.hi);
         }
         let (z_min, z_max) = depth_range.or_default();
-        let lens = camera.lens(request.width, request.height, z_min, z_max)?;
+        // f64 throughout: no float32 range to keep (the GPU backend refuses past it).
+        let lens = camera.lens_unchecked(request.width, request.height, z_min, z_max)?;
         let background = request.background.unwrap_or(Renderer::DEFAULT_BACKGROUND);
         let pixels = trace_pixels(&trace, camera, &lens, request, cancel)?;
         let mut frame = pixels.into_frame(request, background, lens.near, &search);
@@ -216,7 +220,7 @@ impl CpuRenderer {
                     trace.nearest(o, d, span)
                 };
                 hit.map_or((f64::INFINITY, -1, [0.0; 3]), |h| {
-                    let n = trace.normal(&h, o, d);
+                    let n = trace.normal(&h, o, d, true);
                     (h.t, trace.id(&h), n.as_vec3().to_array())
                 })
             })
@@ -306,7 +310,7 @@ fn trace_pixels(
                 .map(|x| {
                     let (o, d) = lines.at(x as f64 + 0.5, y as f64 + 0.5);
                     let hit = trace.nearest(o, d, span)?;
-                    let (n, color) = (trace.normal(&hit, o, d), trace.color(&hit, o, d));
+                    let (n, color) = (trace.normal(&hit, o, d, false), trace.color(&hit, o, d));
                     // Headlight (camera_functions.wgsl): light comes from the eye.
                     let light = 0.25 + 0.75 * n.dot(d.normalize()).abs();
                     let normal = n.as_vec3().to_array();

@@ -194,14 +194,16 @@ impl SceneTrace {
         }
     }
 
-    /// The world unit normal of a hit of the world ray o + t d.
-    pub fn normal(&self, hit: &Hit, o: DVec3, d: DVec3) -> DVec3 {
+    /// The world unit normal of a hit of the world ray o + t d: the shading normal (a mesh's
+    /// corner normals blended), or with `geometric` a mesh's face normal (ray queries').
+    pub fn normal(&self, hit: &Hit, o: DVec3, d: DVec3, geometric: bool) -> DVec3 {
         let placed = &self.placed[hit.object];
         let n = match (&placed.traced, hit.part) {
             (Traced::Set(s), Part::Patch(k)) => {
                 let m = &placed.object_from_world;
                 s.normal(k, m.transform_point3(o), m.transform_vector3(d), hit.t)
             }
+            (Traced::Mesh(m), Part::Face(face)) if geometric => m.face_normal(&face),
             (Traced::Mesh(m), Part::Face(face)) => m.normal(&face),
             _ => unreachable!("a set's hit is a patch, a mesh's a face"),
         };
