@@ -556,6 +556,9 @@ impl PatchSearch {
     }
 }
 
+/// A node of a patch's min-max pyramid: level, column, row.
+type PyramidNode = (usize, u32, u32);
+
 /// Pyramid level of the pieces a `SetTracer`'s hierarchy holds: nodes of 8 x 8 cells, whose
 /// boxes hug the surface (a patch's own box holds the whole curved chart, so a ray entered
 /// several patches' boxes before its hit and searched each from the top).
@@ -569,8 +572,8 @@ const PIECE_LEVEL: usize = 3;
 /// (world distance, for unit directions) since the map is affine.
 pub struct SetTracer {
     patches: Vec<PatchSearch>,
-    /// Per piece: its patch and pyramid node (level, column, row).
-    pieces: Vec<(u32, (usize, u32, u32))>,
+    /// Per piece: its patch and pyramid node.
+    pieces: Vec<(u32, PyramidNode)>,
     bvh: crate::bvh::Bvh,
     bounds: Vec<crate::bvh::Aabb>,
 }
@@ -603,7 +606,7 @@ impl SetTracer {
     fn with_searches(set: &crate::gtex::GeometryTextureSet, patches: Vec<PatchSearch>) -> Self {
         use crate::bvh::{Aabb, Bvh};
         use rayon::prelude::*;
-        let per_patch: Vec<Vec<(u32, (usize, u32, u32), Aabb)>> = (set.patches.par_iter())
+        let per_patch: Vec<Vec<(u32, PyramidNode, Aabb)>> = (set.patches.par_iter())
             .zip(&patches)
             .enumerate()
             .map(|(k, (p, search))| {
