@@ -230,7 +230,7 @@ impl Renderer {
             outputs: request.outputs.to_read(),
             ..*request
         };
-        let (mut frame, inputs) = guarded(&device, || {
+        let (frame, inputs) = guarded(&device, || {
             let prepared = self.prepare(scene, camera, search, &read)?;
             let (counters, tallies) = self.encode_passes(&prepared, &read);
             let targets = &self.targets[0];
@@ -248,20 +248,14 @@ impl Renderer {
             (frame.face_id, frame.barycentric) = surface.unzip();
             Ok((frame, inputs))
         })?;
-        if request.outputs.needs_bounds() {
-            add_bounds(
-                self,
-                scene,
-                camera,
-                search,
-                request.outputs,
-                &inputs,
-                &mut frame,
-            )?;
-            frame.cpu_ms = start.elapsed().as_secs_f64() * 1e3;
-        }
-        frame.keep_only(request.outputs);
-        Ok(frame)
+        finish_outputs(
+            self,
+            (scene, camera, search),
+            request.outputs,
+            &inputs,
+            frame,
+            start,
+        )
     }
 
     /// Uploads what is new, chooses the near plane from the scene's depth range, writes the
@@ -484,9 +478,27 @@ fn lod_histogram(picks: &[LodPick]) -> Vec<u64> {
     counts
 }
 
+/// The last step of a render on either backend: the bounds where asked (`add_bounds`, counted
+/// in `cpu_ms` from `start`), then only the outputs asked for.
+pub(crate) fn finish_outputs(
+    backend: &mut impl RayBackend,
+    (scene, camera, search): (&Scene, &Camera, &SearchOptions),
+    outputs: Outputs,
+    inputs: &BoundInputs,
+    mut frame: Frame,
+    start: Instant,
+) -> Result<Frame> {
+    if outputs.needs_bounds() {
+        add_bounds(backend, scene, camera, search, outputs, inputs, &mut frame)?;
+        frame.cpu_ms = start.elapsed().as_secs_f64() * 1e3;
+    }
+    frame.keep_only(outputs);
+    Ok(frame)
+}
+
 /// Computes the frame's error bounds and, where asked, which pixels' coverage is uncertain
 /// (error_bound.rs, coverage.rs), from its depth and patch ids; `backend` traces the probes.
-pub(crate) fn add_bounds(
+fn add_bounds(
     backend: &mut impl RayBackend,
     scene: &Scene,
     camera: &Camera,

@@ -36,6 +36,8 @@ pub(crate) struct MeshTracer {
     faces: Vec<u32>,
     centre: DVec3,
     normals: CornerNormals,
+    /// The mesh's bounding box.
+    pub bounds: crate::bvh::Aabb,
 }
 
 impl MeshTracer {
@@ -66,11 +68,8 @@ impl MeshTracer {
             faces,
             centre,
             normals,
+            bounds: crate::bvh::Aabb { lo, hi },
         }
-    }
-
-    pub fn mesh(&self) -> &Mesh {
-        &self.mesh
     }
 
     /// The f32 ray of an object-space ray, for stretch [t0, t1].

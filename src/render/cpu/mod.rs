@@ -26,7 +26,7 @@ use super::query::RangedRay;
 use super::search::Method;
 use super::shadow::{cast_shadows, Light};
 use super::{
-    add_bounds, check_image_size, BoundInputs, Camera, Frame, FrameRequest, Object, RayBackend,
+    check_image_size, finish_outputs, BoundInputs, Camera, Frame, FrameRequest, Object, RayBackend,
     RayHits, Renderer, Scene, SearchOptions, ShadedMesh,
 };
 use crate::cancel::Cancel;
@@ -161,25 +161,20 @@ impl CpuRenderer {
         let mut frame = pixels.into_frame(request, background, lens.near, &search);
         frame.setup_ms = setup_ms;
         frame.cpu_ms = start.elapsed().as_secs_f64() * 1e3;
-        if request.outputs.needs_bounds() {
-            let inputs = BoundInputs {
-                lens,
-                ids: trace.ids.clone(),
-                lod_picks: Vec::new(),
-            };
-            add_bounds(
-                self,
-                scene,
-                camera,
-                &search,
-                request.outputs,
-                &inputs,
-                &mut frame,
-            )?;
-            frame.cpu_ms = start.elapsed().as_secs_f64() * 1e3;
-        }
-        frame.keep_only(request.outputs);
-        Ok(frame)
+        let inputs = BoundInputs {
+            lens,
+            ids: trace.ids,
+            lod_picks: Vec::new(),
+        };
+        let outputs = request.outputs;
+        finish_outputs(
+            self,
+            (scene, camera, &search),
+            outputs,
+            &inputs,
+            frame,
+            start,
+        )
     }
 
     /// Shadows of a frame this backend drew (shadow.rs, traced here).

@@ -23,17 +23,11 @@ pub(crate) enum Traced {
 }
 
 impl Traced {
-    /// The object's bounding box in its own space.
+    /// The object's bounding box in its own space (made with its hierarchy, kept).
     fn bounds(&self) -> Aabb {
         match self {
-            Traced::Set(s) => Aabb::of_points(s.set.patches.iter().flat_map(|p| {
-                let m = p.world_from_patch();
-                crate::render::cull::unit_cube_corners().map(|c| m.transform_point3(c))
-            })),
-            Traced::Mesh(m) => {
-                let (lo, hi) = m.mesh().bounds();
-                Aabb { lo, hi }
-            }
+            Traced::Set(s) => s.bounds,
+            Traced::Mesh(m) => m.bounds,
         }
     }
 }

@@ -10,6 +10,7 @@ use std::sync::Arc;
 
 use glam::DVec3;
 
+use crate::bvh::Aabb;
 use crate::gtex::{decode_normal, GeometryTextureSet, Patch, NEUTRAL_COLOR};
 use crate::heightfield::SetTracer;
 
@@ -20,6 +21,8 @@ const CREASE_COS: f64 = 0.9397;
 pub(crate) struct SetSearch {
     pub set: Arc<GeometryTextureSet>,
     pub tracer: SetTracer,
+    /// The set's bounding box (its patches' boxes).
+    pub bounds: Aabb,
 }
 
 impl SetSearch {
@@ -28,7 +31,15 @@ impl SetSearch {
     pub fn new(set: Arc<GeometryTextureSet>) -> SetSearch {
         let owned = crate::render::kinds::gtex::owners::owned_heights(&set);
         let tracer = SetTracer::with_heights(&set, &owned);
-        SetSearch { set, tracer }
+        let bounds = Aabb::of_points(set.patches.iter().flat_map(|p| {
+            let m = p.world_from_patch();
+            crate::render::cull::unit_cube_corners().map(|c| m.transform_point3(c))
+        }));
+        SetSearch {
+            set,
+            tracer,
+            bounds,
+        }
     }
 
     /// The nearest hit for t in `span`: (t, patch), or None.
