@@ -58,7 +58,7 @@ def reference_depth(gts, cam, size):
 @pytest.mark.parametrize("elevation_deg", [4.0, 12.0])
 def test_maxmip_is_exact_on_thin_features(thin, elevation_deg) -> None:
     size = 192
-    r = gt.Renderer(size, size)
+    r = gt.Renderer(size, size, device="gpu")
     el = np.radians(elevation_deg)
     # Looking across the walls (along +x) from low above the floor.
     eye = np.array([-0.6, 0.5, 0.05 + 1.2 * np.tan(el)])
@@ -79,7 +79,7 @@ def test_maxmip_is_exact_on_thin_features(thin, elevation_deg) -> None:
 
 def test_maxmip_matches_the_cpu_reference_on_the_bunny(bunny: Converted) -> None:
     size = 160
-    r = gt.Renderer(size, size)
+    r = gt.Renderer(size, size, device="gpu")
     lo, hi = bunny.mesh.bounds
     centre, diag = (lo + hi) / 2, bunny.mesh.diagonal
     for direction in [(1, 0.8, 1), (0.05, 1, 0.02), (-1, -0.3, 0.2)]:
@@ -109,7 +109,7 @@ def test_fetch_counts_follow_the_work(bunny: Converted) -> None:
     """More linear steps per texel cost proportionally more fetches; the exact method fewer.
     Every box drawn: each search starts at its box's entry, where a tiled frame's starts at a
     thin piece's, a step or two from the surface, so there the linear steps hardly count."""
-    r = gt.Renderer(128, 128)
+    r = gt.Renderer(128, 128, device="gpu")
     lo, hi = bunny.mesh.bounds
     centre = (lo + hi) / 2
     cam = gt.Camera.look_at(centre + np.array([1, 0.8, 1.0]) * bunny.mesh.diagonal, centre, yfov_deg=40)
@@ -134,7 +134,7 @@ def test_tiled_exact_searches_start_beside_the_surface(bunny: Converted) -> None
     from the surface, so the min-max descent starts at the pyramid's finest level there and
     climbs only over what it skips, instead of coming down from the root of the patch's whole
     box: fewer pyramid reads per search, the same first hits (the tests above)."""
-    r = gt.Renderer(256, 256)
+    r = gt.Renderer(256, 256, device="gpu")
     lo, hi = bunny.mesh.bounds
     centre, diag = (lo + hi) / 2, bunny.mesh.diagonal
     for direction in [(1, 0.8, 1), (0.3, -1, 0.2)]:
@@ -148,7 +148,7 @@ def test_tiled_exact_searches_start_beside_the_surface(bunny: Converted) -> None
 
 
 def test_bad_search_keywords(bunny: Converted) -> None:
-    r = gt.Renderer(16, 16)
+    r = gt.Renderer(16, 16, device="gpu")
     cam = gt.Camera.look_at([0, 0, 1], [0, 0, 0])
     with pytest.raises(gt.ParameterError, match="quality must be"):
         r.render(bunny.gts, cam, quality="ultra")

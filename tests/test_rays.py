@@ -1,5 +1,6 @@
-"""Ray queries on the GPU (`intersects_first`, `intersects_location`, `intersects_any`) against
-an independent reference: trimesh's ray casting on the original mesh (embree where installed)."""
+"""Ray queries (`intersects_first`, `intersects_location`, `intersects_any`; GPU and CPU backends)
+against an independent reference: trimesh's ray casting on the original mesh (embree where
+installed)."""
 
 from __future__ import annotations
 
@@ -44,10 +45,11 @@ def turned_scaled_mirrored_moved(diagonal: float) -> np.ndarray:
     return placement
 
 
-def test_first_hits_agree_with_trimesh(bunny: Converted) -> None:
+@pytest.mark.parametrize("device", ["gpu", "cpu"])
+def test_first_hits_agree_with_trimesh(bunny: Converted, device: str) -> None:
     origins, dirs = rays_around(bunny.mesh, RAYS)
     diag = bunny.mesh.diagonal
-    hits = bunny.gts.intersects_first(origins, dirs)
+    hits = bunny.gts.intersects_first(origins, dirs, device=device)
     ref = reference.RayCaster(bunny.mesh).first_distances(origins, dirs)
     agree, both, err = against(hits, ref, diag)
     # Measured (20,000 rays, default conversion): agreement 1.0 on both bunnies (0.99991 over
@@ -167,14 +169,15 @@ def test_bad_rays_raise_parameter_error(bunny: Converted, origins: object, direc
         bunny.gts.intersects_first(origins, directions)
 
 
-def test_meshes_are_traced_like_trimesh(bunny: Converted) -> None:
+@pytest.mark.parametrize("device", ["gpu", "cpu"])
+def test_meshes_are_traced_like_trimesh(bunny: Converted, device: str) -> None:
     """A mesh in a scene is traced through the hierarchy over its triangles: hits, distances and
     face normals against trimesh's ray casting of the same mesh, ids as in frames (-2 - k)."""
     origins, dirs = rays_around(bunny.mesh, RAYS, seed=7)
     diag = bunny.mesh.diagonal
     scene = gt.Scene()
     scene.add(bunny.mesh)
-    ours = scene.intersects_first(origins, dirs)
+    ours = scene.intersects_first(origins, dirs, device=device)
     caster = reference.RayCaster(bunny.mesh)
     ref = caster.first_distances(origins, dirs)
     agree, both, err = against(ours, ref, diag)

@@ -22,12 +22,13 @@ from conftest import Converted, converted
 
 @pytest.fixture(scope="module")
 def r512() -> gt.Renderer:
-    return gt.Renderer(512, 512)
+    # The GPU tracer's tests (tests/test_cpu_backend.py holds the CPU backend to its frames).
+    return gt.Renderer(512, 512, device="gpu")
 
 
 @pytest.fixture(scope="module")
 def r256() -> gt.Renderer:
-    return gt.Renderer(256, 256)
+    return gt.Renderer(256, 256, device="gpu")
 
 
 def compare(frame: gt.Frame, ref: dict, diag: float, ref_normal=None) -> dict:
