@@ -447,6 +447,21 @@ class Renderer:
         quality: _Quality | None = None,
         method: _Method | None = None,
     ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int32], npt.NDArray[np.float32]]: ...
+    def _intersects_first(
+        self,
+        obj: Any,
+        origins: npt.ArrayLike,
+        directions: npt.ArrayLike,
+        *,
+        quality: _Quality | None = None,
+        method: _Method | None = None,
+    ) -> tuple[
+        npt.NDArray[np.float64],
+        npt.NDArray[np.float64],
+        npt.NDArray[np.int32],
+        npt.NDArray[np.float32],
+        npt.NDArray[np.bool_],
+    ]: ...
     def list_intersections(
         self, obj: Any, origins: npt.ArrayLike, directions: npt.ArrayLike
     ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64], npt.NDArray[np.int32]]: ...

@@ -50,8 +50,10 @@ class RayHits(NamedTuple):
 
 
 def _rays(origins: npt.ArrayLike, directions: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
-    """(N, 3) float64 origins and directions, finite, every direction non-zero; one origin (3,)
-    serves every ray. At most 2^26 rays, counted before anything is copied."""
+    """(N, 3) float64 origins and directions; one origin (3,) serves every ray. At most 2^26
+    rays, counted before anything is copied. Finiteness and non-zero directions are checked by
+    the extension as it reads the rays (one pass; it names the first bad row as
+    "(origins row i)" or "(directions row i)")."""
     d = _check.array("directions", directions, shape="(N, 3)")
     o = _check.array("origins", origins, shape="(N, 3)")
     if o.shape == (3,) and d.ndim == 2:
@@ -61,17 +63,7 @@ def _rays(origins: npt.ArrayLike, directions: npt.ArrayLike) -> tuple[np.ndarray
     if len(d) > _check.MAX_RAYS:
         raise _core.ParameterError(f"origins and directions hold {len(d)} rays, more than the limit of "
                                    f"{_check.MAX_RAYS}")
-    o, d = np.ascontiguousarray(o, dtype=np.float64), np.ascontiguousarray(d, dtype=np.float64)
-    bad = ~np.isfinite(o).all(axis=1)
-    if bad.any():
-        i = int(np.flatnonzero(bad)[0])
-        raise _core.ParameterError(f"ray {i}: origin {o[i].tolist()} must be finite (origins row {i})")
-    bad = ~(np.isfinite(d).all(axis=1) & (np.abs(d).max(axis=1) > 0))
-    if bad.any():
-        i = int(np.flatnonzero(bad)[0])
-        raise _core.ParameterError(f"ray {i}: direction {d[i].tolist()} must be finite and the direction non-zero "
-                                   f"(directions row {i})")
-    return o, d
+    return np.ascontiguousarray(o, dtype=np.float64), np.ascontiguousarray(d, dtype=np.float64)
 
 
 def _named(origins: npt.ArrayLike | None, directions: npt.ArrayLike | None,
@@ -117,11 +109,7 @@ class RayQueries:
         trimesh's names, ``ray_origins`` and ``ray_directions``, and ``device`` ("auto", "cpu"
         or "gpu", as `Renderer` takes it; the CPU backend always searches exactly)."""
         o, d = _named(origins, directions, ray_origins, ray_directions)
-        dist, ids, normals = _query_renderer(device).intersect(self._core, o, d, quality=quality, method=method)
-        hit = ids != -1
-        unit = d / np.linalg.norm(d, axis=1, keepdims=True)
-        locations = np.where(hit[:, None], o + unit * np.where(hit, dist, 0.0)[:, None], np.nan)
-        return RayHits(locations, dist, ids, normals, hit)
+        return RayHits(*_query_renderer(device)._intersects_first(self._core, o, d, quality=quality, method=method))
 
     @_check.keywords
     def intersects_location(self, origins: npt.ArrayLike | None = None, directions: npt.ArrayLike | None = None,

@@ -8,7 +8,7 @@ use std::ops::RangeInclusive;
 use std::path::PathBuf;
 
 use glam::{DMat4, DVec3};
-use numpy::PyReadonlyArrayDyn;
+use numpy::{PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyString};
 
@@ -165,29 +165,43 @@ fn real_values(a: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
     Ok(super::arrays::flat(&a))
 }
 
-/// Rays from (N, 3) array-likes of origins and directions of the same shape (finiteness is the
-/// caller's to check, naming the ray).
+/// Rays from (N, 3) array-likes of origins and directions of the same shape, each origin finite
+/// and each direction finite and non-zero (the first bad one named, origins first). The numpy
+/// buffers are read once, with no intermediate copies (a million rays' copies and checks were
+/// a fifth of a CPU query).
 pub fn rays(
     origins: &Bound<'_, PyAny>,
     directions: &Bound<'_, PyAny>,
 ) -> PyResult<Vec<(DVec3, DVec3)>> {
-    let points = |obj, what| -> PyResult<(Vec<DVec3>, Vec<usize>)> {
-        let a = real_array(obj, what, &[None, Some(3)])?;
-        let dims: Vec<usize> = a.getattr("shape")?.extract()?;
-        let values = real_values(&a)?;
-        Ok((
-            values.chunks_exact(3).map(DVec3::from_slice).collect(),
-            dims,
-        ))
-    };
-    let (o, o_shape) = points(origins, "origins")?;
-    let (d, d_shape) = points(directions, "directions")?;
-    if o_shape != d_shape {
+    let o = real_array(origins, "origins", &[None, Some(3)])?;
+    let d = real_array(directions, "directions", &[None, Some(3)])?;
+    let (o, d): (PyReadonlyArrayDyn<'_, f64>, PyReadonlyArrayDyn<'_, f64>) =
+        (o.extract()?, d.extract()?);
+    if o.shape() != d.shape() {
         return Err(parameter_error(format!(
-            "origins and directions must both be (N, 3); got {o_shape:?} and {d_shape:?}"
+            "origins and directions must both be (N, 3); got {:?} and {:?}",
+            o.shape(),
+            d.shape()
         )));
     }
-    Ok(o.into_iter().zip(d).collect())
+    let (o, d) = (o.as_slice()?, d.as_slice()?);
+    let bad_origin = |v: &[f64]| !v.iter().all(|x| x.is_finite());
+    let bad_direction = |v: &[f64]| bad_origin(v) || v.iter().all(|&x| x == 0.0);
+    if let Some(i) = o.chunks_exact(3).position(bad_origin) {
+        return Err(parameter_error(format!(
+            "ray {i}: origin {:?} must be finite (origins row {i})",
+            &o[3 * i..3 * i + 3]
+        )));
+    }
+    if let Some(i) = d.chunks_exact(3).position(bad_direction) {
+        return Err(parameter_error(format!(
+            "ray {i}: direction {:?} must be finite and the direction non-zero (directions row {i})",
+            &d[3 * i..3 * i + 3]
+        )));
+    }
+    Ok((o.chunks_exact(3).zip(d.chunks_exact(3)))
+        .map(|(o, d)| (DVec3::from_slice(o), DVec3::from_slice(d)))
+        .collect())
 }
 
 /// `real_array` of a fixed shape as a flat row-major vector, every element finite.

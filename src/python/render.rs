@@ -491,6 +491,15 @@ type CameraState<'py> = (
 );
 
 /// Distances, patch ids and normals of a ray query.
+/// What `_intersects_first` returns: locations, distances, ids, normals, hit.
+type FirstHitArrays<'py> = (
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<i32>>,
+    Bound<'py, PyArray2<f32>>,
+    Bound<'py, PyArray1<bool>>,
+);
+
 type RayHitArrays<'py> = (
     Bound<'py, PyArray1<f64>>,
     Bound<'py, PyArray1<i32>>,
@@ -769,8 +778,9 @@ impl PyRenderer {
 
     /// Ray queries on the GPU against a Scene, a GeometryTextureSet or a Mesh: per ray the
     /// distance to the nearest hit along its unit direction (+inf on a miss), the patch id (-1
-    /// on a miss, -2 - k for the scene's k-th mesh) and the world normal. `any_hit` stops each ray at the first hit found (shadow-style
-    /// visibility, not the nearest). `quality` defaults to "exact" here.
+    /// on a miss, -2 - k for the scene's k-th mesh) and the world normal. `any_hit` stops each
+    /// ray at the first hit found (shadow-style visibility, not the nearest). `quality`
+    /// defaults to "exact" here.
     #[pyo3(signature = (obj, origins, directions, *, any_hit = None, quality = None, method = None))]
     #[allow(clippy::too_many_arguments)] // one per keyword of Renderer.intersect
     fn intersect<'py>(
@@ -783,35 +793,48 @@ impl PyRenderer {
         quality: Option<&Bound<'py, PyAny>>,
         method: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<RayHitArrays<'py>> {
-        let quality = opt_text(quality, "quality")?;
-        let method = opt_text(method, "method")?;
-        let search = SearchOverrides {
-            quality: Some(
-                quality
-                    .as_deref()
-                    .map(str::parse)
-                    .transpose()?
-                    .unwrap_or(Quality::Exact),
-            ),
-            method: method.as_deref().map(str::parse).transpose()?,
-            ..Default::default()
-        }
-        .resolve()?;
         let any_hit = opt_flag(any_hit, "any_hit")?.unwrap_or(false);
-        let scene = scene_of(obj)?;
-        let rays = rays(origins, directions)?;
-        let gpu_only = search.method == crate::render::Method::LinearBinary;
-        let route = self.backend.route(&scene, gpu_only);
-        let hits = heavy(py, "tracing rays", |cancel| match route {
-            Route::Gpu(gpu) => lock(gpu).intersect(&scene, &rays, &search, any_hit, cancel),
-            Route::Cpu(cpu) => (lock(cpu).intersect(&scene, &rays, any_hit, cancel))
-                .map_err(|e| self.backend.explained(e)),
-        })?;
+        let (_, hits) = self.traced(py, obj, (origins, directions), any_hit, quality, method)?;
         let n = hits.patch_id.len();
         Ok((
             PyArray1::from_vec(py, hits.distance),
             PyArray1::from_vec(py, hits.patch_id),
             matrix(py, hits.normal, n, 3),
+        ))
+    }
+
+    /// `intersect`'s nearest hits as `RayQueries.intersects_first` returns them: (locations
+    /// (N, 3) float64, NaN on a miss; distances; ids; normals; hit (N,) bool), the locations
+    /// made here in one pass rather than by numpy's several.
+    #[pyo3(signature = (obj, origins, directions, *, quality = None, method = None))]
+    fn _intersects_first<'py>(
+        &self,
+        py: Python<'py>,
+        obj: &Bound<'py, PyAny>,
+        origins: &Bound<'py, PyAny>,
+        directions: &Bound<'py, PyAny>,
+        quality: Option<&Bound<'py, PyAny>>,
+        method: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<FirstHitArrays<'py>> {
+        let (rays, hits) = self.traced(py, obj, (origins, directions), false, quality, method)?;
+        let n = hits.patch_id.len();
+        let (locations, hit) = py.detach(|| {
+            use rayon::prelude::*;
+            let hit: Vec<bool> = hits.patch_id.par_iter().map(|&id| id != -1).collect();
+            let locations: Vec<[f64; 3]> = (rays.par_iter().zip(&hits.distance).zip(&hit))
+                .map(|((&(o, d), &t), &hit)| match hit {
+                    true => (o + d.normalize() * t).to_array(),
+                    false => [f64::NAN; 3],
+                })
+                .collect();
+            (locations.into_flattened(), hit)
+        });
+        Ok((
+            matrix(py, locations, n, 3),
+            PyArray1::from_vec(py, hits.distance),
+            PyArray1::from_vec(py, hits.patch_id),
+            matrix(py, hits.normal, n, 3),
+            PyArray1::from_vec(py, hit),
         ))
     }
 
@@ -1143,5 +1166,44 @@ impl PyFrame {
 
     fn __repr__(&self) -> String {
         format!("<geomtex.Frame {}x{}>", self.width, self.height)
+    }
+}
+
+impl PyRenderer {
+    /// The rays of a query and their hits (nearest, or with `any_hit` the first found), on
+    /// the backend the scene routes to; `quality` defaults to "exact".
+    fn traced(
+        &self,
+        py: Python<'_>,
+        obj: &Bound<'_, PyAny>,
+        (origins, directions): (&Bound<'_, PyAny>, &Bound<'_, PyAny>),
+        any_hit: bool,
+        quality: Option<&Bound<'_, PyAny>>,
+        method: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<(Vec<(DVec3, DVec3)>, crate::render::RayHits)> {
+        let quality = opt_text(quality, "quality")?;
+        let method = opt_text(method, "method")?;
+        let search = SearchOverrides {
+            quality: Some(
+                quality
+                    .as_deref()
+                    .map(str::parse)
+                    .transpose()?
+                    .unwrap_or(Quality::Exact),
+            ),
+            method: method.as_deref().map(str::parse).transpose()?,
+            ..Default::default()
+        }
+        .resolve()?;
+        let scene = scene_of(obj)?;
+        let rays = rays(origins, directions)?;
+        let gpu_only = search.method == crate::render::Method::LinearBinary;
+        let route = self.backend.route(&scene, gpu_only);
+        let hits = heavy(py, "tracing rays", |cancel| match route {
+            Route::Gpu(gpu) => lock(gpu).intersect(&scene, &rays, &search, any_hit, cancel),
+            Route::Cpu(cpu) => (lock(cpu).intersect(&scene, &rays, any_hit, cancel))
+                .map_err(|e| self.backend.explained(e)),
+        })?;
+        Ok((rays, hits))
     }
 }

@@ -129,17 +129,31 @@ fn stretch(ranges: Option<&[(f64, f64)]>, i: usize) -> (f64, f64) {
 /// Checked in parallel: a million rays is a common query, and a real GPU traces them in less
 /// time than one core takes to prepare them.
 pub(crate) fn checked_rays(rays: &[(DVec3, DVec3)]) -> Result<Vec<(DVec3, DVec3)>> {
+    check_rays(rays)?;
+    Ok(rays.par_iter().map(|&(o, d)| unit_ray(o, d)).collect())
+}
+
+/// An error naming the first ray whose origin or direction is not finite or whose direction
+/// is zero (what `checked_rays` refuses), found without copying the rays.
+pub(crate) fn check_rays(rays: &[(DVec3, DVec3)]) -> Result<()> {
     let usable = |&(o, d): &(DVec3, DVec3)| {
         let length = d.length();
         o.is_finite() && d.is_finite() && length > 0.0 && length.is_finite()
     };
-    if let Some(i) = rays.par_iter().position_first(|r| !usable(r)) {
-        let (o, d) = rays[i];
-        return Err(GeomtexError::Parameter(format!(
-            "ray {i}: origin {o:?} and direction {d:?} must be finite and the direction non-zero"
-        )));
+    match rays.par_iter().position_first(|r| !usable(r)) {
+        Some(i) => {
+            let (o, d) = rays[i];
+            Err(GeomtexError::Parameter(format!(
+                "ray {i}: origin {o:?} and direction {d:?} must be finite and the direction non-zero"
+            )))
+        }
+        None => Ok(()),
     }
-    Ok(rays.par_iter().map(|&(o, d)| (o, d / d.length())).collect())
+}
+
+/// A ray with its direction made unit (a checked ray: `check_rays`).
+pub(crate) fn unit_ray(o: DVec3, d: DVec3) -> (DVec3, DVec3) {
+    (o, d / d.length())
 }
 
 /// The traces whose test keeps a ray (query frame): bit k for trace k below 63, bit 63 for any
