@@ -205,7 +205,7 @@ impl CpuRenderer {
         let miss = (f64::INFINITY, (-1, [0.0; 3]));
         // Directions made unit ray by ray (a normalized copy of a million rays cost more than
         // its tracing saved); three outputs filled in one pass.
-        let (distance, (patch_id, normal)): (Vec<f64>, (Vec<i32>, Vec<[f32; 3]>)) = rays
+        let (distance, (patch_id, normal)): Columns = rays
             .par_iter()
             .map(|&ray| {
                 if cancel.is_cancelled() {
@@ -258,6 +258,9 @@ impl CpuRenderer {
         Ok(lists)
     }
 }
+
+/// A query's outputs made in one pass: distances, (ids, normals).
+type Columns = (Vec<f64>, (Vec<i32>, Vec<[f32; 3]>));
 
 /// The search a CPU frame draws with: always the exact one; the GPU-only options refused.
 fn exact_search(search: &SearchOptions) -> Result<SearchOptions> {
