@@ -170,6 +170,33 @@ impl Bvh {
             .collect()
     }
 
+    /// Calls `found` for every item whose subtree's boxes all pass `keep` (a test that keeps a
+    /// node's box whenever it keeps one of its items' boxes: a bundle of rays' frustum).
+    pub fn select(
+        &self,
+        bounds: &[Aabb],
+        keep: impl Fn(&Aabb) -> bool,
+        mut found: impl FnMut(u32),
+    ) {
+        let mut stack = [0usize; WALK_STACK];
+        let mut waiting = usize::from(!self.nodes.is_empty());
+        while waiting > 0 {
+            waiting -= 1;
+            let i = stack[waiting];
+            if !keep(&bounds[i]) {
+                continue;
+            }
+            match self.nodes[i] {
+                Shape::Leaf { item } => found(item),
+                Shape::Interior { right } => {
+                    stack[waiting] = right as usize;
+                    stack[waiting + 1] = i + 1;
+                    waiting += 2;
+                }
+            }
+        }
+    }
+
     /// Whether `hit(item)` holds for some item whose box the ray o + t d meets for t in
     /// `span`, on the CPU (`bounds` from `node_bounds`). Stops at the first: an any-hit walk,
     /// as occlusion rays need.

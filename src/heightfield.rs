@@ -410,11 +410,7 @@ impl PatchSearch {
     fn cell(&self, p: &Patch, c: u32, r: u32) -> Option<Cell> {
         let padded_width = p.width as usize + 2;
         let at = r as usize * padded_width + c as usize;
-        let corners = [at, at + 1, at + padded_width, at + padded_width + 1];
-        let codes = corners.map(|t| f64::from(self.heights[t]));
-        let outline = corners.map(|t| crate::gtex::decode_outline(f64::from(self.outline[t])));
-        let some_inside = outline.iter().any(|&d| d >= 0.0);
-        (codes.iter().all(|&c| c > 0.0) && some_inside).then_some(Cell { codes, outline })
+        cell_of(&self.heights, &self.outline, at, padded_width)
     }
 
     /// The pyramid's top level.
@@ -472,88 +468,232 @@ impl PatchSearch {
     pub fn first_hit_under(
         &self,
         p: &Patch,
-        (start, c0, r0): (usize, u32, u32),
+        node: (usize, u32, u32),
         o: DVec3,
         d: DVec3,
-        (t0, t1): (f64, f64),
+        span: (f64, f64),
     ) -> Option<f64> {
-        let (lo, hi) = clip_to_unit_box(o, d, t0, t1)?;
-        let ray = CellRay::new(p, o, d);
         if self.top() >= DESCENT_STACK / 4 {
-            return first_hit(p, o, d, t0, t1); // deeper than any map made: the plain walk
+            return first_hit(p, o, d, span.0, span.1); // deeper than any map made: the plain walk
         }
-        // Node k of `size` level-0 cells spans texel-centre coordinates
-        // [k size - 1, (k + 1) size - 1] (level-0 cell c lies left of texel c), cut at the map's
-        // last cell.
-        let (base_w, base_h) = (self.pyramid[0].0, self.pyramid[0].1);
-        let extent = |k: u32, size: u32, cells: u32| {
-            (
-                f64::from(k * size) - 1.0,
-                f64::from(((k + 1) * size).min(cells)) - 1.0,
-            )
-        };
-        let span_of = |level: usize, c: u32, r: u32, t1: f64| {
-            let size = 1u32 << level;
-            let (xs, ys) = (extent(c, size, base_w), extent(r, size, base_h));
-            ray.over(xs, ys, lo, t1)
-        };
-        let per_code = 1.0 / f64::from(p.code_max() - 1);
-        // (level, column, row, the ray's span over the node), nearest popped first among
-        // siblings; a fixed array, as this runs for every patch a ray enters.
-        let mut stack = [(0usize, 0u32, 0u32, (0.0f64, 0.0f64)); DESCENT_STACK];
-        stack[0] = (start, c0, r0, span_of(start, c0, r0, hi));
-        let mut waiting = 1;
-        let mut best = hi;
-        while waiting > 0 {
-            waiting -= 1;
-            let (level, c, r, (ta, tb)) = stack[waiting];
-            let tb = tb.min(best);
-            if ta > tb {
-                continue;
-            }
-            let (w, _, values) = &self.pyramid[level];
-            let v = values[(r * w + c) as usize];
-            if v == 0 {
-                continue;
-            }
-            // The bilinear surface stays within its corners' range; the ray's height is
-            // monotone.
-            let (za, zb) = (ray.oz + ray.dz * ta, ray.oz + ray.dz * tb);
-            let hmin = f64::from((v & 0xffff).max(1) - 1) * per_code;
-            let hmax = f64::from((v >> 16).max(1) - 1) * per_code;
-            const SLACK: f64 = 1e-9;
-            if za.max(zb) < hmin - SLACK || za.min(zb) > hmax + SLACK {
-                continue;
-            }
-            if level == 0 {
-                let (i, j) = (f64::from(c) - 1.0, f64::from(r) - 1.0);
-                let hit =
-                    (self.cell(p, c, r)).and_then(|cell| ray.crossing_in(&cell, i, j, ta, tb));
-                if let Some(t) = hit {
-                    best = best.min(t);
-                }
-                continue;
-            }
-            let (cw, ch) = (self.pyramid[level - 1].0, self.pyramid[level - 1].1);
-            // The (at most four) children, pushed farthest first so the nearest is next.
-            let mut children = [(0usize, 0u32, 0u32, (f64::INFINITY, 0.0)); 4];
-            let mut n = 0;
-            for (dc, dr) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
-                let (x, y) = (2 * c + dc, 2 * r + dr);
-                if x < cw && y < ch {
-                    let span = span_of(level - 1, x, y, best);
-                    if span.0 <= span.1 {
-                        children[n] = (level - 1, x, y, span);
-                        n += 1;
-                    }
-                }
-            }
-            children[..n].sort_unstable_by(|a, b| b.3 .0.total_cmp(&a.3 .0));
-            stack[waiting..waiting + n].copy_from_slice(&children[..n]);
-            waiting += n;
-        }
-        (best < hi).then_some(best)
+        descend(self, p, node, o, d, span)
     }
+}
+
+/// The cell whose corners are texels `at`, `at + 1`, `at + row` and `at + row + 1` of the
+/// height and outline codes `heights`, `outline` (rows `row` apart), or None where it holds
+/// no surface: every corner a height, some corner inside the outline.
+fn cell_of(heights: &[u16], outline: &[i8], at: usize, row: usize) -> Option<Cell> {
+    let corners = [at, at + 1, at + row, at + row + 1];
+    let codes = corners.map(|t| f64::from(heights[t]));
+    let outline = corners.map(|t| decode_outline(f64::from(outline[t])));
+    let some_inside = outline.iter().any(|&d| d >= 0.0);
+    (codes.iter().all(|&c| c > 0.0) && some_inside).then_some(Cell { codes, outline })
+}
+
+/// Every piece's pyramid values and cell corners, each piece's in one stretch of each array
+/// (`PackedPiece`): a descent reads a few hundred contiguous bytes, where the whole patch's
+/// pyramid levels and maps, megabytes apart, missed the cache at every level (measured: a load
+/// of a pyramid value stalled for a quarter of a frame's search time).
+#[derive(Default)]
+struct PackedPieces {
+    pieces: Vec<PackedPiece>,
+    values: Vec<u32>,
+    heights: Vec<u16>,
+    outline: Vec<i8>,
+}
+
+/// One piece: pyramid node (level, column, row) of patch `patch`, its values level by level
+/// from its own down to 0 (each row-major, 4^(level - l) at level l) from `values_at`, and the
+/// (2^level + 1)^2 padded texels its cells read from `texels_at`.
+#[derive(Clone, Copy)]
+struct PackedPiece {
+    patch: u32,
+    node: PyramidNode,
+    /// The patch's level-0 cells across and down.
+    base: (u32, u32),
+    values_at: usize,
+    texels_at: usize,
+}
+
+impl PackedPieces {
+    /// Appends the piece at `node` of `search` (patch `patch`, `p`).
+    fn push(&mut self, search: &PatchSearch, p: &Patch, patch: u32, node: PyramidNode) {
+        let (level, nc, nr) = node;
+        let base = search.base();
+        self.pieces.push(PackedPiece {
+            patch,
+            node,
+            base,
+            values_at: self.values.len(),
+            texels_at: self.heights.len(),
+        });
+        for l in (0..=level).rev() {
+            let n = 1u32 << (level - l);
+            let size = 1u32 << l;
+            let (w, h) = (base.0.div_ceil(size), base.1.div_ceil(size));
+            for y in nr * n..(nr + 1) * n {
+                for x in nc * n..(nc + 1) * n {
+                    let inside = x < w && y < h;
+                    self.values
+                        .push(if inside { search.value(l, x, y) } else { 0 });
+                }
+            }
+        }
+        let side = (1u32 << level) + 1;
+        let (first_c, first_r) = (nc << level, nr << level);
+        let padded = (p.width + 2, p.height + 2);
+        for y in first_r..first_r + side {
+            for x in first_c..first_c + side {
+                let t = (x < padded.0 && y < padded.1).then(|| (y * padded.0 + x) as usize);
+                self.heights.push(t.map_or(0, |t| search.heights[t]));
+                self.outline.push(t.map_or(0, |t| search.outline[t]));
+            }
+        }
+    }
+}
+
+/// A descent's view of one packed piece (nodes outside it are never asked for: a descent
+/// stays under its start node).
+struct PieceView<'a> {
+    packed: &'a PackedPieces,
+    piece: PackedPiece,
+}
+
+impl PyramidView for PieceView<'_> {
+    fn base(&self) -> (u32, u32) {
+        self.piece.base
+    }
+
+    fn value(&self, l: usize, c: u32, r: u32) -> u32 {
+        let (level, nc, nr) = self.piece.node;
+        let n = 1u32 << (level - l);
+        // Levels above l hold 1 + 4 + ... + 4^(level - l - 1) = (n^2 - 1) / 3 values.
+        let above = ((n * n - 1) / 3) as usize;
+        let (x, y) = (c - nc * n, r - nr * n);
+        self.packed.values[self.piece.values_at + above + (y * n + x) as usize]
+    }
+
+    fn cell(&self, _p: &Patch, c: u32, r: u32) -> Option<Cell> {
+        let (level, nc, nr) = self.piece.node;
+        let side = (1usize << level) + 1;
+        let (x, y) = ((c - (nc << level)) as usize, (r - (nr << level)) as usize);
+        let at = self.piece.texels_at + y * side + x;
+        cell_of(&self.packed.heights, &self.packed.outline, at, side)
+    }
+}
+
+/// What a pyramid descent reads: a patch's min-max pyramid and the cells' corners, from the
+/// whole patch (`PatchSearch`) or from one piece's packed copy (`PackedPieces`).
+trait PyramidView {
+    /// The level-0 cells across and down (the map's texels plus one).
+    fn base(&self) -> (u32, u32);
+    /// The pyramid's value at node (level, column, row): its cells' least and largest code,
+    /// 0 where it holds no surface.
+    fn value(&self, level: usize, c: u32, r: u32) -> u32;
+    /// Level-0 cell (c, r) (`cell_at(p, c - 1, r - 1)`), or None where it holds no surface.
+    fn cell(&self, p: &Patch, c: u32, r: u32) -> Option<Cell>;
+}
+
+impl PyramidView for PatchSearch {
+    fn base(&self) -> (u32, u32) {
+        (self.pyramid[0].0, self.pyramid[0].1)
+    }
+
+    fn value(&self, level: usize, c: u32, r: u32) -> u32 {
+        let (w, _, values) = &self.pyramid[level];
+        values[(r * w + c) as usize]
+    }
+
+    fn cell(&self, p: &Patch, c: u32, r: u32) -> Option<Cell> {
+        PatchSearch::cell(self, p, c, r)
+    }
+}
+
+/// The exact first crossing of the patch-local ray o + t d for t in the span with the cells
+/// under pyramid node `start` of `view`, nearest nodes first, skipping nodes whose height range
+/// the ray clears (at most 2^16 cells a side: DESCENT_STACK).
+fn descend(
+    view: &impl PyramidView,
+    p: &Patch,
+    (start, c0, r0): (usize, u32, u32),
+    o: DVec3,
+    d: DVec3,
+    (t0, t1): (f64, f64),
+) -> Option<f64> {
+    let (lo, hi) = clip_to_unit_box(o, d, t0, t1)?;
+    let ray = CellRay::new(p, o, d);
+    // Node k of `size` level-0 cells spans texel-centre coordinates
+    // [k size - 1, (k + 1) size - 1] (level-0 cell c lies left of texel c), cut at the map's
+    // last cell.
+    let (base_w, base_h) = view.base();
+    let extent = |k: u32, size: u32, cells: u32| {
+        (
+            f64::from(k * size) - 1.0,
+            f64::from(((k + 1) * size).min(cells)) - 1.0,
+        )
+    };
+    let span_of = |level: usize, c: u32, r: u32, t1: f64| {
+        let size = 1u32 << level;
+        let (xs, ys) = (extent(c, size, base_w), extent(r, size, base_h));
+        ray.over(xs, ys, lo, t1)
+    };
+    let per_code = 1.0 / f64::from(p.code_max() - 1);
+    // (level, column, row, the ray's span over the node), nearest popped first among
+    // siblings; a fixed array, as this runs for every patch a ray enters.
+    let mut stack = [(0usize, 0u32, 0u32, (0.0f64, 0.0f64)); DESCENT_STACK];
+    stack[0] = (start, c0, r0, span_of(start, c0, r0, hi));
+    let mut waiting = 1;
+    let mut best = hi;
+    while waiting > 0 {
+        waiting -= 1;
+        let (level, c, r, (ta, tb)) = stack[waiting];
+        let tb = tb.min(best);
+        if ta > tb {
+            continue;
+        }
+        let v = view.value(level, c, r);
+        if v == 0 {
+            continue;
+        }
+        // The bilinear surface stays within its corners' range; the ray's height is
+        // monotone.
+        let (za, zb) = (ray.oz + ray.dz * ta, ray.oz + ray.dz * tb);
+        let hmin = f64::from((v & 0xffff).max(1) - 1) * per_code;
+        let hmax = f64::from((v >> 16).max(1) - 1) * per_code;
+        const SLACK: f64 = 1e-9;
+        if za.max(zb) < hmin - SLACK || za.min(zb) > hmax + SLACK {
+            continue;
+        }
+        if level == 0 {
+            let (i, j) = (f64::from(c) - 1.0, f64::from(r) - 1.0);
+            let hit = (view.cell(p, c, r)).and_then(|cell| ray.crossing_in(&cell, i, j, ta, tb));
+            if let Some(t) = hit {
+                best = best.min(t);
+            }
+            continue;
+        }
+        // The child level's node counts: cells over the nodes' size, rounded up.
+        let size = 1u32 << (level - 1);
+        let (cw, ch) = (base_w.div_ceil(size), base_h.div_ceil(size));
+        // The (at most four) children, pushed farthest first so the nearest is next.
+        let mut children = [(0usize, 0u32, 0u32, (f64::INFINITY, 0.0)); 4];
+        let mut n = 0;
+        for (dc, dr) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+            let (x, y) = (2 * c + dc, 2 * r + dr);
+            if x < cw && y < ch {
+                let span = span_of(level - 1, x, y, best);
+                if span.0 <= span.1 {
+                    children[n] = (level - 1, x, y, span);
+                    n += 1;
+                }
+            }
+        }
+        children[..n].sort_unstable_by(|a, b| b.3 .0.total_cmp(&a.3 .0));
+        stack[waiting..waiting + n].copy_from_slice(&children[..n]);
+        waiting += n;
+    }
+    (best < hi).then_some(best)
 }
 
 /// A node of a patch's min-max pyramid: level, column, row.
@@ -571,12 +711,21 @@ const PIECE_LEVEL: usize = 3;
 /// space; each patch tests the ray in its patch-local unit box, where t keeps its meaning
 /// (world distance, for unit directions) since the map is affine.
 pub struct SetTracer {
-    patches: Vec<PatchSearch>,
-    /// Per piece: its patch and pyramid node.
-    pieces: Vec<(u32, PyramidNode)>,
+    /// Per piece: its patch, pyramid node and packed values.
+    pieces: PackedPieces,
+    /// Per piece, its box in the set's space.
+    boxes: Vec<crate::bvh::Aabb>,
     bvh: crate::bvh::Bvh,
     bounds: Vec<crate::bvh::Aabb>,
 }
+
+/// A plane n . p + c = 0 as (n, c); a bundle of rays lies where n . p + c >= 0 for each of
+/// its planes.
+pub type Plane = (DVec3, f64);
+
+/// The pieces a bundle of rays may meet, each with the least t its box allows, nearest first
+/// (`SetTracer::pieces_within`).
+pub type BundlePieces = Vec<(f64, u32)>;
 
 impl SetTracer {
     /// The pyramids are made on every core; the BVH over the pieces by the surface-area rule.
@@ -625,9 +774,15 @@ impl SetTracer {
         let boxes: Vec<Aabb> = all.iter().map(|piece| piece.2).collect();
         let bvh = Bvh::build(&boxes);
         let bounds = bvh.node_bounds(&boxes);
+        // Packed in the hierarchy's leaf order would be better still; in patch order each
+        // patch's pieces lie together, as its neighbours in space mostly do.
+        let mut pieces = PackedPieces::default();
+        for &(k, node, _) in &all {
+            pieces.push(&patches[k as usize], &set.patches[k as usize], k, node);
+        }
         SetTracer {
-            patches,
-            pieces: all.into_iter().map(|(k, node, _)| (k, node)).collect(),
+            pieces,
+            boxes,
             bvh,
             bounds,
         }
@@ -642,11 +797,15 @@ impl SetTracer {
         (origin, dir): (DVec3, DVec3),
         span: (f64, f64),
     ) -> Option<(f64, u32)> {
-        let (k, node) = self.pieces[i as usize];
-        let p = &set.patches[k as usize];
+        let piece = self.pieces.pieces[i as usize];
+        let p = &set.patches[piece.patch as usize];
         let (o, d) = patch_local_ray(p, origin, dir);
-        let t = self.patches[k as usize].first_hit_under(p, node, o, d, span)?;
-        Some((t, k))
+        let view = PieceView {
+            packed: &self.pieces,
+            piece,
+        };
+        let t = descend(&view, p, piece.node, o, d, span)?;
+        Some((t, piece.patch))
     }
 
     /// The nearest exact hit of the ray (origin, direction) for t in `span`: (t, patch index),
@@ -668,6 +827,62 @@ impl SetTracer {
             return (f64::INFINITY, -1);
         }
         (t, patch)
+    }
+
+    /// The pieces whose boxes may meet a ray of a bundle that lies inside `planes` (a frame's
+    /// tile: the rays through its pixels), each with the least of `depth` (an affine function
+    /// a . p + b, the rays' t) over its box, in increasing order of it.
+    pub fn pieces_within(&self, planes: &[Plane], (a, b): (DVec3, f64)) -> BundlePieces {
+        let corner =
+            |bx: &crate::bvh::Aabb, n: DVec3| DVec3::select(n.cmpge(DVec3::ZERO), bx.hi, bx.lo);
+        // Kept unless wholly outside a plane, past rounding: the box's farthest corner
+        // inside, with a margin of 1e-9 of the terms' size.
+        let keep = |bx: &crate::bvh::Aabb| {
+            planes.iter().all(|&(n, c)| {
+                let p = corner(bx, n);
+                let value = n.dot(p) + c;
+                value >= -1e-9 * (n.abs().dot(p.abs()) + c.abs())
+            })
+        };
+        let mut found = Vec::new();
+        self.bvh.select(&self.bounds, keep, |i| {
+            let least = a.dot(corner(&self.boxes[i as usize], -a)) + b;
+            found.push((least - 1e-9 * least.abs(), i));
+        });
+        found.sort_unstable_by(|x, y| x.0.total_cmp(&y.0));
+        found
+    }
+
+    /// `first_hit_within` of a ray of the bundle `pieces` came from (`pieces_within`, whose
+    /// depth is this ray's t): the pieces tested in their order until the nearest hit so far is
+    /// nearer than the next one's box can be.
+    pub fn first_hit_among(
+        &self,
+        set: &crate::gtex::GeometryTextureSet,
+        pieces: &[(f64, u32)],
+        origin: DVec3,
+        dir: DVec3,
+        span: (f64, f64),
+    ) -> (f64, i32) {
+        let inverse = dir.recip();
+        let (mut best, mut patch) = (span.1, -1);
+        for &(least, i) in pieces {
+            if least > best {
+                break;
+            }
+            if !self.boxes[i as usize].meets_inverse(origin, inverse, (span.0, best)) {
+                continue;
+            }
+            if let Some((t, k)) = self.piece_hit(set, i, (origin, dir), (span.0, best)) {
+                if t < best {
+                    (best, patch) = (t, k as i32);
+                }
+            }
+        }
+        if patch < 0 {
+            return (f64::INFINITY, -1);
+        }
+        (best, patch)
     }
 
     /// `first_hit_within` over the whole ray.
@@ -835,6 +1050,38 @@ pub fn min_max_pyramid(p: &Patch) -> Vec<(u32, u32, Vec<u32>)> {
         levels.push((nw, nh, next));
     }
     levels
+}
+
+/// Three turned patches of different sizes and height bits around (0.8, 0.5, 0), with holes
+/// and outlines through many cells, for tests.
+#[cfg(test)]
+pub(crate) fn turned_holed_set() -> crate::gtex::GeometryTextureSet {
+    let mut patches = Vec::new();
+    for k in 0..3u32 {
+        let mut p = test_patch(17 + 5 * k, 11 + 3 * k, [16, 8, 16][k as usize], |i, j| {
+            ((i * 7 + j * 3 + k) % 13 != 0).then(|| {
+                0.5 + 0.4
+                    * (f64::from(i) * 0.7 + f64::from(k)).sin()
+                    * (f64::from(j) * 0.5).cos()
+            })
+        });
+        p.outline = (0..p.texels())
+            .map(|t| [-128, -40, -1, 0, 3, 90, 127, 127, 127][(t + k as usize) % 9])
+            .collect();
+        let turn = glam::DQuat::from_axis_angle(
+            DVec3::new(1.0, 2.0, 0.5).normalize(),
+            0.6 * f64::from(k),
+        );
+        p.axes = [DVec3::X, DVec3::Y, DVec3::Z].map(|a| turn * a);
+        p.origin = DVec3::new(0.4 * f64::from(k), 0.1 * f64::from(k), -0.2 * f64::from(k));
+        p.extent = DVec3::new(1.0, 0.8, 0.3);
+        patches.push(p);
+    }
+    crate::gtex::GeometryTextureSet {
+        patches,
+        texel_size: 0.05,
+        stats: Default::default(),
+    }
 }
 
 /// A w x h patch over the unit cube with heights `f(i, j)` (None: empty texel), for tests.
@@ -1138,32 +1385,7 @@ mod tests {
     /// codes), turned and overlapping, and 4,000 rays from around them.
     #[test]
     fn set_tracer_finds_the_walks_hits_exactly() {
-        let mut patches = Vec::new();
-        for k in 0..3u32 {
-            let mut p = patch_bits(17 + 5 * k, 11 + 3 * k, [16, 8, 16][k as usize], |i, j| {
-                ((i * 7 + j * 3 + k) % 13 != 0).then(|| {
-                    0.5 + 0.4
-                        * (f64::from(i) * 0.7 + f64::from(k)).sin()
-                        * (f64::from(j) * 0.5).cos()
-                })
-            });
-            p.outline = (0..p.texels())
-                .map(|t| [-128, -40, -1, 0, 3, 90, 127, 127, 127][(t + k as usize) % 9])
-                .collect();
-            let turn = glam::DQuat::from_axis_angle(
-                DVec3::new(1.0, 2.0, 0.5).normalize(),
-                0.6 * f64::from(k),
-            );
-            p.axes = [DVec3::X, DVec3::Y, DVec3::Z].map(|a| turn * a);
-            p.origin = DVec3::new(0.4 * f64::from(k), 0.1 * f64::from(k), -0.2 * f64::from(k));
-            p.extent = DVec3::new(1.0, 0.8, 0.3);
-            patches.push(p);
-        }
-        let set = crate::gtex::GeometryTextureSet {
-            patches,
-            texel_size: 0.05,
-            stats: Default::default(),
-        };
+        let set = turned_holed_set();
         // xorshift: rays from a sphere of radius 3 around (0.8, 0.5, 0) toward its unit ball.
         let mut state = 0x9e37_79b9_7f4a_7c15u64;
         let mut unit = || {

@@ -32,11 +32,12 @@ use super::{
 use crate::cancel::Cancel;
 use crate::error::{GeomtexError, Result};
 use crate::gtex::GeometryTextureSet;
+use crate::heightfield::Plane;
 use crate::mesh::{Mesh, NormalRule};
 use crate::render::cull::DepthRange;
 use crate::render::kinds::UploadCache;
 pub(crate) use mesh::MeshTracer;
-use scene::{SceneTrace, Traced};
+use scene::{Bundle, SceneTrace, Traced};
 use set::SetSearch;
 
 /// The largest image side the CPU backend draws (the GPU's usual limit; memory is the bound).
@@ -303,18 +304,23 @@ fn trace_pixels(
     // The rays' parameter is the view's z-depth (their direction has z = -1 in view space, or
     // is the unit forward axis for an orthographic camera): the span is the lens's.
     let span = (lens.near, lens.far);
-    let pixel = |x: usize, y: usize| -> Option<PixelHit> {
+    // The rays' t as a function of the point: its view z-depth.
+    let row = camera.view_from_world().row(2);
+    let depth = (-row.truncate(), -row.w);
+    let pixel = |bundle: &Bundle, x: usize, y: usize| -> Option<PixelHit> {
         let (o, d) = lines.at(x as f64 + 0.5, y as f64 + 0.5);
-        let hit = trace.nearest(o, d, span)?;
+        let hit = trace.nearest_in(bundle, o, d, span)?;
         let (n, color) = (trace.normal(&hit, o, d, false), trace.color(&hit, o, d));
         // Headlight (camera_functions.wgsl): light comes from the eye.
         let light = 0.25 + 0.75 * n.dot(d.normalize()).abs();
         let normal = n.as_vec3().to_array();
         Some((hit.t as f32, trace.id(&hit), normal, color, light))
     };
-    // Bands of TILE rows on every core, each walked in TILE x TILE tiles: the rays of a tile
-    // meet the same few nodes and cells, which stay in cache (a row's rays cross the whole
-    // object, and most of a frame's time was cache misses).
+    // Bands of TILE rows on every core, each cut into TILE x TILE tiles. What a tile's rays
+    // may meet is found once for the tile (`SceneTrace::bundle`: a set's pieces inside the
+    // tile's frustum, nearest first), so each ray tests a few pieces in order instead of
+    // walking the whole hierarchy; and a tile's rays meet the same nodes and cells, which stay
+    // in cache.
     const TILE: usize = 8;
     let mut hits = vec![None; w * h];
     hits.par_chunks_mut(w * TILE)
@@ -323,10 +329,14 @@ fn trace_pixels(
             if cancel.is_cancelled() {
                 return;
             }
+            let y0 = band * TILE;
+            let y1 = y0 + rows.len() / w;
             for x0 in (0..w).step_by(TILE) {
+                let x1 = (x0 + TILE).min(w);
+                let bundle = trace.bundle(&tile_planes(&lines, (x0, x1), (y0, y1)), depth);
                 for (dy, row) in rows.chunks_mut(w).enumerate() {
-                    for (x, out) in row.iter_mut().enumerate().skip(x0).take(TILE) {
-                        *out = pixel(x, band * TILE + dy);
+                    for (x, out) in row.iter_mut().enumerate().take(x1).skip(x0) {
+                        *out = pixel(&bundle, x, y0 + dy);
                     }
                 }
             }
@@ -338,6 +348,27 @@ fn trace_pixels(
         hits,
         patches,
         meshes,
+    })
+}
+
+/// The four planes around the rays through pixels [x0, x1) x [y0, y1) (through the tile's
+/// corners, pixel centres strictly inside): (n, c) with n . p + c >= 0 inside.
+fn tile_planes(
+    lines: &super::camera::PixelLines,
+    (x0, x1): (usize, usize),
+    (y0, y1): (usize, usize),
+) -> [Plane; 4] {
+    let (x0, x1, y0, y1) = (x0 as f64, x1 as f64, y0 as f64, y1 as f64);
+    let corners = [(x0, y0), (x1, y0), (x1, y1), (x0, y1)].map(|(x, y)| lines.at(x, y));
+    let (oc, dc) = lines.at(0.5 * (x0 + x1), 0.5 * (y0 + y1));
+    let inside = oc + dc;
+    std::array::from_fn(|k| {
+        let ((oa, da), (ob, db)) = (corners[k], corners[(k + 1) % 4]);
+        // The side through lines a and b: spanned by a's direction and the step to b (for a
+        // pinhole the origins coincide; for an orthographic camera the directions do).
+        let n = da.cross(ob + db - oa);
+        let n = if n.dot(inside - oa) < 0.0 { -n } else { n };
+        (n, -n.dot(oa))
     })
 }
 
@@ -469,5 +500,63 @@ impl RayBackend for CpuRenderer {
         Ok((rays.par_iter().zip(ranges))
             .map(|(&(o, d), &span)| trace.first_found(o, d, span).map_or(-1, |h| trace.id(&h)))
             .collect())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::{DMat4, DQuat};
+
+    /// Every pixel ray of a tile finds in the tile's bundle (its frustum's pieces) the hit the
+    /// whole hierarchy gives it, for a perspective and an orthographic camera and a set placed
+    /// turned, scaled and moved: the planes and the depth bound never drop a piece a ray meets.
+    #[test]
+    fn a_tiles_bundle_holds_what_its_rays_meet() {
+        let set = Arc::new(crate::heightfield::turned_holed_set());
+        let placement = DMat4::from_scale_rotation_translation(
+            DVec3::splat(1.7),
+            DQuat::from_rotation_y(0.4),
+            DVec3::new(0.3, -0.2, 0.5),
+        );
+        let trace = SceneTrace::new(vec![(
+            Traced::Set(Arc::new(SetSearch::new(set))),
+            placement,
+        )]);
+        let target = placement.transform_point3(DVec3::new(0.8, 0.5, 0.0));
+        let (w, h) = (96u32, 64u32);
+        let cameras = [
+            Camera::look_at(target + DVec3::new(1.0, 2.0, 3.5), target, DVec3::Y, 40.0).unwrap(),
+            Camera::orthographic(
+                DMat4::from_translation(target + DVec3::new(0.0, 0.0, 4.0)),
+                2.5,
+            )
+            .unwrap(),
+        ];
+        for camera in cameras {
+            let lens = camera.lens(w, h, 0.5, 20.0).unwrap();
+            let lines = camera.pixel_lines(&lens);
+            let row = camera.view_from_world().row(2);
+            let depth = (-row.truncate(), -row.w);
+            let (mut hits, mut tiles) = (0, 0);
+            for y0 in (0..h as usize).step_by(8) {
+                for x0 in (0..w as usize).step_by(8) {
+                    let planes = tile_planes(&lines, (x0, x0 + 8), (y0, y0 + 8));
+                    let bundle = trace.bundle(&planes, depth);
+                    tiles += usize::from(!bundle.is_empty());
+                    for (x, y) in (y0..y0 + 8).flat_map(|y| (x0..x0 + 8).map(move |x| (x, y))) {
+                        let (o, d) = lines.at(x as f64 + 0.5, y as f64 + 0.5);
+                        let span = (lens.near, lens.far);
+                        let whole = trace.nearest(o, d, span).map(|hit| (hit.t, trace.id(&hit)));
+                        let tiled = trace.nearest_in(&bundle, o, d, span);
+                        assert_eq!(whole, tiled.map(|hit| (hit.t, trace.id(&hit))), "({x}, {y})");
+                        hits += usize::from(whole.is_some());
+                    }
+                }
+            }
+            // Measured: 722 and 266 of the 6,144 pixels hit; 45 and 17 of the 96 tiles hold
+            // pieces (the rest are culled whole).
+            assert!(hits > 150 && tiles < 70, "{hits} hits, {tiles} tiles with pieces");
+        }
     }
 }

@@ -13,6 +13,7 @@ use glam::{DMat3, DMat4, DVec3};
 use super::mesh::{FaceHit, MeshTracer};
 use super::set::SetSearch;
 use crate::bvh::Aabb;
+use crate::heightfield::{BundlePieces, Plane};
 use crate::render::error_bound::ObjectIds;
 
 /// An object's hierarchy.
@@ -55,6 +56,20 @@ pub(crate) struct Hit {
 pub(crate) enum Part {
     Patch(u32),
     Face(FaceHit),
+}
+
+/// What a bundle of rays may meet (`SceneTrace::bundle`): objects by index, and for a set the
+/// pieces its rays may meet, nearest first.
+pub(crate) struct Bundle {
+    objects: Vec<(usize, Option<BundlePieces>)>,
+}
+
+impl Bundle {
+    /// Whether the bundle's rays can meet nothing.
+    #[cfg(test)]
+    pub fn is_empty(&self) -> bool {
+        self.objects.is_empty()
+    }
 }
 
 pub(crate) struct SceneTrace {
@@ -124,12 +139,74 @@ impl SceneTrace {
     /// The nearest hit of the world ray o + t d for t in `span` (d of any length: t is its
     /// parameter), or None.
     pub fn nearest(&self, o: DVec3, d: DVec3, span: (f64, f64)) -> Option<Hit> {
+        self.nearest_of(self.candidates(o, d, span).map(|c| (c, None)), span)
+    }
+
+    /// What the rays of a bundle (a frame's tile) may meet, found once for all of them: the
+    /// objects whose boxes meet the bundle, and for sets the pieces that may (nearest first).
+    /// The bundle lies inside `planes` (world space), and `depth` (a . p + b) is the rays' t.
+    pub fn bundle(&self, planes: &[Plane], (a, b): (DVec3, f64)) -> Bundle {
+        let objects = (self.placed.iter().enumerate())
+            .filter_map(|(k, placed)| {
+                // Planes and depth in the object's space: p = M q + m gives
+                // n . p + c = (M^T n) . q + (n . m + c).
+                let world_from_object = placed.object_from_world.inverse();
+                let linear_t = DMat3::from_mat4(world_from_object).transpose();
+                let shift = world_from_object.w_axis.truncate();
+                let to_object = |(n, c): Plane| (linear_t * n, n.dot(shift) + c);
+                let local: Vec<Plane> = planes.iter().map(|&p| to_object(p)).collect();
+                let pieces = match &placed.traced {
+                    Traced::Set(s) => {
+                        let found = s.tracer.pieces_within(&local, to_object((a, b)));
+                        if found.is_empty() {
+                            return None;
+                        }
+                        Some(found)
+                    }
+                    Traced::Mesh(_) => None,
+                };
+                Some((k, pieces))
+            })
+            .collect();
+        Bundle { objects }
+    }
+
+    /// `nearest` for a ray of `bundle`: only what the bundle may meet is tested.
+    pub fn nearest_in(&self, bundle: &Bundle, o: DVec3, d: DVec3, span: (f64, f64)) -> Option<Hit> {
+        let inverse = d.recip();
+        let objects = (bundle.objects.iter())
+            .filter(|(k, _)| self.placed[*k].world_box.meets_inverse(o, inverse, span))
+            .map(|(k, pieces)| {
+                let m = &self.placed[*k].object_from_world;
+                let candidate = (
+                    *k,
+                    &self.placed[*k],
+                    m.transform_point3(o),
+                    m.transform_vector3(d),
+                );
+                (candidate, pieces.as_deref())
+            });
+        self.nearest_of(objects, span)
+    }
+
+    /// The nearest hit among `objects` (each with the ray in its space, and for a set in a
+    /// bundle the pieces to test), for t in `span`.
+    fn nearest_of<'a>(
+        &self,
+        objects: impl Iterator<Item = ((usize, &'a Placed, DVec3, DVec3), Option<&'a [(f64, u32)]>)>,
+        span: (f64, f64),
+    ) -> Option<Hit> {
         let mut best: Option<Hit> = None;
-        for (object, placed, lo, ld) in self.candidates(o, d, span) {
+        for ((object, placed, lo, ld), pieces) in objects {
             let within = (span.0, best.map_or(span.1, |b| b.t));
-            let hit = match &placed.traced {
-                Traced::Set(s) => s.nearest(lo, ld, within).map(|(t, k)| (t, Part::Patch(k))),
-                Traced::Mesh(m) => m.nearest(lo, ld, within).map(|h| (h.t, Part::Face(h))),
+            let hit = match (&placed.traced, pieces) {
+                (Traced::Set(s), Some(pieces)) => {
+                    (s.nearest_among(pieces, lo, ld, within)).map(|(t, k)| (t, Part::Patch(k)))
+                }
+                (Traced::Set(s), None) => {
+                    s.nearest(lo, ld, within).map(|(t, k)| (t, Part::Patch(k)))
+                }
+                (Traced::Mesh(m), _) => m.nearest(lo, ld, within).map(|h| (h.t, Part::Face(h))),
             };
             if let Some((t, part)) = hit.filter(|h| h.0 <= within.1) {
                 best = Some(Hit { t, object, part });

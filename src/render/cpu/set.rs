@@ -48,6 +48,18 @@ impl SetSearch {
         (k >= 0).then_some((t, k as u32))
     }
 
+    /// `nearest` of a ray of the bundle `pieces` came from (`SetTracer::pieces_within`).
+    pub fn nearest_among(
+        &self,
+        pieces: &[(f64, u32)],
+        o: DVec3,
+        d: DVec3,
+        span: (f64, f64),
+    ) -> Option<(f64, u32)> {
+        let (t, k) = self.tracer.first_hit_among(&self.set, pieces, o, d, span);
+        (k >= 0).then_some((t, k as u32))
+    }
+
     pub fn any(&self, o: DVec3, d: DVec3, span: (f64, f64)) -> bool {
         self.tracer.any_hit(&self.set, o, d, span)
     }
