@@ -1060,18 +1060,14 @@ pub(crate) fn turned_holed_set() -> crate::gtex::GeometryTextureSet {
     for k in 0..3u32 {
         let mut p = test_patch(17 + 5 * k, 11 + 3 * k, [16, 8, 16][k as usize], |i, j| {
             ((i * 7 + j * 3 + k) % 13 != 0).then(|| {
-                0.5 + 0.4
-                    * (f64::from(i) * 0.7 + f64::from(k)).sin()
-                    * (f64::from(j) * 0.5).cos()
+                0.5 + 0.4 * (f64::from(i) * 0.7 + f64::from(k)).sin() * (f64::from(j) * 0.5).cos()
             })
         });
         p.outline = (0..p.texels())
             .map(|t| [-128, -40, -1, 0, 3, 90, 127, 127, 127][(t + k as usize) % 9])
             .collect();
-        let turn = glam::DQuat::from_axis_angle(
-            DVec3::new(1.0, 2.0, 0.5).normalize(),
-            0.6 * f64::from(k),
-        );
+        let turn =
+            glam::DQuat::from_axis_angle(DVec3::new(1.0, 2.0, 0.5).normalize(), 0.6 * f64::from(k));
         p.axes = [DVec3::X, DVec3::Y, DVec3::Z].map(|a| turn * a);
         p.origin = DVec3::new(0.4 * f64::from(k), 0.1 * f64::from(k), -0.2 * f64::from(k));
         p.extent = DVec3::new(1.0, 0.8, 0.3);
