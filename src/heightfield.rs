@@ -705,8 +705,8 @@ type PyramidNode = (usize, u32, u32);
 const PIECE_LEVEL: usize = 3;
 
 /// A set made ready for ray queries on the CPU: a BVH over pieces of the patches (pyramid nodes
-/// of `PIECE_LEVEL`, each in a box around its cells' surface), each searched down its patch's
-/// min-max pyramid (`PatchSearch`). It holds no reference to the set: the caller passes the
+/// of `PIECE_LEVEL`, each in a box around its cells' surface), each searched down its own
+/// packed copy of its patch's min-max pyramid (`PackedPieces`). It holds no reference to the set: the caller passes the
 /// same set it was made from (the CPU backend keeps both together). Spaces: rays in the set's
 /// space; each patch tests the ray in its patch-local unit box, where t keeps its meaning
 /// (world distance, for unit directions) since the map is affine.

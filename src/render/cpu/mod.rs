@@ -7,7 +7,8 @@
 //! while the object lives (`UploadCache`, as the GPU keeps uploads).
 //!
 //! A render reads as the GPU's: prepare (hierarchies, depth range, lens) → trace (one ray per
-//! pixel centre) → finish (error bounds, coverage, shadows as asked).
+//! pixel centre, in 8 x 8 tiles, each tile's candidates found once: `SceneTrace::bundle`) →
+//! finish (error bounds, coverage, shadows as asked).
 //!
 //! Spaces: world (f64); each object's own, placed by `world_from_object`; camera rays are the
 //! GPU's (`Camera::pixel_lines`), whose parameter is the view's z-depth.

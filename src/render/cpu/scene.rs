@@ -2,9 +2,14 @@
 //! between frames by `CpuRenderer`), placed by its `world_from_object`, with the ids the GPU
 //! backend gives (patches 0.. across the sets in scene order, -2 - k for the k-th mesh).
 //!
+//! A frame's rays come in bundles (8 x 8 pixel tiles): `bundle` finds once what a tile's rays
+//! may meet — the objects, and a set's pieces inside the tile's frustum, nearest first — and
+//! `nearest_in` tests only that for each of its rays.
+//!
 //! Spaces: rays arrive in world space (f64) and are taken into each object's space by its
 //! inverse placement, keeping their parameter t; normals return to world space by the inverse
-//! transpose.
+//! transpose; a bundle's planes and depth go into each object's space by the transpose of its
+//! placement's linear part.
 
 use std::sync::Arc;
 
