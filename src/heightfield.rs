@@ -855,28 +855,40 @@ impl SetTracer {
 
     /// `first_hit_within` of a ray of the bundle `pieces` came from (`pieces_within`, whose
     /// depth is this ray's t): the pieces tested in their order until the nearest hit so far is
-    /// nearer than the next one's box can be.
+    /// nearer than the next one's box can be. The piece in `last` (the one the bundle's
+    /// previous ray hit) is tested first: neighbouring pixels mostly hit one piece, and a hit
+    /// found early shortens every other piece's search. `last` is left at this ray's piece.
     pub fn first_hit_among(
         &self,
         set: &crate::gtex::GeometryTextureSet,
         pieces: &[(f64, u32)],
-        origin: DVec3,
-        dir: DVec3,
+        last: &std::cell::Cell<Option<u32>>,
+        (origin, dir): (DVec3, DVec3),
         span: (f64, f64),
     ) -> (f64, i32) {
         let inverse = dir.recip();
         let (mut best, mut patch) = (span.1, -1);
+        let hint = last.get();
+        let mut test = |i: u32, best: &mut f64| {
+            if !self.boxes[i as usize].meets_inverse(origin, inverse, (span.0, *best)) {
+                return;
+            }
+            if let Some((t, k)) = self.piece_hit(set, i, (origin, dir), (span.0, *best)) {
+                if t < *best {
+                    (*best, patch) = (t, k as i32);
+                    last.set(Some(i));
+                }
+            }
+        };
+        if let Some(i) = hint {
+            test(i, &mut best);
+        }
         for &(least, i) in pieces {
             if least > best {
                 break;
             }
-            if !self.boxes[i as usize].meets_inverse(origin, inverse, (span.0, best)) {
-                continue;
-            }
-            if let Some((t, k)) = self.piece_hit(set, i, (origin, dir), (span.0, best)) {
-                if t < best {
-                    (best, patch) = (t, k as i32);
-                }
+            if Some(i) != hint {
+                test(i, &mut best);
             }
         }
         if patch < 0 {
@@ -895,16 +907,28 @@ impl SetTracer {
         self.first_hit_within(set, origin, dir, (0.0, f64::INFINITY))
     }
 
-    /// Whether the ray hits any patch for t in `span` (stops at the first found).
+    /// Whether the ray hits any patch for t in `span` (stops at the first found). The piece in
+    /// `last` (one a neighbouring ray hit) is tested first: shadow rays of neighbouring pixels
+    /// are mostly stopped by one piece; `last` is left at the piece found, if any.
     pub fn any_hit(
         &self,
         set: &crate::gtex::GeometryTextureSet,
-        origin: DVec3,
-        dir: DVec3,
+        (origin, dir): (DVec3, DVec3),
         span: (f64, f64),
+        last: &std::cell::Cell<Option<u32>>,
     ) -> bool {
+        let hits = |i: u32| self.piece_hit(set, i, (origin, dir), span).is_some();
+        if let Some(i) = last.get() {
+            if self.boxes[i as usize].meets_inverse(origin, dir.recip(), span) && hits(i) {
+                return true;
+            }
+        }
         self.bvh.any(&self.bounds, origin, dir, span, |i| {
-            self.piece_hit(set, i, (origin, dir), span).is_some()
+            let found = hits(i);
+            if found {
+                last.set(Some(i));
+            }
+            found
         })
     }
 

@@ -11,6 +11,7 @@
 //! transpose; a bundle's planes and depth go into each object's space by the transpose of its
 //! placement's linear part.
 
+use std::cell::Cell;
 use std::sync::Arc;
 
 use glam::{DMat3, DMat4, DVec3};
@@ -66,7 +67,17 @@ pub(crate) enum Part {
 /// What a bundle of rays may meet (`SceneTrace::bundle`): objects by index, and for a set the
 /// pieces its rays may meet, nearest first.
 pub(crate) struct Bundle {
-    objects: Vec<(usize, Option<BundlePieces>)>,
+    objects: Vec<BundleObject>,
+}
+
+/// A set's share of a bundle: its pieces, and the piece the bundle's last ray hit.
+type BundleSet<'a> = (&'a [(f64, u32)], &'a Cell<Option<u32>>);
+
+/// An object a bundle's rays may meet: its index, for a set the pieces they may meet and the
+/// piece the bundle's last ray hit (tested first by the next one).
+struct BundleObject {
+    object: usize,
+    pieces: Option<(BundlePieces, Cell<Option<u32>>)>,
 }
 
 impl Bundle {
@@ -166,11 +177,11 @@ impl SceneTrace {
                         if found.is_empty() {
                             return None;
                         }
-                        Some(found)
+                        Some((found, Cell::new(None)))
                     }
                     Traced::Mesh(_) => None,
                 };
-                Some((k, pieces))
+                Some(BundleObject { object: k, pieces })
             })
             .collect();
         Bundle { objects }
@@ -180,16 +191,21 @@ impl SceneTrace {
     pub fn nearest_in(&self, bundle: &Bundle, o: DVec3, d: DVec3, span: (f64, f64)) -> Option<Hit> {
         let inverse = d.recip();
         let objects = (bundle.objects.iter())
-            .filter(|(k, _)| self.placed[*k].world_box.meets_inverse(o, inverse, span))
-            .map(|(k, pieces)| {
-                let m = &self.placed[*k].object_from_world;
+            .filter(|b| {
+                self.placed[b.object]
+                    .world_box
+                    .meets_inverse(o, inverse, span)
+            })
+            .map(|b| {
+                let m = &self.placed[b.object].object_from_world;
                 let candidate = (
-                    *k,
-                    &self.placed[*k],
+                    b.object,
+                    &self.placed[b.object],
                     m.transform_point3(o),
                     m.transform_vector3(d),
                 );
-                (candidate, pieces.as_deref())
+                let pieces = b.pieces.as_ref().map(|(p, last)| (p.as_slice(), last));
+                (candidate, pieces)
             });
         self.nearest_of(objects, span)
     }
@@ -198,7 +214,7 @@ impl SceneTrace {
     /// bundle the pieces to test), for t in `span`.
     fn nearest_of<'a>(
         &self,
-        objects: impl Iterator<Item = ((usize, &'a Placed, DVec3, DVec3), Option<&'a [(f64, u32)]>)>,
+        objects: impl Iterator<Item = ((usize, &'a Placed, DVec3, DVec3), Option<BundleSet<'a>>)>,
         span: (f64, f64),
     ) -> Option<Hit> {
         let mut best: Option<Hit> = None;
@@ -233,11 +249,26 @@ impl SceneTrace {
             })
     }
 
-    /// Whether the world ray meets anything for t in `span` (stops at the first found).
-    pub fn any(&self, o: DVec3, d: DVec3, span: (f64, f64)) -> bool {
+    /// Whether the world ray meets anything for t in `span` (stops at the first found). `last`
+    /// holds the set piece (object, piece) that stopped a neighbouring ray, tested first here,
+    /// and is left at this ray's, if a set's.
+    pub fn any_after(
+        &self,
+        o: DVec3,
+        d: DVec3,
+        span: (f64, f64),
+        last: &Cell<Option<(usize, u32)>>,
+    ) -> bool {
         self.candidates(o, d, span)
-            .any(|(_, placed, lo, ld)| match &placed.traced {
-                Traced::Set(s) => s.any(lo, ld, span),
+            .any(|(k, placed, lo, ld)| match &placed.traced {
+                Traced::Set(s) => {
+                    let piece = Cell::new(last.get().filter(|h| h.0 == k).map(|h| h.1));
+                    let found = s.any(lo, ld, span, &piece);
+                    if let Some(p) = piece.get().filter(|_| found) {
+                        last.set(Some((k, p)));
+                    }
+                    found
+                }
                 Traced::Mesh(m) => m.any(lo, ld, span),
             })
     }

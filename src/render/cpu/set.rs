@@ -48,20 +48,29 @@ impl SetSearch {
         (k >= 0).then_some((t, k as u32))
     }
 
-    /// `nearest` of a ray of the bundle `pieces` came from (`SetTracer::pieces_within`).
+    /// `nearest` of a ray of the bundle `pieces` came from (`SetTracer::pieces_within`), the
+    /// piece its last ray hit in `last` (`SetTracer::first_hit_among`).
     pub fn nearest_among(
         &self,
-        pieces: &[(f64, u32)],
+        (pieces, last): (&[(f64, u32)], &std::cell::Cell<Option<u32>>),
         o: DVec3,
         d: DVec3,
         span: (f64, f64),
     ) -> Option<(f64, u32)> {
-        let (t, k) = self.tracer.first_hit_among(&self.set, pieces, o, d, span);
+        let (t, k) = (self.tracer).first_hit_among(&self.set, pieces, last, (o, d), span);
         (k >= 0).then_some((t, k as u32))
     }
 
-    pub fn any(&self, o: DVec3, d: DVec3, span: (f64, f64)) -> bool {
-        self.tracer.any_hit(&self.set, o, d, span)
+    /// Whether the ray meets the set within `span`, the piece a neighbouring ray was stopped
+    /// by in `last` (`SetTracer::any_hit`).
+    pub fn any(
+        &self,
+        o: DVec3,
+        d: DVec3,
+        span: (f64, f64),
+        last: &std::cell::Cell<Option<u32>>,
+    ) -> bool {
+        self.tracer.any_hit(&self.set, (o, d), span, last)
     }
 
     pub fn all(&self, o: DVec3, d: DVec3, span: (f64, f64)) -> Vec<(f64, i32)> {
