@@ -855,40 +855,27 @@ impl SetTracer {
 
     /// `first_hit_within` of a ray of the bundle `pieces` came from (`pieces_within`, whose
     /// depth is this ray's t): the pieces tested in their order until the nearest hit so far is
-    /// nearer than the next one's box can be. The piece in `last` (the one the bundle's
-    /// previous ray hit) is tested first: neighbouring pixels mostly hit one piece, and a hit
-    /// found early shortens every other piece's search. `last` is left at this ray's piece.
+    /// nearer than the next one's box can be.
     pub fn first_hit_among(
         &self,
         set: &crate::gtex::GeometryTextureSet,
         pieces: &[(f64, u32)],
-        last: &std::cell::Cell<Option<u32>>,
         (origin, dir): (DVec3, DVec3),
         span: (f64, f64),
     ) -> (f64, i32) {
         let inverse = dir.recip();
         let (mut best, mut patch) = (span.1, -1);
-        let hint = last.get();
-        let mut test = |i: u32, best: &mut f64| {
-            if !self.boxes[i as usize].meets_inverse(origin, inverse, (span.0, *best)) {
-                return;
-            }
-            if let Some((t, k)) = self.piece_hit(set, i, (origin, dir), (span.0, *best)) {
-                if t < *best {
-                    (*best, patch) = (t, k as i32);
-                    last.set(Some(i));
-                }
-            }
-        };
-        if let Some(i) = hint {
-            test(i, &mut best);
-        }
         for &(least, i) in pieces {
             if least > best {
                 break;
             }
-            if Some(i) != hint {
-                test(i, &mut best);
+            if !self.boxes[i as usize].meets_inverse(origin, inverse, (span.0, best)) {
+                continue;
+            }
+            if let Some((t, k)) = self.piece_hit(set, i, (origin, dir), (span.0, best)) {
+                if t < best {
+                    (best, patch) = (t, k as i32);
+                }
             }
         }
         if patch < 0 {

@@ -70,14 +70,10 @@ pub(crate) struct Bundle {
     objects: Vec<BundleObject>,
 }
 
-/// A set's share of a bundle: its pieces, and the piece the bundle's last ray hit.
-type BundleSet<'a> = (&'a [(f64, u32)], &'a Cell<Option<u32>>);
-
-/// An object a bundle's rays may meet: its index, for a set the pieces they may meet and the
-/// piece the bundle's last ray hit (tested first by the next one).
+/// An object a bundle's rays may meet: its index, and for a set the pieces they may meet.
 struct BundleObject {
     object: usize,
-    pieces: Option<(BundlePieces, Cell<Option<u32>>)>,
+    pieces: Option<BundlePieces>,
 }
 
 impl Bundle {
@@ -177,7 +173,7 @@ impl SceneTrace {
                         if found.is_empty() {
                             return None;
                         }
-                        Some((found, Cell::new(None)))
+                        Some(found)
                     }
                     Traced::Mesh(_) => None,
                 };
@@ -204,7 +200,7 @@ impl SceneTrace {
                     m.transform_point3(o),
                     m.transform_vector3(d),
                 );
-                let pieces = b.pieces.as_ref().map(|(p, last)| (p.as_slice(), last));
+                let pieces = b.pieces.as_deref();
                 (candidate, pieces)
             });
         self.nearest_of(objects, span)
@@ -214,7 +210,7 @@ impl SceneTrace {
     /// bundle the pieces to test), for t in `span`.
     fn nearest_of<'a>(
         &self,
-        objects: impl Iterator<Item = ((usize, &'a Placed, DVec3, DVec3), Option<BundleSet<'a>>)>,
+        objects: impl Iterator<Item = ((usize, &'a Placed, DVec3, DVec3), Option<&'a [(f64, u32)]>)>,
         span: (f64, f64),
     ) -> Option<Hit> {
         let mut best: Option<Hit> = None;

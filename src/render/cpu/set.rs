@@ -48,16 +48,15 @@ impl SetSearch {
         (k >= 0).then_some((t, k as u32))
     }
 
-    /// `nearest` of a ray of the bundle `pieces` came from (`SetTracer::pieces_within`), the
-    /// piece its last ray hit in `last` (`SetTracer::first_hit_among`).
+    /// `nearest` of a ray of the bundle `pieces` came from (`SetTracer::pieces_within`).
     pub fn nearest_among(
         &self,
-        (pieces, last): (&[(f64, u32)], &std::cell::Cell<Option<u32>>),
+        pieces: &[(f64, u32)],
         o: DVec3,
         d: DVec3,
         span: (f64, f64),
     ) -> Option<(f64, u32)> {
-        let (t, k) = (self.tracer).first_hit_among(&self.set, pieces, last, (o, d), span);
+        let (t, k) = (self.tracer).first_hit_among(&self.set, pieces, (o, d), span);
         (k >= 0).then_some((t, k as u32))
     }
 
