@@ -42,12 +42,23 @@ impl Traced {
 struct Placed {
     traced: Traced,
     object_from_world: DMat4,
+    /// A plane or affine function of world points as one of object points: the transpose of
+    /// the placement's linear part, and its translation (n . p + c = (L^T n) . q + n . m + c).
+    plane_to_object: (DMat3, DVec3),
     /// World normals from object normals: the inverse transpose of the placement's linear part.
     world_normal_from_object: DMat3,
     /// The object's box in world space (a ray that misses it skips the object).
     world_box: Aabb,
     /// Its first patch id (sets) or its mesh id -2 - k (meshes).
     first_id: i32,
+}
+
+impl Placed {
+    /// Object `k` (this one) with the world ray o + t d in its space, t kept.
+    fn ray_in(&self, k: usize, o: DVec3, d: DVec3) -> (usize, &Placed, DVec3, DVec3) {
+        let m = &self.object_from_world;
+        (k, self, m.transform_point3(o), m.transform_vector3(d))
+    }
 }
 
 /// Where a ray met the scene: its t, the object, and the patch or face.
@@ -123,6 +134,7 @@ impl SceneTrace {
                 Placed {
                     traced,
                     object_from_world: world_from_object.inverse(),
+                    plane_to_object: (linear.transpose(), world_from_object.w_axis.truncate()),
                     world_normal_from_object: linear.inverse().transpose(),
                     world_box,
                     first_id,
@@ -142,10 +154,7 @@ impl SceneTrace {
         let inverse = d.recip();
         (self.placed.iter().enumerate())
             .filter(move |(_, p)| p.world_box.meets_inverse(o, inverse, span))
-            .map(move |(k, p)| {
-                let m = &p.object_from_world;
-                (k, p, m.transform_point3(o), m.transform_vector3(d))
-            })
+            .map(move |(k, p)| p.ray_in(k, o, d))
     }
 
     /// The nearest hit of the world ray o + t d for t in `span` (d of any length: t is its
@@ -160,11 +169,8 @@ impl SceneTrace {
     pub fn bundle(&self, planes: &[Plane], (a, b): (DVec3, f64)) -> Bundle {
         let objects = (self.placed.iter().enumerate())
             .filter_map(|(k, placed)| {
-                // Planes and depth in the object's space: p = M q + m gives
-                // n . p + c = (M^T n) . q + (n . m + c).
-                let world_from_object = placed.object_from_world.inverse();
-                let linear_t = DMat3::from_mat4(world_from_object).transpose();
-                let shift = world_from_object.w_axis.truncate();
+                // Planes and depth in the object's space.
+                let (linear_t, shift) = placed.plane_to_object;
                 let to_object = |(n, c): Plane| (linear_t * n, n.dot(shift) + c);
                 let local: Vec<Plane> = planes.iter().map(|&p| to_object(p)).collect();
                 let pieces = match &placed.traced {
@@ -193,15 +199,10 @@ impl SceneTrace {
                     .meets_inverse(o, inverse, span)
             })
             .map(|b| {
-                let m = &self.placed[b.object].object_from_world;
-                let candidate = (
-                    b.object,
-                    &self.placed[b.object],
-                    m.transform_point3(o),
-                    m.transform_vector3(d),
-                );
-                let pieces = b.pieces.as_deref();
-                (candidate, pieces)
+                (
+                    self.placed[b.object].ray_in(b.object, o, d),
+                    b.pieces.as_deref(),
+                )
             });
         self.nearest_of(objects, span)
     }
