@@ -166,6 +166,10 @@ pub struct ConvertOptions {
     /// With `max_error`: each chart's level is chosen by its cells' error bounds (`bound`), so
     /// that every drawn point is within `max_error` of the mesh, not a sampled quantile.
     pub guarantee: bool,
+    /// Hybrid sets: a chart stays the mesh's own triangles where no height map within the
+    /// bound takes fewer bytes than those triangles (`gtex::triangles`). Needs the error-driven
+    /// default or `max_error`; the bytes are then bounded by the mesh's own (no budget).
+    pub hybrid: bool,
 }
 
 impl Default for ConvertOptions {
@@ -191,6 +195,7 @@ impl Default for ConvertOptions {
             height_bits: 16,
             max_bytes: None,
             guarantee: false,
+            hybrid: false,
         }
     }
 }
@@ -253,7 +258,9 @@ impl ConvertOptions {
     ) -> ConvertOptions {
         let (max_error_rel, max_bytes) = if self.default_bound() {
             let bound = default_error_rel(outline());
-            (Some(bound), Some(default_budget(mesh_bytes, faces, bound)))
+            // A hybrid set's triangles bound its bytes by the mesh's own: no budget.
+            let budget = (!self.hybrid).then(|| default_budget(mesh_bytes, faces, bound));
+            (Some(bound), budget)
         } else {
             (self.max_error_rel, self.max_bytes)
         };
@@ -289,6 +296,20 @@ impl ConvertOptions {
                 ))
             }
             _ => {}
+        }
+        if self.hybrid && !(self.error_driven() || self.default_bound()) {
+            return parameter(
+                "hybrid=True weighs each chart's height map within the error bound against its \
+                 triangles: give max_error or max_error_rel, or no keyword that sets the \
+                 resolution (the default bound)"
+                    .into(),
+            );
+        }
+        if let (true, Some(b)) = (self.hybrid, self.max_bytes) {
+            return parameter(format!(
+                "hybrid=True bounds the bytes by the mesh's own; max_bytes ({b}) cannot be \
+                 combined with it yet"
+            ));
         }
         if self.guarantee && !self.error_driven() {
             return parameter(
@@ -436,6 +457,7 @@ pub struct ConvertArgs {
     pub height_bits: Option<i64>,
     pub max_bytes: Option<i64>,
     pub guarantee: Option<bool>,
+    pub hybrid: Option<bool>,
 }
 
 /// A count that must not be negative.
@@ -500,6 +522,7 @@ impl ConvertArgs {
                 })
                 .transpose()?,
             guarantee: self.guarantee.unwrap_or(default.guarantee),
+            hybrid: self.hybrid.unwrap_or(default.hybrid),
         };
         opts.validate()?;
         Ok(opts)

@@ -619,12 +619,15 @@ pub fn filtered(
         patches,
         texel_size: set.texel_size,
         stats: set.stats.clone(),
+        // Filters smooth height maps; a set's triangles are the source's own faces and pass
+        // through unfiltered.
+        triangles: set.triangles.clone(),
     };
     // A filtered surface has no bound to the mesh (see refit): its figures go with it.
     out.sync_error_bound_stats();
     out.stats.set("filter_sigma", sigma);
     out.stats.set("filter_texels_cut", cut.len() as f64);
-    out.stats.set("bytes", out.map_bytes() as f64);
+    out.stats.set("bytes", out.bytes() as f64);
     out.validate()
         .map_err(|e| GeomtexError::Internal(format!("filtering made an impossible set: {e}")))?;
     Ok(out)

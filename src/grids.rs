@@ -149,6 +149,7 @@ pub fn from_grids(
             .fold(0.0, f64::max),
         patches,
         stats: Stats::default(),
+        triangles: None,
     };
     set.stats = grid_stats(grids, &set, bits);
     set.stats.per_patch = vec![("patch_grid".into(), per_patch_grid)];

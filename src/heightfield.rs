@@ -963,6 +963,7 @@ pub fn first_hits(
     cancel: &crate::cancel::Cancel,
 ) -> crate::error::Result<Vec<(f64, i32)>> {
     use rayon::prelude::*;
+    set.patches_only("first_hits")?;
     let tracer = SetTracer::new(set);
     let hits = rays
         .par_iter()
@@ -1088,6 +1089,7 @@ pub(crate) fn turned_holed_set() -> crate::gtex::GeometryTextureSet {
         patches,
         texel_size: 0.05,
         stats: Default::default(),
+        triangles: None,
     }
 }
 

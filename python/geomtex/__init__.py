@@ -107,6 +107,7 @@ def convert(
     height_bits: Literal[8, 16] | None = None,
     max_bytes: int | None = None,
     guarantee: bool | None = None,
+    hybrid: bool | None = None,
     progress: bool | ProgressCallback | None = None,
 ) -> GeometryTextureSet:
     """Converts a mesh into geometry textures: height-map patches in oriented boxes.
@@ -217,6 +218,16 @@ def convert(
         within `max_error` of the mesh (``stats["error_bound_max"]`` <= ``stats["max_error"]``;
         see :doc:`/guides/error-bounds`). Raises :class:`ParameterError` where that cannot be
         met: a chart over the bound at `max_resolution`, or more bytes than `max_bytes`.
+    hybrid : bool, optional
+        Hybrid sets (default False): each chart becomes a height map only where one within
+        the error bound takes fewer bytes than the chart's own triangles (float32 vertices,
+        uint32 indices); the rest stay the mesh's faces, exact, drawn and traced as a mesh
+        (``GeometryTextureSet.triangles``; their pixels and hits get the next mesh id,
+        ``-2 - k``). The set then never takes more bytes than the mesh (``stats["bytes"]`` <=
+        ``stats["mesh_bytes"]``), and there is no byte budget: with the default bound or
+        `max_error`/`max_error_rel` only, not with `max_bytes`. A face-colored or textured
+        mesh stays all height maps. ``to_surfels`` and ``first_hits`` raise on a hybrid set
+        (height maps only, for now); ``filtered`` leaves the triangles as they are.
     progress : bool or callable, optional
         True for a tqdm bar, or ``callback(stage, fraction)``; returning False cancels.
 
@@ -269,7 +280,7 @@ def convert(
         gts = GeometryTextureSet._wrap(_core.convert(
             m._core, **integers, **reals, error_scope=error_scope, partition=partition, frame=frame,
             normals=normals, guarantee=None if guarantee is None else _flag("guarantee", guarantee),
-            progress=callback))
+            hybrid=None if hybrid is None else _flag("hybrid", hybrid), progress=callback))
     finally:
         if bar is not None:
             bar.close()

@@ -115,6 +115,13 @@ class GeometryTextureSet(RayQueries, Wrapped, core=_core.GeometryTextureSet,
         "max_bytes, max_bytes_binding, max_bytes_exceeded, ...), per-patch arrays (patch_resolution, "
         "patch_texel, patch_error) and per-stage wall-clock seconds under \"seconds\" (empty for a "
         "loaded set). ``convert``'s keywords say which keys answer them.")
+    triangles = forward[dict[str, Any] | None](
+        "A hybrid set's triangles (``convert(..., hybrid=True)``), None for height maps only: "
+        "vertices (V, 3) float64, faces (F, 3) uint32, cluster_starts (C + 1,) uint32 (cluster c "
+        "is faces cluster_starts[c]:cluster_starts[c + 1], one chart each), source_faces (F,) "
+        "uint32 (each face's index in the source mesh), kept_because (C,) str (\"bound\": no height "
+        "map within the bound took fewer bytes than its faces; \"budget\": moved back so the set "
+        "costs no more than the mesh) and bytes (float32 vertices, uint32 indices).")
     def _merge_distance(self) -> float:
         return float(self.texel_size)
 

@@ -150,7 +150,7 @@ fn map_figures(
         ("texels", texels as f64),
         ("empty_texels", empty as f64),
         ("empty_fraction", empty as f64 / texels.max(1) as f64),
-        ("bytes", set.map_bytes() as f64),
+        ("bytes", set.bytes() as f64),
         ("height_bits", opts.height_bits as f64),
         ("patches_kept_at_16_bits", kept_at_16 as f64),
         ("max_quantization_error", quantization),

@@ -9,6 +9,7 @@ pub mod accuracy;
 pub mod bound;
 pub mod draw;
 pub mod figures;
+pub mod hybrid;
 pub mod raster;
 pub mod resolution;
 pub mod silhouette;
@@ -100,7 +101,7 @@ fn check_guarantee(set: &GeometryTextureSet, max_bytes: Option<u64>) -> Result<(
             over.len()
         )));
     }
-    let bytes = set.map_bytes() as u64;
+    let bytes = set.bytes() as u64;
     match max_bytes {
         Some(limit) if bytes > limit => Err(GeomtexError::Parameter(format!(
             "guarantee=True at max_error={max_error:.6e} needs {bytes} bytes, over \
@@ -125,8 +126,8 @@ fn fit_bytes(
     limit: u64,
 ) -> Result<GeometryTextureSet> {
     let mut tries = 0;
-    while set.map_bytes() as u64 > limit && tries < MAX_BYTES_TRIES {
-        let scale = (set.map_bytes() as f64 / limit as f64).sqrt() * 1.03;
+    while set.bytes() as u64 > limit && tries < MAX_BYTES_TRIES {
+        let scale = (set.bytes() as f64 / limit as f64).sqrt() * 1.03;
         let coarser = ConvertOptions {
             texel_size: Some(set.texel_size * scale),
             ..opts.clone()
@@ -134,7 +135,7 @@ fn fit_bytes(
         set = convert_any(mesh, &coarser, progress)?;
         tries += 1;
     }
-    let exceeded = set.map_bytes() as u64 > limit;
+    let exceeded = set.bytes() as u64 > limit;
     set.stats.set("max_bytes", limit as f64);
     set.stats.set("max_bytes_coarsenings", tries as f64);
     set.stats.set("max_bytes_exceeded", exceeded as u8 as f64);
@@ -234,10 +235,35 @@ fn preference(set: &GeometryTextureSet) -> (bool, f64) {
     (!within, stat(measure))
 }
 
-/// Every chart drawn at its texel size, and the set's texel size.
+/// Every chart drawn at its texel size (None: a hybrid set keeps its triangles), the set's
+/// texel size, and with `hybrid` each chart's triangles' bytes.
 struct Rastered {
-    drawn: Vec<Drawn>,
+    drawn: Vec<Option<Drawn>>,
     texel: f64,
+    triangle_bytes: Option<Vec<f64>>,
+}
+
+/// Bytes of each chart's own faces as a mesh stores them (`SetTriangles::bytes`: its vertices
+/// once, float32, with RGBA8 where the mesh has colors, and uint32 indices), or None where a
+/// hybrid set cannot hold triangles: a face-colored or textured mesh (its triangles would lose
+/// what the maps keep).
+fn chart_triangle_bytes(mesh: &Mesh, charted: &Charted, opts: &ConvertOptions) -> Option<Vec<f64>> {
+    let plain = mesh.appearance.face_colors.is_none() && mesh.appearance.texture.is_none();
+    if !(opts.hybrid && plain) {
+        return None;
+    }
+    let per_vertex = if mesh.colors.is_some() { 16.0 } else { 12.0 };
+    let bytes = (charted.charts.par_iter())
+        .map(|c| {
+            let mut vertices: Vec<u32> = (c.faces.iter())
+                .flat_map(|&f| mesh.faces[f as usize])
+                .collect();
+            vertices.sort_unstable();
+            vertices.dedup();
+            per_vertex * vertices.len() as f64 + 12.0 * c.faces.len() as f64
+        })
+        .collect();
+    Some(bytes)
 }
 
 /// The frame stage's output: what drawing needs, and what the stats need of the mesh's
@@ -313,11 +339,13 @@ fn raster_stages(
         .map(|(c, r)| (c.faces.as_slice(), r.faces.as_slice()));
     let jobs = drawer.jobs(own_and_ring, frames);
     profile::memory("jobs");
-    let texels: Vec<f64> = match max_error {
-        None => vec![drawer.texel; jobs.len()],
+    let triangle_bytes = chart_triangle_bytes(mesh, charted, opts);
+    let texels: Vec<Option<f64>> = match max_error {
+        None => vec![Some(drawer.texel); jobs.len()],
         Some(e) => {
             stages.begin("resolution")?;
-            let texels = resolution::chart_texels(&jobs, &drawer, e, stages.progress)?;
+            let caps = triangle_bytes.as_deref();
+            let texels = resolution::chart_texels(&jobs, &drawer, e, caps, stages.progress)?;
             stages.end("resolution");
             texels
         }
@@ -327,18 +355,20 @@ fn raster_stages(
     stages.begin("raster")?;
     let jobs_texels: Vec<_> = jobs.iter().zip(texels).collect();
     let mut drawn = each_chart(&jobs_texels, stages.progress, "raster", |&(j, t)| {
-        drawer.draw(j, t, &drawer.samples(j))
+        t.map(|t| drawer.draw(j, t, &drawer.samples(j)))
     })?;
     stages.end("raster");
 
     stages.begin("dilate")?;
     drawn
         .par_iter_mut()
+        .flatten()
         .for_each(|d| raster::dilate(&mut d.maps, d.bx.width, d.bx.height, opts.dilation));
     stages.end("dilate");
     Ok(Rastered {
         drawn,
         texel: drawer.texel,
+        triangle_bytes,
     })
 }
 
@@ -367,17 +397,15 @@ fn convert_once(
     let degenerate_faces = mesh.faces.len() - active.len();
     drop(active);
     let framed = frame_stage(&mesh, geo, &charted, opts, &mut stages)?;
-    let Rastered { mut drawn, texel } =
-        raster_stages(&mesh, &charted, &framed, opts, max_error, &mut stages)?;
-
-    let patch_errors: Vec<f64> = drawn.iter().map(|d| d.error).collect();
-    let reconstruction = SetError::of(
-        drawn
-            .iter_mut()
-            .flat_map(|d| std::mem::take(&mut d.errors))
-            .collect(),
-    );
-    let ring_faces_skipped = charted.rings.iter().map(|r| r.skipped).sum();
+    let Rastered {
+        drawn,
+        texel,
+        triangle_bytes,
+    } = raster_stages(&mesh, &charted, &framed, opts, max_error, &mut stages)?;
+    let charts: Vec<_> = (charted.charts.into_iter()).zip(charted.rings).collect();
+    let ring_faces_skipped = charts.iter().map(|(_, r)| r.skipped).sum();
+    let split = hybrid::split(&mesh, opts.normals, charts, drawn, triangle_bytes.as_deref());
+    let reconstruction = SetError::of(split.errors);
     let figures = StageFigures {
         inconsistent_edges,
         flipped_faces,
@@ -393,42 +421,32 @@ fn convert_once(
         folding_before: charted.folding_before,
         ring_faces_skipped,
         reconstruction,
-        patch_errors,
+        patch_errors: split.patch_errors,
         max_error,
     };
-    let patches: Vec<Patch> = charted
-        .charts
-        .into_iter()
-        .zip(charted.rings)
-        .zip(drawn)
-        .map(
-            |(
-                (c, ring),
-                Drawn {
-                    bx, maps, bound, ..
-                },
-            )| {
-                let mut patch = bx.into_patch(maps, c.faces, ring.faces);
-                patch.error_bound = bound;
-                patch
-            },
-        )
-        .collect();
-    // The set's texel size: the one texel, or the finest chart's when each has its own.
+    let patches = split.patches;
+    // The set's texel size: the one texel, or the finest chart's when each has its own (the
+    // one texel where every chart stayed triangles).
     let texel_size = match max_error {
-        None => texel,
-        Some(_) => patches
+        Some(_) if !patches.is_empty() => patches
             .iter()
             .map(Patch::texel_size)
             .fold(f64::INFINITY, f64::min),
+        _ => texel,
     };
     let mut set = GeometryTextureSet {
         patches,
         texel_size,
         stats: Default::default(),
+        triangles: split.triangles,
     };
     profile::memory("patches");
     set.stats = figures::stats(&mesh, opts, &set, figures, framed.diagonal);
+    if opts.hybrid {
+        for (name, v) in hybrid::figures(&mesh, &set) {
+            set.stats.set(name, v);
+        }
+    }
     set.stats.seconds = stages.into_seconds();
     set.validate()
         .map_err(|e| GeomtexError::Internal(format!("conversion made an impossible set: {e}")))?;

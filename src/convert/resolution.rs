@@ -24,14 +24,30 @@ pub fn common_texel(frames: &[ChartFrame], opts: &ConvertOptions, diagonal: f64)
 }
 
 /// Each chart's texel size for `max_error`, measured by drawing it at the levels the search
-/// tries.
+/// tries. With `hybrid` (each chart's own triangles' bytes), a chart gets the coarsest level
+/// within the bound among those whose maps would take fewer bytes than its triangles, or None
+/// where none of them meets the bound (it stays triangles): levels dearer than the triangles
+/// are never drawn, so a rough chart costs a few coarse draws, not a search up to 1024².
 pub fn chart_texels(
     jobs: &[ChartJob],
     drawer: &ChartDrawer,
     max_error: f64,
+    hybrid: Option<&[f64]>,
     progress: Progress,
-) -> Result<Vec<f64>> {
+) -> Result<Vec<Option<f64>>> {
     let levels = resolution_levels(drawer.opts.resolution_cap());
+    if let Some(caps) = hybrid {
+        let capped: Vec<_> = jobs.iter().zip(caps).collect();
+        return each_chart(&capped, progress, "resolution", |&(j, &cap)| {
+            let colored = drawer.mesh.has_colors();
+            let affordable: Vec<u32> = (levels.iter().copied())
+                .filter(|&r| estimated_bytes(j, r, drawer.opts.height_bits, colored) < cap)
+                .collect();
+            let s = drawer.samples(j);
+            let draw = |r| drawer.measure(j, j.texel_for(r), &s);
+            affordable_within(&affordable, max_error, draw).map(|r| j.texel_for(r))
+        });
+    }
     // Under `guarantee` every chart's own bound must hold: the chart scope, measured by bounds.
     let scope = if drawer.opts.guarantee {
         ErrorScope::Chart
@@ -67,8 +83,28 @@ pub fn chart_texels(
     Ok(jobs
         .iter()
         .zip(picks)
-        .map(|(j, r)| j.texel_for(r))
+        .map(|(j, r)| Some(j.texel_for(r)))
         .collect())
+}
+
+/// About the bytes of a chart's maps at long side `r` (its box, a texel of padding each side,
+/// and the bound map), from its frame: close enough to skip levels dearer than its triangles
+/// (the drawn patch's real bytes are checked after).
+fn estimated_bytes(job: &ChartJob, r: u32, height_bits: u8, colored: bool) -> f64 {
+    let size = job.frame.hi - job.frame.lo;
+    let short = (r as f64 * size.x.min(size.y) / job.long_side).ceil();
+    let texels = (r as f64 + 2.0) * (short + 2.0);
+    crate::gtex::map_bytes(texels as usize, height_bits, colored) as f64 + texels / 4.0
+}
+
+/// The coarsest of `levels` (finest first) whose measured error is within `max_error`, or None
+/// if even the finest misses it (it is drawn first, so a hopeless chart costs one draw).
+fn affordable_within(levels: &[u32], max_error: f64, draw: impl Fn(u32) -> Drawn) -> Option<u32> {
+    let finest = *levels.first()?;
+    if draw(finest).error > max_error {
+        return None;
+    }
+    Some(coarsest_within(levels, max_error, draw))
 }
 
 /// Long-side resolutions the error-driven search tries, finest first: `max` down to 2 in

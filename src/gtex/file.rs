@@ -1,4 +1,6 @@
-//! The .gtex file format, version 6 (versions 1 to 5 are still read). Little-endian throughout.
+//! The .gtex file format, versions 6 and 7 (versions 1 to 5 are still read). Little-endian
+//! throughout. A set with triangles (a hybrid conversion) is written as version 7, any other as
+//! version 6, so geomtex releases before the triangles still read every set they can draw.
 //!
 //! ```text
 //! header (32 bytes): magic b"GTEX\r\n\x1a\n" | version u32 | reserved u32 | payload length u64 |
@@ -13,6 +15,13 @@
 //!          colors u8[w*h*4] (only with a color map) | outline i8[w*h] |
 //!          error-bound map u32 (0 or 1), then with one: scale f32 | codes u8[bw*bh]
 //!          (`gtex::bound`: one per block of 2 x 2 cells, bw = ceil((w + 1) / 2))
+//!          ... then, version 7 only: triangles u32 (0 or 1), then with them:
+//!          centre 3 f64 | normal rule u32 (0 crease, 1 smooth, 2 flat) | crease angle f64 |
+//!          vertices u32 | faces u32 | clusters u32 | colors u32 (0 or 1) |
+//!          positions f32[3*vertices] (offsets from the centre) | faces u32[3*faces] |
+//!          cluster starts u32[clusters + 1] | source face ids u32[faces] |
+//!          reasons u8[clusters] (`KeptBecause`) |
+//!          colors u8[4*vertices] (only with colors)
 //! ```
 //! Version 5 has no error-bound field: its patches have no bound (NaN in frames).
 //! A file whose bytes pass the checksum must still hold a possible set
@@ -35,7 +44,9 @@ use super::{GeometryTextureSet, Patch, Stats};
 use crate::error::GeomtexError;
 
 pub const MAGIC: &[u8; 8] = b"GTEX\r\n\x1a\n";
-pub const VERSION: u32 = 6;
+pub const VERSION: u32 = 7;
+/// The version a set without triangles is written as.
+const PATCHES_ONLY_VERSION: u32 = 6;
 const HEADER: usize = 32;
 
 pub(crate) fn put_f64s(out: &mut Vec<u8>, v: &[f64]) {
@@ -111,9 +122,17 @@ pub fn encode(set: &GeometryTextureSet) -> Vec<u8> {
             }
         }
     }
+    let version = match &set.triangles {
+        None => PATCHES_ONLY_VERSION,
+        Some(t) => {
+            p.extend_from_slice(&1u32.to_le_bytes());
+            super::triangles::encode(t, &mut p);
+            VERSION
+        }
+    };
     let mut out = Vec::with_capacity(HEADER + p.len());
     out.extend_from_slice(MAGIC);
-    out.extend_from_slice(&VERSION.to_le_bytes());
+    out.extend_from_slice(&version.to_le_bytes());
     out.extend_from_slice(&0u32.to_le_bytes());
     out.extend_from_slice(&(p.len() as u64).to_le_bytes());
     out.extend_from_slice(&crc32fast::hash(&p).to_le_bytes());
@@ -349,9 +368,14 @@ pub fn decode(bytes: &[u8]) -> Result<GeometryTextureSet, String> {
     for k in 0..n {
         patches.push(read_patch(&mut r, k, version)?);
     }
+    let triangles = match (version >= 7).then(|| r.u32("triangle flag")).transpose()? {
+        None | Some(0) => None,
+        Some(1) => Some(super::triangles::decode(&mut r)?),
+        Some(f) => return Err(format!("the triangle flag must be 0 or 1, found {f}")),
+    };
     if r.pos != payload.len() {
         return Err(format!(
-            "{} bytes of trailing data after the last patch",
+            "{} bytes of trailing data after the last patch or triangle",
             payload.len() - r.pos
         ));
     }
@@ -359,6 +383,7 @@ pub fn decode(bytes: &[u8]) -> Result<GeometryTextureSet, String> {
         patches,
         texel_size,
         stats,
+        triangles,
     };
     set.validate()?;
     set.sync_error_bound_stats();
@@ -440,6 +465,7 @@ mod tests {
             patches: vec![patch],
             texel_size: 1.0,
             stats,
+            triangles: None,
         }
     }
 
@@ -560,13 +586,13 @@ mod tests {
         let mut p = without[HEADER..].to_vec();
         let at = p.len() - 4;
         p[at] = 2;
-        assert!(decode(&file(VERSION, &p))
+        assert!(decode(&file(PATCHES_ONLY_VERSION, &p))
             .unwrap_err()
             .contains("error-bound flag"));
         let mut p = bytes[HEADER..].to_vec();
         let at = p.len() - 8;
         p[at..at + 4].copy_from_slice(&f32::NAN.to_le_bytes());
-        assert!(decode(&file(VERSION, &p))
+        assert!(decode(&file(PATCHES_ONLY_VERSION, &p))
             .unwrap_err()
             .contains("error-bound scale"));
     }
@@ -618,7 +644,7 @@ mod tests {
         assert_eq!(&b[flag..flag + 4], &0u32.to_le_bytes());
         let mut payload = b[HEADER..].to_vec();
         payload[flag - HEADER] = 2;
-        let err = decode(&file(VERSION, &payload)).unwrap_err();
+        let err = decode(&file(PATCHES_ONLY_VERSION, &payload)).unwrap_err();
         assert!(
             err.contains("color-map flag must be 0 or 1, found 2"),
             "{err}"

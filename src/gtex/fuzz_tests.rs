@@ -51,6 +51,7 @@ fn sample() -> Vec<u8> {
         patches: vec![patch(16, 3, 2, true), patch(8, 2, 2, false)],
         texel_size: 0.5,
         stats,
+        triangles: None,
     })
 }
 

@@ -22,10 +22,12 @@ pub use bound::ErrorBoundMap;
 
 pub mod bound;
 pub mod file;
+pub mod triangles;
 #[cfg(test)]
 mod fuzz_tests;
 pub mod validate;
 
+pub use triangles::{KeptBecause, SetTriangles};
 pub use validate::MAX_PATCH_SIDE;
 
 /// Bits per height code a patch may use.
@@ -464,21 +466,33 @@ impl ErrorBoundFigures {
     }
 }
 
+/// `face_patch` of a face a hybrid set keeps as a triangle.
+pub const KEPT_AS_TRIANGLES: i32 = -2;
+
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct GeometryTextureSet {
     pub patches: Vec<Patch>,
     /// World size of one texel (the same for every patch).
     pub texel_size: f64,
     pub stats: Stats,
+    /// The regions kept as the source's own faces (a hybrid conversion), drawn as a mesh.
+    pub triangles: Option<SetTriangles>,
 }
 
 impl GeometryTextureSet {
     /// Every non-empty texel as a world point (f64) and world unit normal (f32).
+    /// A hybrid set's triangles add points about a texel apart over each face
+    /// (`SetTriangles::points`).
     pub fn to_points(&self) -> (Vec<[f64; 3]>, Vec<[f32; 3]>) {
-        self.patches
+        let texels = self
+            .patches
             .iter()
             .flat_map(Patch::surface_texels)
-            .map(|(_, point, normal)| (point.to_array(), normal.as_vec3().to_array()))
+            .map(|(_, point, normal)| (point, normal));
+        let faces = (self.triangles.iter()).flat_map(|t| t.points(self.texel_size));
+        texels
+            .chain(faces)
+            .map(|(point, normal)| (point.to_array(), normal.as_vec3().to_array()))
             .unzip()
     }
 
@@ -494,6 +508,25 @@ impl GeometryTextureSet {
         self.patches.iter().map(Patch::map_bytes).sum()
     }
 
+    /// A ParameterError for `what`, which works on height maps only, where the set holds
+    /// triangles: it would leave them out without a word.
+    pub fn patches_only(&self, what: &str) -> crate::error::Result<()> {
+        match &self.triangles {
+            None => Ok(()),
+            Some(t) => Err(crate::error::GeomtexError::Parameter(format!(
+                "{what} works on height maps only, and this hybrid set keeps {} of its faces as \
+                 triangles ({} clusters); draw or trace it with a Renderer, which handles both",
+                t.mesh().faces.len(),
+                t.clusters()
+            ))),
+        }
+    }
+
+    /// What the set holds: its patches' maps and its triangles (`SetTriangles::bytes`).
+    pub fn bytes(&self) -> usize {
+        self.map_bytes() + self.triangles.as_ref().map_or(0, SetTriangles::bytes)
+    }
+
     /// Sets the `error_bound_*` stats from the maps, or drops them where a patch has none: the
     /// stats say what the set holds, whatever a file or an older set claimed. `bytes` follows.
     pub fn sync_error_bound_stats(&mut self) {
@@ -506,7 +539,7 @@ impl GeometryTextureSet {
                 .retain(|(name, _)| !name.starts_with("error_bound")),
         }
         if self.stats.get("bytes").is_some() {
-            self.stats.set("bytes", self.map_bytes() as f64);
+            self.stats.set("bytes", self.bytes() as f64);
         }
     }
 
@@ -536,7 +569,8 @@ impl GeometryTextureSet {
         })
     }
 
-    /// The patch holding each source face, -1 for faces left out (degenerate ones). As long as
+    /// The patch holding each source face, -1 for faces left out (degenerate ones),
+    /// `KEPT_AS_TRIANGLES` (-2) for those a hybrid set keeps as triangles. As long as
     /// the source mesh's face count (the "faces" stat), or as the largest face listed.
     pub fn face_patch(&self) -> Vec<i32> {
         let counted = self.stats.get("faces").unwrap_or(0.0) as usize;
@@ -544,12 +578,18 @@ impl GeometryTextureSet {
             .patches
             .iter()
             .flat_map(|p| p.faces.iter())
+            .chain(self.triangles.iter().flat_map(|t| &t.source_faces))
             .max()
             .map_or(0, |&m| m as usize + 1);
         let mut out = vec![-1i32; counted.max(listed)];
         for (k, p) in self.patches.iter().enumerate() {
             for &f in &p.faces {
                 out[f as usize] = k as i32;
+            }
+        }
+        if let Some(t) = &self.triangles {
+            for &f in &t.source_faces {
+                out[f as usize] = KEPT_AS_TRIANGLES;
             }
         }
         out

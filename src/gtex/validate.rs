@@ -153,7 +153,17 @@ impl GeometryTextureSet {
                 .and_then(|()| check_faces(p, faces))
                 .map_err(|e| format!("patch {k}: {e}"))?;
         }
-        Ok(())
+        let Some(t) = &self.triangles else {
+            return Ok(());
+        };
+        t.validate()?;
+        match (t.source_faces.iter().max(), faces) {
+            (Some(&f), Some(n)) if f as f64 >= n => Err(format!(
+                "triangles: source face id {f} is past the source mesh's {n} faces"
+            )),
+            (Some(_), None) => Err("triangles list face ids but the set has no 'faces' count".into()),
+            _ => Ok(()),
+        }
     }
 }
 
@@ -184,6 +194,7 @@ mod tests {
             patches: vec![patch.clone(), patch],
             texel_size: 1.0,
             stats,
+            triangles: None,
         }
     }
 

@@ -139,6 +139,31 @@ impl PyGeometryTextureSet {
         Ok(d)
     }
 
+    /// A hybrid set's triangles (None for a set of height maps only): vertices (V, 3)
+    /// float64, faces (F, 3) uint32 into them, cluster_starts (C + 1,) uint32 (cluster c is
+    /// faces cluster_starts[c]:cluster_starts[c + 1], one per chart kept), source_faces (F,)
+    /// uint32 (each face's index in the source mesh), kept_because (C,) str ("bound": no
+    /// height map within the bound took fewer bytes than its faces; "budget": moved back so
+    /// the set costs no more than the mesh), and bytes.
+    #[getter]
+    fn triangles<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let Some(t) = &self.inner.triangles else {
+            return Ok(None);
+        };
+        let m = t.mesh();
+        let d = PyDict::new(py);
+        let vertices: Vec<f64> = m.positions.iter().flat_map(|p| p.to_array()).collect();
+        d.set_item("vertices", matrix(py, vertices, m.positions.len(), 3))?;
+        let faces: Vec<u32> = m.faces.iter().flatten().copied().collect();
+        d.set_item("faces", matrix(py, faces, m.faces.len(), 3))?;
+        d.set_item("cluster_starts", PyArray1::from_slice(py, &t.starts))?;
+        d.set_item("source_faces", PyArray1::from_slice(py, &t.source_faces))?;
+        let because: Vec<&str> = t.because.iter().map(|b| b.name()).collect();
+        d.set_item("kept_because", because)?;
+        d.set_item("bytes", t.bytes())?;
+        Ok(Some(d))
+    }
+
     /// World size of one texel (the finest patch's where texels differ).
     #[getter]
     fn texel_size(&self) -> f64 {
@@ -156,7 +181,8 @@ impl PyGeometryTextureSet {
         image(py, flat, (patches.len(), 4, 4))
     }
 
-    /// (M,) int32: the patch holding each source face, -1 for degenerate faces left out.
+    /// (M,) int32: the patch holding each source face, -1 for degenerate faces left out, -2
+    /// for faces a hybrid set keeps as triangles.
     fn face_patch<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<i32>>> {
         let inner = self.inner.clone();
         let faces = heavy(py, "listing face patches", move |_| Ok(inner.face_patch()))?;
@@ -365,8 +391,11 @@ impl PyGeometryTextureSet {
 
     fn __repr__(&self) -> String {
         let s = &self.inner;
+        let triangles = (s.triangles.as_ref())
+            .map(|t| format!(", {} triangles", t.mesh().faces.len()))
+            .unwrap_or_default();
         format!(
-            "<geomtex.GeometryTextureSet {} patches, {} texels ({:.1}% empty), texel {:.4e}>",
+            "<geomtex.GeometryTextureSet {} patches, {} texels ({:.1}% empty), texel {:.4e}{triangles}>",
             s.patches.len(),
             s.texels(),
             100.0 * s.empty_texels() as f64 / s.texels().max(1) as f64,
@@ -465,7 +494,7 @@ pub fn load(py: Python<'_>, path: &Bound<'_, PyAny>) -> PyResult<PyGeometryTextu
     chart_size = None, charts = None, chart_error = None, max_charts = None,
     compactness = None, lloyd_iterations = None, overlap_rings = None, dilation = None,
     frame = None, normals = None, crease_angle = None, height_bits = None, max_bytes = None,
-    guarantee = None, progress = None))]
+    guarantee = None, hybrid = None, progress = None))]
 #[allow(clippy::too_many_arguments)] // one per keyword of geomtex.convert
 pub fn convert(
     py: Python<'_>,
@@ -491,6 +520,7 @@ pub fn convert(
     height_bits: Option<i64>,
     max_bytes: Option<i64>,
     guarantee: Option<bool>,
+    hybrid: Option<bool>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<PyGeometryTextureSet> {
     let options = ConvertArgs {
@@ -521,6 +551,7 @@ pub fn convert(
         height_bits,
         max_bytes,
         guarantee,
+        hybrid,
     }
     .into_options()?;
     let set = convert_reporting(py, mesh.get().inner.clone(), &options, progress)?;

@@ -62,6 +62,32 @@ pub struct Scene {
     pub objects: Vec<SceneObject>,
 }
 
+impl Scene {
+    /// The scene as the renderers draw it: each set with triangles (a hybrid set) followed by
+    /// its triangles as a mesh, placed as the set (a set of triangles alone is just the mesh).
+    /// So every backend, kind and query draws them as it draws meshes: their hits get the next
+    /// mesh id (-2 - k) and no error bound (they are the source's own faces).
+    pub fn drawn(&self) -> Scene {
+        let mut objects = Vec::with_capacity(self.objects.len());
+        for placed in &self.objects {
+            let set = placed.object.payload::<crate::gtex::GeometryTextureSet>();
+            match set.as_ref().and_then(|s| s.triangles.as_ref().map(|t| (s, t))) {
+                Some((set, triangles)) => {
+                    if !set.patches.is_empty() {
+                        objects.push(placed.clone());
+                    }
+                    objects.push(SceneObject {
+                        object: Object::new(triangles.shaded.clone()),
+                        world_from_object: placed.world_from_object,
+                    });
+                }
+                None => objects.push(placed.clone()),
+            }
+        }
+        Scene { objects }
+    }
+}
+
 impl SceneObject {
     /// A placement the renderer can invert; `index` names the object in the error.
     pub(crate) fn check_placement(&self, index: usize) -> Result<()> {

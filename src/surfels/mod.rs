@@ -325,6 +325,7 @@ impl SurfelHierarchy {
     /// Deterministic: the same set and tile give the same hierarchy.
     pub fn build(source: Arc<GeometryTextureSet>, tile: u32) -> Result<SurfelHierarchy> {
         let tile = check_tile(tile as i64)?;
+        source.patches_only("to_surfels")?;
         let levels = tile.trailing_zeros() + 1;
         let per_patch: Vec<PatchParts> = source
             .patches

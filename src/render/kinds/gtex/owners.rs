@@ -174,7 +174,7 @@ mod tests {
                 flat_at(DVec3::new(0.0, 0.0, 0.3)),
             ],
             texel_size: 0.01,
-            stats: Default::default(),
+            ..Default::default()
         };
         let owned = owned_heights(&set);
         let row = |k: usize| &owned[k][50 * 100..51 * 100];
