@@ -297,6 +297,12 @@ impl ConvertOptions {
             }
             _ => {}
         }
+        if let (true, Some(b)) = (self.hybrid, self.max_bytes) {
+            return parameter(format!(
+                "hybrid=True bounds the bytes by the mesh's own; max_bytes ({b}) cannot be \
+                 combined with it yet"
+            ));
+        }
         if self.hybrid && !(self.error_driven() || self.default_bound()) {
             return parameter(
                 "hybrid=True weighs each chart's height map within the error bound against its \
@@ -304,12 +310,6 @@ impl ConvertOptions {
                  resolution (the default bound)"
                     .into(),
             );
-        }
-        if let (true, Some(b)) = (self.hybrid, self.max_bytes) {
-            return parameter(format!(
-                "hybrid=True bounds the bytes by the mesh's own; max_bytes ({b}) cannot be \
-                 combined with it yet"
-            ));
         }
         if self.guarantee && !self.error_driven() {
             return parameter(

@@ -68,12 +68,16 @@ pub fn split(
         errors.extend(e);
     }
     // The kept triangles are the source's faces: no error over their area.
-    errors.extend(clusters.iter().flat_map(|(faces, _)| faces).map(|&f| WeightedError {
-        value: 0.0,
-        area: face_area(mesh, f),
-    }));
-    let triangles =
-        (!clusters.is_empty()).then(|| SetTriangles::from_charts(mesh, rule, clusters));
+    errors.extend(
+        clusters
+            .iter()
+            .flat_map(|(faces, _)| faces)
+            .map(|&f| WeightedError {
+                value: 0.0,
+                area: face_area(mesh, f),
+            }),
+    );
+    let triangles = (!clusters.is_empty()).then(|| SetTriangles::from_charts(mesh, rule, clusters));
     Split {
         patches,
         patch_errors,
@@ -138,10 +142,19 @@ pub fn figures(mesh: &Mesh, set: &crate::gtex::GeometryTextureSet) -> Vec<(&'sta
         ("mesh_bytes", own as f64),
         ("patch_bytes", set.map_bytes() as f64),
         ("triangle_bytes", t.map_or(0, SetTriangles::bytes) as f64),
-        ("triangle_clusters", t.map_or(0, SetTriangles::clusters) as f64),
-        ("triangle_faces", t.map_or(0, |t| t.mesh().faces.len()) as f64),
+        (
+            "triangle_clusters",
+            t.map_or(0, SetTriangles::clusters) as f64,
+        ),
+        (
+            "triangle_faces",
+            t.map_or(0, |t| t.mesh().faces.len()) as f64,
+        ),
         ("triangle_clusters_bound", count(KeptBecause::Bound) as f64),
-        ("triangle_clusters_budget", count(KeptBecause::Budget) as f64),
+        (
+            "triangle_clusters_budget",
+            count(KeptBecause::Budget) as f64,
+        ),
     ]
 }
 
@@ -167,7 +180,11 @@ mod tests {
         let stat = |n: &str| set.stats.get(n).unwrap();
         let own = 12 * (mesh.positions.len() + mesh.faces.len());
         assert_eq!(stat("mesh_bytes"), own as f64);
-        assert!(set.bytes() <= own, "{} bytes for a mesh of {own}", set.bytes());
+        assert!(
+            set.bytes() <= own,
+            "{} bytes for a mesh of {own}",
+            set.bytes()
+        );
         assert_eq!(stat("bytes"), set.bytes() as f64);
         let face_patch = set.face_patch();
         assert!(face_patch.iter().all(|&k| k >= 0 || k == KEPT_AS_TRIANGLES));
@@ -212,7 +229,11 @@ mod tests {
         let kept = set.triangles.as_ref().map_or(0, |t| t.mesh().faces.len());
         assert!(kept * 20 < mesh.faces.len(), "{kept} faces kept");
         let own = 12 * (mesh.positions.len() + mesh.faces.len());
-        assert!((set.bytes() as f64) < 0.6 * own as f64, "{} of {own}", set.bytes());
+        assert!(
+            (set.bytes() as f64) < 0.6 * own as f64,
+            "{} of {own}",
+            set.bytes()
+        );
     }
 
     #[test]

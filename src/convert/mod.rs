@@ -404,7 +404,13 @@ fn convert_once(
     } = raster_stages(&mesh, &charted, &framed, opts, max_error, &mut stages)?;
     let charts: Vec<_> = (charted.charts.into_iter()).zip(charted.rings).collect();
     let ring_faces_skipped = charts.iter().map(|(_, r)| r.skipped).sum();
-    let split = hybrid::split(&mesh, opts.normals, charts, drawn, triangle_bytes.as_deref());
+    let split = hybrid::split(
+        &mesh,
+        opts.normals,
+        charts,
+        drawn,
+        triangle_bytes.as_deref(),
+    );
     let reconstruction = SetError::of(split.errors);
     let figures = StageFigures {
         inconsistent_edges,

@@ -22,9 +22,9 @@ pub use bound::ErrorBoundMap;
 
 pub mod bound;
 pub mod file;
-pub mod triangles;
 #[cfg(test)]
 mod fuzz_tests;
+pub mod triangles;
 pub mod validate;
 
 pub use triangles::{KeptBecause, SetTriangles};

@@ -55,17 +55,39 @@ pub struct SetTriangles {
     pub because: Vec<KeptBecause>,
     /// Per face, the source mesh's face it is (as a patch lists its chart's faces).
     pub source_faces: Vec<u32>,
+    /// The point the file stores positions from (as f32 offsets); every position is exactly
+    /// `centre` plus an f32 offset, so a set reads back equal to the one written.
+    centre: DVec3,
 }
 
 impl SetTriangles {
+    /// Positions are rounded to the bounding-box centre plus f32 offsets, as the file keeps
+    /// them (`as_filed`).
     pub fn new(
+        mut mesh: Mesh,
+        rule: NormalRule,
+        starts: Vec<u32>,
+        because: Vec<KeptBecause>,
+        source_faces: Vec<u32>,
+    ) -> SetTriangles {
+        let centre = centre_of(&mesh.positions);
+        for p in &mut mesh.positions {
+            *p = centre + (*p - centre).as_vec3().as_dvec3();
+        }
+        SetTriangles::filed(mesh, centre, rule, starts, because, source_faces)
+    }
+
+    /// As read from a file: positions already `centre` plus f32 offsets.
+    fn filed(
         mesh: Mesh,
+        centre: DVec3,
         rule: NormalRule,
         starts: Vec<u32>,
         because: Vec<KeptBecause>,
         source_faces: Vec<u32>,
     ) -> SetTriangles {
         SetTriangles {
+            centre,
             shaded: Arc::new(ShadedMesh {
                 mesh: Arc::new(mesh),
                 rule,
@@ -103,7 +125,6 @@ impl SetTriangles {
             starts.push(faces.len() as u32);
         }
         let colors = (mesh.colors.as_ref()).map(|c| used.iter().map(|&v| c[v as usize]).collect());
-        as_filed(&mut positions);
         let sub = Mesh {
             positions,
             faces,
@@ -139,9 +160,7 @@ impl SetTriangles {
             return Err(format!("triangles: vertex {v} is not finite"));
         }
         if let Some(f) = (m.faces.iter()).position(|f| f.iter().any(|&v| v as usize >= n)) {
-            return Err(format!(
-                "triangles: face {f} indexes past the {n} vertices"
-            ));
+            return Err(format!("triangles: face {f} indexes past the {n} vertices"));
         }
         if (m.colors.as_ref()).is_some_and(|c| c.len() != n) {
             return Err("triangles: one color per vertex expected".into());
@@ -193,8 +212,7 @@ impl fmt::Debug for SetTriangles {
     }
 }
 
-/// The f32 offsets the file stores: each position as the bounding-box centre plus an f32
-/// offset (`from_charts` rounds to this, so a set reads back equal to the one written).
+/// The point positions are stored from: their bounding box's centre.
 fn centre_of(positions: &[DVec3]) -> DVec3 {
     let lo = positions.iter().fold(DVec3::INFINITY, |a, &p| a.min(p));
     let hi = positions.iter().fold(DVec3::NEG_INFINITY, |a, &p| a.max(p));
@@ -202,14 +220,6 @@ fn centre_of(positions: &[DVec3]) -> DVec3 {
         DVec3::ZERO
     } else {
         (lo + hi) * 0.5
-    }
-}
-
-/// `positions` rounded as the file stores them.
-pub(crate) fn as_filed(positions: &mut [DVec3]) {
-    let centre = centre_of(positions);
-    for p in positions {
-        *p = centre + (*p - centre).as_vec3().as_dvec3();
     }
 }
 
@@ -223,8 +233,7 @@ fn rule_code(rule: NormalRule) -> u32 {
 
 /// The triangle section of a version 7 file (layout in file.rs).
 pub(crate) fn encode(t: &SetTriangles, out: &mut Vec<u8>) {
-    let m = t.mesh();
-    let centre = centre_of(&m.positions);
+    let (m, centre) = (t.mesh(), t.centre);
     super::file::put_f64s(out, &centre.to_array());
     out.extend_from_slice(&rule_code(t.shaded.rule).to_le_bytes());
     super::file::put_f64s(out, &[t.shaded.rule.crease_angle]);
@@ -263,12 +272,17 @@ pub(crate) fn decode(r: &mut super::file::Reader) -> Result<SetTriangles, String
     let rule = NormalRule::from_keywords(Some(source), Some(crease_angle))
         .map_err(|e| format!("triangles: {e}"))?;
     let mut counts = [0usize; 4];
-    for (k, what) in ["vertices", "faces", "clusters", "color flag"].iter().enumerate() {
+    for (k, what) in ["vertices", "faces", "clusters", "color flag"]
+        .iter()
+        .enumerate()
+    {
         counts[k] = r.u32(&format!("triangles: {what}"))? as usize;
     }
     let [vertices, faces, clusters, colored] = counts;
     if colored > 1 {
-        return Err(format!("triangles: the color flag must be 0 or 1, found {colored}"));
+        return Err(format!(
+            "triangles: the color flag must be 0 or 1, found {colored}"
+        ));
     }
     let words = |r: &mut super::file::Reader, n: usize, what: &str| -> Result<Vec<u32>, String> {
         let bytes = r.take(n.saturating_mul(4), what)?;
@@ -280,10 +294,21 @@ pub(crate) fn decode(r: &mut super::file::Reader) -> Result<SetTriangles, String
     let floats = words(r, vertices.saturating_mul(3), "triangles: positions")?;
     let positions = floats
         .chunks_exact(3)
-        .map(|c| centre + glam::Vec3::new(f32::from_bits(c[0]), f32::from_bits(c[1]), f32::from_bits(c[2])).as_dvec3())
+        .map(|c| {
+            centre
+                + glam::Vec3::new(
+                    f32::from_bits(c[0]),
+                    f32::from_bits(c[1]),
+                    f32::from_bits(c[2]),
+                )
+                .as_dvec3()
+        })
         .collect();
     let indices = words(r, faces.saturating_mul(3), "triangles: faces")?;
-    let faces: Vec<[u32; 3]> = indices.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+    let faces: Vec<[u32; 3]> = indices
+        .chunks_exact(3)
+        .map(|c| [c[0], c[1], c[2]])
+        .collect();
     let starts = words(r, clusters.saturating_add(1), "triangles: cluster starts")?;
     let source_faces = words(r, indices.len() / 3, "triangles: source face ids")?;
     let because = (r.take(clusters, "triangles: reasons")?.iter())
@@ -291,9 +316,10 @@ pub(crate) fn decode(r: &mut super::file::Reader) -> Result<SetTriangles, String
         .collect::<Result<_, _>>()?;
     let colors = match colored {
         1 => Some(
-            (r.take(vertices.saturating_mul(4), "triangles: colors")?.chunks_exact(4))
-                .map(|c| [c[0], c[1], c[2], c[3]])
-                .collect(),
+            (r.take(vertices.saturating_mul(4), "triangles: colors")?
+                .chunks_exact(4))
+            .map(|c| [c[0], c[1], c[2], c[3]])
+            .collect(),
         ),
         _ => None,
     };
@@ -303,7 +329,7 @@ pub(crate) fn decode(r: &mut super::file::Reader) -> Result<SetTriangles, String
         colors,
         appearance: Default::default(),
     };
-    let t = SetTriangles::new(mesh, rule, starts, because, source_faces);
+    let t = SetTriangles::filed(mesh, centre, rule, starts, because, source_faces);
     t.validate()?;
     Ok(t)
 }

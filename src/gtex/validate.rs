@@ -161,7 +161,9 @@ impl GeometryTextureSet {
             (Some(&f), Some(n)) if f as f64 >= n => Err(format!(
                 "triangles: source face id {f} is past the source mesh's {n} faces"
             )),
-            (Some(_), None) => Err("triangles list face ids but the set has no 'faces' count".into()),
+            (Some(_), None) => {
+                Err("triangles list face ids but the set has no 'faces' count".into())
+            }
             _ => Ok(()),
         }
     }

@@ -71,7 +71,10 @@ impl Scene {
         let mut objects = Vec::with_capacity(self.objects.len());
         for placed in &self.objects {
             let set = placed.object.payload::<crate::gtex::GeometryTextureSet>();
-            match set.as_ref().and_then(|s| s.triangles.as_ref().map(|t| (s, t))) {
+            match set
+                .as_ref()
+                .and_then(|s| s.triangles.as_ref().map(|t| (s, t)))
+            {
                 Some((set, triangles)) => {
                     if !set.patches.is_empty() {
                         objects.push(placed.clone());
