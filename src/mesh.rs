@@ -249,6 +249,13 @@ impl FromStr for NormalSource {
 /// The crease angle (degrees) when none is given: trimesh's `smooth_shade` default.
 pub const DEFAULT_CREASE_ANGLE: f64 = 20.0;
 
+/// A mesh and the rule its normals follow (the same as `convert`'s): the payload of the
+/// renderers' mesh kind, and a hybrid set's triangles.
+pub struct ShadedMesh {
+    pub mesh: std::sync::Arc<Mesh>,
+    pub rule: NormalRule,
+}
+
 /// How normals vary over a mesh's faces: a source and, for `Crease`, its angle.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct NormalRule {

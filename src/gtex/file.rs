@@ -40,8 +40,9 @@ use std::path::Path;
 
 use glam::DVec3;
 
-use super::{GeometryTextureSet, Patch, Stats};
+use super::{GeometryTextureSet, KeptBecause, Patch, SetTriangles, Stats};
 use crate::error::GeomtexError;
+use crate::mesh::{Mesh, NormalRule, NormalSource};
 
 pub const MAGIC: &[u8; 8] = b"GTEX\r\n\x1a\n";
 pub const VERSION: u32 = 7;
@@ -126,7 +127,7 @@ pub fn encode(set: &GeometryTextureSet) -> Vec<u8> {
         None => PATCHES_ONLY_VERSION,
         Some(t) => {
             p.extend_from_slice(&1u32.to_le_bytes());
-            super::triangles::encode(t, &mut p);
+            put_triangles(t, &mut p);
             VERSION
         }
     };
@@ -370,7 +371,7 @@ pub fn decode(bytes: &[u8]) -> Result<GeometryTextureSet, String> {
     }
     let triangles = match (version >= 7).then(|| r.u32("triangle flag")).transpose()? {
         None | Some(0) => None,
-        Some(1) => Some(super::triangles::decode(&mut r)?),
+        Some(1) => Some(read_triangles(&mut r)?),
         Some(f) => return Err(format!("the triangle flag must be 0 or 1, found {f}")),
     };
     if r.pos != payload.len() {
@@ -388,6 +389,117 @@ pub fn decode(bytes: &[u8]) -> Result<GeometryTextureSet, String> {
     set.validate()?;
     set.sync_error_bound_stats();
     Ok(set)
+}
+
+fn rule_code(rule: NormalRule) -> u32 {
+    match rule.source {
+        NormalSource::Crease => 0,
+        NormalSource::Smooth => 1,
+        NormalSource::Flat => 2,
+    }
+}
+
+/// The triangle section of a version 7 file (layout above).
+pub(crate) fn put_triangles(t: &SetTriangles, out: &mut Vec<u8>) {
+    let (m, centre) = (t.mesh(), t.centre);
+    put_f64s(out, &centre.to_array());
+    out.extend_from_slice(&rule_code(t.shaded.rule).to_le_bytes());
+    put_f64s(out, &[t.shaded.rule.crease_angle]);
+    for n in [
+        m.positions.len(),
+        m.faces.len(),
+        t.clusters(),
+        m.colors.is_some() as usize,
+    ] {
+        out.extend_from_slice(&(n as u32).to_le_bytes());
+    }
+    for p in &m.positions {
+        for x in (*p - centre).as_vec3().to_array() {
+            out.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+    out.extend_from_slice(bytemuck::cast_slice(&m.faces));
+    out.extend_from_slice(bytemuck::cast_slice(&t.starts));
+    out.extend_from_slice(bytemuck::cast_slice(&t.source_faces));
+    out.extend(t.because.iter().map(|&b| b as u8));
+    if let Some(colors) = &m.colors {
+        out.extend_from_slice(bytemuck::cast_slice(colors));
+    }
+}
+
+/// Reads what `encode` wrote; sizes are checked before anything is allocated.
+fn read_triangles(r: &mut Reader) -> Result<SetTriangles, String> {
+    let centre = r.vec3("triangles: centre")?;
+    let source = match r.u32("triangles: normal rule")? {
+        0 => NormalSource::Crease,
+        1 => NormalSource::Smooth,
+        2 => NormalSource::Flat,
+        other => return Err(format!("triangles: normal rule {other} is not 0, 1 or 2")),
+    };
+    let crease_angle = r.f64("triangles: crease angle")?;
+    let rule = NormalRule::from_keywords(Some(source), Some(crease_angle))
+        .map_err(|e| format!("triangles: {e}"))?;
+    let mut counts = [0usize; 4];
+    for (k, what) in ["vertices", "faces", "clusters", "color flag"]
+        .iter()
+        .enumerate()
+    {
+        counts[k] = r.u32(&format!("triangles: {what}"))? as usize;
+    }
+    let [vertices, faces, clusters, colored] = counts;
+    if colored > 1 {
+        return Err(format!(
+            "triangles: the color flag must be 0 or 1, found {colored}"
+        ));
+    }
+    let words = |r: &mut Reader, n: usize, what: &str| -> Result<Vec<u32>, String> {
+        let bytes = r.take(n.saturating_mul(4), what)?;
+        Ok(bytes
+            .chunks_exact(4)
+            .map(|c| u32::from_le_bytes(c.try_into().unwrap()))
+            .collect())
+    };
+    let floats = words(r, vertices.saturating_mul(3), "triangles: positions")?;
+    let positions = floats
+        .chunks_exact(3)
+        .map(|c| {
+            centre
+                + glam::Vec3::new(
+                    f32::from_bits(c[0]),
+                    f32::from_bits(c[1]),
+                    f32::from_bits(c[2]),
+                )
+                .as_dvec3()
+        })
+        .collect();
+    let indices = words(r, faces.saturating_mul(3), "triangles: faces")?;
+    let faces: Vec<[u32; 3]> = indices
+        .chunks_exact(3)
+        .map(|c| [c[0], c[1], c[2]])
+        .collect();
+    let starts = words(r, clusters.saturating_add(1), "triangles: cluster starts")?;
+    let source_faces = words(r, indices.len() / 3, "triangles: source face ids")?;
+    let because = (r.take(clusters, "triangles: reasons")?.iter())
+        .map(|&c| KeptBecause::from_code(c).ok_or(format!("triangles: reason code {c}")))
+        .collect::<Result<_, _>>()?;
+    let colors = match colored {
+        1 => Some(
+            (r.take(vertices.saturating_mul(4), "triangles: colors")?
+                .chunks_exact(4))
+            .map(|c| [c[0], c[1], c[2], c[3]])
+            .collect(),
+        ),
+        _ => None,
+    };
+    let mesh = Mesh {
+        positions,
+        faces,
+        colors,
+        appearance: Default::default(),
+    };
+    let t = SetTriangles::filed(mesh, centre, rule, starts, because, source_faces);
+    t.validate()?;
+    Ok(t)
 }
 
 /// Writes `bytes` to `path` atomically: a temporary file beside it, synced, then renamed over

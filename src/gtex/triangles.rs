@@ -13,8 +13,7 @@ use std::sync::Arc;
 
 use glam::DVec3;
 
-use crate::mesh::{Mesh, NormalRule, NormalSource};
-use crate::render::ShadedMesh;
+use crate::mesh::{Mesh, NormalRule, ShadedMesh};
 
 /// Why a chart was kept as triangles (one per cluster; the file stores the code).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -57,7 +56,7 @@ pub struct SetTriangles {
     pub source_faces: Vec<u32>,
     /// The point the file stores positions from (as f32 offsets); every position is exactly
     /// `centre` plus an f32 offset, so a set reads back equal to the one written.
-    centre: DVec3,
+    pub(crate) centre: DVec3,
 }
 
 impl SetTriangles {
@@ -78,7 +77,7 @@ impl SetTriangles {
     }
 
     /// As read from a file: positions already `centre` plus f32 offsets.
-    fn filed(
+    pub(crate) fn filed(
         mesh: Mesh,
         centre: DVec3,
         rule: NormalRule,
@@ -221,117 +220,6 @@ fn centre_of(positions: &[DVec3]) -> DVec3 {
     } else {
         (lo + hi) * 0.5
     }
-}
-
-fn rule_code(rule: NormalRule) -> u32 {
-    match rule.source {
-        NormalSource::Crease => 0,
-        NormalSource::Smooth => 1,
-        NormalSource::Flat => 2,
-    }
-}
-
-/// The triangle section of a version 7 file (layout in file.rs).
-pub(crate) fn encode(t: &SetTriangles, out: &mut Vec<u8>) {
-    let (m, centre) = (t.mesh(), t.centre);
-    super::file::put_f64s(out, &centre.to_array());
-    out.extend_from_slice(&rule_code(t.shaded.rule).to_le_bytes());
-    super::file::put_f64s(out, &[t.shaded.rule.crease_angle]);
-    for n in [
-        m.positions.len(),
-        m.faces.len(),
-        t.clusters(),
-        m.colors.is_some() as usize,
-    ] {
-        out.extend_from_slice(&(n as u32).to_le_bytes());
-    }
-    for p in &m.positions {
-        for x in (*p - centre).as_vec3().to_array() {
-            out.extend_from_slice(&x.to_le_bytes());
-        }
-    }
-    out.extend_from_slice(bytemuck::cast_slice(&m.faces));
-    out.extend_from_slice(bytemuck::cast_slice(&t.starts));
-    out.extend_from_slice(bytemuck::cast_slice(&t.source_faces));
-    out.extend(t.because.iter().map(|&b| b as u8));
-    if let Some(colors) = &m.colors {
-        out.extend_from_slice(bytemuck::cast_slice(colors));
-    }
-}
-
-/// Reads what `encode` wrote; sizes are checked before anything is allocated.
-pub(crate) fn decode(r: &mut super::file::Reader) -> Result<SetTriangles, String> {
-    let centre = r.vec3("triangles: centre")?;
-    let source = match r.u32("triangles: normal rule")? {
-        0 => NormalSource::Crease,
-        1 => NormalSource::Smooth,
-        2 => NormalSource::Flat,
-        other => return Err(format!("triangles: normal rule {other} is not 0, 1 or 2")),
-    };
-    let crease_angle = r.f64("triangles: crease angle")?;
-    let rule = NormalRule::from_keywords(Some(source), Some(crease_angle))
-        .map_err(|e| format!("triangles: {e}"))?;
-    let mut counts = [0usize; 4];
-    for (k, what) in ["vertices", "faces", "clusters", "color flag"]
-        .iter()
-        .enumerate()
-    {
-        counts[k] = r.u32(&format!("triangles: {what}"))? as usize;
-    }
-    let [vertices, faces, clusters, colored] = counts;
-    if colored > 1 {
-        return Err(format!(
-            "triangles: the color flag must be 0 or 1, found {colored}"
-        ));
-    }
-    let words = |r: &mut super::file::Reader, n: usize, what: &str| -> Result<Vec<u32>, String> {
-        let bytes = r.take(n.saturating_mul(4), what)?;
-        Ok(bytes
-            .chunks_exact(4)
-            .map(|c| u32::from_le_bytes(c.try_into().unwrap()))
-            .collect())
-    };
-    let floats = words(r, vertices.saturating_mul(3), "triangles: positions")?;
-    let positions = floats
-        .chunks_exact(3)
-        .map(|c| {
-            centre
-                + glam::Vec3::new(
-                    f32::from_bits(c[0]),
-                    f32::from_bits(c[1]),
-                    f32::from_bits(c[2]),
-                )
-                .as_dvec3()
-        })
-        .collect();
-    let indices = words(r, faces.saturating_mul(3), "triangles: faces")?;
-    let faces: Vec<[u32; 3]> = indices
-        .chunks_exact(3)
-        .map(|c| [c[0], c[1], c[2]])
-        .collect();
-    let starts = words(r, clusters.saturating_add(1), "triangles: cluster starts")?;
-    let source_faces = words(r, indices.len() / 3, "triangles: source face ids")?;
-    let because = (r.take(clusters, "triangles: reasons")?.iter())
-        .map(|&c| KeptBecause::from_code(c).ok_or(format!("triangles: reason code {c}")))
-        .collect::<Result<_, _>>()?;
-    let colors = match colored {
-        1 => Some(
-            (r.take(vertices.saturating_mul(4), "triangles: colors")?
-                .chunks_exact(4))
-            .map(|c| [c[0], c[1], c[2], c[3]])
-            .collect(),
-        ),
-        _ => None,
-    };
-    let mesh = Mesh {
-        positions,
-        faces,
-        colors,
-        appearance: Default::default(),
-    };
-    let t = SetTriangles::filed(mesh, centre, rule, starts, because, source_faces);
-    t.validate()?;
-    Ok(t)
 }
 
 impl SetTriangles {

@@ -8,7 +8,6 @@ use std::sync::Arc;
 use glam::DMat4;
 
 use crate::error::{GeomtexError, Result};
-use crate::mesh::{Mesh, NormalRule};
 
 /// What a scene holds: a payload of any type a kind of `render::kinds` is registered for — a
 /// `GeometryTextureSet`, a `ShadedMesh`, a `SurfelHierarchy`, a `GdmShell` (displacement shell),
@@ -44,12 +43,7 @@ impl Object {
     }
 }
 
-/// A rasterized mesh and the rule its normals follow (the same as `convert`'s): the payload of
-/// the mesh kind.
-pub struct ShadedMesh {
-    pub mesh: Arc<Mesh>,
-    pub rule: NormalRule,
-}
+pub use crate::mesh::ShadedMesh;
 
 #[derive(Clone)]
 pub struct SceneObject {
