@@ -169,7 +169,8 @@ pub struct ConvertOptions {
     /// Hybrid sets: a chart stays the mesh's own triangles where no height map within the
     /// bound takes fewer bytes than those triangles (`gtex::triangles`). Needs the error-driven
     /// default or `max_error`; the bytes are then bounded by the mesh's own (no budget).
-    pub hybrid: bool,
+    /// `None`: wherever that holds and no `max_bytes` is given (`hybrid_on`).
+    pub hybrid: Option<bool>,
 }
 
 impl Default for ConvertOptions {
@@ -195,7 +196,7 @@ impl Default for ConvertOptions {
             height_bits: 16,
             max_bytes: None,
             guarantee: false,
-            hybrid: false,
+            hybrid: None,
         }
     }
 }
@@ -259,7 +260,7 @@ impl ConvertOptions {
         let (max_error_rel, max_bytes) = if self.default_bound() {
             let bound = default_error_rel(outline());
             // A hybrid set's triangles bound its bytes by the mesh's own: no budget.
-            let budget = (!self.hybrid).then(|| default_budget(mesh_bytes, faces, bound));
+            let budget = (!self.hybrid_on()).then(|| default_budget(mesh_bytes, faces, bound));
             (Some(bound), budget)
         } else {
             (self.max_error_rel, self.max_bytes)
@@ -267,9 +268,19 @@ impl ConvertOptions {
         ConvertOptions {
             max_error_rel,
             max_bytes,
+            // Decided before the default budget fills `max_bytes`.
+            hybrid: Some(self.hybrid_on()),
             partition: Some(self.partition_method()),
             ..self.clone()
         }
+    }
+
+    /// Whether charts may stay triangles: `hybrid` as given, or by default wherever the
+    /// conversion is error-driven (the default bound, `max_error` or `max_error_rel`) with no
+    /// byte budget.
+    pub fn hybrid_on(&self) -> bool {
+        let possible = self.error_driven() || self.default_bound();
+        self.hybrid.unwrap_or(possible && self.max_bytes.is_none())
     }
 
     /// `max_resolution`, or its default.
@@ -297,13 +308,13 @@ impl ConvertOptions {
             }
             _ => {}
         }
-        if let (true, Some(b)) = (self.hybrid, self.max_bytes) {
+        if let (Some(true), Some(b)) = (self.hybrid, self.max_bytes) {
             return parameter(format!(
                 "hybrid=True bounds the bytes by the mesh's own; max_bytes ({b}) cannot be \
                  combined with it yet"
             ));
         }
-        if self.hybrid && !(self.error_driven() || self.default_bound()) {
+        if self.hybrid == Some(true) && !(self.error_driven() || self.default_bound()) {
             return parameter(
                 "hybrid=True weighs each chart's height map within the error bound against its \
                  triangles: give max_error or max_error_rel, or no keyword that sets the \
@@ -522,7 +533,7 @@ impl ConvertArgs {
                 })
                 .transpose()?,
             guarantee: self.guarantee.unwrap_or(default.guarantee),
-            hybrid: self.hybrid.unwrap_or(default.hybrid),
+            hybrid: self.hybrid,
         };
         opts.validate()?;
         Ok(opts)

@@ -117,12 +117,14 @@ def convert(
     shows no more outline for its area than the Stanford bunny, tighter by
     10.5 / ``stats["outline_ratio"]`` for one that shows more (outline length over projected area
     times the diagonal, on its three axis projections; thin parts lose more IoU for the same
-    error, homer: 15.9, 1.32e-4), at most 4x tighter; within ``max_bytes`` = the mesh's
-    float32/uint32 bytes, or for a mesh under 50,000 faces an allowance of 4 MB x (1 - faces /
-    50,000) x 2e-4 / bound if that is more. A rough mesh that cannot meet the bound within them
-    gets the least error the budget buys (``stats["max_bytes_binding"]`` is 1, and a
-    :class:`CapWarning` says by how much it missed and how to meet it). Any of those keywords
-    converts as before.
+    error, homer: 15.9, 1.32e-4), at most 4x tighter. The set is hybrid (see `hybrid`): each
+    chart is a height map only where one within the bound takes fewer bytes than the chart's own
+    triangles, and the rest stay the mesh's faces, so it never takes more bytes than the mesh.
+    ``hybrid=False`` gives all height maps within ``max_bytes`` = the mesh's float32/uint32
+    bytes, or for a mesh under 50,000 faces an allowance of 4 MB x (1 - faces / 50,000) x 2e-4 /
+    bound if that is more; a rough mesh that cannot meet the bound within them gets the least
+    error the budget buys (``stats["max_bytes_binding"]`` is 1, and a :class:`CapWarning` says
+    by how much it missed and how to meet it). Any of those keywords converts as before.
 
     The work runs in Rust on all cores with the GIL released.
 
@@ -219,15 +221,17 @@ def convert(
         see :doc:`/guides/error-bounds`). Raises :class:`ParameterError` where that cannot be
         met: a chart over the bound at `max_resolution`, or more bytes than `max_bytes`.
     hybrid : bool, optional
-        Hybrid sets (default False): each chart becomes a height map only where one within
-        the error bound takes fewer bytes than the chart's own triangles (float32 vertices,
-        uint32 indices); the rest stay the mesh's faces, exact, drawn and traced as a mesh
+        Hybrid sets: each chart becomes a height map only where one within the error bound
+        takes fewer bytes than the chart's own triangles (float32 vertices, uint32 indices);
+        the rest stay the mesh's faces, exact, drawn and traced as a mesh
         (``GeometryTextureSet.triangles``; their pixels and hits get the next mesh id,
         ``-2 - k``). The set then never takes more bytes than the mesh (``stats["bytes"]`` <=
-        ``stats["mesh_bytes"]``), and there is no byte budget: with the default bound or
-        `max_error`/`max_error_rel` only, not with `max_bytes`. A face-colored or textured
-        mesh stays all height maps. ``to_surfels`` and ``first_hits`` raise on a hybrid set
-        (height maps only, for now); ``filtered`` leaves the triangles as they are.
+        ``stats["mesh_bytes"]``), and there is no byte budget. Default: on with the default
+        bound or `max_error`/`max_error_rel`, unless `max_bytes` is given; True with a fixed
+        resolution or `max_bytes` is a :class:`ParameterError`. A face-colored or textured mesh
+        stays all height maps. ``to_surfels`` gives surfels for the height maps and draws the
+        triangles beside them; ``first_hits`` raises on a hybrid set (height maps only, for
+        now); ``filtered`` leaves the triangles as they are.
     progress : bool or callable, optional
         True for a tqdm bar, or ``callback(stage, fraction)``; returning False cancels.
 

@@ -167,10 +167,7 @@ mod tests {
     use crate::test_shapes::uv_sphere;
 
     fn hybrid(mesh: &Mesh) -> GeometryTextureSet {
-        let opts = ConvertOptions {
-            hybrid: true,
-            ..Default::default()
-        };
+        let opts = ConvertOptions::default();
         convert(mesh, &opts, Progress::silent()).unwrap()
     }
 

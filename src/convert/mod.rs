@@ -249,7 +249,7 @@ struct Rastered {
 /// what the maps keep).
 fn chart_triangle_bytes(mesh: &Mesh, charted: &Charted, opts: &ConvertOptions) -> Option<Vec<f64>> {
     let plain = mesh.appearance.face_colors.is_none() && mesh.appearance.texture.is_none();
-    if !(opts.hybrid && plain) {
+    if !(opts.hybrid_on() && plain) {
         return None;
     }
     let per_vertex = if mesh.colors.is_some() { 16.0 } else { 12.0 };
@@ -448,7 +448,7 @@ fn convert_once(
     };
     profile::memory("patches");
     set.stats = figures::stats(&mesh, opts, &set, figures, framed.diagonal);
-    if opts.hybrid {
+    if opts.hybrid_on() {
         for (name, v) in hybrid::figures(&mesh, &set) {
             set.stats.set(name, v);
         }

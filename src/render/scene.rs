@@ -61,28 +61,36 @@ impl Scene {
     /// its triangles as a mesh, placed as the set (a set of triangles alone is just the mesh).
     /// So every backend, kind and query draws them as it draws meshes: their hits get the next
     /// mesh id (-2 - k) and no error bound (they are the source's own faces).
+    /// Surfels of a hybrid set likewise: the surfels of its patches, then its triangles.
     pub fn drawn(&self) -> Scene {
         let mut objects = Vec::with_capacity(self.objects.len());
         for placed in &self.objects {
-            let set = placed.object.payload::<crate::gtex::GeometryTextureSet>();
-            match set
-                .as_ref()
-                .and_then(|s| s.triangles.as_ref().map(|t| (s, t)))
-            {
-                Some((set, triangles)) => {
-                    if !set.patches.is_empty() {
-                        objects.push(placed.clone());
-                    }
-                    objects.push(SceneObject {
-                        object: Object::new(triangles.shaded.clone()),
-                        world_from_object: placed.world_from_object,
-                    });
-                }
-                None => objects.push(placed.clone()),
+            let Some((triangles, has_patches)) = hybrid_parts(&placed.object) else {
+                objects.push(placed.clone());
+                continue;
+            };
+            if has_patches {
+                objects.push(placed.clone());
             }
+            objects.push(SceneObject {
+                object: Object::new(triangles.shaded.clone()),
+                world_from_object: placed.world_from_object,
+            });
         }
         Scene { objects }
     }
+}
+
+/// A hybrid set's (or its surfels') triangles, and whether there is anything else to draw.
+fn hybrid_parts(object: &Object) -> Option<(&crate::gtex::SetTriangles, bool)> {
+    use crate::gtex::GeometryTextureSet;
+    use crate::surfel_data::SurfelHierarchy;
+    let payload: &(dyn Any + Send + Sync) = &*object.payload;
+    if let Some(set) = payload.downcast_ref::<GeometryTextureSet>() {
+        return Some((set.triangles.as_ref()?, !set.patches.is_empty()));
+    }
+    let surfels = payload.downcast_ref::<SurfelHierarchy>()?;
+    Some((surfels.source.triangles.as_ref()?, !surfels.tiles.is_empty()))
 }
 
 impl SceneObject {

@@ -322,10 +322,11 @@ fn offset(index: u32, by: u32) -> u32 {
 
 impl SurfelHierarchy {
     /// The hierarchy of `set` with `tile` x `tile` texel tiles (a power of two up to MAX_TILE).
-    /// Deterministic: the same set and tile give the same hierarchy.
+    /// Deterministic: the same set and tile give the same hierarchy. A hybrid set's triangles
+    /// get no surfels: renderers draw them as its mesh beside the surfels (`Scene::drawn`), as
+    /// they are the cheaper form there.
     pub fn build(source: Arc<GeometryTextureSet>, tile: u32) -> Result<SurfelHierarchy> {
         let tile = check_tile(tile as i64)?;
-        source.patches_only("to_surfels")?;
         let levels = tile.trailing_zeros() + 1;
         let per_patch: Vec<PatchParts> = source
             .patches
