@@ -592,7 +592,15 @@ mod tests {
     #[test]
     fn no_resolution_keyword_resolves_to_the_default_bound_and_budget() {
         let bunny = || Some(10.0);
-        let default = ConvertOptions::default();
+        // By default hybrid, with no budget: the triangles bound the bytes.
+        let hybrid = ConvertOptions::default().resolved((5_000_000, 50_000), bunny);
+        assert_eq!((hybrid.hybrid, hybrid.max_bytes), (Some(true), None));
+        assert_eq!(hybrid.max_error_rel, Some(DEFAULT_MAX_ERROR_REL));
+        // All height maps: within a budget.
+        let default = ConvertOptions {
+            hybrid: Some(false),
+            ..Default::default()
+        };
         // 50k faces or more: the mesh's bytes.
         let resolved = default.resolved((5_000_000, 50_000), bunny);
         assert_eq!(resolved.max_error_rel, Some(DEFAULT_MAX_ERROR_REL));

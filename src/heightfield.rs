@@ -963,19 +963,73 @@ pub fn first_hits(
     cancel: &crate::cancel::Cancel,
 ) -> crate::error::Result<Vec<(f64, i32)>> {
     use rayon::prelude::*;
-    set.patches_only("first_hits")?;
     let tracer = SetTracer::new(set);
+    let triangles = set.triangles.as_ref().map(TriangleHits::new);
     let hits = rays
         .par_iter()
         .map(|&(origin, dir)| {
             if cancel.is_cancelled() {
                 return (f64::INFINITY, -1); // reported below
             }
-            tracer.first_hit(set, origin, dir)
+            let on_maps = tracer.first_hit(set, origin, dir);
+            match triangles
+                .as_ref()
+                .and_then(|t| t.nearest(origin, dir, on_maps.0))
+            {
+                Some(t) => (t, crate::gtex::KEPT_AS_TRIANGLES),
+                None => on_maps,
+            }
         })
         .collect();
     cancel.check("casting rays on the CPU")?;
     Ok(hits)
+}
+
+/// Exact first hits on a hybrid set's triangles, in f64: a hierarchy over the faces' boxes and
+/// the Möller–Trumbore test with its inside test (a reference, not the renderers' watertight
+/// f32 pick, so it shares none of their code).
+struct TriangleHits<'a> {
+    triangles: &'a crate::gtex::SetTriangles,
+    bvh: crate::bvh::Bvh,
+    bounds: Vec<crate::bvh::Aabb>,
+}
+
+impl<'a> TriangleHits<'a> {
+    fn new(triangles: &'a crate::gtex::SetTriangles) -> Self {
+        let boxes: Vec<crate::bvh::Aabb> = (triangles.face_corners())
+            .map(crate::bvh::Aabb::of_points)
+            .collect();
+        let bvh = crate::bvh::Bvh::build(&boxes);
+        let bounds = bvh.node_bounds(&boxes);
+        TriangleHits {
+            triangles,
+            bvh,
+            bounds,
+        }
+    }
+
+    /// The nearest t in (0, before) where the ray o + t d meets a face.
+    fn nearest(&self, o: DVec3, d: DVec3, before: f64) -> Option<f64> {
+        let m = self.triangles.mesh();
+        let (t, face) = self
+            .bvh
+            .nearest(&self.bounds, o, d, (0.0, before), |f, t1| {
+                let [a, b, c] = m.faces[f as usize].map(|v| m.positions[v as usize]);
+                let (e1, e2) = (b - a, c - a);
+                let p = d.cross(e2);
+                let det = e1.dot(p);
+                if det == 0.0 || !det.is_finite() {
+                    return None;
+                }
+                let s = o - a;
+                let u = s.dot(p) / det;
+                let q = s.cross(e1);
+                let v = d.dot(q) / det;
+                let t = e2.dot(q) / det;
+                (u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > 0.0 && t < t1).then_some(t)
+            });
+        face.map(|_| t)
+    }
 }
 
 /// `first_hits` the slow, plain way: every patch's cells along every ray (`first_hit`), for

@@ -92,7 +92,7 @@ def test_progress_can_cancel_and_exceptions_propagate() -> None:
 
 
 def test_tqdm_progress_bar_runs(capsys) -> None:
-    gts = gt.convert(converted("sphere").mesh, progress=True)
+    gts = gt.convert(converted("sphere").mesh, progress=True, hybrid=False)
     assert len(gts) >= 2
     assert "geomtex" in capsys.readouterr().err
 

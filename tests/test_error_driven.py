@@ -52,7 +52,8 @@ def texel_point_distance_p99(gts: gt.GeometryTextureSet, mesh: gt.Mesh, samples:
 def bunny_driven(bunny: Converted) -> gt.GeometryTextureSet:
     # Issue 6's figure is for VSA (three partitions tried); the cone partition that error-driven
     # conversion now uses by default takes 0.83 of the bytes here (bench/economy.py --default).
-    return gt.convert(bunny.mesh, max_error=bunny.gts.stats["reconstruction_error_p99"], partition="vsa")
+    return gt.convert(bunny.mesh, max_error=bunny.gts.stats["reconstruction_error_p99"], partition="vsa",
+                      hybrid=False)
 
 
 def test_bunny_at_the_fixed_sets_error_takes_at_most_60_percent_of_the_bytes(
@@ -90,7 +91,7 @@ def test_local_detail_gets_the_texels() -> None:
     # Measured: 'set' 0.18 of the bytes; 'chart' 0.85 (every chart's own p99 within e leaves the
     # set's p99 far below e: the rippled charts pay alone).
     for scope, most in (("set", 0.3), ("chart", 0.95)):
-        driven = gt.convert(mesh, max_error=e, error_scope=scope, charts=16)
+        driven = gt.convert(mesh, max_error=e, error_scope=scope, charts=16, hybrid=False)
         st = driven.stats
         assert st["reconstruction_error_p99"] <= e, scope
         assert st["bytes"] <= most * fixed.stats["bytes"], (scope, st["bytes"] / fixed.stats["bytes"])

@@ -188,7 +188,8 @@ def test_maps_hold_only_what_the_mesh_has(sheet: Converted) -> None:
     map."""
     plain = sheet.gts
     colored = gt.convert(gt.Mesh(sheet.mesh.vertices, sheet.mesh.faces,
-                                 vertex_colors=np.tile([[10, 200, 30]], (len(sheet.mesh.vertices), 1))))
+                                 vertex_colors=np.tile([[10, 200, 30]], (len(sheet.mesh.vertices), 1))),
+                         hybrid=False)
     for gts, per_texel in ((plain, 5), (colored, 9)):
         assert gts.stats["bytes"] - gts.stats["error_bound_bytes"] == per_texel * gts.stats["texels"]
     p, q = plain.patch(0), colored.patch(0)

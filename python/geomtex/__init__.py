@@ -230,8 +230,8 @@ def convert(
         bound or `max_error`/`max_error_rel`, unless `max_bytes` is given; True with a fixed
         resolution or `max_bytes` is a :class:`ParameterError`. A face-colored or textured mesh
         stays all height maps. ``to_surfels`` gives surfels for the height maps and draws the
-        triangles beside them; ``first_hits`` raises on a hybrid set (height maps only, for
-        now); ``filtered`` leaves the triangles as they are.
+        triangles beside them; ``first_hits`` traces both (id -2 on a triangle); ``filtered``
+        leaves the triangles as they are.
     progress : bool or callable, optional
         True for a tqdm bar, or ``callback(stage, fraction)``; returning False cancels.
 
@@ -312,7 +312,9 @@ def _warn_caps(stats: dict[str, Any], default_budget: bool = False) -> None:
         rel = bound / stats["diagonal"]
         if default_budget:
             budget = "the default budget (the mesh's own float32/uint32 bytes, or its allowance)"
-            remedy = f"gt.convert(mesh, max_error_rel={rel:.6g}) meets it without a byte budget"
+            remedy = (f"gt.convert(mesh, max_error_rel={rel:.6g}) meets it (a hybrid set: triangles where "
+                      "height maps cost more, within the mesh's bytes; with hybrid=False all height maps, "
+                      "without a byte budget)")
         else:
             budget = "max_bytes"
             remedy = "a larger max_bytes, or max_bytes=None (no byte budget), meets it"

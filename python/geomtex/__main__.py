@@ -64,7 +64,11 @@ def stats_table(gts: gt.GeometryTextureSet) -> str:
         ("inverted triangles", f"{st['inverted_triangles']} (before repair: {st['inverted_triangles_before_repair']})"),
         ("texels", f"{st['texels']:,} ({100 * st['empty_fraction']:.1f}% empty)"),
         ("texel size", _texel_row(st)),
-        ("map bytes", f"{st['bytes'] / 1e6:.2f} MB"),
+        ("bytes", f"{st['bytes'] / 1e6:.2f} MB ({st['bytes'] / st['mesh_bytes']:.2f}x the mesh's)"
+                  if "mesh_bytes" in st else f"{st['bytes'] / 1e6:.2f} MB of maps"),
+        *([("kept as triangles", f"{st['triangle_faces']:,} faces in {st['triangle_clusters']} clusters "
+                                 f"({st['triangle_bytes'] / 1e6:.2f} MB; maps {st['patch_bytes'] / 1e6:.2f} MB)")]
+          if st.get("hybrid") else []),
         ("reconstruction error", f"p99 {st['reconstruction_error_p99'] / st['diagonal']:.2e}, "
                                  f"max {st['reconstruction_error_max'] / st['diagonal']:.2e} of the diagonal"),
         *([("error bound", _bound_row(st))] if "max_error" in st else []),
@@ -104,6 +108,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="error-driven: each chart's texel chosen for this p99 reconstruction error, "
                          "as a fraction of the diagonal")
     ap.add_argument("--charts", type=int, default=None, help="exact VSA chart count")
+    ap.add_argument("--no-hybrid", action="store_true",
+                    help="height maps everywhere (by default a chart stays the mesh's own triangles where "
+                         "no height map within the bound takes fewer bytes)")
     ap.add_argument("--frame", choices=["min_area", "pca"], default="min_area")
     ap.add_argument("--quiet", action="store_true",
                     help="no progress (a bar on a terminal, a line per stage in a log otherwise)")
@@ -115,7 +122,7 @@ def main(argv: list[str] | None = None) -> int:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", gt.CapWarning)
             gts = gt.convert(mesh, max_resolution=args.max_resolution, charts=args.charts,
-                             max_error_rel=args.max_error_rel,
+                             max_error_rel=args.max_error_rel, hybrid=False if args.no_hybrid else None,
                              frame=args.frame, progress=not args.quiet)
         # A cap the conversion hit (a bound missed within the byte budget, a chart cap) is said
         # as convert says it, on its own line, not as a Python warning's file and line.

@@ -59,7 +59,9 @@ def splat(gts: Any, size: int = 512, azimuth_deg: float = 30.0, elevation_deg: f
     """Orthographic point-splat image of the texel points (nearest point wins per pixel)."""
     points, normals = gts.to_points()
     counts = [int((gts.patch(i)["height"] > 0).sum()) for i in range(len(gts))]
+    # A hybrid set's triangle points come after the texels': tinted as a mesh (-1).
     patch = np.repeat(np.arange(len(counts)), counts)
+    patch = np.concatenate([patch, np.full(len(points) - len(patch), -1)])
     if len(points) > max_points:
         pick = np.random.default_rng(0).choice(len(points), max_points, replace=False)
         points, normals, patch = points[pick], normals[pick], patch[pick]
@@ -102,9 +104,11 @@ def height_mosaic(gts: Any, size: int = 512, tiles: int = 36) -> Image.Image:
 
 
 def box_bounds(gts: Any) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-    """(lo, hi) corners of the box around every patch box of a set."""
+    """(lo, hi) corners of the box around every patch box of a set and its triangles."""
     corners = np.array([[i & 1, (i >> 1) & 1, (i >> 2) & 1, 1] for i in range(8)], dtype=np.float64)
     world = np.einsum("pij,cj->pci", gts.world_from_patch, corners)[..., :3].reshape(-1, 3)
+    if gts.triangles is not None:
+        world = np.vstack([world, gts.triangles["vertices"]])
     return world.min(axis=0), world.max(axis=0)
 
 
@@ -150,8 +154,10 @@ def _summary(gts: Any) -> str:
         texels, empty = texels + n, empty + int((p["height"] == 0).sum())
         # height + octahedral normal (2) + outline (1) + color (4, only with a color map) bytes
         size += n * (p["height_bits"] // 8 + 3 + (4 if p["has_colors"] else 0))
+    triangles = gts.triangles
+    kept = "" if triangles is None else f"  {len(triangles['faces']):,} triangles ({triangles['bytes'] / 1e6:.1f} MB)"
     return (f"{len(gts)} patches  {texels:,} texels  {100 * empty / max(texels, 1):.1f}% empty  "
-            f"{size / 1e6:.1f} MB")
+            f"{size / 1e6:.1f} MB{kept}")
 
 
 def overview(gts: Any, size: int = 512, title: str | None = None) -> Image.Image:

@@ -158,7 +158,8 @@ class GeometryTextureSet(RayQueries, Wrapped, core=_core.GeometryTextureSet,
                    directions: npt.ArrayLike) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int32]]:
         """Exact first hits of world rays on the set's surface, computed on the CPU in f64 (the
         reference the GPU searches are tested against), on every core: a hierarchy over the
-        patches' boxes, and in each patch its min-max pyramid down to the cells the ray may meet.
+        patches' boxes, and in each patch its min-max pyramid down to the cells the ray may meet;
+        a hybrid set's triangles by a hierarchy over their boxes and an exact f64 triangle test.
         Distances and patch ids only (``intersects_first`` gives points and normals too); on a
         machine whose only adapter is a CPU one it is the faster of the two
         (``bench/rays.py``).
@@ -175,7 +176,7 @@ class GeometryTextureSet(RayQueries, Wrapped, core=_core.GeometryTextureSet,
         distances : (N,) float64 ndarray
             Distance along each ray to its first hit, +inf on a miss.
         patch_ids : (N,) int32 ndarray
-            The patch hit, -1 on a miss.
+            The patch hit, -1 on a miss, -2 on a hybrid set's triangles.
         """
         return self._core.first_hits(origins, directions)
 

@@ -528,6 +528,7 @@ mod tests {
             for bits in crate::gtex::HEIGHT_BITS {
                 let opts = ConvertOptions {
                     height_bits: bits,
+                    hybrid: Some(false),
                     ..Default::default()
                 };
                 let set = convert(&mesh, &opts, Progress::silent()).unwrap();
@@ -574,6 +575,7 @@ mod tests {
         let mesh = uv_sphere(16, 32);
         let opts = ConvertOptions {
             charts: Some(12),
+            hybrid: Some(false),
             ..Default::default()
         };
         let set = convert(&mesh, &opts, Progress::silent()).unwrap();

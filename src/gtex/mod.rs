@@ -508,20 +508,6 @@ impl GeometryTextureSet {
         self.patches.iter().map(Patch::map_bytes).sum()
     }
 
-    /// A ParameterError for `what`, which works on height maps only, where the set holds
-    /// triangles: it would leave them out without a word.
-    pub fn patches_only(&self, what: &str) -> crate::error::Result<()> {
-        match &self.triangles {
-            None => Ok(()),
-            Some(t) => Err(crate::error::GeomtexError::Parameter(format!(
-                "{what} works on height maps only, and this hybrid set keeps {} of its faces as \
-                 triangles ({} clusters); draw or trace it with a Renderer, which handles both",
-                t.mesh().faces.len(),
-                t.clusters()
-            ))),
-        }
-    }
-
     /// What the set holds: its patches' maps and its triangles (`SetTriangles::bytes`).
     pub fn bytes(&self) -> usize {
         self.map_bytes() + self.triangles.as_ref().map_or(0, SetTriangles::bytes)

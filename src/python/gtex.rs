@@ -231,7 +231,8 @@ impl PyGeometryTextureSet {
 
     /// Exact first hits of world rays on the set's surface, computed on the CPU in f64 (the
     /// reference the GPU searches are tested against): ((N,) float64 distances along the rays,
-    /// +inf on a miss; (N,) int32 patch indices, -1 on a miss). Directions must be unit vectors.
+    /// +inf on a miss; (N,) int32 patch indices, -1 on a miss, -2 on a hybrid set's triangles).
+    /// Directions must be unit vectors.
     fn first_hits<'py>(
         &self,
         py: Python<'py>,

@@ -90,7 +90,10 @@ fn hybrid_parts(object: &Object) -> Option<(&crate::gtex::SetTriangles, bool)> {
         return Some((set.triangles.as_ref()?, !set.patches.is_empty()));
     }
     let surfels = payload.downcast_ref::<SurfelHierarchy>()?;
-    Some((surfels.source.triangles.as_ref()?, !surfels.tiles.is_empty()))
+    Some((
+        surfels.source.triangles.as_ref()?,
+        !surfels.tiles.is_empty(),
+    ))
 }
 
 impl SceneObject {
