@@ -18,11 +18,13 @@ Into ``bench/results/hybrid.json`` and ``hybrid.png``. Run from the repository r
 
     nice python bench/hybrid.py          # ~8 min on 2 cores
     nice python bench/hybrid.py --big    # also the 1.1 M-face bunny
+    nice python bench/hybrid.py --only bunny-loop-subdivided   # one row, into the existing JSON
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import sys
 import time
@@ -138,6 +140,7 @@ def plot(rows: dict[str, dict[str, Any]], path: Path) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--big", action="store_true", help="also the 1.1 M-face loop-subdivided bunny")
+    parser.add_argument("--only", nargs="+", help="these rows only, replacing theirs in the existing JSON")
     args = parser.parse_args()
     names = [n for n in economy.MESHES if (economy.MESH_DIR / f"{n}.obj").exists()]
     names += ["noisy-isosurface", "displaced-icosphere", "low-poly-1k"]
@@ -145,6 +148,11 @@ def main() -> None:
         names.append("bunny-loop-subdivided")
     out: dict[str, Any] = {"loadavg_before": os.getloadavg(), "size": SIZE, "views": len(economy.VIEWS),
                            "cpu_threads": os.cpu_count(), "rows": {}}
+    if args.only:
+        names = args.only
+        old = json.loads((RESULTS / "hybrid.json").read_text())
+        out["rows"] = old["rows"]
+        out["loadavg_before"] = old.get("loadavg_before")
     for name in names:
         out["rows"][name] = row(name)
         print(name, {k: (round(v, 6) if isinstance(v, float) else v) for k, v in out["rows"][name].items()}, flush=True)

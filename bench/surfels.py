@@ -24,6 +24,8 @@ Run from the repository root::
 
     nice python bench/surfels.py            # both meshes (~6 min)
     nice python bench/surfels.py --quick    # the bunny only, 3 errors
+    nice python bench/surfels.py --quick --default   # the default (hybrid) set instead, into
+                                                     # surfels_default.json / .png
 """
 
 from __future__ import annotations
@@ -116,10 +118,11 @@ def dz1_px(frame: gt.Frame, ref: dict[str, Any], both: np.ndarray) -> np.ndarray
     return near[both] / footprint
 
 
-def prepare(mesh: gt.Mesh) -> dict[str, Any]:
-    """The mesh converted at RESOLUTION, its hierarchies of every tile, and its ray caster."""
+def prepare(mesh: gt.Mesh, default: bool = False) -> dict[str, Any]:
+    """The mesh converted at RESOLUTION (or by default: a hybrid set, whose triangles are drawn
+    as its mesh beside the surfels), its hierarchies of every tile, and its ray caster."""
     t0 = time.perf_counter()
-    gts = gt.convert(mesh, max_resolution=RESOLUTION)
+    gts = gt.convert(mesh) if default else gt.convert(mesh, max_resolution=RESOLUTION)
     convert_s = time.perf_counter() - t0
     hierarchies, build_s = {}, {}
     for tile in TILES:
@@ -269,6 +272,8 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="the bunny only, three errors")
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--turns", type=int, default=21, help="renders per mesh in the side-by-side timing")
+    parser.add_argument("--default", action="store_true",
+                        help="the default (hybrid) convert instead of max_resolution=RESOLUTION")
     args = parser.parse_args()
     renderer = gt.Renderer(SIZE, SIZE)
     errors = (0.5, 1.0, 2.0) if args.quick else ERRORS
@@ -276,7 +281,7 @@ def main() -> None:
     if not args.quick:
         meshes["bunny_loop2"] = lambda: dense_bunny(BUNNY, 2)
     load_before = os.getloadavg()
-    states = {name: prepare(make()) for name, make in meshes.items()}
+    states = {name: prepare(make(), args.default) for name, make in meshes.items()}
     rows: dict[str, list[dict[str, Any]]] = {name: [] for name in states}
     # Distance by distance, every mesh in turn: the meshes' timings at one coverage are taken
     # seconds apart, so a busy neighbour on a shared machine shifts both alike.
@@ -296,7 +301,9 @@ def main() -> None:
         "adapter": renderer.adapter_info,
         "size": SIZE,
         "yfov_deg": YFOV,
-        "max_resolution": RESOLUTION,
+        "max_resolution": None if args.default else RESOLUTION,
+        "conversion": "default (hybrid)" if args.default else f"max_resolution={RESOLUTION}",
+        "triangles_kept": {name: int(st["gts"].stats.get("triangle_faces", 0)) for name, st in states.items()},
         "repeats": args.repeats,
         # 1/5/15-minute load averages (2 cores shared with other builds): timings are noisy.
         "loadavg_start": load_before,
@@ -308,12 +315,13 @@ def main() -> None:
         "meshes": results,
     }
     OUT.mkdir(parents=True, exist_ok=True)
-    plot(results, OUT / "surfels.png")
+    stem = "surfels_default" if args.default else "surfels"
+    plot(results, OUT / f"{stem}.png")
     if len(states) == 2:
         a, b = states
         data["side_by_side_dense_over_bunny"] = {
             f: {k: t[f"{b}_{k}"] / t[f"{a}_{k}"] for k in ("gpu_ms", "gpu_ms_min")} for f, t in turns.items()}
-    write_json(OUT / "surfels.json", data, indent=1)
+    write_json(OUT / f"{stem}.json", data, indent=1)
     print(json.dumps(data["summary"], indent=1))
     print(json.dumps(data.get("side_by_side_dense_over_bunny"), indent=1))
 
