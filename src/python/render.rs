@@ -550,15 +550,13 @@ fn outputs_of(obj: Option<&Bound<'_, PyAny>>) -> PyResult<Outputs> {
     Ok(Outputs::parse(&names)?)
 }
 
-/// A Scene as given, or a scene of one object placed at the origin, as the renderers draw it
-/// (`Scene::drawn`: a hybrid set's triangles as a mesh after it).
+/// A Scene as given, or a scene of one object placed at the origin.
 fn scene_of(obj: &Bound<'_, PyAny>) -> PyResult<Scene> {
     Ok(match obj.cast::<PyScene>() {
-        Ok(s) => s.borrow().inner.drawn(),
+        Ok(s) => s.borrow().inner.clone(),
         Err(_) => Scene {
             objects: vec![scene_object(obj, DMat4::IDENTITY, None)?],
-        }
-        .drawn(),
+        },
     })
 }
 

@@ -221,6 +221,8 @@ impl Renderer {
         search: &SearchOptions,
         request: &FrameRequest,
     ) -> Result<Frame> {
+        // A hybrid set's triangles are drawn as a mesh beside it (Scene::drawn).
+        let scene = &scene.drawn();
         search.validate()?;
         self.check_size(request.width, request.height)?;
         let device = self.gpu.device.clone();

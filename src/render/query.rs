@@ -213,6 +213,8 @@ impl Renderer {
         any_hit: bool,
         cancel: &Cancel,
     ) -> Result<RayHits> {
+        // A hybrid set's triangles are drawn as a mesh beside it (Scene::drawn).
+        let scene = &scene.drawn();
         let rays = checked_rays(rays)?;
         self.trace_rays(scene, &rays, None, BATCH, search, any_hit, cancel)
     }

@@ -95,6 +95,8 @@ impl Renderer {
         frame: &mut Frame,
         cancel: &Cancel,
     ) -> Result<()> {
+        // A hybrid set's triangles are drawn as a mesh beside it (Scene::drawn).
+        let scene = &scene.drawn();
         cast_shadows(self, scene, camera, search, light, frame, cancel)
     }
 }

@@ -146,6 +146,8 @@ impl CpuRenderer {
         request: &FrameRequest,
         cancel: &Cancel,
     ) -> Result<Frame> {
+        // A hybrid set's triangles are drawn as a mesh beside it (Scene::drawn).
+        let scene = &scene.drawn();
         let search = exact_search(search)?;
         check_image_size(request.width, request.height, MAX_IMAGE_SIDE)?;
         let start = Instant::now();
@@ -188,6 +190,8 @@ impl CpuRenderer {
         frame: &mut Frame,
         cancel: &Cancel,
     ) -> Result<()> {
+        // A hybrid set's triangles are drawn as a mesh beside it (Scene::drawn).
+        let scene = &scene.drawn();
         let search = SearchOptions::default();
         cast_shadows(self, scene, camera, &search, light, frame, cancel)
     }
@@ -202,6 +206,8 @@ impl CpuRenderer {
         any_hit: bool,
         cancel: &Cancel,
     ) -> Result<RayHits> {
+        // A hybrid set's triangles are drawn as a mesh beside it (Scene::drawn).
+        let scene = &scene.drawn();
         super::query::check_rays(rays)?;
         let (trace, _) = self.prepare(scene)?;
         let miss = (f64::INFINITY, (-1, [0.0; 3]));
@@ -244,6 +250,8 @@ impl CpuRenderer {
         rays: &[(DVec3, DVec3)],
         cancel: &Cancel,
     ) -> Result<Vec<Vec<(f64, i32)>>> {
+        // A hybrid set's triangles are drawn as a mesh beside it (Scene::drawn).
+        let scene = &scene.drawn();
         super::query::check_rays(rays)?;
         let (trace, _) = self.prepare(scene)?;
         let lists = rays
