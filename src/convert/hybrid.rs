@@ -24,6 +24,9 @@ pub struct Split {
     pub triangles: Option<SetTriangles>,
 }
 
+/// A chart kept as a patch: the patch, its error, its triangles' bytes, and its errors.
+type Kept = (Patch, f64, f64, Vec<WeightedError>);
+
 /// Splits the charts drawn (`drawn[k]` None: no height map within the bound was cheaper) into
 /// patches and triangles; `triangle_bytes` None: every chart is a patch.
 pub fn split(
@@ -33,7 +36,7 @@ pub fn split(
     drawn: Vec<Option<Drawn>>,
     triangle_bytes: Option<&[f64]>,
 ) -> Split {
-    let mut kept: Vec<(Patch, f64, f64, Vec<WeightedError>)> = Vec::new();
+    let mut kept: Vec<Kept> = Vec::new();
     let mut clusters: Vec<(Vec<u32>, KeptBecause)> = Vec::new();
     for (k, ((chart, ring), d)) in charts.into_iter().zip(drawn).enumerate() {
         let cap = triangle_bytes.map_or(f64::INFINITY, |b| b[k]);
@@ -96,7 +99,7 @@ fn face_area(mesh: &Mesh, f: u32) -> f64 {
 /// counts them.
 fn within_mesh_bytes(
     mesh: &Mesh,
-    kept: &mut Vec<(Patch, f64, f64, Vec<WeightedError>)>,
+    kept: &mut Vec<Kept>,
     clusters: &mut Vec<(Vec<u32>, KeptBecause)>,
 ) {
     let per_vertex = if mesh.colors.is_some() { 16 } else { 12 };
