@@ -12,6 +12,7 @@ use super::accuracy::WeightedError;
 use super::draw::Drawn;
 use crate::charts::overlap::Ring;
 use crate::charts::repair::Chart;
+use crate::gtex::triangles::mesh_bytes;
 use crate::gtex::{KeptBecause, Patch, SetTriangles};
 use crate::mesh::{Mesh, NormalRule};
 
@@ -102,8 +103,8 @@ fn within_mesh_bytes(
     kept: &mut Vec<Kept>,
     clusters: &mut Vec<(Vec<u32>, KeptBecause)>,
 ) {
-    let per_vertex = if mesh.colors.is_some() { 16 } else { 12 };
-    let own = per_vertex * mesh.positions.len() + 12 * mesh.faces.len();
+    let colored = mesh.colors.is_some();
+    let own = mesh_bytes(mesh.positions.len(), mesh.faces.len(), colored);
     let mut used = vec![false; mesh.positions.len()];
     let mut vertices = 0usize;
     let mut faces = 0usize;
@@ -116,7 +117,7 @@ fn within_mesh_bytes(
                 }
             }
         }
-        per_vertex * vertices + 12 * faces
+        mesh_bytes(vertices, faces, colored)
     };
     let mut triangle_bytes = 0;
     for (chart, _) in clusters.iter() {
@@ -136,8 +137,11 @@ fn within_mesh_bytes(
 /// A hybrid conversion's figures: what went where and why, and the bytes of each side against
 /// the mesh's own (`SetTriangles::bytes` of all its faces).
 pub fn figures(mesh: &Mesh, set: &crate::gtex::GeometryTextureSet) -> Vec<(&'static str, f64)> {
-    let per_vertex = if mesh.colors.is_some() { 16 } else { 12 };
-    let own = per_vertex * mesh.positions.len() + 12 * mesh.faces.len();
+    let own = mesh_bytes(
+        mesh.positions.len(),
+        mesh.faces.len(),
+        mesh.colors.is_some(),
+    );
     let t = set.triangles.as_ref();
     let count = |why: KeptBecause| t.map_or(0, |t| t.because.iter().filter(|&&b| b == why).count());
     vec![

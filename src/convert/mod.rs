@@ -243,8 +243,8 @@ struct Rastered {
     triangle_bytes: Option<Vec<f64>>,
 }
 
-/// Bytes of each chart's own faces as a mesh stores them (`SetTriangles::bytes`: its vertices
-/// once, float32, with RGBA8 where the mesh has colors, and uint32 indices), or None where a
+/// Bytes of each chart's own faces as a mesh stores them (`triangles::mesh_bytes`, each vertex
+/// once), or None where a
 /// hybrid set cannot hold triangles: a face-colored or textured mesh (its triangles would lose
 /// what the maps keep).
 fn chart_triangle_bytes(mesh: &Mesh, charted: &Charted, opts: &ConvertOptions) -> Option<Vec<f64>> {
@@ -252,7 +252,7 @@ fn chart_triangle_bytes(mesh: &Mesh, charted: &Charted, opts: &ConvertOptions) -
     if !(opts.hybrid_on() && plain) {
         return None;
     }
-    let per_vertex = if mesh.colors.is_some() { 16.0 } else { 12.0 };
+    let colored = mesh.colors.is_some();
     let bytes = (charted.charts.par_iter())
         .map(|c| {
             let mut vertices: Vec<u32> = (c.faces.iter())
@@ -260,7 +260,7 @@ fn chart_triangle_bytes(mesh: &Mesh, charted: &Charted, opts: &ConvertOptions) -
                 .collect();
             vertices.sort_unstable();
             vertices.dedup();
-            per_vertex * vertices.len() as f64 + 12.0 * c.faces.len() as f64
+            crate::gtex::triangles::mesh_bytes(vertices.len(), c.faces.len(), colored) as f64
         })
         .collect();
     Some(bytes)

@@ -41,6 +41,14 @@ impl KeptBecause {
     }
 }
 
+/// Bytes of `vertices` vertices and `faces` faces as a mesh stores them: float32 positions and
+/// uint32 indices, and RGBA8 per vertex with colors. The one measure a hybrid set weighs its
+/// height maps against, and stays within.
+pub fn mesh_bytes(vertices: usize, faces: usize, colored: bool) -> usize {
+    let per_vertex = if colored { 16 } else { 12 };
+    per_vertex * vertices + 12 * faces
+}
+
 /// The triangles of a hybrid set; drawn and traced as a mesh (`shaded`) by every backend.
 #[derive(Clone)]
 pub struct SetTriangles {
@@ -143,12 +151,10 @@ impl SetTriangles {
         self.starts.len().saturating_sub(1)
     }
 
-    /// Bytes as the mesh's own are counted: float32 positions and uint32 indices (and RGBA8 per
-    /// vertex with colors).
+    /// Bytes as the mesh's own are counted (`mesh_bytes`).
     pub fn bytes(&self) -> usize {
         let m = self.mesh();
-        let per_vertex = if m.colors.is_some() { 16 } else { 12 };
-        per_vertex * m.positions.len() + 12 * m.faces.len()
+        mesh_bytes(m.positions.len(), m.faces.len(), m.colors.is_some())
     }
 
     /// Checks what a file or a hand-made set could get wrong.
