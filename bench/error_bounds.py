@@ -224,7 +224,7 @@ def frame_stats(frame: Any) -> dict[str, Any]:
 
 def measure_view(renderer: gt.Renderer, gts: Any, cam: gt.Camera, dists: Distances, ref_hit: np.ndarray,
                  diag: float, rng: np.random.Generator, keep: list[np.ndarray], **options: Any) -> dict[str, Any]:
-    frame = renderer.render(gts, cam, outputs=("depth", "error_bound", "coverage_uncertain"), **options)
+    frame = renderer.render(gts, cam, outputs=("depth", "error_bound", "coverage_uncertain", "patch_id"), **options)
     depth = np.asarray(frame.depth)
     bound = np.asarray(frame.error_bound, np.float64)
     drawn = np.isfinite(depth)
@@ -242,6 +242,11 @@ def measure_view(renderer: gt.Renderer, gts: Any, cam: gt.Camera, dists: Distanc
     rec["reference_s"] = time.perf_counter() - t0
     b = bound.reshape(-1)[idx]
     rec["holds"] = holds(d, b, diag)
+    # A hybrid set's triangles are the mesh's own faces (bound: float error only): tightness is
+    # also taken over the height maps' pixels alone.
+    on_maps = np.asarray(frame.patch_id).reshape(-1)[idx] >= 0
+    if not on_maps.all():
+        rec["holds_maps"] = holds(d[on_maps], b[on_maps], diag)
     take = rng.choice(len(d), min(len(d), PLOT_SAMPLES), replace=False) if len(d) else np.zeros(0, int)
     keep.append(np.stack([d[take], b[take]], axis=1) / diag)
     rec["coverage"] = coverage(frame, ref_hit)
@@ -279,11 +284,15 @@ def cheap(renderer: gt.Renderer, gts: Any, cam: gt.Camera, repeats: int) -> dict
 def bound_bytes(gts: Any) -> dict[str, Any]:
     s = gts.stats
     out: dict[str, Any] = {"bytes": int(s["bytes"])}
+    if "patch_bytes" in s:  # a hybrid set: its height maps' bytes, and its triangles'
+        out.update(patch_bytes=int(s["patch_bytes"]), triangle_bytes=int(s["triangle_bytes"]),
+                   triangle_faces=int(s["triangle_faces"]))
     for k in ("error_bound_bytes", "error_bound_max", "error_bound_p99"):
         if k in s:
             out[k] = float(s[k]) if k != "error_bound_bytes" else int(s[k])
     if "error_bound_bytes" in out:
-        maps = out["bytes"] - out["error_bound_bytes"]
+        # The bound against the maps it bounds (not a hybrid set's triangles).
+        maps = out.get("patch_bytes", out["bytes"]) - out["error_bound_bytes"]
         out["bound_over_maps"] = out["error_bound_bytes"] / maps if maps > 0 else None
     return out
 
@@ -409,6 +418,9 @@ def summarise(rec: dict[str, Any], diag: float) -> dict[str, Any]:
         "worst_excess_rel": max((h["worst_excess_rel"] for h in hs), default=None),
         "max_dist_over_bound": max((h["max_dist_over_bound"] for h in hs), default=None),
         "tight_worst_view": max((h["tight"] for h in hs), default=None),
+        # Over the height maps' pixels only (hybrid sets; the same as above for all-map sets).
+        "tight_maps_worst_view": max((v.get("holds_maps", v["holds"]).get("tight", 0.0)
+                                      for v in rec["views"].values() if v["holds"].get("pixels")), default=None),
         "tight_median_view": float(np.median([h["tight"] for h in hs])) if hs else None,
         "dist_max_rel": max((h["dist_max_rel"] for h in hs), default=None),
         "bound_nan_drawn": sum(v["bound_nan_drawn"] for v in rec["views"].values()),
@@ -500,6 +512,8 @@ def summary_rows(d: dict[str, Any]) -> list[dict[str, Any]]:
                 "mesh": name, "conversion": label, "bytes": c["set"]["bytes"], "bytes_over_default": c["bytes_over_default"],
                 "convert_s": c["seconds"], "holds": s["holds"], "holds_tol": s["holds_tol"], "exceptions": s["exceptions"],
                 "max_dist_over_bound": s["max_dist_over_bound"], "tight_worst_view": s["tight_worst_view"],
+                "tight_maps_worst_view": s.get("tight_maps_worst_view"),
+                "triangle_faces": c["set"].get("triangle_faces", 0),
                 "dist_max_rel": s["dist_max_rel"],
                 "set_bound_max_rel": c["set"].get("error_bound_max", float("nan")) / m["diagonal"],
                 "coverage_differing": s["coverage_differing"], "coverage_inside": s["coverage_inside"],
@@ -515,6 +529,7 @@ def verdicts(d: dict[str, Any]) -> dict[str, Any]:
     rows = [(n, lab, c) for n, m in d["meshes"].items() for lab, c in m["conversions"].items() if "summary" in c]
     worst_hold = min(rows, key=lambda r: r[2]["summary"]["holds"] if r[2]["summary"]["holds"] is not None else 1)
     worst_tight = max(rows, key=lambda r: r[2]["summary"]["tight_worst_view"] or 0)
+    worst_tight_maps = max(rows, key=lambda r: r[2]["summary"].get("tight_maps_worst_view") or 0)
     worst_inside = min(rows, key=lambda r: r[2]["summary"]["coverage_inside"])
     worst_ratio = max(rows, key=lambda r: r[2]["summary"]["coverage_ratio"])
     byte_rows = [(n, lab, c["set"]["bound_over_maps"]) for n, lab, c in rows if c["set"].get("bound_over_maps") is not None]
@@ -523,6 +538,8 @@ def verdicts(d: dict[str, Any]) -> dict[str, Any]:
         "holds": {"worst": worst_hold[2]["summary"]["holds"], "where": worst_hold[:2], "target": TARGETS["holds"]},
         "tight": {"worst": worst_tight[2]["summary"]["tight_worst_view"], "where": worst_tight[:2],
                   "target": TARGETS["tight"]},
+        "tight_maps": {"worst": worst_tight_maps[2]["summary"].get("tight_maps_worst_view"),
+                       "where": worst_tight_maps[:2], "target": TARGETS["tight"]},
         "coverage_inside": {"worst": worst_inside[2]["summary"]["coverage_inside"], "where": worst_inside[:2],
                             "target": TARGETS["coverage_inside"]},
         "coverage_ratio": {"worst": worst_ratio[2]["summary"]["coverage_ratio"], "where": worst_ratio[:2],

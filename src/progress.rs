@@ -6,6 +6,7 @@
 //! Space: none.
 
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::Mutex;
 use std::time::Instant;
 
 use rayon::prelude::*;
@@ -100,6 +101,45 @@ impl<'a> Stages<'a> {
     }
 }
 
+/// Items finished by many threads, reported every `every` of them in order. Each report is made
+/// under one lock and says the next multiple of `every`, so the caller's bar never moves back
+/// (a thread that counted 8 could report after one that counted 16 had: the bar went from 0.94
+/// back to 0.47 when most of a hybrid conversion's charts were no work at all).
+pub struct Finished<'a> {
+    progress: Progress<'a>,
+    stage: &'a str,
+    total: usize,
+    every: usize,
+    done: AtomicUsize,
+    reported: Mutex<usize>,
+}
+
+impl<'a> Finished<'a> {
+    pub fn new(progress: Progress<'a>, stage: &'a str, total: usize, every: usize) -> Self {
+        Finished {
+            progress,
+            stage,
+            total: total.max(1),
+            every: every.max(1),
+            done: AtomicUsize::new(0),
+            reported: Mutex::new(0),
+        }
+    }
+
+    /// Counts one item, reporting when a multiple of `every` is reached; Cancelled if the
+    /// callback says stop, Interrupted if the token is set.
+    pub fn one(&self) -> Result<()> {
+        let k = self.done.fetch_add(1, Ordering::Relaxed) + 1;
+        if !k.is_multiple_of(self.every) {
+            return Ok(());
+        }
+        let mut reported = self.reported.lock().unwrap_or_else(|p| p.into_inner());
+        *reported += self.every;
+        self.progress
+            .report(self.stage, *reported as f64 / self.total as f64)
+    }
+}
+
 /// `work` on every item in parallel, reporting progress as `stage` and stopping early when the
 /// callback cancels or the token is set (polled before every item).
 pub fn each_chart<J: Sync, T: Send>(
@@ -108,7 +148,7 @@ pub fn each_chart<J: Sync, T: Send>(
     stage: &str,
     work: impl Fn(&J) -> T + Sync,
 ) -> Result<Vec<T>> {
-    let done = AtomicUsize::new(0);
+    let finished = Finished::new(progress, stage, items.len(), 16);
     let cancelled = AtomicBool::new(false);
     let out: Vec<Option<T>> = items
         .par_iter()
@@ -117,8 +157,7 @@ pub fn each_chart<J: Sync, T: Send>(
                 return None;
             }
             let t = work(item);
-            let k = done.fetch_add(1, Ordering::Relaxed) + 1;
-            if k.is_multiple_of(16) && !(progress.callback)(stage, k as f64 / items.len() as f64) {
+            if let Err(GeomtexError::Cancelled(_)) = finished.one() {
                 cancelled.store(true, Ordering::Relaxed);
             }
             Some(t)
@@ -129,4 +168,29 @@ pub fn each_chart<J: Sync, T: Send>(
         return Err(GeomtexError::Cancelled(stage.into()));
     }
     Ok(out.into_iter().flatten().collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reports_from_many_threads_never_move_back() {
+        // Items that are no work at all (a hybrid set's charts kept as triangles): the race
+        // between counting and reporting is at its widest.
+        let seen = Mutex::new(Vec::new());
+        let callback = |_: &str, f: f64| {
+            seen.lock().unwrap().push(f);
+            true
+        };
+        let items: Vec<u32> = (0..4096).collect();
+        for _ in 0..20 {
+            seen.lock().unwrap().clear();
+            each_chart(&items, Progress::new(&callback, &NEVER), "raster", |_| ()).unwrap();
+            let seen = seen.lock().unwrap();
+            assert_eq!(seen.len(), 4096 / 16);
+            assert!(seen.windows(2).all(|w| w[0] < w[1]), "{seen:?}");
+            assert_eq!(seen.last(), Some(&1.0));
+        }
+    }
 }

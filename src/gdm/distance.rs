@@ -6,8 +6,6 @@
 //! Space: texture space in voxel units (gdm_data/volume.rs); directions are unit vectors there, theta the
 //! polar angle from +z (the shell's outward normal), phi the azimuth from +x towards +y.
 
-use std::sync::atomic::{AtomicUsize, Ordering};
-
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -184,7 +182,7 @@ pub(crate) fn tabulate(
     let [nx, ny, nz] = volume.size;
     let count = directions[0] * directions[1];
     let per_row = ny * nz * count;
-    let done = AtomicUsize::new(0);
+    let finished = crate::progress::Finished::new(progress, stage, nx, 1);
     progress.report(stage, 0.0)?;
     let rows: Vec<(Vec<f32>, Vec<bool>)> = (0..nx)
         .into_par_iter()
@@ -202,8 +200,7 @@ pub(crate) fn tabulate(
                     }
                 }
             }
-            let finished = done.fetch_add(1, Ordering::Relaxed) + 1;
-            progress.report(stage, finished as f64 / nx as f64)?;
+            finished.one()?;
             Ok((distance, hit))
         })
         .collect::<Result<_>>()?;
