@@ -63,10 +63,10 @@ def test_a_hybrid_set_costs_no_more_than_its_mesh(name: str) -> None:
     source = tm.vertices[tm.faces[t["source_faces"]]]
     assert np.abs(corners - source).max() < 1e-6 * mesh.diagonal
     assert len(t["kept_because"]) == len(t["cluster_starts"]) - 1 == int(s["triangle_clusters"])
-    # Measured: sphere 72 patches, 914 of 32,512 faces kept, 0.286x the mesh's bytes; low-poly
-    # 0 patches, every face kept, 1.0x.
+    # Measured: sphere 72 patches, 914 of 64,512 faces kept (1.4%), 0.286x the mesh's bytes;
+    # low-poly 0 patches, every face kept, 1.0x.
     if name == "sphere":
-        assert len(gts) > 20 and s["bytes"] < 0.6 * own and 0 < len(t["faces"]) < 0.1 * len(tm.faces)
+        assert len(gts) > 20 and s["bytes"] < 0.6 * own and 0 < len(t["faces"]) < 0.03 * len(tm.faces)
     else:
         assert len(gts) == 0 and s["bytes"] == own
 
@@ -154,10 +154,10 @@ def test_first_hits_trace_patches_and_triangles_exactly() -> None:
     disagree = np.mean(np.isfinite(t) != np.isfinite(ref))
     err = np.percentile(np.abs(t[both] - ref[both]), 99) / mesh.diagonal
     on_triangles = both & (ids == -2)
-    # Measured: hit/miss differs on 0.1% of the rays, distance p99 6e-4 of the diagonal (the
+    # Measured: hit/miss differs on 0.06% of the rays, distance p99 5.9e-4 of the diagonal (the
     # height maps within the default bound); on 58 hits of the triangles at most 2.9e-8 (their
     # f32 offsets, and embree's f32).
-    assert disagree < 3e-3 and err < 1.5e-3, (disagree, err)
+    assert disagree < 1.5e-3 and err < 1.5e-3, (disagree, err)
     assert on_triangles.sum() > 20 and np.abs(t[on_triangles] - ref[on_triangles]).max() < 1e-7 * mesh.diagonal
 
 
