@@ -23,7 +23,7 @@ SEAM_VIEWS = VIEWS + [(1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.7, 0.7, 0.0), (-0.2, 
 @functools.cache
 def _case(name: str) -> tuple[trimesh.Trimesh, gt.Mesh, gt.GeometryTextureSet]:
     if name == "sphere":
-        # 32k smooth faces: mostly height maps, some charts kept as triangles, so patch/triangle
+        # 64k smooth faces: mostly height maps, some charts kept as triangles, so patch/triangle
         # seams run across the surface.
         tm = trimesh.creation.uv_sphere(radius=1.0, count=[128, 128])
     else:
