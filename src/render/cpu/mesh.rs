@@ -1,8 +1,7 @@
-//! A triangle mesh made ready for the CPU backend: obvhs's compressed 8-wide BVH (CWBVH, SIMD
-//! box tests four children at a time) over its faces, picked over a hand-written tree because it
-//! is a maintained, measured structure of the field (bench/rays.py compares it with Embree through
-//! Open3D). The BVH picks the face in f32; the hit is then recomputed in f64 from the face's own
-//! vertices, so distances and barycentrics are as exact as the mesh.
+//! A triangle mesh made ready for the CPU backend: an 8-wide BVH over its faces (`wide_bvh`:
+//! obvhs builds the tree, the walk is ours). The BVH picks the face in f32; the hit is then
+//! recomputed in f64 from the face's own vertices, so distances and barycentrics are as exact as
+//! the mesh.
 //!
 //! Spaces: the mesh's object space, re-centred on its bounding box's centre for the f32 hierarchy
 //! (`centre`); rays arrive in object space (f64) with t meaning world distance (the placement is
@@ -11,11 +10,9 @@
 use std::sync::Arc;
 
 use glam::{DVec3, Vec3A};
-use obvhs::cwbvh::builder::build_cwbvh_from_tris;
-use obvhs::cwbvh::CwBvh;
-use obvhs::ray::{Ray, RayHit};
 use obvhs::triangle::Triangle;
-use obvhs::BvhBuildParams;
+
+use super::wide_bvh::{WideBvh, WideRay};
 
 use crate::mesh::{CornerNormals, Mesh, MeshGeometry, NormalRule};
 
@@ -29,11 +26,8 @@ pub(crate) struct FaceHit {
 
 pub(crate) struct MeshTracer {
     mesh: Arc<Mesh>,
-    bvh: CwBvh,
-    /// Faces in the BVH's primitive order, f32 relative to `centre` (what the BVH tests).
-    triangles: Vec<Triangle>,
-    /// The face of each primitive slot.
-    faces: Vec<u32>,
+    /// Over the faces, f32 relative to `centre`; its primitives are face indices.
+    bvh: WideBvh,
     centre: DVec3,
     normals: CornerNormals,
     /// The mesh's bounding box.
@@ -53,57 +47,41 @@ impl MeshTracer {
                 v2: at(c),
             })
             .collect();
-        let bvh = build_cwbvh_from_tris(
-            &all,
-            BvhBuildParams::fast_build(),
-            &mut std::time::Duration::default(),
-        );
-        let faces = bvh.primitive_indices.clone();
-        let triangles = faces.iter().map(|&f| all[f as usize]).collect();
+        let bvh = WideBvh::build(&all);
         let normals = MeshGeometry::new(&mesh).corner_normals(&mesh, rule);
         MeshTracer {
             mesh,
             bvh,
-            triangles,
-            faces,
             centre,
             normals,
             bounds: crate::bvh::Aabb { lo, hi },
         }
     }
 
-    /// The f32 ray of an object-space ray, for stretch [t0, t1].
-    fn ray(&self, o: DVec3, d: DVec3, (t0, t1): (f64, f64)) -> Ray {
+    /// The f32 ray of an object-space ray, for stretch [t0, t1], and its far end.
+    fn ray(&self, o: DVec3, d: DVec3, (t0, t1): (f64, f64)) -> (WideRay, f32) {
         let far = if t1.is_finite() {
             t1 as f32
         } else {
             f32::INFINITY
         };
-        Ray::new(
+        let ray = WideRay::new(
             Vec3A::from((o - self.centre).as_vec3()),
             Vec3A::from(d.as_vec3()),
             t0 as f32,
-            far,
-        )
+        );
+        (ray, far)
     }
 
     /// The nearest hit of the object-space ray o + t d for t in `span`, or None.
     pub fn nearest(&self, o: DVec3, d: DVec3, span: (f64, f64)) -> Option<FaceHit> {
-        let mut hit = RayHit::none();
-        let found = self
-            .bvh
-            .ray_traverse(self.ray(o, d, span), &mut hit, |ray, k| {
-                self.triangles[k].intersect(ray)
-            });
-        if !found {
-            return None;
-        }
-        let face = self.faces[hit.primitive_id as usize];
+        let (ray, far) = self.ray(o, d, span);
+        let (t, face) = self.bvh.nearest(&ray, far)?;
         // The f32 pick, recomputed in f64; kept as picked where f64 finds the ray parallel.
         self.exact(face, o, d)
             .filter(|h| h.t >= span.0 && h.t <= span.1)
             .or(Some(FaceHit {
-                t: f64::from(hit.t),
+                t: f64::from(t),
                 face,
                 barycentric: [1.0 / 3.0; 3],
             }))
@@ -111,21 +89,14 @@ impl MeshTracer {
 
     /// Whether the object-space ray meets any face for t in `span` (stops at the first found).
     pub fn any(&self, o: DVec3, d: DVec3, span: (f64, f64)) -> bool {
-        !self.bvh.ray_traverse_miss(self.ray(o, d, span), |ray, k| {
-            self.triangles[k].intersect(ray)
-        })
+        let (ray, far) = self.ray(o, d, span);
+        self.bvh.any(&ray, far)
     }
 
     /// Every face the object-space ray crosses for t in `span`, nearest first.
     pub fn all(&self, o: DVec3, d: DVec3, span: (f64, f64)) -> Vec<FaceHit> {
-        let mut found = Vec::new();
-        self.bvh
-            .ray_traverse_anyhit(self.ray(o, d, span), |ray, k| {
-                if self.triangles[k].intersect(ray) < ray.tmax {
-                    found.push(self.faces[k]);
-                }
-            });
-        let mut hits: Vec<FaceHit> = (found.into_iter())
+        let (ray, far) = self.ray(o, d, span);
+        let mut hits: Vec<FaceHit> = (self.bvh.all(&ray, far).into_iter())
             .filter_map(|f| self.exact(f, o, d))
             .filter(|h| h.t >= span.0 && h.t <= span.1)
             .collect();
