@@ -715,8 +715,11 @@ pub struct SetTracer {
     pieces: PackedPieces,
     /// Per piece, its box in the set's space.
     boxes: Vec<crate::bvh::Aabb>,
+    /// For bundles of rays (`pieces_within`: a frustum test per node, in f64).
     bvh: crate::bvh::Bvh,
     bounds: Vec<crate::bvh::Aabb>,
+    /// For single rays: the same boxes in an 8-wide tree (four box tests at once).
+    wide: crate::wide_bvh::BoxBvh,
 }
 
 /// A plane n . p + c = 0 as (n, c); a bundle of rays lies where n . p + c >= 0 for each of
@@ -774,6 +777,7 @@ impl SetTracer {
         let boxes: Vec<Aabb> = all.iter().map(|piece| piece.2).collect();
         let bvh = Bvh::build(&boxes);
         let bounds = bvh.node_bounds(&boxes);
+        let wide = crate::wide_bvh::BoxBvh::build(&boxes);
         // Packed in the hierarchy's leaf order would be better still; in patch order each
         // patch's pieces lie together, as its neighbours in space mostly do.
         let mut pieces = PackedPieces::default();
@@ -785,6 +789,7 @@ impl SetTracer {
             boxes,
             bvh,
             bounds,
+            wide,
         }
     }
 
@@ -818,7 +823,7 @@ impl SetTracer {
         span: (f64, f64),
     ) -> (f64, i32) {
         let mut patch = -1;
-        let (t, _) = self.bvh.nearest(&self.bounds, origin, dir, span, |i, t1| {
+        let (t, _) = self.wide.nearest(origin, dir, span, |i, t1| {
             let (t, k) = self.piece_hit(set, i, (origin, dir), (span.0, t1))?;
             patch = k as i32;
             Some(t)
@@ -910,7 +915,7 @@ impl SetTracer {
                 return true;
             }
         }
-        self.bvh.any(&self.bounds, origin, dir, span, |i| {
+        self.wide.any(origin, dir, span, |i| {
             let found = hits(i);
             if found {
                 last.set(Some(i));
@@ -930,7 +935,7 @@ impl SetTracer {
         span: (f64, f64),
     ) -> Vec<(f64, i32)> {
         let mut hits = Vec::new();
-        self.bvh.any(&self.bounds, origin, dir, span, |i| {
+        self.wide.any(origin, dir, span, |i| {
             let mut from = span.0;
             while let Some((t, k)) = self.piece_hit(set, i, (origin, dir), (from, span.1)) {
                 hits.push((t, k as i32));

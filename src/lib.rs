@@ -26,6 +26,7 @@ pub mod cancel;
 pub mod error;
 pub mod profile;
 pub mod progress;
+pub(crate) mod wide_bvh;
 
 // The data model.
 pub mod appearance;

@@ -37,6 +37,7 @@ const LAYERS: &[(&str, Layer)] = &[
     ("progress", Infrastructure),
     ("profile", Infrastructure),
     ("bvh", Infrastructure),
+    ("wide_bvh", Infrastructure),
     ("mesh", DataModel),
     ("appearance", DataModel),
     ("heightfield", DataModel),

@@ -12,7 +12,7 @@ use std::sync::Arc;
 use glam::{DVec3, Vec3A};
 use obvhs::triangle::Triangle;
 
-use super::wide_bvh::{WideBvh, WideRay};
+use crate::wide_bvh::{WideBvh, WideRay};
 
 use crate::mesh::{CornerNormals, Mesh, MeshGeometry, NormalRule};
 

@@ -16,7 +16,6 @@
 mod mesh;
 mod scene;
 mod set;
-mod wide_bvh;
 
 use std::sync::Arc;
 use std::time::Instant;
