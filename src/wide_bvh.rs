@@ -102,8 +102,6 @@ pub(crate) enum Visit {
 pub(crate) struct WideBvh {
     nodes: Vec<Node>,
     leaves: Vec<Leaf>,
-    /// Stack entries the deepest walk may need (seven pending siblings per level).
-    stack_need: usize,
 }
 
 impl WideBvh {
@@ -112,7 +110,6 @@ impl WideBvh {
         let mut bvh = WideBvh {
             nodes: Vec::new(),
             leaves: Vec::new(),
-            stack_need: 1,
         };
         if triangles.is_empty() {
             return bvh;
@@ -122,28 +119,27 @@ impl WideBvh {
             ..BvhBuildParams::fast_build()
         };
         let binary = build_bvh2_from_tris(triangles, params, &mut std::time::Duration::default());
-        let depth = bvh.node(&binary, 0, &mut |bvh, node| {
+        bvh.node(&binary, 0, &mut |bvh, node| {
             bvh.leaf(&binary, node, triangles)
         });
-        bvh.stack_need = (WIDTH - 1) * depth + 1;
         bvh
     }
 
-    /// Node `k` of the binary tree as a wide node (appended), and the wide subtree's depth;
-    /// `leaf` gives a binary leaf's child code.
+    /// Node `k` of the binary tree as a wide node (appended); `leaf` gives a binary leaf's
+    /// child code.
     fn node(
         &mut self,
         binary: &Bvh2,
         k: usize,
         leaf: &mut impl FnMut(&mut WideBvh, &Bvh2Node) -> u32,
-    ) -> usize {
+    ) {
         let me = self.nodes.len();
         self.nodes.push(Node::empty());
         if binary.nodes[k].is_leaf() {
             // A tree of a single leaf: the root holds it.
             let code = leaf(self, &binary.nodes[k]);
             self.set_child(me, 0, &binary.nodes[k], code);
-            return 1;
+            return;
         }
         // Open the largest interior child until there are WIDTH children (or only leaves).
         let first = binary.nodes[k].first_index as usize;
@@ -158,19 +154,17 @@ impl WideBvh {
             children[widest] = grand;
             children.push(grand + 1);
         }
-        let mut depth = 0;
         for (lane, &c) in children.iter().enumerate() {
             let node = &binary.nodes[c];
             let code = if node.is_leaf() {
                 leaf(self, node)
             } else {
-                let (code, below) = (self.nodes.len() as u32, self.node(binary, c, leaf));
-                depth = depth.max(below);
+                let code = self.nodes.len() as u32;
+                self.node(binary, c, leaf);
                 code
             };
             self.set_child(me, lane, node, code);
         }
-        depth + 1
     }
 
     fn leaf(&mut self, binary: &Bvh2, node: &Bvh2Node, triangles: &[Triangle]) -> u32 {
@@ -270,15 +264,10 @@ impl WideBvh {
         if self.nodes.is_empty() {
             return;
         }
-        let mut local = [(0u32, 0f32); 256];
-        let mut heap = Vec::new();
-        let stack: &mut [(u32, f32)] = if self.stack_need <= local.len() {
-            &mut local
-        } else {
-            heap.resize(self.stack_need, (0, 0.0));
-            &mut heap
-        };
-        let (mut top, mut code) = (0, 0u32);
+        // Entries waiting: (child code, entry distance). Inline for every tree up to ~9 wide
+        // levels, on the heap past that; never zero-filled (a 2 KB array was, per ray).
+        let mut stack: smallvec::SmallVec<[(u32, f32); 64]> = smallvec::SmallVec::new();
+        let mut code = 0u32;
         loop {
             if code & LEAF != 0 {
                 if let Visit::Stop = visit(code & !LEAF, &mut tmax) {
@@ -303,8 +292,7 @@ impl WideBvh {
                         count += 1;
                     }
                     for &i in &order[..count - 1] {
-                        stack[top] = (node.child[i], entry[i]);
-                        top += 1;
+                        stack.push((node.child[i], entry[i]));
                     }
                     code = node.child[order[count - 1]];
                     continue;
@@ -312,15 +300,15 @@ impl WideBvh {
             }
             // The next waiting subtree the ray enters before the nearest hit so far.
             loop {
-                if top == 0 {
-                    return;
-                }
-                top -= 1;
-                if stack[top].1 <= tmax {
-                    break;
+                match stack.pop() {
+                    None => return,
+                    Some((next, entry)) if entry <= tmax => {
+                        code = next;
+                        break;
+                    }
+                    Some(_) => {}
                 }
             }
-            code = stack[top].0;
         }
     }
 
@@ -416,7 +404,6 @@ impl BoxBvh {
         let mut wide = WideBvh {
             nodes: Vec::new(),
             leaves: Vec::new(),
-            stack_need: 1,
         };
         if !items.is_empty() {
             let params = BvhBuildParams {
@@ -424,11 +411,10 @@ impl BoxBvh {
                 ..BvhBuildParams::fast_build()
             };
             let binary = build_bvh2(&wide_boxes, params, &mut std::time::Duration::default());
-            let depth = wide.node(&binary, 0, &mut |_, node| {
+            wide.node(&binary, 0, &mut |_, node| {
                 assert_eq!(node.prim_count, 1, "a leaf of several boxes");
                 LEAF | items[binary.primitive_indices[node.first_index as usize] as usize]
             });
-            wide.stack_need = (WIDTH - 1) * depth + 1;
         }
         BoxBvh { wide, centre, root }
     }

@@ -393,31 +393,35 @@ impl Pixels {
         search: &SearchOptions,
     ) -> Frame {
         let n = self.hits.len();
-        let (mut color, mut albedo) = (Vec::with_capacity(4 * n), Vec::with_capacity(4 * n));
-        let (mut depth, mut normal, mut ids) = (
-            Vec::with_capacity(n),
-            Vec::with_capacity(3 * n),
-            Vec::with_capacity(n),
-        );
-        for hit in &self.hits {
-            match hit {
-                Some((z, id, nrm, base, light)) => {
-                    let shaded = |c: u8| (f64::from(c) * light).round().min(255.0) as u8;
-                    color.extend([shaded(base[0]), shaded(base[1]), shaded(base[2]), base[3]]);
-                    albedo.extend(base);
-                    depth.push(*z);
-                    normal.extend(nrm);
-                    ids.push(*id);
-                }
-                None => {
-                    color.extend(background);
-                    albedo.extend([0u8; 4]);
-                    depth.push(f32::INFINITY);
-                    normal.extend([0.0f32; 3]);
-                    ids.push(-1);
-                }
-            }
-        }
+        let (mut color, mut albedo) = (vec![0u8; 4 * n], vec![0u8; 4 * n]);
+        let (mut depth, mut normal, mut ids) = (vec![0f32; n], vec![0f32; 3 * n], vec![0i32; n]);
+        // Every pixel's outputs on every core (one core took a tenth of a mesh's frame).
+        (self.hits.par_iter())
+            .zip(color.par_chunks_mut(4).zip(albedo.par_chunks_mut(4)))
+            .zip(depth.par_iter_mut().zip(normal.par_chunks_mut(3)))
+            .zip(ids.par_iter_mut())
+            .for_each(
+                |(((hit, (color, albedo)), (depth, normal)), id)| match hit {
+                    Some((z, hit_id, nrm, base, light)) => {
+                        let shaded = |c: u8| (f64::from(c) * light).round().min(255.0) as u8;
+                        color.copy_from_slice(&[
+                            shaded(base[0]),
+                            shaded(base[1]),
+                            shaded(base[2]),
+                            base[3],
+                        ]);
+                        albedo.copy_from_slice(base);
+                        *depth = *z;
+                        normal.copy_from_slice(nrm);
+                        *id = *hit_id;
+                    }
+                    None => {
+                        color.copy_from_slice(&background);
+                        *depth = f32::INFINITY;
+                        *id = -1;
+                    }
+                },
+            );
         let outputs = request.outputs;
         Frame {
             width: request.width,
