@@ -279,6 +279,34 @@ def open3d_frame(o3d: Open3dCaster | None, cam: gt.Camera, ref: dict, diag: floa
                        "depth_p99": float(np.percentile(dz, 99)) if dz.size else None}}
 
 
+def alternating(o3d: Open3dCaster | None, on_cpu: gt.Renderer, objects: dict[str, Any], cam: gt.Camera,
+                repeats: int) -> dict[str, Any]:
+    """Open3D's frame and the CPU backend's frames of ``objects`` timed in turn, round after
+    round, so that each sees the same load (and whatever other thread pools of this process left
+    running): median wall ms of each, and the median over rounds of Open3D's time over each one's
+    (above 1: the CPU backend is faster). Empty without Open3D."""
+    if o3d is None:
+        return {}
+    origins, directions = cam.rays(HEADLINE_SIZE, HEADLINE_SIZE)
+    rays = o3d.tensor(origins, directions)
+    o3d.cast(rays)
+    for obj in objects.values():
+        on_cpu.render(obj, cam)
+    walls: dict[str, list[float]] = {"open3d": [], **{k: [] for k in objects}}
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        o3d.cast(rays)
+        walls["open3d"].append(1e3 * (time.perf_counter() - t0))
+        for key, obj in objects.items():
+            t0 = time.perf_counter()
+            on_cpu.render(obj, cam)
+            walls[key].append(1e3 * (time.perf_counter() - t0))
+    o3d_ms = np.array(walls["open3d"])
+    out: dict[str, Any] = {f"{k}_ms": float(np.median(v)) for k, v in walls.items()}
+    out.update({f"open3d_over_{k}": float(np.median(o3d_ms / np.array(walls[k]))) for k in objects})
+    return out
+
+
 def accuracy(frame: Any, ref: dict, diag: float, normals: bool = False) -> dict[str, Any]:
     """geomtex.reference.compare; the normal figures only when ``normals``."""
     out = reference.compare(frame, ref, diag)
@@ -332,13 +360,17 @@ def headline(mesh: gt.Mesh, gts: Any, repeats: int, idle: float, retries: int) -
             _, t_cpu_mesh = time_render(on_cpu, mesh, cam, repeats)
             ref, t_tm = time_trimesh(caster, cam, HEADLINE_SIZE, TRIMESH_REPEATS)
             peer = open3d_frame(o3d, cam, ref, diag, repeats)
-            o3d_ms = peer["open3d"]["wall_ms"] if peer else None
+            # The fair figure: Open3D and the CPU backend in turn (timed in its own stretch,
+            # after the others, Open3D read 20-80% slower in the same process).
+            alt = alternating(o3d, on_cpu, {"cpu_set": gts, "cpu_mesh": mesh}, cam, 2 * repeats + 1)
+            o3d_ms = alt.get("open3d_ms")
             return {
                 **peer,
                 "open3d_over_geomtex": o3d_ms / t_gt["wall_ms"] if o3d_ms else None,
                 "cpu": t_cpu, "cpu_mesh": t_cpu_mesh, "accuracy_cpu": accuracy(frame_cpu, ref, diag, normals=True),
-                "open3d_over_cpu": o3d_ms / t_cpu["wall_ms"] if o3d_ms else None,
-                "open3d_over_cpu_mesh": o3d_ms / t_cpu_mesh["wall_ms"] if o3d_ms else None,
+                "open3d_over_cpu": alt.get("open3d_over_cpu_set"),
+                "open3d_over_cpu_mesh": alt.get("open3d_over_cpu_mesh"),
+                "alternating": alt,
                 "work": search_work(renderer, gts, cam),
                 "view": name, "direction": direction, "up": up,
                 "distance_diag": HEADLINE_DISTANCE, "size": HEADLINE_SIZE,
@@ -473,7 +505,7 @@ def first_tiled_frame(gts: Any, cam: gt.Camera, repeats: int, copies: int = 3) -
 def headline_table(records: list[dict[str, Any]]) -> str:
     header = ("view", "px", "geomtex ms (wall/gpu)", "searches/px", "boxes ms (wall)", "searches/px",
               "mesh raster ms (wall/gpu)", "CPU set ms", "CPU mesh ms", "trimesh ms", "Open3D ms",
-              "trimesh/geomtex", "Open3D/geomtex", "Open3D/CPU set", "exact/balanced", "IoU", "|dz|/diag med", "|dz|/diag p99", "normal deg med", "NaN")
+              "trimesh/geomtex", "Open3D/geomtex", "Open3D/CPU set", "Open3D/CPU mesh", "exact/balanced", "IoU", "|dz|/diag med", "|dz|/diag p99", "normal deg med", "NaN")
     rows = []
     for r in records:
         a = r["accuracy"]
@@ -485,10 +517,11 @@ def headline_table(records: list[dict[str, Any]]) -> str:
             _ms(boxes.get("wall_ms")), spp(boxes),
             f"{_ms(r['mesh_raster']['wall_ms'])} / {_ms(r['mesh_raster']['gpu_ms'])}",
             _ms((r.get("cpu") or {}).get("wall_ms")), _ms((r.get("cpu_mesh") or {}).get("wall_ms")),
-            _ms(r["trimesh"]["wall_ms"]), _ms((r.get("open3d") or {}).get("wall_ms")),
+            _ms(r["trimesh"]["wall_ms"]), _ms((r.get("alternating") or {}).get("open3d_ms")),
             f"{r['trimesh_over_geomtex']:.2f}x",
             f"{r['open3d_over_geomtex']:.2f}x" if r.get("open3d_over_geomtex") else "-",
             f"{r['open3d_over_cpu']:.2f}x" if r.get("open3d_over_cpu") else "-",
+            f"{r['open3d_over_cpu_mesh']:.2f}x" if r.get("open3d_over_cpu_mesh") else "-",
             f"{r['exact_over_balanced']:.2f}x" if "exact_over_balanced" in r else "-",
             f"{a['iou']:.4f}", f"{a['depth_median']:.1e}", f"{a['depth_p99']:.1e}",
             f"{a['normal_deg_median']:.2f}", str(a["nan_depth"]),
