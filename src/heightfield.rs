@@ -640,14 +640,12 @@ fn descend(
     };
     let per_code = 1.0 / f64::from(p.code_max() - 1);
     // (level, column, row, the ray's span over the node), nearest popped first among
-    // siblings; a fixed array, as this runs for every patch a ray enters.
-    let mut stack = [(0usize, 0u32, 0u32, (0.0f64, 0.0f64)); DESCENT_STACK];
-    stack[0] = (start, c0, r0, span_of(start, c0, r0, hi));
-    let mut waiting = 1;
+    // siblings; inline and never zero-filled, as this runs for every piece a ray enters (a
+    // zeroed array of DESCENT_STACK entries cost a 4 KB memset each time).
+    let mut stack: smallvec::SmallVec<[DescentEntry; DESCENT_STACK]> = smallvec::SmallVec::new();
+    stack.push((start, c0, r0, span_of(start, c0, r0, hi)));
     let mut best = hi;
-    while waiting > 0 {
-        waiting -= 1;
-        let (level, c, r, (ta, tb)) = stack[waiting];
+    while let Some((level, c, r, (ta, tb))) = stack.pop() {
         let tb = tb.min(best);
         if ta > tb {
             continue;
@@ -689,15 +687,24 @@ fn descend(
                 }
             }
         }
-        children[..n].sort_unstable_by(|a, b| b.3 .0.total_cmp(&a.3 .0));
-        stack[waiting..waiting + n].copy_from_slice(&children[..n]);
-        waiting += n;
+        // Farthest first (an insertion sort: at most four).
+        for k in 1..n {
+            let mut j = k;
+            while j > 0 && children[j - 1].3 .0 < children[j].3 .0 {
+                children.swap(j - 1, j);
+                j -= 1;
+            }
+        }
+        stack.extend_from_slice(&children[..n]);
     }
     (best < hi).then_some(best)
 }
 
 /// A node of a patch's min-max pyramid: level, column, row.
 type PyramidNode = (usize, u32, u32);
+
+/// A node waiting in a descent: level, column, row, and the ray's span over it.
+type DescentEntry = (usize, u32, u32, (f64, f64));
 
 /// Pyramid level of the pieces a `SetTracer`'s hierarchy holds: nodes of 8 x 8 cells, whose
 /// boxes hug the surface (a patch's own box holds the whole curved chart, so a ray entered

@@ -486,33 +486,34 @@ impl RayBackend for CpuRenderer {
         cancel: &Cancel,
     ) -> Result<(Vec<usize>, usize)> {
         let (trace, _) = self.prepare(scene)?;
-        let traced = std::sync::atomic::AtomicUsize::new(0);
         // Runs of neighbouring rays (a frame's pixels in order) on every core, each ray first
-        // testing the set piece that stopped the one before it.
+        // testing the set piece that stopped the one before it; each run counts its own rays
+        // (one shared atomic counter bounced its cache line between the cores on every ray).
         const RUN: usize = 64;
-        let occluded = (0..count.div_ceil(RUN))
+        let runs: Vec<(Vec<usize>, usize)> = (0..count.div_ceil(RUN))
             .into_par_iter()
-            .flat_map_iter(|run| {
+            .map(|run| {
                 let last = std::cell::Cell::new(None);
-                let rays = run * RUN..(run * RUN + RUN).min(count);
-                let traced = &traced;
-                let ray = &ray;
-                let trace = &trace;
-                rays.filter(move |&i| {
+                let (mut occluded, mut traced) = (Vec::new(), 0);
+                for i in run * RUN..(run * RUN + RUN).min(count) {
                     if cancel.is_cancelled() {
-                        return false;
+                        break;
                     }
                     let Some(((o, d), span)) = ray(i) else {
-                        return false;
+                        continue;
                     };
-                    traced.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                    trace.any_after(o, d, span, &last)
-                })
-                .collect::<Vec<_>>()
+                    traced += 1;
+                    if trace.any_after(o, d, span, &last) {
+                        occluded.push(i);
+                    }
+                }
+                (occluded, traced)
             })
             .collect();
+        let traced = runs.iter().map(|r| r.1).sum();
+        let occluded = runs.into_iter().flat_map(|r| r.0).collect();
         cancel.check("tracing shadow rays on the CPU")?;
-        Ok((occluded, traced.into_inner()))
+        Ok((occluded, traced))
     }
 
     fn probe(
