@@ -197,45 +197,10 @@ impl Bvh {
         }
     }
 
-    /// Whether `hit(item)` holds for some item whose box the ray o + t d meets for t in
-    /// `span`, on the CPU (`bounds` from `node_bounds`). Stops at the first: an any-hit walk,
-    /// as occlusion rays need.
-    pub fn any(
-        &self,
-        bounds: &[Aabb],
-        o: DVec3,
-        d: DVec3,
-        span: (f64, f64),
-        mut hit: impl FnMut(u32) -> bool,
-    ) -> bool {
-        let mut found = false;
-        self.walk(bounds, o, d, span, |item, _| {
-            found = hit(item);
-            found
-        });
-        found
-    }
-
-    /// The nearest hit of the ray o + t d for t in `span`: `hit(item, t1)` gives the item's
-    /// nearest hit before t1, if any, and each one found shortens the span. (t, item), or
-    /// (span.1, None) without one.
-    pub fn nearest(
-        &self,
-        bounds: &[Aabb],
-        o: DVec3,
-        d: DVec3,
-        span: (f64, f64),
-        mut hit: impl FnMut(u32, f64) -> Option<f64>,
-    ) -> (f64, Option<u32>) {
-        let mut best = (span.1, None);
-        self.walk(bounds, o, d, span, |item, t1| {
-            if let Some(t) = hit(item, *t1).filter(|&t| t < *t1) {
-                *t1 = t;
-                best = (t, Some(item));
-            }
-            false
-        });
-        best
+    /// This tree with the node bounds a CPU walk tests (`node_bounds`), for `ItemWalk`'s
+    /// queries.
+    pub fn with<'a>(&'a self, bounds: &'a [Aabb]) -> Bounded<'a> {
+        Bounded { bvh: self, bounds }
     }
 
     /// Visits the items whose boxes the ray meets within the span, which `visit` may shorten
@@ -291,6 +256,58 @@ impl Bvh {
                 }
             }
         }
+    }
+}
+
+/// A hierarchy a ray walks item by item, nearest subtree first (a `Bvh` with its bounds,
+/// `wide_bvh::BoxBvh`), each item's own test the caller's: any-hit and nearest-hit queries.
+pub(crate) trait ItemWalk {
+    /// Visits the items whose boxes the ray o + t d meets within `span`: `visit(item, t1)` may
+    /// shorten the span's end t1 (a nearer hit) or end the walk (returning true).
+    fn walk(&self, o: DVec3, d: DVec3, span: (f64, f64), visit: impl FnMut(u32, &mut f64) -> bool);
+
+    /// Whether `hit(item)` holds for some item whose box the ray meets within `span`. Stops at
+    /// the first: an any-hit walk, as occlusion rays need.
+    fn any(&self, o: DVec3, d: DVec3, span: (f64, f64), mut hit: impl FnMut(u32) -> bool) -> bool {
+        let mut found = false;
+        self.walk(o, d, span, |item, _| {
+            found = hit(item);
+            found
+        });
+        found
+    }
+
+    /// The nearest hit of the ray within `span`: `hit(item, t1)` gives the item's nearest hit
+    /// before t1, if any, and each one found shortens the span. (t, item), or (span.1, None)
+    /// without one.
+    fn nearest(
+        &self,
+        o: DVec3,
+        d: DVec3,
+        span: (f64, f64),
+        mut hit: impl FnMut(u32, f64) -> Option<f64>,
+    ) -> (f64, Option<u32>) {
+        let mut best = (span.1, None);
+        self.walk(o, d, span, |item, t1| {
+            if let Some(t) = hit(item, *t1).filter(|&t| t < *t1) {
+                *t1 = t;
+                best = (t, Some(item));
+            }
+            false
+        });
+        best
+    }
+}
+
+/// A `Bvh` with the node bounds its CPU walk tests (`Bvh::with`).
+pub(crate) struct Bounded<'a> {
+    bvh: &'a Bvh,
+    bounds: &'a [Aabb],
+}
+
+impl ItemWalk for Bounded<'_> {
+    fn walk(&self, o: DVec3, d: DVec3, span: (f64, f64), visit: impl FnMut(u32, &mut f64) -> bool) {
+        self.bvh.walk(self.bounds, o, d, span, visit);
     }
 }
 

@@ -17,6 +17,7 @@
 
 use glam::DVec3;
 
+use crate::bvh::ItemWalk;
 use crate::gtex::{decode_outline, Patch};
 
 /// The four corners of a cell, in the order (i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1):
@@ -1025,7 +1026,8 @@ impl<'a> TriangleHits<'a> {
         let m = self.triangles.mesh();
         let (t, face) = self
             .bvh
-            .nearest(&self.bounds, o, d, (0.0, before), |f, t1| {
+            .with(&self.bounds)
+            .nearest(o, d, (0.0, before), |f, t1| {
                 let [a, b, c] = m.faces[f as usize].map(|v| m.positions[v as usize]);
                 let (e1, e2) = (b - a, c - a);
                 let p = d.cross(e2);

@@ -418,11 +418,10 @@ impl BoxBvh {
         }
         BoxBvh { wide, centre, root }
     }
+}
 
-    /// Visits the items whose boxes the ray o + t d meets within `span`, nearest subtree first
-    /// (as `crate::bvh::Bvh`'s walk): `visit(item, t1)` may shorten the span's end `t1` (a
-    /// nearer hit) or end the walk (returning true).
-    pub fn walk(
+impl crate::bvh::ItemWalk for BoxBvh {
+    fn walk(
         &self,
         o: DVec3,
         d: DVec3,
@@ -448,43 +447,6 @@ impl BoxBvh {
             }
         });
     }
-
-    /// Whether `hit(item)` holds for some item whose box the ray meets within `span` (stops at
-    /// the first).
-    pub fn any(
-        &self,
-        o: DVec3,
-        d: DVec3,
-        span: (f64, f64),
-        mut hit: impl FnMut(u32) -> bool,
-    ) -> bool {
-        let mut found = false;
-        self.walk(o, d, span, |item, _| {
-            found = hit(item);
-            found
-        });
-        found
-    }
-
-    /// The nearest hit: `hit(item, t1)` gives the item's nearest hit before t1, if any, and
-    /// each one found shortens the span. (t, item), or (span.1, None) without one.
-    pub fn nearest(
-        &self,
-        o: DVec3,
-        d: DVec3,
-        span: (f64, f64),
-        mut hit: impl FnMut(u32, f64) -> Option<f64>,
-    ) -> (f64, Option<u32>) {
-        let mut best = (span.1, None);
-        self.walk(o, d, span, |item, t1| {
-            if let Some(t) = hit(item, *t1).filter(|&t| t < *t1) {
-                *t1 = t;
-                best = (t, Some(item));
-            }
-            false
-        });
-        best
-    }
 }
 
 fn half_area(node: &Bvh2Node) -> f32 {
@@ -495,6 +457,18 @@ fn half_area(node: &Bvh2Node) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::bvh::ItemWalk;
+
+    /// A reproducible stream of uniform numbers in [0, 1) (xorshift64), for both tests here.
+    fn uniform(seed: u64) -> impl FnMut() -> f64 {
+        let mut state = seed;
+        move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
 
     /// A bumpy closed sphere of `n` x 2n quads (two faces each), f32.
     fn sphere(n: usize) -> Vec<Triangle> {
@@ -536,13 +510,8 @@ mod tests {
     fn the_walk_finds_what_testing_every_face_finds() {
         let triangles = sphere(40);
         let bvh = WideBvh::build(&triangles);
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut unit = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
-        };
+        let mut random = uniform(0x9e37_79b9_7f4a_7c15);
+        let mut unit = || (random() * 2.0 - 1.0) as f32;
         let (mut hits, mut crossings) = (0, 0);
         for k in 0..3000 {
             let reach = if k % 3 == 0 { 0.5 } else { 3.0 };
@@ -579,13 +548,8 @@ mod tests {
     #[test]
     fn a_box_walk_misses_no_box_the_ray_meets() {
         use crate::bvh::Aabb;
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut unit = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut random = uniform(0x2545_f491_4f6c_dd1d);
+        let mut unit = || random() * 2.0 - 1.0;
         let offset = DVec3::new(1e4, -3e4, 2e4);
         let boxes: Vec<Aabb> = (0..5000)
             .map(|k| {

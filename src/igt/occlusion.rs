@@ -13,7 +13,7 @@
 
 use glam::DVec3;
 
-use crate::bvh::{Aabb, Bvh};
+use crate::bvh::{Aabb, Bvh, ItemWalk};
 use crate::error::Result;
 use crate::mesh::{Mesh, MeshGeometry};
 use crate::progress::Progress;
@@ -119,7 +119,7 @@ pub fn vertex_occlusion(
     let reach = opts.distance.unwrap_or(f64::INFINITY);
     let directions = cosine_directions(opts.rays);
     let occluded = |p: DVec3, d: DVec3| {
-        bvh.any(&bounds, p, d, (lift, reach), |f| {
+        bvh.with(&bounds).any(p, d, (lift, reach), |f| {
             let [a, b, c] = corners(f as usize);
             meets_triangle(a, b, c, p, d, (lift, reach))
         })
