@@ -254,6 +254,20 @@ pub const DEFAULT_CREASE_ANGLE: f64 = 20.0;
 pub struct ShadedMesh {
     pub mesh: std::sync::Arc<Mesh>,
     pub rule: NormalRule,
+    /// How far (object units) a vertex may lie from the source's it stands for: 0 for a mesh
+    /// drawn as given; a hybrid set's triangles keep f32 offsets (gtex/triangles.rs).
+    pub stored_rounding: f64,
+}
+
+impl ShadedMesh {
+    /// `mesh` drawn as given, its normals under `rule`.
+    pub fn new(mesh: std::sync::Arc<Mesh>, rule: NormalRule) -> ShadedMesh {
+        ShadedMesh {
+            mesh,
+            rule,
+            stored_rounding: 0.0,
+        }
+    }
 }
 
 /// How normals vary over a mesh's faces: a source and, for `Crease`, its angle.

@@ -70,6 +70,8 @@ pub(crate) struct WideRay {
     inv: [Vec4; 3],
     negative: [bool; 3],
     tmin: f32,
+    /// The least barycentric coordinate a face test accepts (0, or below 0 for a widened test).
+    least_weight: Vec4,
 }
 
 impl WideRay {
@@ -89,7 +91,16 @@ impl WideRay {
             inv: [d.x, d.y, d.z].map(|c| Vec4::splat(inverse(c))),
             negative: [d.x < 0.0, d.y < 0.0, d.z < 0.0],
             tmin,
+            least_weight: Vec4::ZERO,
         }
+    }
+
+    /// The ray with each face test widened by `slack` (barycentric units) past the face's
+    /// edges: it then never slips between two faces sharing an edge, and a caller that checks
+    /// the faces found exactly (as the CPU backend's meshes do in f64) gets every hit.
+    pub fn with_edge_slack(mut self, slack: f32) -> WideRay {
+        self.least_weight = Vec4::splat(-slack);
+        self
     }
 }
 
@@ -227,7 +238,8 @@ impl WideBvh {
         let t = (n[0] * c[0] + n[1] * c[1] + n[2] * c[2]) * inv_det;
         // A face seen edge on (det 0) gives t NaN, and NaN passes no comparison.
         let w = Vec4::ONE - u - v;
-        let inside = u.cmpge(Vec4::ZERO) & v.cmpge(Vec4::ZERO) & w.cmpge(Vec4::ZERO);
+        let least = ray.least_weight;
+        let inside = u.cmpge(least) & v.cmpge(least) & w.cmpge(least);
         let within = t.cmpge(Vec4::splat(ray.tmin)) & t.cmple(Vec4::splat(tmax));
         Vec4::select(inside & within, t, Vec4::INFINITY)
     }
@@ -327,6 +339,19 @@ impl WideBvh {
                 true => visit(t, &leaf.primitive, tmax),
                 false => Visit::Continue,
             }
+        });
+    }
+
+    /// Hands every primitive of the leaves the ray enters before `tmax` to `visit`, which may
+    /// lower `tmax` (a nearer hit): for a caller's own face test, such as an exact one in f64.
+    pub fn visit_primitives(&self, ray: &WideRay, tmax: f32, mut visit: impl FnMut(u32, &mut f32)) {
+        self.walk(ray, tmax, |k, tmax| {
+            for &p in &self.leaves[k as usize].primitive {
+                if p != EMPTY {
+                    visit(p, tmax);
+                }
+            }
+            Visit::Continue
         });
     }
 

@@ -67,6 +67,21 @@ pub struct SetTriangles {
     pub(crate) centre: DVec3,
 }
 
+/// The farthest a position `centre` + f32 offset may lie from the point it was rounded from:
+/// half an f32 step of each offset coordinate (rounding to nearest), plus the f64 sum's rounding.
+fn offset_rounding(positions: &[DVec3], centre: DVec3) -> f64 {
+    let half_step = |x: f64| {
+        let x = (x as f32).abs();
+        0.5 * (f64::from(x.next_up()) - f64::from(x))
+    };
+    let (farthest, largest) = positions.iter().fold((0.0f64, 0.0f64), |(m, l), p| {
+        let o = *p - centre;
+        let step = DVec3::new(half_step(o.x), half_step(o.y), half_step(o.z)).length();
+        (m.max(step), l.max(p.abs().max_element()))
+    });
+    farthest + 4.0 * f64::EPSILON * largest
+}
+
 impl SetTriangles {
     /// Positions are rounded to the bounding-box centre plus f32 offsets, as the file keeps
     /// them (`as_filed`).
@@ -93,11 +108,13 @@ impl SetTriangles {
         because: Vec<KeptBecause>,
         source_faces: Vec<u32>,
     ) -> SetTriangles {
+        let stored_rounding = offset_rounding(&mesh.positions, centre);
         SetTriangles {
             centre,
             shaded: Arc::new(ShadedMesh {
                 mesh: Arc::new(mesh),
                 rule,
+                stored_rounding,
             }),
             starts,
             because,

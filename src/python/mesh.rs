@@ -34,7 +34,7 @@ pub(crate) const DRAWN: Drawn = Drawn {
     to_object: |obj, normals| {
         let mesh = obj.cast::<PyMesh>().ok()?.get().inner.clone();
         let rule = normals.unwrap_or_default();
-        Some(Ok(Object::new(Arc::new(ShadedMesh { mesh, rule }))))
+        Some(Ok(Object::new(Arc::new(ShadedMesh::new(mesh, rule)))))
     },
     from_object: |py, object| {
         let shaded = object.payload::<ShadedMesh>()?;

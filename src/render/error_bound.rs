@@ -2,9 +2,11 @@
 //! distance from the point it shows to the source mesh, computed on the CPU after read-back from
 //! the depth and patch ids. A set's pixel takes the bound of the cell its point falls in
 //! (`Patch::error_bound_near`), or its patch's level bound when drawn at a coarser level of
-//! detail (kinds/gtex/lod.rs); a plain mesh's pixel is the mesh itself. Every bound adds a term
-//! for the f32 rounding of the drawn point (`FLOAT_ULPS`). NaN where nothing is drawn or no bound
-//! is known: sets without bound maps, surfels, IGT meshes and displacement shells.
+//! detail (kinds/gtex/lod.rs); a plain mesh's pixel is the mesh itself (a hybrid set's triangles
+//! add their stored positions' rounding). Every bound adds a term for the rounding of the drawn
+//! point (`Rounding`): the GPU's f32 arithmetic (`FLOAT_ULPS`), or on the CPU backend, whose hits
+//! are f64, the f32 depth alone. NaN where nothing is drawn or no bound is known: sets without
+//! bound maps, surfels, IGT meshes and displacement shells.
 //!
 //! Spaces: world (the scene's), each object's own (placed by `world_from_object`), patch-local and
 //! texel-centre coordinates x = u w - 1/2, y = v h - 1/2 (heightfield.rs); images row-major from
@@ -34,6 +36,21 @@ const CELL_SLACK: f64 = 0.02;
 /// (p99 0.8). Along the ray, at grazing angles, they reach 25 steps.
 pub(crate) const FLOAT_ULPS: f64 = 4.0;
 
+/// f64 steps (relative to the drawn point's distance from the eye plus the size of what drew it)
+/// that cover the CPU backend's own arithmetic: its hits are f64 (ray set-up, placement, the
+/// exact face or height-field crossing), a few steps each; this is generous and still a
+/// millionth of the f32 depth's rounding.
+const F64_ULPS: f64 = 1024.0;
+
+/// How a backend computes the points it draws, as far as their rounding goes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Rounding {
+    /// The GPU's tracers: f32 relative to the camera, f32 vertices (`FLOAT_ULPS`).
+    F32Tracer,
+    /// The CPU backend: f64 hits, rounded once to the frame's f32 depth.
+    F64Hits,
+}
+
 /// Where each id of a frame came from, as far as its bound goes: `patches` indexed by patch id,
 /// `meshes` by k for id -2 - k.
 pub(crate) struct PixelSources {
@@ -41,6 +58,7 @@ pub(crate) struct PixelSources {
     patches: Vec<IdSource>,
     meshes: Vec<IdSource>,
     eye: DVec3,
+    rounding: Rounding,
     /// Whether the frame's search finds the stored surface exactly (the max-pyramid descent);
     /// a linear search's hits stop within its last step, off the surface by more than a cell's
     /// bound, so its patch pixels get NaN.
@@ -64,9 +82,11 @@ enum IdSource {
         patch: usize,
         lod_bound: Option<f64>,
     },
-    /// A plain mesh: the source itself; `reach` is its bounding box's diagonal (world units).
+    /// A plain mesh: the source itself, or a hybrid set's triangles, whose vertices lie within
+    /// `stored` of the source's (world units); `reach` is its bounding box's diagonal.
     Mesh {
         reach: f64,
+        stored: f64,
     },
     Unknown,
 }
@@ -80,8 +100,14 @@ pub(crate) struct ObjectIds {
 
 impl PixelSources {
     /// The sources of a frame of `scene` whose objects took `ids` (in scene order), with the
-    /// level-of-detail picks of its patches, seen from `eye`.
-    pub fn new(scene: &Scene, ids: &[ObjectIds], lod_picks: &[LodPick], eye: DVec3) -> Self {
+    /// level-of-detail picks of its patches, seen from `eye`, drawn by a backend that rounds as
+    /// `rounding` says.
+    pub fn new(
+        scene: &Scene,
+        ids: &[ObjectIds],
+        lod_picks: &[LodPick],
+        (eye, rounding): (DVec3, Rounding),
+    ) -> Self {
         let patch_count = ids.iter().map(|r| r.patches.end).max().unwrap_or(0).max(0);
         let mesh_count = ids.iter().map(|r| r.meshes.end).max().unwrap_or(0);
         let mut sources = PixelSources {
@@ -90,6 +116,7 @@ impl PixelSources {
             patches: vec![IdSource::Unknown; patch_count as usize],
             meshes: vec![IdSource::Unknown; mesh_count],
             eye,
+            rounding,
         };
         for (placed, taken) in scene.objects.iter().zip(ids) {
             let scale = largest_singular_value(&placed.world_from_object);
@@ -108,8 +135,9 @@ impl PixelSources {
                 });
             } else if let Some(shaded) = placed.object.payload::<ShadedMesh>() {
                 let reach = bounding_diagonal(&shaded.mesh.positions) * scale;
+                let stored = shaded.stored_rounding * scale;
                 for k in taken.meshes.clone() {
-                    sources.meshes[k] = IdSource::Mesh { reach };
+                    sources.meshes[k] = IdSource::Mesh { reach, stored };
                 }
             }
         }
@@ -132,15 +160,20 @@ impl PixelSources {
         found.copied().unwrap_or(IdSource::Unknown)
     }
 
-    /// The bound (world units) of world point `point` drawn with id `id`; NaN where none is
+    /// The bound (world units) of world point `point` drawn with id `id`, whose f32 depth's
+    /// rounding moves it by up to `depth_step` (`DrawnPixels::depth_step`); NaN where none is
     /// known.
-    pub fn bound_at(&self, point: DVec3, id: i32) -> f64 {
+    pub fn bound_at(&self, point: DVec3, id: i32, depth_step: f64) -> f64 {
         let rounding = |reach: f64| {
-            FLOAT_ULPS * f64::from(f32::EPSILON) * ((point - self.eye).length() + reach)
+            let size = (point - self.eye).length() + reach;
+            match self.rounding {
+                Rounding::F32Tracer => FLOAT_ULPS * f64::from(f32::EPSILON) * size,
+                Rounding::F64Hits => depth_step + F64_ULPS * f64::EPSILON * size,
+            }
         };
         match self.source(id) {
             IdSource::Unknown => f64::NAN,
-            IdSource::Mesh { reach } => rounding(reach),
+            IdSource::Mesh { reach, stored } => stored + rounding(reach),
             IdSource::Patch { .. } if !self.exact_search => f64::NAN,
             IdSource::Patch {
                 set,
@@ -203,6 +236,17 @@ impl DrawnPixels<'_> {
         // d is not of unit length: the division makes the step one of z-depth all the same.
         Some(o + d * (f64::from(depth) / d.dot(self.forward)))
     }
+
+    /// How far (world units) the f32 rounding of drawn pixel `i`'s z-depth may move its point:
+    /// half the f32 step above the depth (rounding to nearest never errs by more, even just
+    /// under a power of two), along the pixel's ray.
+    pub fn depth_step(&self, i: usize) -> f64 {
+        let depth = self.depth[i].abs();
+        let half_step = 0.5 * (f64::from(depth.next_up()) - f64::from(depth));
+        let w = self.width as usize;
+        let (_, d) = self.lines.at((i % w) as f64 + 0.5, (i / w) as f64 + 0.5);
+        half_step * d.length() / d.dot(self.forward).abs()
+    }
 }
 
 /// Every pixel's bound (world units, rounded up to f32), rows in parallel; NaN where nothing is
@@ -217,7 +261,8 @@ pub(crate) fn pixel_bounds(sources: &PixelSources, pixels: &DrawnPixels) -> Vec<
             for (x, b) in out.iter_mut().enumerate() {
                 let i = row * w + x;
                 if let Some(point) = pixels.point(i) {
-                    *b = f32_at_least(sources.bound_at(point, pixels.patch_id[i]));
+                    let id = pixels.patch_id[i];
+                    *b = f32_at_least(sources.bound_at(point, id, pixels.depth_step(i)));
                 }
             }
         });
@@ -369,19 +414,20 @@ mod tests {
         let eye = DVec3::new(0.0, 0.0, 10.0);
         for scale in [1.0, 3.0] {
             let scene = flat_scene(DMat4::from_scale(DVec3::splat(scale)), bound);
-            let sources = PixelSources::new(&scene, &ids, &[], eye);
+            let sources = PixelSources::new(&scene, &ids, &[], (eye, Rounding::F32Tracer));
             // Texel-centre (1.5, 0.5) lies in cell (1, 0): u = 2 / 4, v = 1 / 4.
             let point = DVec3::new(0.5, 0.25, 0.5) * scale;
             let map = ErrorBoundMap::from_cells(1, 1, &[0.02, 0.0, 0.0, 0.0]);
             let decoded = ErrorBoundMap::decode(map.codes[0], f64::from(map.scale));
             let rounding = FLOAT_ULPS * f64::from(f32::EPSILON);
-            let got = sources.bound_at(point, 0);
+            let got = sources.bound_at(point, 0, 0.0);
             let float = rounding * ((point - eye).length() + 3f64.sqrt() * scale);
             assert!((got - (decoded * scale + float)).abs() < 1e-12, "{got}");
             // Cell (0, 2) is in a block of 0.001s.
-            let low = sources.bound_at(DVec3::new(0.125, 0.625, 0.5) * scale, 0);
+            let low = sources.bound_at(DVec3::new(0.125, 0.625, 0.5) * scale, 0, 0.0);
             assert!(low < 0.0011 * scale + 1e-5, "{low}");
-            assert!(sources.bound_at(point, 1).is_nan() && sources.bound_at(point, -2).is_nan());
+            let unknown = |id| sources.bound_at(point, id, 0.0).is_nan();
+            assert!(unknown(1) && unknown(-2));
         }
     }
 

@@ -55,7 +55,7 @@ use crate::error::{GeomtexError, Result};
 use coverage::CoverageInputs;
 use cull::DepthRange;
 use device::guarded;
-use error_bound::{pixel_bounds, DrawnPixels, ObjectIds, PixelSources};
+use error_bound::{pixel_bounds, DrawnPixels, ObjectIds, PixelSources, Rounding};
 use frame_bindings::FrameBindings;
 use kinds::{DrawCall, FrameView, KindContext, LodPick, Registry, Tally};
 use pipelines::DepthCopy;
@@ -514,7 +514,8 @@ fn add_bounds(
             "error bounds need the frame's depth and patch ids read back".into(),
         ));
     };
-    let mut sources = PixelSources::new(scene, &inputs.ids, &inputs.lod_picks, camera.eye());
+    let eye = (camera.eye(), backend.rounding());
+    let mut sources = PixelSources::new(scene, &inputs.ids, &inputs.lod_picks, eye);
     sources.exact_search = search.method == crate::render::search::Method::MaxMip;
     let pixels = DrawnPixels {
         width: frame.width,
@@ -573,6 +574,9 @@ pub(crate) trait RayBackend {
         cancel: &crate::cancel::Cancel,
     ) -> Result<(Vec<usize>, usize)>;
 
+    /// How the points this backend draws are rounded (error_bound.rs).
+    fn rounding(&self) -> Rounding;
+
     /// Per ray (unit direction) within its stretch, the id of the first hit found, -1 for none.
     fn probe(
         &mut self,
@@ -584,6 +588,10 @@ pub(crate) trait RayBackend {
 }
 
 impl RayBackend for Renderer {
+    fn rounding(&self) -> Rounding {
+        Rounding::F32Tracer
+    }
+
     fn traces(&self, object: &Object) -> Result<bool> {
         Ok(self.kinds.kinds[self.kinds.kind_of(object)?].casts_shadows())
     }

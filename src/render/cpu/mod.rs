@@ -459,6 +459,10 @@ impl Pixels {
 }
 
 impl RayBackend for CpuRenderer {
+    fn rounding(&self) -> crate::render::error_bound::Rounding {
+        crate::render::error_bound::Rounding::F64Hits
+    }
+
     fn traces(&self, object: &Object) -> Result<bool> {
         traced_kind(object).map(|()| true)
     }

@@ -69,10 +69,10 @@ impl Kind for SpheresKind {
         depth: &mut DepthRange,
     ) -> Result<()> {
         let shaded = self.tessellated.get_or_upload(spheres, |s| {
-            Ok(Arc::new(ShadedMesh {
-                mesh: Arc::new(tessellate(s)?),
-                rule: Default::default(),
-            }))
+            Ok(Arc::new(ShadedMesh::new(
+                Arc::new(tessellate(s)?),
+                Default::default(),
+            )))
         })?;
         let shaded = shaded.clone();
         self.meshes.upload(gpu, &shaded, view_from_object, depth)
