@@ -13,9 +13,12 @@ Per mesh x conversion x view:
 * **holds**: every drawn pixel's world point (the pixel's ray at its z-depth: ``t = depth /
   (direction . camera.forward)``) is measured against the source mesh, scaled to a 1000-unit
   diagonal about its box centre (as ``geomtex.reference`` does) and scaled back. The distance is
-  Open3D's ``RaycastingScene.compute_distance`` (exact point-triangle distance over a BVH,
-  float32) on every drawn pixel where ``open3d`` imports (``pip install open3d-cpu``, not in the
-  bench extra: it brings dash, flask and a pytest plugin; on Debian it needs ``libusb-1.0-0``),
+  f64: Open3D's ``RaycastingScene.compute_closest_points`` (float32 BVH) finds each point's
+  nearest face, and trimesh's ``triangles.closest_point`` measures the point to it in f64 (to it
+  and every face sharing a corner with it where that passes the bound: float32 may pick a
+  neighbour of the nearest), on every drawn pixel where ``open3d`` imports (``pip install
+  open3d-cpu``, not in the bench extra: it brings dash, flask and a pytest plugin; on Debian it
+  needs ``libusb-1.0-0``),
   else trimesh's ``closest_point`` on a random sample of ``--sample`` drawn pixels per view (the
   JSON says which and how many). Reported: the fraction of drawn pixels (with a known bound) whose
   distance is <= ``frame.error_bound`` (target >= 99.99%), the same with a float tolerance of 1e-6
@@ -121,6 +124,8 @@ class Distances:
         self.centre = (lo + hi) / 2
         self.k = 1000.0 / float(np.linalg.norm(hi - lo))
         local = (v - self.centre) * self.k
+        self.local, self.faces = local, f
+        self.ring: np.ndarray | None = None
         self.sample = sample
         o3d = None
         if not force_trimesh and importlib.util.find_spec("open3d") is not None:
@@ -140,15 +145,44 @@ class Distances:
             self.kind = "trimesh"
             self.tm = trimesh.Trimesh(local, f, process=False)
 
-    def __call__(self, points: np.ndarray) -> np.ndarray:
+    def __call__(self, points: np.ndarray, bound: np.ndarray | None = None) -> np.ndarray:
+        """f64 distances; with ``bound``, points past it are measured again over the faces that
+        share a corner with the one found (float32 may find a neighbour of the nearest)."""
         q = (np.asarray(points, np.float64) - self.centre) * self.k
         if self.kind == "open3d":
-            d = self.scene.compute_distance(self.o3d.core.Tensor(q.astype(np.float32))).numpy()
-            return d.astype(np.float64) / self.k
+            found = self.scene.compute_closest_points(self.o3d.core.Tensor(q.astype(np.float32)))
+            face = found["primitive_ids"].numpy().astype(np.int64)
+            d = self._to_faces(q, face[:, None])
+            if bound is not None:
+                again = np.flatnonzero(d > np.asarray(bound) * self.k)
+                if len(again):
+                    d[again] = self._to_faces(q[again], self._corner_ring(face[again]))
+            return d / self.k
         import trimesh
 
         _, d, _ = trimesh.proximity.closest_point(self.tm, q)
         return np.asarray(d, np.float64) / self.k
+
+    def _to_faces(self, q: np.ndarray, faces: np.ndarray) -> np.ndarray:
+        """Least f64 distance from each point to its row of faces (-1: none)."""
+        import trimesh
+
+        n, m = faces.shape
+        rows, cols = np.nonzero(faces >= 0)
+        tri = self.local[self.faces[faces[rows, cols]]]
+        cp = trimesh.triangles.closest_point(tri, q[rows])
+        d = np.full((n, m), np.inf)
+        d[rows, cols] = np.linalg.norm(cp - q[rows], axis=1)
+        return d.min(axis=1)
+
+    def _corner_ring(self, face: np.ndarray) -> np.ndarray:
+        """Each face with every face sharing a corner with it, padded with -1."""
+        import trimesh
+
+        if self.ring is None:
+            self.ring = trimesh.Trimesh(self.local, self.faces, process=False).vertex_faces
+        ring = self.ring[self.faces[face]].reshape(len(face), -1)
+        return np.concatenate([face[:, None], ring], axis=1)
 
 
 def drawn_points(camera: gt.Camera, depth: np.ndarray) -> np.ndarray:
@@ -238,7 +272,7 @@ def measure_view(renderer: gt.Renderer, gts: Any, cam: gt.Camera, dists: Distanc
     rec["measured_pixels"] = int(len(idx))
     pts = drawn_points(cam, depth).reshape(-1, 3)[idx]
     t0 = time.perf_counter()
-    d = dists(pts)
+    d = dists(pts, bound.reshape(-1)[idx])
     rec["reference_s"] = time.perf_counter() - t0
     b = bound.reshape(-1)[idx]
     rec["holds"] = holds(d, b, diag)
@@ -247,6 +281,7 @@ def measure_view(renderer: gt.Renderer, gts: Any, cam: gt.Camera, dists: Distanc
     on_maps = np.asarray(frame.patch_id).reshape(-1)[idx] >= 0
     if not on_maps.all():
         rec["holds_maps"] = holds(d[on_maps], b[on_maps], diag)
+        rec["holds_triangles"] = holds(d[~on_maps], b[~on_maps], diag)
     take = rng.choice(len(d), min(len(d), PLOT_SAMPLES), replace=False) if len(d) else np.zeros(0, int)
     keep.append(np.stack([d[take], b[take]], axis=1) / diag)
     rec["coverage"] = coverage(frame, ref_hit)
@@ -421,6 +456,9 @@ def summarise(rec: dict[str, Any], diag: float) -> dict[str, Any]:
         # Over the height maps' pixels only (hybrid sets; the same as above for all-map sets).
         "tight_maps_worst_view": max((v.get("holds_maps", v["holds"]).get("tight", 0.0)
                                       for v in rec["views"].values() if v["holds"].get("pixels")), default=None),
+        # Over the triangles' pixels only (hybrid sets; None where no view shows one).
+        "tight_triangles_worst_view": max((v["holds_triangles"]["tight"] for v in rec["views"].values()
+                                           if v.get("holds_triangles", {}).get("pixels")), default=None),
         "tight_median_view": float(np.median([h["tight"] for h in hs])) if hs else None,
         "dist_max_rel": max((h["dist_max_rel"] for h in hs), default=None),
         "bound_nan_drawn": sum(v["bound_nan_drawn"] for v in rec["views"].values()),
@@ -513,6 +551,7 @@ def summary_rows(d: dict[str, Any]) -> list[dict[str, Any]]:
                 "convert_s": c["seconds"], "holds": s["holds"], "holds_tol": s["holds_tol"], "exceptions": s["exceptions"],
                 "max_dist_over_bound": s["max_dist_over_bound"], "tight_worst_view": s["tight_worst_view"],
                 "tight_maps_worst_view": s.get("tight_maps_worst_view"),
+                "tight_triangles_worst_view": s.get("tight_triangles_worst_view"),
                 "triangle_faces": c["set"].get("triangle_faces", 0),
                 "dist_max_rel": s["dist_max_rel"],
                 "set_bound_max_rel": c["set"].get("error_bound_max", float("nan")) / m["diagonal"],

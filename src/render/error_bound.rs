@@ -36,6 +36,10 @@ const CELL_SLACK: f64 = 0.02;
 /// (p99 0.8). Along the ray, at grazing angles, they reach 25 steps.
 pub(crate) const FLOAT_ULPS: f64 = 4.0;
 
+/// Texels a patch's drawn outline may stand off the mesh's beyond its surface's bound (its
+/// outline codes and their bilinear blend round by about that).
+const OUTLINE_TEXELS: f64 = 0.1;
+
 /// f64 steps (relative to the drawn point's distance from the eye plus the size of what drew it)
 /// that cover the CPU backend's own arithmetic: its hits are f64 (ray set-up, placement, the
 /// exact face or height-field crossing), a few steps each; this is generous and still a
@@ -83,10 +87,13 @@ enum IdSource {
         lod_bound: Option<f64>,
     },
     /// A plain mesh: the source itself, or a hybrid set's triangles, whose vertices lie within
-    /// `stored` of the source's (world units); `reach` is its bounding box's diagonal.
+    /// `stored` of the source's (world units); `reach` is its bounding box's diagonal; `seam`
+    /// how far the outline of a patch beside a hybrid set's triangles may stand off the mesh's
+    /// (its patches' largest outline allowance; 0 for a plain mesh).
     Mesh {
         reach: f64,
         stored: f64,
+        seam: f64,
     },
     Unknown,
 }
@@ -118,9 +125,23 @@ impl PixelSources {
             eye,
             rounding,
         };
+        // A hybrid set's triangles (drawn as a mesh after it, Scene::drawn) and the outline
+        // allowance of the patches they meet.
+        let mut seams: Vec<(*const ShadedMesh, f64)> = Vec::new();
         for (placed, taken) in scene.objects.iter().zip(ids) {
             let scale = largest_singular_value(&placed.world_from_object);
             if let Some(set) = placed.object.payload::<GeometryTextureSet>() {
+                if let Some(triangles) = &set.triangles {
+                    let texel = set
+                        .patches
+                        .iter()
+                        .map(|p| p.texel_size())
+                        .fold(0.0, f64::max);
+                    seams.push((
+                        Arc::as_ptr(&triangles.shaded),
+                        OUTLINE_TEXELS * texel * scale,
+                    ));
+                }
                 for (patch, id) in taken.patches.clone().enumerate() {
                     sources.patches[id as usize] = IdSource::Patch {
                         set: sources.sets.len(),
@@ -136,8 +157,15 @@ impl PixelSources {
             } else if let Some(shaded) = placed.object.payload::<ShadedMesh>() {
                 let reach = bounding_diagonal(&shaded.mesh.positions) * scale;
                 let stored = shaded.stored_rounding * scale;
+                let seam = (seams.iter())
+                    .find(|(p, _)| std::ptr::eq(*p, Arc::as_ptr(&shaded)))
+                    .map_or(0.0, |(_, allowance)| *allowance);
                 for k in taken.meshes.clone() {
-                    sources.meshes[k] = IdSource::Mesh { reach, stored };
+                    sources.meshes[k] = IdSource::Mesh {
+                        reach,
+                        stored,
+                        seam,
+                    };
                 }
             }
         }
@@ -173,7 +201,7 @@ impl PixelSources {
         };
         match self.source(id) {
             IdSource::Unknown => f64::NAN,
-            IdSource::Mesh { reach, stored } => stored + rounding(reach),
+            IdSource::Mesh { reach, stored, .. } => stored + rounding(reach),
             IdSource::Patch { .. } if !self.exact_search => f64::NAN,
             IdSource::Patch {
                 set,
@@ -202,14 +230,16 @@ impl PixelSources {
 
     /// How far (world units) a drawn outline may stand off the mesh's beyond the surface's own
     /// bound: a tenth of a texel for a set's patch (its outline codes and their bilinear blend
-    /// round by about that), none for a mesh, NaN where unknown.
+    /// round by about that), none for a plain mesh, and for a hybrid set's triangles the largest
+    /// of their patches' (where a patch meets them its outline may leave a crack that draws
+    /// nothing, and no pixel of that patch need be near); NaN where unknown.
     pub fn outline_allowance(&self, id: i32) -> f64 {
         match self.source(id) {
             IdSource::Unknown => f64::NAN,
-            IdSource::Mesh { .. } => 0.0,
+            IdSource::Mesh { seam, .. } => seam,
             IdSource::Patch { set, patch, .. } => {
                 let placed = &self.sets[set];
-                0.1 * placed.set.patches[patch].texel_size() * placed.scale
+                OUTLINE_TEXELS * placed.set.patches[patch].texel_size() * placed.scale
             }
         }
     }
