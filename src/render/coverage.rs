@@ -4,8 +4,11 @@
 //! off the mesh by less than a pixel. Around each such pixel's centre eight probe rays are cast
 //! at the distance the drawn surface may stand off the mesh there (its error bound plus a tenth
 //! of a texel of outline rounding, projected to pixels at its depth): the pixel is uncertain when
-//! a probe's hit or miss differs from the pixel's own. The probes are one batched ray query of
-//! the renderer against the same scene (query.rs).
+//! a probe's hit or miss differs from the pixel's own. An undrawn pixel whose ray passes the box
+//! of a hybrid set's patch probes at least as far as that patch's outline allowance: where the
+//! patch meets the set's triangles, its outline may leave a crack with no pixel of the patch
+//! beside it. The probes are one batched ray query of the renderer against the same scene
+//! (query.rs).
 //!
 //! Spaces: pixels row-major from the top, sub-pixel offsets in pixels; rays in world space.
 
@@ -76,7 +79,8 @@ impl CoverageInputs<'_> {
     }
 
     /// The probe distance (pixels) of transition pixel `i`: its own stand-off where drawn, else
-    /// the largest of its drawn neighbours'; NaN where one involved is unknown.
+    /// the largest of its drawn neighbours' and of the seams its ray passes; NaN where one
+    /// involved is unknown.
     fn probe_distance(&self, i: usize) -> f64 {
         let w = self.pixels.width as usize;
         let d = if self.drawn(i) {
@@ -86,7 +90,7 @@ impl CoverageInputs<'_> {
             neighbours(x, y, w, self.height as usize)
                 .filter(|&j| self.drawn(j))
                 .map(|j| self.stand_off(j))
-                .fold(0.0f64, |m, d| {
+                .fold(self.seam_stand_off(i), |m, d| {
                     if m.is_nan() || d.is_nan() {
                         f64::NAN
                     } else {
@@ -95,6 +99,20 @@ impl CoverageInputs<'_> {
                 })
         };
         d + PROBE_MARGIN_PX
+    }
+
+    /// How far (pixels) a crack between a hybrid set's patch and its triangles may reach into
+    /// undrawn pixel `i` (`PixelSources::seam_allowance`), projected where its ray first meets
+    /// such a patch's box (no nearer than the lens's near plane).
+    fn seam_stand_off(&self, i: usize) -> f64 {
+        let w = self.pixels.width as usize;
+        let (o, d) = (self.pixels.lines).at((i % w) as f64 + 0.5, (i / w) as f64 + 0.5);
+        let (allowance, t) = self.sources.seam_allowance(o, d);
+        if allowance <= 0.0 {
+            return 0.0;
+        }
+        let depth = (t * d.dot(self.pixels.forward)).max(self.lens.near);
+        allowance / pixel_size(self.lens, depth)
     }
 }
 

@@ -21,7 +21,9 @@ use rayon::prelude::*;
 use super::camera::{Lens, PixelLines};
 use super::kinds::LodPick;
 use super::scene::{Scene, ShadedMesh};
+use crate::bvh::{Aabb, Bvh};
 use crate::gtex::GeometryTextureSet;
+use crate::render::cull::unit_cube_corners;
 
 /// Texels of slack around a point's cell: the point comes from an f32 depth and an f32 search,
 /// so it may lie a hair across the side of the cell its surface was found in.
@@ -63,6 +65,8 @@ pub(crate) struct PixelSources {
     meshes: Vec<IdSource>,
     eye: DVec3,
     rounding: Rounding,
+    /// The patches of each hybrid set with some (`SeamBoxes`).
+    seams: Vec<SeamBoxes>,
     /// Whether the frame's search finds the stored surface exactly (the max-pyramid descent);
     /// a linear search's hits stop within its last step, off the surface by more than a cell's
     /// bound, so its patch pixels get NaN.
@@ -87,13 +91,10 @@ enum IdSource {
         lod_bound: Option<f64>,
     },
     /// A plain mesh: the source itself, or a hybrid set's triangles, whose vertices lie within
-    /// `stored` of the source's (world units); `reach` is its bounding box's diagonal; `seam`
-    /// how far the outline of a patch beside a hybrid set's triangles may stand off the mesh's
-    /// (its patches' largest outline allowance; 0 for a plain mesh).
+    /// `stored` of the source's (world units); `reach` is its bounding box's diagonal.
     Mesh {
         reach: f64,
         stored: f64,
-        seam: f64,
     },
     Unknown,
 }
@@ -124,23 +125,13 @@ impl PixelSources {
             meshes: vec![IdSource::Unknown; mesh_count],
             eye,
             rounding,
+            seams: Vec::new(),
         };
-        // A hybrid set's triangles (drawn as a mesh after it, Scene::drawn) and the outline
-        // allowance of the patches they meet.
-        let mut seams: Vec<(*const ShadedMesh, f64)> = Vec::new();
         for (placed, taken) in scene.objects.iter().zip(ids) {
             let scale = largest_singular_value(&placed.world_from_object);
             if let Some(set) = placed.object.payload::<GeometryTextureSet>() {
-                if let Some(triangles) = &set.triangles {
-                    let texel = set
-                        .patches
-                        .iter()
-                        .map(|p| p.texel_size())
-                        .fold(0.0, f64::max);
-                    seams.push((
-                        Arc::as_ptr(&triangles.shaded),
-                        OUTLINE_TEXELS * texel * scale,
-                    ));
+                if set.triangles.is_some() && !set.patches.is_empty() {
+                    (sources.seams).push(SeamBoxes::new(&set, &placed.world_from_object, scale));
                 }
                 for (patch, id) in taken.patches.clone().enumerate() {
                     sources.patches[id as usize] = IdSource::Patch {
@@ -157,15 +148,8 @@ impl PixelSources {
             } else if let Some(shaded) = placed.object.payload::<ShadedMesh>() {
                 let reach = bounding_diagonal(&shaded.mesh.positions) * scale;
                 let stored = shaded.stored_rounding * scale;
-                let seam = (seams.iter())
-                    .find(|(p, _)| std::ptr::eq(*p, Arc::as_ptr(&shaded)))
-                    .map_or(0.0, |(_, allowance)| *allowance);
                 for k in taken.meshes.clone() {
-                    sources.meshes[k] = IdSource::Mesh {
-                        reach,
-                        stored,
-                        seam,
-                    };
+                    sources.meshes[k] = IdSource::Mesh { reach, stored };
                 }
             }
         }
@@ -189,7 +173,7 @@ impl PixelSources {
     }
 
     /// The bound (world units) of world point `point` drawn with id `id`, whose f32 depth's
-    /// rounding moves it by up to `depth_step` (`DrawnPixels::depth_step`); NaN where none is
+    /// rounding moves it by up to `depth_step` (`DrawnPixels::point_and_depth_step`); NaN where none is
     /// known.
     pub fn bound_at(&self, point: DVec3, id: i32, depth_step: f64) -> f64 {
         let rounding = |reach: f64| {
@@ -201,7 +185,7 @@ impl PixelSources {
         };
         match self.source(id) {
             IdSource::Unknown => f64::NAN,
-            IdSource::Mesh { reach, stored, .. } => stored + rounding(reach),
+            IdSource::Mesh { reach, stored } => stored + rounding(reach),
             IdSource::Patch { .. } if !self.exact_search => f64::NAN,
             IdSource::Patch {
                 set,
@@ -230,18 +214,82 @@ impl PixelSources {
 
     /// How far (world units) a drawn outline may stand off the mesh's beyond the surface's own
     /// bound: a tenth of a texel for a set's patch (its outline codes and their bilinear blend
-    /// round by about that), none for a plain mesh, and for a hybrid set's triangles the largest
-    /// of their patches' (where a patch meets them its outline may leave a crack that draws
-    /// nothing, and no pixel of that patch need be near); NaN where unknown.
+    /// round by about that), none for a mesh, NaN where unknown.
     pub fn outline_allowance(&self, id: i32) -> f64 {
         match self.source(id) {
             IdSource::Unknown => f64::NAN,
-            IdSource::Mesh { seam, .. } => seam,
+            IdSource::Mesh { .. } => 0.0,
             IdSource::Patch { set, patch, .. } => {
                 let placed = &self.sets[set];
                 OUTLINE_TEXELS * placed.set.patches[patch].texel_size() * placed.scale
             }
         }
+    }
+
+    /// Where a hybrid set's patch meets its triangles, the patch's outline may leave a crack
+    /// that draws nothing, with no pixel of that patch beside it: the largest outline allowance
+    /// (world units) of the patches whose boxes (widened by it) the world ray o + t d meets
+    /// for t >= 0, with the least t it meets one at; (0, inf) where it meets none.
+    pub fn seam_allowance(&self, o: DVec3, d: DVec3) -> (f64, f64) {
+        (self.seams.iter()).fold((0.0, f64::INFINITY), |(most, first), seam| {
+            let (a, t) = seam.met_by(o, d);
+            (most.max(a), first.min(t))
+        })
+    }
+}
+
+/// A hybrid set's patches in world space, for `PixelSources::seam_allowance`: their boxes
+/// widened by their outline allowances, a tree over them, and the allowances.
+struct SeamBoxes {
+    boxes: Vec<Aabb>,
+    allowance: Vec<f64>,
+    bvh: Bvh,
+    bounds: Vec<Aabb>,
+}
+
+impl SeamBoxes {
+    fn new(set: &GeometryTextureSet, world_from_object: &DMat4, scale: f64) -> SeamBoxes {
+        let allowance: Vec<f64> = (set.patches.iter())
+            .map(|p| OUTLINE_TEXELS * p.texel_size() * scale)
+            .collect();
+        let boxes: Vec<Aabb> = (set.patches.iter().zip(&allowance))
+            .map(|(p, &a)| {
+                let world_from_patch = *world_from_object * p.world_from_patch();
+                let corners = unit_cube_corners().map(|c| world_from_patch.transform_point3(c));
+                let b = Aabb::of_points(corners);
+                Aabb {
+                    lo: b.lo - a,
+                    hi: b.hi + a,
+                }
+            })
+            .collect();
+        let bvh = Bvh::build(&boxes);
+        let bounds = bvh.node_bounds(&boxes);
+        SeamBoxes {
+            boxes,
+            allowance,
+            bvh,
+            bounds,
+        }
+    }
+
+    /// The largest allowance of the boxes the ray meets for t >= 0, and the least t it meets
+    /// one at.
+    fn met_by(&self, o: DVec3, d: DVec3) -> (f64, f64) {
+        let inverse = d.recip();
+        let ahead = (0.0, f64::INFINITY);
+        let (mut most, mut first) = (0.0f64, f64::INFINITY);
+        (self.bvh).select(
+            &self.bounds,
+            |b| b.meets_inverse(o, inverse, ahead),
+            |i| {
+                if let Some(t) = self.boxes[i as usize].entry_inverse(o, inverse, ahead) {
+                    most = most.max(self.allowance[i as usize]);
+                    first = first.min(t);
+                }
+            },
+        );
+        (most, first)
     }
 }
 
@@ -257,6 +305,13 @@ pub(crate) struct DrawnPixels<'a> {
 impl DrawnPixels<'_> {
     /// The world point pixel `i` shows, or None where nothing is drawn.
     pub fn point(&self, i: usize) -> Option<DVec3> {
+        self.point_and_depth_step(i).map(|(p, _)| p)
+    }
+
+    /// `point`, and how far (world units) the f32 rounding of the pixel's z-depth may move it:
+    /// half the f32 step above the depth (rounding to nearest never errs by more, even just
+    /// under a power of two), along the pixel's ray.
+    pub fn point_and_depth_step(&self, i: usize) -> Option<(DVec3, f64)> {
         let depth = self.depth[i];
         if !depth.is_finite() || self.patch_id[i] == -1 {
             return None;
@@ -264,18 +319,11 @@ impl DrawnPixels<'_> {
         let w = self.width as usize;
         let (o, d) = self.lines.at((i % w) as f64 + 0.5, (i / w) as f64 + 0.5);
         // d is not of unit length: the division makes the step one of z-depth all the same.
-        Some(o + d * (f64::from(depth) / d.dot(self.forward)))
-    }
-
-    /// How far (world units) the f32 rounding of drawn pixel `i`'s z-depth may move its point:
-    /// half the f32 step above the depth (rounding to nearest never errs by more, even just
-    /// under a power of two), along the pixel's ray.
-    pub fn depth_step(&self, i: usize) -> f64 {
-        let depth = self.depth[i].abs();
+        let along = d.dot(self.forward);
+        let point = o + d * (f64::from(depth) / along);
+        let depth = depth.abs();
         let half_step = 0.5 * (f64::from(depth.next_up()) - f64::from(depth));
-        let w = self.width as usize;
-        let (_, d) = self.lines.at((i % w) as f64 + 0.5, (i / w) as f64 + 0.5);
-        half_step * d.length() / d.dot(self.forward).abs()
+        Some((point, half_step * d.length() / along.abs()))
     }
 }
 
@@ -290,9 +338,8 @@ pub(crate) fn pixel_bounds(sources: &PixelSources, pixels: &DrawnPixels) -> Vec<
         .for_each(|(row, out)| {
             for (x, b) in out.iter_mut().enumerate() {
                 let i = row * w + x;
-                if let Some(point) = pixels.point(i) {
-                    let id = pixels.patch_id[i];
-                    *b = f32_at_least(sources.bound_at(point, id, pixels.depth_step(i)));
+                if let Some((point, step)) = pixels.point_and_depth_step(i) {
+                    *b = f32_at_least(sources.bound_at(point, pixels.patch_id[i], step));
                 }
             }
         });
