@@ -44,8 +44,8 @@ const OUTLINE_TEXELS: f64 = 0.1;
 
 /// f64 steps (relative to the drawn point's distance from the eye plus the size of what drew it)
 /// that cover the CPU backend's own arithmetic: its hits are f64 (ray set-up, placement, the
-/// exact face or height-field crossing), a few steps each; this is generous and still a
-/// millionth of the f32 depth's rounding.
+/// exact face or height-field crossing), a few steps each; this is generous and still some
+/// hundred thousand times less than the f32 depth's rounding.
 const F64_ULPS: f64 = 1024.0;
 
 /// How a backend computes the points it draws, as far as their rounding goes.
@@ -65,8 +65,10 @@ pub(crate) struct PixelSources {
     meshes: Vec<IdSource>,
     eye: DVec3,
     rounding: Rounding,
-    /// The patches of each hybrid set with some (`SeamBoxes`).
-    seams: Vec<SeamBoxes>,
+    /// The hybrid sets with patches (`seams` of each, made when first asked for: only coverage
+    /// probes ask).
+    hybrid: Vec<(Arc<GeometryTextureSet>, DMat4, f64)>,
+    seams: std::sync::OnceLock<Vec<SeamBoxes>>,
     /// Whether the frame's search finds the stored surface exactly (the max-pyramid descent);
     /// a linear search's hits stop within its last step, off the surface by more than a cell's
     /// bound, so its patch pixels get NaN.
@@ -125,13 +127,14 @@ impl PixelSources {
             meshes: vec![IdSource::Unknown; mesh_count],
             eye,
             rounding,
-            seams: Vec::new(),
+            hybrid: Vec::new(),
+            seams: std::sync::OnceLock::new(),
         };
         for (placed, taken) in scene.objects.iter().zip(ids) {
             let scale = largest_singular_value(&placed.world_from_object);
             if let Some(set) = placed.object.payload::<GeometryTextureSet>() {
                 if set.triangles.is_some() && !set.patches.is_empty() {
-                    (sources.seams).push(SeamBoxes::new(&set, &placed.world_from_object, scale));
+                    (sources.hybrid).push((set.clone(), placed.world_from_object, scale));
                 }
                 for (patch, id) in taken.patches.clone().enumerate() {
                     sources.patches[id as usize] = IdSource::Patch {
@@ -173,8 +176,8 @@ impl PixelSources {
     }
 
     /// The bound (world units) of world point `point` drawn with id `id`, whose f32 depth's
-    /// rounding moves it by up to `depth_step` (`DrawnPixels::point_and_depth_step`); NaN where none is
-    /// known.
+    /// rounding moves it by up to `depth_step` (`DrawnPixels::point_and_depth_step`); NaN where
+    /// none is known.
     pub fn bound_at(&self, point: DVec3, id: i32, depth_step: f64) -> f64 {
         let rounding = |reach: f64| {
             let size = (point - self.eye).length() + reach;
@@ -231,7 +234,14 @@ impl PixelSources {
     /// (world units) of the patches whose boxes (widened by it) the world ray o + t d meets
     /// for t >= 0, with the least t it meets one at; (0, inf) where it meets none.
     pub fn seam_allowance(&self, o: DVec3, d: DVec3) -> (f64, f64) {
-        (self.seams.iter()).fold((0.0, f64::INFINITY), |(most, first), seam| {
+        let seams = self.seams.get_or_init(|| {
+            (self.hybrid.iter())
+                .map(|(set, world_from_object, scale)| {
+                    SeamBoxes::new(set, world_from_object, *scale)
+                })
+                .collect()
+        });
+        (seams.iter()).fold((0.0, f64::INFINITY), |(most, first), seam| {
             let (a, t) = seam.met_by(o, d);
             (most.max(a), first.min(t))
         })
