@@ -67,7 +67,7 @@ pub(crate) struct CoverageInputs<'a> {
 
 impl CoverageInputs<'_> {
     fn drawn(&self, i: usize) -> bool {
-        self.pixels.depth[i].is_finite() && self.pixels.patch_id[i] != -1
+        self.pixels.drawn(i)
     }
 
     /// How far (pixels) drawn pixel `i`'s surface may stand off the mesh's outline: its bound and

@@ -313,6 +313,11 @@ pub(crate) struct DrawnPixels<'a> {
 }
 
 impl DrawnPixels<'_> {
+    /// Whether pixel `i` shows something.
+    pub fn drawn(&self, i: usize) -> bool {
+        self.depth[i].is_finite() && self.patch_id[i] != -1
+    }
+
     /// The world point pixel `i` shows, or None where nothing is drawn.
     pub fn point(&self, i: usize) -> Option<DVec3> {
         self.point_and_depth_step(i).map(|(p, _)| p)
@@ -322,10 +327,10 @@ impl DrawnPixels<'_> {
     /// half the f32 step above the depth (rounding to nearest never errs by more, even just
     /// under a power of two), along the pixel's ray.
     pub fn point_and_depth_step(&self, i: usize) -> Option<(DVec3, f64)> {
-        let depth = self.depth[i];
-        if !depth.is_finite() || self.patch_id[i] == -1 {
+        if !self.drawn(i) {
             return None;
         }
+        let depth = self.depth[i];
         let w = self.width as usize;
         let (o, d) = self.lines.at((i % w) as f64 + 0.5, (i / w) as f64 + 0.5);
         // d is not of unit length: the division makes the step one of z-depth all the same.

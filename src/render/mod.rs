@@ -525,7 +525,7 @@ fn add_bounds(
         patch_id,
     };
     let bounds = pixel_bounds(&sources, &pixels);
-    let figures = BoundFigures::of(&bounds, |i| pixels.point(i).is_some());
+    let figures = BoundFigures::of(&bounds, |i| pixels.drawn(i));
     let coverage = if outputs.coverage_uncertain {
         let coverage_inputs = CoverageInputs {
             pixels: &pixels,
