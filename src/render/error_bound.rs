@@ -318,14 +318,9 @@ impl DrawnPixels<'_> {
         self.depth[i].is_finite() && self.patch_id[i] != -1
     }
 
-    /// The world point pixel `i` shows, or None where nothing is drawn.
-    pub fn point(&self, i: usize) -> Option<DVec3> {
-        self.point_and_depth_step(i).map(|(p, _)| p)
-    }
-
-    /// `point`, and how far (world units) the f32 rounding of the pixel's z-depth may move it:
-    /// half the f32 step above the depth (rounding to nearest never errs by more, even just
-    /// under a power of two), along the pixel's ray.
+    /// The world point pixel `i` shows (None where nothing is drawn), and how far (world units)
+    /// the f32 rounding of its z-depth may move it: half the f32 step above the depth (rounding
+    /// to nearest never errs by more, even just under a power of two), along the pixel's ray.
     pub fn point_and_depth_step(&self, i: usize) -> Option<(DVec3, f64)> {
         if !self.drawn(i) {
             return None;
