@@ -480,12 +480,13 @@ fn half_area(node: &Bvh2Node) -> f32 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::bvh::ItemWalk;
 
-    /// A reproducible stream of uniform numbers in [0, 1) (xorshift64), for both tests here.
-    fn uniform(seed: u64) -> impl FnMut() -> f64 {
+    /// A reproducible stream of uniform numbers in [0, 1) (xorshift64), for the tests here and
+    /// the CPU backend's mesh tests.
+    pub(crate) fn uniform(seed: u64) -> impl FnMut() -> f64 {
         let mut state = seed;
         move || {
             state ^= state << 13;

@@ -199,6 +199,7 @@ impl MeshTracer {
 mod tests {
     use super::*;
     use crate::mesh::NormalSource;
+    use crate::wide_bvh::tests::uniform;
 
     /// A unit cube's 12 faces (two triangles per side), as `Mesh::from_flat` takes them.
     fn cube() -> Mesh {
@@ -220,13 +221,7 @@ mod tests {
     fn a_cube_is_entered_where_its_sides_are() {
         let rule = NormalRule::from_keywords(Some(NormalSource::Flat), None).unwrap();
         let tracer = MeshTracer::new(Arc::new(cube()), rule);
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut unit = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut unit = uniform(0x2545_f491_4f6c_dd1d);
         let (mut hits, mut misses) = (0, 0);
         for _ in 0..2000 {
             let o = DVec3::new(unit() * 4.0 - 1.5, unit() * 4.0 - 1.5, -2.0);
@@ -288,13 +283,7 @@ mod tests {
         }
         let mesh = Mesh::from_flat(&positions, &faces, None).unwrap();
         let tracer = MeshTracer::new(Arc::new(mesh), NormalRule::default());
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut unit = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut unit = uniform(0x9e37_79b9_7f4a_7c15);
         let (mut worst, mut slipped) = (0.0f64, 0);
         for k in 0..4000 {
             // A point on a grid line, a column line or a diagonal, inside the grid.
