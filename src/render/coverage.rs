@@ -105,8 +105,7 @@ impl CoverageInputs<'_> {
     /// undrawn pixel `i` (`PixelSources::seam_allowance`), projected where its ray first meets
     /// such a patch's box (no nearer than the lens's near plane).
     fn seam_stand_off(&self, i: usize) -> f64 {
-        let w = self.pixels.width as usize;
-        let (o, d) = (self.pixels.lines).at((i % w) as f64 + 0.5, (i / w) as f64 + 0.5);
+        let (o, d) = self.pixels.ray(i);
         let (allowance, t) = self.sources.seam_allowance(o, d);
         if allowance <= 0.0 {
             return 0.0;

@@ -20,6 +20,11 @@ pub(crate) fn unit_cube_corners() -> [DVec3; 8] {
     box_corners(DVec3::ZERO, DVec3::ONE)
 }
 
+/// The unit cube's corners under `m` (a patch's or tile's box placed in another space).
+pub(crate) fn placed_unit_cube(m: &glam::DMat4) -> [DVec3; 8] {
+    unit_cube_corners().map(|c| m.transform_point3(c))
+}
+
 /// The range of view depths (distances along the view direction) the scene's bounds occupy.
 pub(crate) struct DepthRange {
     pub z_min: f64,

@@ -23,7 +23,7 @@ use super::kinds::LodPick;
 use super::scene::{Scene, ShadedMesh};
 use crate::bvh::{Aabb, Bvh};
 use crate::gtex::GeometryTextureSet;
-use crate::render::cull::unit_cube_corners;
+use crate::render::cull::placed_unit_cube;
 
 /// Texels of slack around a point's cell: the point comes from an f32 depth and an f32 search,
 /// so it may lie a hair across the side of the cell its surface was found in.
@@ -264,9 +264,9 @@ impl SeamBoxes {
             .collect();
         let boxes: Vec<Aabb> = (set.patches.iter().zip(&allowance))
             .map(|(p, &a)| {
-                let world_from_patch = *world_from_object * p.world_from_patch();
-                let corners = unit_cube_corners().map(|c| world_from_patch.transform_point3(c));
-                let b = Aabb::of_points(corners);
+                let b = Aabb::of_points(placed_unit_cube(
+                    &(*world_from_object * p.world_from_patch()),
+                ));
                 Aabb {
                     lo: b.lo - a,
                     hi: b.hi + a,
@@ -313,6 +313,13 @@ pub(crate) struct DrawnPixels<'a> {
 }
 
 impl DrawnPixels<'_> {
+    /// Pixel `i`'s ray through its centre (origin, direction; t counts z-depth over
+    /// `direction . forward`).
+    pub fn ray(&self, i: usize) -> (DVec3, DVec3) {
+        let w = self.width as usize;
+        self.lines.at((i % w) as f64 + 0.5, (i / w) as f64 + 0.5)
+    }
+
     /// Whether pixel `i` shows something.
     pub fn drawn(&self, i: usize) -> bool {
         self.depth[i].is_finite() && self.patch_id[i] != -1
@@ -326,8 +333,7 @@ impl DrawnPixels<'_> {
             return None;
         }
         let depth = self.depth[i];
-        let w = self.width as usize;
-        let (o, d) = self.lines.at((i % w) as f64 + 0.5, (i / w) as f64 + 0.5);
+        let (o, d) = self.ray(i);
         // d is not of unit length: the division makes the step one of z-depth all the same.
         let along = d.dot(self.forward);
         let point = o + d * (f64::from(depth) / along);

@@ -28,7 +28,7 @@ pub(crate) struct FaceHit {
 /// Möller–Trumbore is not watertight, and a ray along an edge shared by two faces slipped
 /// between them (11% of rays aimed at the edges of a fine grid, in the test below). A face taken
 /// past its edge is rejected by the f64 check, which then decides among the faces the walk
-/// meets: about one ray in a thousand walks twice.
+/// meets: a second walk for 195 of the bunny's 1 M random rays, 1,007 of 9 M frame rays.
 const PICK_EDGE_SLACK: f32 = 1e-4;
 
 /// How far (in barycentric units) an f64 hit may fall outside its face and still count: the

@@ -31,10 +31,10 @@ impl SetSearch {
     pub fn new(set: Arc<GeometryTextureSet>) -> SetSearch {
         let owned = crate::render::kinds::gtex::owners::owned_heights(&set);
         let tracer = SetTracer::with_heights(&set, &owned);
-        let bounds = Aabb::of_points(set.patches.iter().flat_map(|p| {
-            let m = p.world_from_patch();
-            crate::render::cull::unit_cube_corners().map(|c| m.transform_point3(c))
-        }));
+        let bounds = Aabb::of_points(
+            (set.patches.iter())
+                .flat_map(|p| crate::render::cull::placed_unit_cube(&p.world_from_patch())),
+        );
         SetSearch {
             set,
             tracer,

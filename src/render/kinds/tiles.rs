@@ -299,17 +299,13 @@ pub(crate) fn parallel<const N: usize>(
 mod tests {
     use super::*;
     use crate::render::camera::Camera;
-    use crate::render::cull::unit_cube_corners;
+    use crate::render::cull::placed_unit_cube;
     use crate::render::kinds::TestRay;
     use glam::DMat4;
 
     /// The view-space corners of the unit cube under each of `view_from_box`, numbered in order.
     fn corners(view_from_box: &[DMat4]) -> impl Iterator<Item = (u32, [DVec3; 8])> + '_ {
-        (0..).zip(
-            view_from_box
-                .iter()
-                .map(|m| unit_cube_corners().map(|c| m.transform_point3(c))),
-        )
+        (0..).zip(view_from_box.iter().map(placed_unit_cube))
     }
 
     fn lens_and_view(size: [u32; 2]) -> (Lens, DMat4) {
