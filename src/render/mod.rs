@@ -524,8 +524,7 @@ fn add_bounds(
         depth,
         patch_id,
     };
-    let bounds = pixel_bounds(&sources, &pixels);
-    let figures = BoundFigures::of(&bounds, |i| pixels.drawn(i));
+    let (bounds, figures) = pixel_bounds(&sources, &pixels);
     let coverage = if outputs.coverage_uncertain {
         let coverage_inputs = CoverageInputs {
             pixels: &pixels,
