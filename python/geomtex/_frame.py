@@ -72,8 +72,10 @@ class Frame(Wrapped, core=_core.Frame,
     error_bound = forward[npt.NDArray[np.float32]](
         "(H, W) float32: per drawn pixel a bound (world units) on the distance from the point it shows "
         "to the source mesh: its cell's bound from the set's error-bound maps (or its patch's level "
-        "bound under ``lod``), plus 4 float32 steps of its distance from the eye and of its patch box's "
-        "size for rounding; a plain Mesh's pixels only that rounding term. NaN where nothing is drawn "
+        "bound under ``lod``), plus a term for rounding: on the CPU backend the float32 depth's own "
+        "rounding, measured pixel by pixel, and a few float64 steps; on the GPU 4 float32 steps of its "
+        "distance from the eye and of its patch box's size. A plain Mesh's pixels get only the rounding "
+        "term. NaN where nothing is drawn "
         "or no bound is known: patches without a bound map, Surfels, IgtMesh and gdm.Shell pixels, and "
         "every set pixel of a linear search (quality 'fast' or 'balanced'), whose hits stop within "
         "its last step off the stored surface (``stats['error_bound_search']``). It bounds drawn "

@@ -310,6 +310,9 @@ pub(crate) struct DrawnPixels<'a> {
     pub forward: DVec3,
     pub depth: &'a [f32],
     pub patch_id: &'a [i32],
+    /// Per pixel how far `depth` lies from the exact hit's z-depth, where the backend knows it
+    /// (`Frame::depth_rounding`); else half an f32 step of the depth stands for it.
+    pub depth_rounding: Option<&'a [f32]>,
 }
 
 impl DrawnPixels<'_> {
@@ -326,8 +329,9 @@ impl DrawnPixels<'_> {
     }
 
     /// The world point pixel `i` shows (None where nothing is drawn), and how far (world units)
-    /// the f32 rounding of its z-depth may move it: half the f32 step above the depth (rounding
-    /// to nearest never errs by more, even just under a power of two), along the pixel's ray.
+    /// the f32 rounding of its z-depth may move it along the pixel's ray: by the rounding the
+    /// backend measured, else by half the f32 step above the depth (rounding to nearest never
+    /// errs by more, even just under a power of two).
     pub fn point_and_depth_step(&self, i: usize) -> Option<(DVec3, f64)> {
         if !self.drawn(i) {
             return None;
@@ -337,9 +341,14 @@ impl DrawnPixels<'_> {
         // d is not of unit length: the division makes the step one of z-depth all the same.
         let along = d.dot(self.forward);
         let point = o + d * (f64::from(depth) / along);
-        let depth = depth.abs();
-        let half_step = 0.5 * (f64::from(depth.next_up()) - f64::from(depth));
-        Some((point, half_step * d.length() / along.abs()))
+        let step = match self.depth_rounding {
+            Some(rounding) => f64::from(rounding[i]),
+            None => {
+                let depth = depth.abs();
+                0.5 * (f64::from(depth.next_up()) - f64::from(depth))
+            }
+        };
+        Some((point, step * d.length() / along.abs()))
     }
 }
 
@@ -372,7 +381,7 @@ pub(crate) fn pixel_bounds(
 }
 
 /// The least f32 not below `v` (NaN stays NaN).
-fn f32_at_least(v: f64) -> f32 {
+pub(crate) fn f32_at_least(v: f64) -> f32 {
     let r = v as f32;
     if f64::from(r) < v {
         r.next_up()

@@ -62,6 +62,10 @@ pub struct Frame {
     /// Per pixel a bound (world units) on the distance from the drawn point to the source mesh
     /// (error_bound.rs); NaN where nothing is drawn or no bound is known.
     pub error_bound: Option<Vec<f32>>,
+    /// CPU backend: per pixel how far (z-depth units, rounded up) `depth` lies from the exact
+    /// hit's z-depth it was rounded from, which error_bound.rs takes in place of half an f32
+    /// step; None on the GPU backend (its depth's rounding is not known pixel by pixel).
+    pub depth_rounding: Option<Vec<f32>>,
     /// With `error_bound`: its figures over the drawn pixels.
     pub bound_figures: Option<BoundFigures>,
     /// Per pixel, whether its coverage could differ from the source mesh's (coverage.rs).
@@ -350,6 +354,7 @@ mod tests {
             face_id: None,
             barycentric: None,
             error_bound: None,
+            depth_rounding: None,
             bound_figures: None,
             coverage_uncertain: None,
             coverage: None,

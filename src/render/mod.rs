@@ -451,6 +451,7 @@ impl Renderer {
             face_id: None,
             barycentric: None,
             error_bound: None,
+            depth_rounding: None,
             bound_figures: None,
             coverage_uncertain: None,
             coverage: None,
@@ -518,6 +519,7 @@ fn add_bounds(
     let mut sources = PixelSources::new(scene, &inputs.ids, &inputs.lod_picks, eye);
     sources.exact_search = search.method == crate::render::search::Method::MaxMip;
     let pixels = DrawnPixels {
+        depth_rounding: frame.depth_rounding.as_deref(),
         width: frame.width,
         lines: camera.pixel_lines(&inputs.lens),
         forward: camera.forward(),

@@ -288,13 +288,14 @@ fn exact_search(search: &SearchOptions) -> Result<SearchOptions> {
     })
 }
 
-/// What a pixel shows: z-depth, id, world normal, base color and its headlight factor.
-type PixelHit = (f32, i32, [f32; 3], [u8; 4], f64);
+/// What a pixel shows: z-depth (f32, and how far it lies from the exact hit's), id, world
+/// normal, base color and its headlight factor.
+type PixelHit = ((f32, f32), i32, [f32; 3], [u8; 4], f64);
 
 /// A frame's per-pixel results, as traced.
 struct Pixels {
-    /// Per pixel: z-depth, id, world normal, base color and its headlight factor; None where
-    /// nothing is hit.
+    /// Per pixel: z-depth (and its rounding), id, world normal, base color and its headlight
+    /// factor; None where nothing is hit.
     hits: Vec<Option<PixelHit>>,
     patches: usize,
     meshes: usize,
@@ -323,7 +324,10 @@ fn trace_pixels(
         // Headlight (camera_functions.wgsl): light comes from the eye.
         let light = 0.25 + 0.75 * n.dot(d.normalize()).abs();
         let normal = n.as_vec3().to_array();
-        Some((hit.t as f32, trace.id(&hit), normal, color, light))
+        // The rays' t is their z-depth: rounded once to f32, by a known amount.
+        let z = hit.t as f32;
+        let rounding = super::error_bound::f32_at_least((f64::from(z) - hit.t).abs());
+        Some(((z, rounding), trace.id(&hit), normal, color, light))
     };
     // Bands of TILE rows on every core, each cut into TILE x TILE tiles. What a tile's rays
     // may meet is found once for the tile (`SceneTrace::bundle`: a set's pieces inside the
@@ -395,14 +399,15 @@ impl Pixels {
         let n = self.hits.len();
         let (mut color, mut albedo) = (vec![0u8; 4 * n], vec![0u8; 4 * n]);
         let (mut depth, mut normal, mut ids) = (vec![0f32; n], vec![0f32; 3 * n], vec![0i32; n]);
+        let mut rounding = vec![0f32; n];
         // Every pixel's outputs on every core (one core took a tenth of a mesh's frame).
         (self.hits.par_iter())
             .zip(color.par_chunks_mut(4).zip(albedo.par_chunks_mut(4)))
-            .zip(depth.par_iter_mut().zip(normal.par_chunks_mut(3)))
+            .zip((depth.par_iter_mut().zip(rounding.par_iter_mut())).zip(normal.par_chunks_mut(3)))
             .zip(ids.par_iter_mut())
             .for_each(
-                |(((hit, (color, albedo)), (depth, normal)), id)| match hit {
-                    Some((z, hit_id, nrm, base, light)) => {
+                |(((hit, (color, albedo)), ((depth, rounding), normal)), id)| match hit {
+                    Some(((z, z_rounding), hit_id, nrm, base, light)) => {
                         let shaded = |c: u8| (f64::from(c) * light).round().min(255.0) as u8;
                         color.copy_from_slice(&[
                             shaded(base[0]),
@@ -411,7 +416,7 @@ impl Pixels {
                             base[3],
                         ]);
                         albedo.copy_from_slice(base);
-                        *depth = *z;
+                        (*depth, *rounding) = (*z, *z_rounding);
                         normal.copy_from_slice(nrm);
                         *id = *hit_id;
                     }
@@ -449,6 +454,7 @@ impl Pixels {
             face_id: None,
             barycentric: None,
             error_bound: None,
+            depth_rounding: outputs.needs_bounds().then_some(rounding),
             bound_figures: None,
             coverage_uncertain: None,
             coverage: None,
