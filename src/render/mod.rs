@@ -519,12 +519,12 @@ fn add_bounds(
     let mut sources = PixelSources::new(scene, &inputs.ids, &inputs.lod_picks, eye);
     sources.exact_search = search.method == crate::render::search::Method::MaxMip;
     let pixels = DrawnPixels {
-        depth_rounding: frame.depth_rounding.as_deref(),
         width: frame.width,
         lines: camera.pixel_lines(&inputs.lens),
         forward: camera.forward(),
         depth,
         patch_id,
+        depth_rounding: frame.depth_rounding.as_deref(),
     };
     let (bounds, figures) = pixel_bounds(&sources, &pixels);
     let coverage = if outputs.coverage_uncertain {
