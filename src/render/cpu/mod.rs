@@ -399,14 +399,15 @@ impl Pixels {
         let n = self.hits.len();
         let (mut color, mut albedo) = (vec![0u8; 4 * n], vec![0u8; 4 * n]);
         let (mut depth, mut normal, mut ids) = (vec![0f32; n], vec![0f32; 3 * n], vec![0i32; n]);
+        let mut rounding = vec![0f32; n];
         // Every pixel's outputs on every core (one core took a tenth of a mesh's frame).
         (self.hits.par_iter())
             .zip(color.par_chunks_mut(4).zip(albedo.par_chunks_mut(4)))
-            .zip(depth.par_iter_mut().zip(normal.par_chunks_mut(3)))
+            .zip((depth.par_iter_mut().zip(rounding.par_iter_mut())).zip(normal.par_chunks_mut(3)))
             .zip(ids.par_iter_mut())
             .for_each(
-                |(((hit, (color, albedo)), (depth, normal)), id)| match hit {
-                    Some(((z, _), hit_id, nrm, base, light)) => {
+                |(((hit, (color, albedo)), ((depth, rounding), normal)), id)| match hit {
+                    Some(((z, z_rounding), hit_id, nrm, base, light)) => {
                         let shaded = |c: u8| (f64::from(c) * light).round().min(255.0) as u8;
                         color.copy_from_slice(&[
                             shaded(base[0]),
@@ -415,7 +416,7 @@ impl Pixels {
                             base[3],
                         ]);
                         albedo.copy_from_slice(base);
-                        *depth = *z;
+                        (*depth, *rounding) = (*z, *z_rounding);
                         normal.copy_from_slice(nrm);
                         *id = *hit_id;
                     }
@@ -453,12 +454,7 @@ impl Pixels {
             face_id: None,
             barycentric: None,
             error_bound: None,
-            // Only bounds read it: made for them alone.
-            depth_rounding: outputs.needs_bounds().then(|| {
-                (self.hits.par_iter())
-                    .map(|hit| hit.map_or(0.0, |((_, rounding), ..)| rounding))
-                    .collect()
-            }),
+            depth_rounding: outputs.needs_bounds().then_some(rounding),
             bound_figures: None,
             coverage_uncertain: None,
             coverage: None,
