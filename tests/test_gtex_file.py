@@ -62,12 +62,12 @@ def test_every_corruption_is_a_format_error(sheet: Converted, tmp_path) -> None:
         "tiny": data[:5],
         "flipped payload byte": data[:500] + bytes([data[500] ^ 1]) + data[501:],
         "bad magic": b"XTEX" + data[4:],
-        "future version": data[:8] + (8).to_bytes(4, "little") + data[12:],
+        "future version": data[:8] + (9).to_bytes(4, "little") + data[12:],
         "trailing garbage": data + b"\0" * 10,
     }
     messages = {
         "truncated": "truncated", "header only": "truncated", "tiny": "not a .gtex",
-        "flipped payload byte": "checksum", "bad magic": "not a .gtex", "future version": "version 8",
+        "flipped payload byte": "checksum", "bad magic": "not a .gtex", "future version": "version 9",
         "trailing garbage": "padded",
     }
     for name, blob in cases.items():

@@ -190,7 +190,7 @@ def test_surfels_of_a_hybrid_set_draw_its_triangles_beside_them() -> None:
 def test_a_hybrid_set_round_trips_and_keeps_its_triangles() -> None:
     _, mesh, gts = _case("sphere")
     data = gts.to_bytes()
-    assert int.from_bytes(data[8:12], "little") == 7
+    assert int.from_bytes(data[8:12], "little") == 8  # triangles, and bound maps of an exponent byte
     for back in (gt.GeometryTextureSet.from_bytes(data), pickle.loads(pickle.dumps(gts))):
         assert back.to_bytes() == data and len(back) == len(gts)
         t, u = back.triangles, gts.triangles
@@ -208,9 +208,12 @@ def test_a_hybrid_set_round_trips_and_keeps_its_triangles() -> None:
     only_maps = sum(int((gts.patch(k)["height"] > 0).sum()) for k in range(len(gts)))
     assert len(points) > only_maps
     assert "triangles" in repr(gts)
-    # A set without triangles is written as version 6, as before.
+    # A set without triangles is written as version 8 for its bound maps, as version 6 (which
+    # releases before the triangles read) without them.
     plain = gt.convert(mesh, max_resolution=32)
-    assert plain.triangles is None and int.from_bytes(plain.to_bytes()[8:12], "little") == 6
+    assert plain.triangles is None and int.from_bytes(plain.to_bytes()[8:12], "little") == 8
+    bare = gt.GeometryTextureSet._wrap(plain._core._with_cell_bounds([None] * len(plain)))
+    assert int.from_bytes(bare.to_bytes()[8:12], "little") == 6
 
 
 def test_hybrid_keywords_that_contradict_are_parameter_errors() -> None:

@@ -344,7 +344,7 @@ def show(obj: Any, **options: Any) -> Any:
 
 
 def load(path: str | os.PathLike[str]) -> GeometryTextureSet:
-    """Reads a .gtex file (:meth:`GeometryTextureSet.save`, versions 1 to 7).
+    """Reads a .gtex file (:meth:`GeometryTextureSet.save`, versions 1 to 8).
 
     Parameters
     ----------

@@ -146,7 +146,7 @@ class GeometryTextureSet(RayQueries, Wrapped, core=_core.GeometryTextureSet,
         axes (3, 3) (rows x, y, z), extent (3,), faces and ring_faces (uint32), and error_bound
         (H + 1, W + 1) float64: each cell's bound (world units) on the distance from the stored
         surface over it to the mesh, rows and columns from cell -1 (the cell between texel
-        rows/columns -1 and 0), as its 2 x 2 block stores it; None for a set without bounds."""
+        rows/columns -1 and 0), as its block of cells stores it; None for a set without bounds."""
         return self._core.patch(index)
 
     def to_points(self) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float32]]:

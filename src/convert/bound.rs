@@ -53,7 +53,7 @@ struct CellBounds<'a> {
 
 /// The error-bound map of `patch`, drawn from `faces` of `mesh` (its own and its ring).
 pub fn error_bound_map(mesh: &Mesh, faces: &[u32], patch: &Patch) -> ErrorBoundMap {
-    ErrorBoundMap::from_cells(patch.width, patch.height, &cell_bounds(mesh, faces, patch))
+    ErrorBoundMap::for_patch(patch, &cell_bounds(mesh, faces, patch))
 }
 
 /// Each cell's bound, (w + 1) x (h + 1) row by row from cell (-1, -1); 0 where a cell holds

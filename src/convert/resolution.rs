@@ -211,10 +211,12 @@ fn level_costs(
         let area: f64 = d.errors.iter().map(|e| e.area).sum();
         let texels = d.bx.width as usize * d.bx.height as usize;
         // The final raster adds the error-bound map (`gtex::bound`), counted in the set's bytes.
-        let (bw, bh) = crate::gtex::bound::block_dims(d.bx.width, d.bx.height);
-        let bound_bytes = bw * bh + 4;
-        let bytes =
-            (crate::gtex::map_bytes(texels, d.bx.height_bits, colored) + bound_bytes) as f64;
+        let map_bytes = crate::gtex::map_bytes(texels, d.bx.height_bits, colored);
+        let (width, height) = (d.bx.width, d.bx.height);
+        let block = crate::gtex::bound::block_side(width, height, map_bytes);
+        let (bw, bh) = crate::gtex::bound::block_dims(width, height, block);
+        // Its codes and exponent byte.
+        let bytes = (map_bytes + bw * bh + 1) as f64;
         costs.push(LevelCost {
             resolution,
             bytes,

@@ -1,6 +1,7 @@
-//! The .gtex file format, versions 6 and 7 (versions 1 to 5 are still read). Little-endian
-//! throughout. A set with triangles (a hybrid conversion) is written as version 7, any other as
-//! version 6, so geomtex releases before the triangles still read every set they can draw.
+//! The .gtex file format, versions 6 to 8 (versions 1 to 5 are still read). Little-endian
+//! throughout. A set with a bound map of an exponent byte (every map conversion makes now) is
+//! written as version 8; any other as version 7 with triangles (a hybrid conversion), else 6, so
+//! earlier geomtex releases still read every set they can draw.
 //!
 //! ```text
 //! header (32 bytes): magic b"GTEX\r\n\x1a\n" | version u32 | reserved u32 | payload length u64 |
@@ -13,9 +14,11 @@
 //!          face ids u32[] | ring face ids u32[] | heights u8[w*h] or u16[w*h] |
 //!          normals i8[w*h*2] (octahedral, `gtex::encode_normal`) |
 //!          colors u8[w*h*4] (only with a color map) | outline i8[w*h] |
-//!          error-bound map u32 (0 or 1), then with one: scale f32 | codes u8[bw*bh]
-//!          (`gtex::bound`: one per block of 2 x 2 cells, bw = ceil((w + 1) / 2))
-//!          ... then, version 7 only: triangles u32 (0 or 1), then with them:
+//!          error-bound map u32 (0 none; 1: scale f32 | codes u8[bw*bh], one per block of
+//!          2 x 2 cells, bw = ceil((w + 1) / 2); 2, version 8 only: exponent i8 (scale 2^e,
+//!          -128 for 0) | codes u8[bw*bh] in blocks of `gtex::bound::block_side(w, h, maps'
+//!          bytes)` cells, left out after -128: every code 0)
+//!          ... then, versions 7 and 8: triangles u32 (0 or 1), then with them:
 //!          centre 3 f64 | normal rule u32 (0 crease, 1 smooth, 2 flat) | crease angle f64 |
 //!          vertices u32 | faces u32 | clusters u32 | colors u32 (0 or 1) |
 //!          positions f32[3*vertices] (offsets from the centre) | faces u32[3*faces] |
@@ -40,13 +43,16 @@ use std::path::Path;
 
 use glam::DVec3;
 
+use super::bound::ScaleStorage;
 use super::{GeometryTextureSet, KeptBecause, Patch, SetTriangles, Stats};
 use crate::error::GeomtexError;
 use crate::mesh::{Mesh, NormalRule, NormalSource};
 
 pub const MAGIC: &[u8; 8] = b"GTEX\r\n\x1a\n";
-pub const VERSION: u32 = 7;
-/// The version a set without triangles is written as.
+pub const VERSION: u32 = 8;
+/// The version a set with triangles and bound maps of f32 scales (or none) is written as.
+const TRIANGLES_VERSION: u32 = 7;
+/// The version a set without triangles and with bound maps of f32 scales (or none) is written as.
 const PATCHES_ONLY_VERSION: u32 = 6;
 const HEADER: usize = 32;
 
@@ -114,21 +120,25 @@ pub fn encode(set: &GeometryTextureSet) -> Vec<u8> {
         p.extend_from_slice(bytemuck::cast_slice(&patch.normals));
         p.extend_from_slice(bytemuck::cast_slice(&patch.colors));
         p.extend_from_slice(bytemuck::cast_slice(&patch.outline));
-        match &patch.error_bound {
-            None => p.extend_from_slice(&0u32.to_le_bytes()),
-            Some(map) => {
-                p.extend_from_slice(&1u32.to_le_bytes());
-                p.extend_from_slice(&map.scale.to_le_bytes());
-                p.extend_from_slice(&map.codes);
-            }
-        }
+        put_error_bound(patch.error_bound.as_ref(), &mut p);
     }
-    let version = match &set.triangles {
-        None => PATCHES_ONLY_VERSION,
-        Some(t) => {
+    let exponents = (set.patches.iter())
+        .filter_map(|p| p.error_bound.as_ref())
+        .any(|m| m.storage == ScaleStorage::Exponent);
+    let version = match (&set.triangles, exponents) {
+        (None, false) => PATCHES_ONLY_VERSION,
+        (None, true) => {
+            p.extend_from_slice(&0u32.to_le_bytes());
+            VERSION
+        }
+        (Some(t), _) => {
             p.extend_from_slice(&1u32.to_le_bytes());
             put_triangles(t, &mut p);
-            VERSION
+            if exponents {
+                VERSION
+            } else {
+                TRIANGLES_VERSION
+            }
         }
     };
     let mut out = Vec::with_capacity(HEADER + p.len());
@@ -275,7 +285,8 @@ fn read_patch(r: &mut Reader, k: usize, version: u32) -> Result<Patch, String> {
         vec![super::OUTLINE_INSIDE; texels]
     };
     let error_bound = if version >= 6 {
-        read_error_bound(r, &what, w, h)?
+        let map_bytes = super::map_bytes(w as usize * h as usize, height_bits, colored);
+        read_error_bound(r, &what, (w, h, map_bytes), version)?
     } else {
         None
     };
@@ -296,15 +307,58 @@ fn read_patch(r: &mut Reader, k: usize, version: u32) -> Result<Patch, String> {
     })
 }
 
-/// A patch's error-bound field (version 6): a flag, then the map's scale and codes.
+/// A patch's error-bound field: 0, none; 1 (version 6 on), an f32 scale and codes in 2 x 2
+/// blocks; 2 (version 8 on), an exponent byte and codes in blocks of `bound::block_side`.
+fn put_error_bound(map: Option<&super::ErrorBoundMap>, p: &mut Vec<u8>) {
+    match map {
+        None => p.extend_from_slice(&0u32.to_le_bytes()),
+        Some(map) => {
+            match map.storage {
+                ScaleStorage::F32 => {
+                    p.extend_from_slice(&1u32.to_le_bytes());
+                    p.extend_from_slice(&map.scale.to_le_bytes());
+                }
+                ScaleStorage::Exponent => {
+                    let e = super::bound::exponent_at_least(map.scale);
+                    p.extend_from_slice(&2u32.to_le_bytes());
+                    p.push(e as u8);
+                    if map.scale == 0.0 {
+                        return; // every code 0: none written
+                    }
+                }
+            }
+            p.extend_from_slice(&map.codes);
+        }
+    }
+}
+
+/// A patch's error-bound field (`put_error_bound`) in a file of format `version`, for a patch
+/// of `w` x `h` texels whose maps take `map_bytes`.
 fn read_error_bound(
     r: &mut Reader,
     what: &str,
-    w: u32,
-    h: u32,
+    (w, h, map_bytes): (u32, u32, usize),
+    version: u32,
 ) -> Result<Option<super::ErrorBoundMap>, String> {
     match r.u32(what)? {
         0 => Ok(None),
+        2 if version >= 8 => {
+            let e = r.take(1, &format!("{what} error-bound exponent"))?[0] as i8;
+            let block = super::bound::block_side(w, h, map_bytes);
+            let (bw, bh) = super::bound::block_dims(w, h, block);
+            let scale = super::bound::scale_of_exponent(e);
+            let codes = if scale == 0.0 {
+                vec![0; bw * bh] // a zero scale's codes are not written
+            } else {
+                (r.take(bw * bh, &format!("{what} error-bound codes"))?).to_vec()
+            };
+            Ok(Some(super::ErrorBoundMap {
+                scale,
+                codes,
+                block,
+                storage: ScaleStorage::Exponent,
+            }))
+        }
         1 => {
             let scale = f32::from_le_bytes(
                 r.take(4, &format!("{what} error-bound scale"))?
@@ -316,14 +370,19 @@ fn read_error_bound(
                     "{what}: the error-bound scale must be finite and >= 0, found {scale}"
                 ));
             }
-            let (bw, bh) = super::bound::block_dims(w, h);
+            let (bw, bh) = super::bound::block_dims(w, h, super::bound::BLOCK);
             let codes = r
                 .take(bw * bh, &format!("{what} error-bound codes"))?
                 .to_vec();
-            Ok(Some(super::ErrorBoundMap { scale, codes }))
+            Ok(Some(super::ErrorBoundMap {
+                scale,
+                codes,
+                block: super::bound::BLOCK,
+                storage: ScaleStorage::F32,
+            }))
         }
         f => Err(format!(
-            "{what}: the error-bound flag must be 0 or 1, found {f}"
+            "{what}: the error-bound flag must be 0, 1 or (from version 8) 2, found {f}"
         )),
     }
 }
@@ -399,7 +458,7 @@ fn rule_code(rule: NormalRule) -> u32 {
     }
 }
 
-/// The triangle section of a version 7 file (layout above).
+/// The triangle section of a version 7 or 8 file (layout above).
 pub(crate) fn put_triangles(t: &SetTriangles, out: &mut Vec<u8>) {
     let (m, centre) = (t.mesh(), t.centre);
     put_f64s(out, &centre.to_array());
@@ -676,7 +735,7 @@ mod tests {
     fn error_bound_maps_round_trip_and_version_5_has_none() {
         let mut s = as_filed(sample());
         let cells: Vec<f64> = (0..12).map(|k| 1e-3 * (k as f64 + 1.0)).collect();
-        s.patches[0].error_bound = Some(crate::gtex::ErrorBoundMap::from_cells(2, 3, &cells));
+        s.patches[0].error_bound = Some(crate::gtex::ErrorBoundMap::with_f32_scale(2, 3, &cells));
         // A load sets the stats from the maps ("bytes" counts the map).
         s.sync_error_bound_stats();
         let bytes = encode(&s);
@@ -707,6 +766,57 @@ mod tests {
         assert!(decode(&file(PATCHES_ONLY_VERSION, &p))
             .unwrap_err()
             .contains("error-bound scale"));
+    }
+
+    /// A map made now (an exponent byte, blocks by the patch's size) is written as version 8
+    /// and read back exactly, with or without triangles; before version 8 its flag is refused.
+    #[test]
+    fn exponent_bound_maps_are_version_8_and_round_trip() {
+        let mut s = as_filed(sample());
+        let cells: Vec<f64> = (0..12).map(|k| 1e-3 * (k as f64 + 1.0)).collect();
+        let map = crate::gtex::ErrorBoundMap::for_patch(&s.patches[0], &cells);
+        assert_eq!(map.storage, ScaleStorage::Exponent);
+        s.patches[0].error_bound = Some(map.clone());
+        s.sync_error_bound_stats();
+        let without = {
+            let mut n = s.clone();
+            n.patches[0].error_bound = None;
+            encode(&n)
+        };
+        let bytes = encode(&s);
+        assert_eq!(&bytes[8..12], &VERSION.to_le_bytes());
+        assert_eq!(decode(&bytes).unwrap(), s);
+        // The exponent and codes (both have the flag), and version 8's triangle flag.
+        assert_eq!(bytes.len(), without.len() + 1 + map.codes.len() + 4);
+        assert_eq!(s.patches[0].error_bound_bytes(), 1 + map.codes.len());
+        // With triangles too.
+        let mut hybrid = s.clone();
+        let sphere = crate::test_shapes::uv_sphere(4, 6);
+        let faces = (0..8).collect(); // within the sample's 10 source faces
+        hybrid.triangles = Some(SetTriangles::from_charts(
+            &sphere,
+            NormalRule::default(),
+            vec![(faces, KeptBecause::Bound)],
+        ));
+        let h = encode(&hybrid);
+        assert_eq!(&h[8..12], &VERSION.to_le_bytes());
+        assert_eq!(decode(&h).unwrap(), hybrid);
+        // A zero map is its exponent byte alone, and reads back whole.
+        let mut zero = s.clone();
+        zero.patches[0].error_bound = Some(crate::gtex::ErrorBoundMap::for_patch(
+            &zero.patches[0],
+            &[0.0; 12],
+        ));
+        zero.sync_error_bound_stats();
+        let z = encode(&zero);
+        assert_eq!(decode(&z).unwrap(), zero);
+        assert_eq!(z.len(), bytes.len() - map.codes.len());
+        // The same payload labelled version 7: flag 2 is not read there.
+        let err = decode(&file(TRIANGLES_VERSION, &h[HEADER..])).unwrap_err();
+        assert!(
+            err.contains("error-bound flag must be 0, 1 or (from version 8) 2, found 2"),
+            "{err}"
+        );
     }
 
     #[test]

@@ -97,7 +97,7 @@ fn patch_dict<'py>(py: Python<'py>, p: &Patch) -> PyResult<Bound<'py, PyDict>> {
     d.set_item("faces", PyArray1::from_slice(py, &p.faces))?;
     d.set_item("ring_faces", PyArray1::from_slice(py, &p.ring_faces))?;
     // Per cell (rows and columns from cell -1, as `_with_cell_bounds` takes them), each cell
-    // showing its 2 x 2 block's stored bound.
+    // showing its block's stored bound.
     let bound = p.error_bound.as_ref().map(|map| {
         let cells: Vec<f64> = (-1..i64::from(p.height))
             .flat_map(|j| (-1..i64::from(p.width)).map(move |i| (i, j)))
@@ -380,9 +380,7 @@ impl PyGeometryTextureSet {
                         ))
                         .into());
                     }
-                    Some(crate::gtex::ErrorBoundMap::from_cells(
-                        p.width, p.height, &values,
-                    ))
+                    Some(crate::gtex::ErrorBoundMap::for_patch(p, &values))
                 }
             };
         }

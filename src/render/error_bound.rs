@@ -494,7 +494,12 @@ mod tests {
             .flat_map(|j| (-1..4).map(move |i| (i, j)))
             .map(|(i, j)| cell(i, j))
             .collect();
-        p.error_bound = Some(ErrorBoundMap::from_cells(4, 4, &cells));
+        p.error_bound = Some(ErrorBoundMap::from_cells(
+            4,
+            4,
+            crate::gtex::bound::BLOCK,
+            &cells,
+        ));
         let set = GeometryTextureSet {
             patches: vec![p],
             texel_size: 0.25,
@@ -522,7 +527,8 @@ mod tests {
             let sources = PixelSources::new(&scene, &ids, &[], (eye, Rounding::F32Tracer));
             // Texel-centre (1.5, 0.5) lies in cell (1, 0): u = 2 / 4, v = 1 / 4.
             let point = DVec3::new(0.5, 0.25, 0.5) * scale;
-            let map = ErrorBoundMap::from_cells(1, 1, &[0.02, 0.0, 0.0, 0.0]);
+            let map =
+                ErrorBoundMap::from_cells(1, 1, crate::gtex::bound::BLOCK, &[0.02, 0.0, 0.0, 0.0]);
             let decoded = ErrorBoundMap::decode(map.codes[0], f64::from(map.scale));
             let rounding = FLOAT_ULPS * f64::from(f32::EPSILON);
             let got = sources.bound_at(point, 0, 0.0);

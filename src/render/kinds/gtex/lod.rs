@@ -91,7 +91,7 @@ mod tests {
         assert!((bare[1] - 2.0 * step).abs() < 1e-3, "{bare:?}");
         assert!(bare.windows(2).all(|w| w[0] <= w[1]), "{bare:?}");
         let cells: Vec<f64> = (0..81).map(|k| if k == 40 { 0.5 } else { 0.01 }).collect();
-        p.error_bound = Some(ErrorBoundMap::from_cells(8, 8, &cells));
+        p.error_bound = Some(ErrorBoundMap::from_cells(8, 8, crate::gtex::bound::BLOCK, &cells));
         let with_map = level_bounds(&p);
         // The map's top code decodes to 0.5 exactly (it is the map's scale).
         assert_eq!(with_map[0], 0.5);
