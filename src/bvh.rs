@@ -55,8 +55,12 @@ impl Aabb {
             return None;
         }
         let (a, b) = ((self.lo - o) * inverse, (self.hi - o) * inverse);
-        let near = a.min(b).max_element().max(t0);
-        let far = a.max(b).min_element().min(t1);
+        // glam's min, max and *_element compare plainly; the stretch's ends do too, a NaN
+        // giving way to t0 or t1 as f64::max/min would have it, at three instructions fewer
+        // each (this test runs for every piece a frame's ray is listed against).
+        let (near, far) = (a.min(b).max_element(), a.max(b).min_element());
+        let near = if near > t0 { near } else { t0 };
+        let far = if far < t1 { far } else { t1 };
         (near.partial_cmp(&far) != Some(std::cmp::Ordering::Greater)).then_some(near)
     }
 

@@ -251,11 +251,13 @@ fn clip_to_unit_box(o: DVec3, d: DVec3, t0: f64, t1: f64) -> Option<(f64, f64)> 
             }
             continue;
         }
-        // One division per axis (this runs for every piece a ray enters).
+        // One division per axis, and plain comparisons (this runs for every piece a ray
+        // enters; a NaN origin or direction gives NaN bounds, caught below).
         let inverse = 1.0 / dk;
         let (a, b) = (-ok * inverse, (1.0 - ok) * inverse);
-        lo = lo.max(a.min(b));
-        hi = hi.min(a.max(b));
+        let (near, far) = if a < b { (a, b) } else { (b, a) };
+        lo = if near <= lo { lo } else { near };
+        hi = if far >= hi { hi } else { far };
     }
     // NaN bounds (a ray with no direction) clip to nothing too.
     (!(lo.is_nan() || hi.is_nan() || hi <= lo)).then_some((lo, hi))
@@ -283,6 +285,7 @@ struct CellRay<'p> {
 impl<'p> CellRay<'p> {
     fn new(p: &'p Patch, o: DVec3, d: DVec3) -> Self {
         let (w, h) = (p.width as f64, p.height as f64);
+        let per_code = 1.0 / f64::from(p.code_max() - 1);
         CellRay {
             p,
             x0: o.x * w - 0.5,
@@ -291,10 +294,10 @@ impl<'p> CellRay<'p> {
             dy: d.y * h,
             oz: o.z,
             dz: d.z,
-            graze: graze(p),
             inverse_dx: along_lines_or_inverse(d.x * w),
             inverse_dy: along_lines_or_inverse(d.y * h),
-            per_code: 1.0 / f64::from(p.code_max() - 1),
+            graze: 0.5 * per_code, // `graze`
+            per_code,
         }
     }
 
@@ -766,6 +769,36 @@ pub struct SetTracer {
     bounds: Vec<crate::bvh::Aabb>,
     /// For single rays: the same boxes in an 8-wide tree (four box tests at once).
     wide: crate::wide_bvh::BoxBvh,
+    /// Per patch, its world-to-local map.
+    frames: Vec<LocalFrame>,
+}
+
+/// A patch's world-to-local map by multiplications: its origin, and its axes over their
+/// extents (`Patch::world_to_local` divides: six divisions for each piece a ray entered).
+#[derive(Clone, Copy)]
+struct LocalFrame {
+    origin: DVec3,
+    rows: [DVec3; 3],
+}
+
+impl LocalFrame {
+    fn of(p: &Patch) -> LocalFrame {
+        LocalFrame {
+            origin: p.origin,
+            rows: std::array::from_fn(|k| p.axes[k] / p.extent[k]),
+        }
+    }
+
+    /// The world ray (origin, dir) in the patch's local unit box, with t unchanged.
+    #[inline]
+    fn ray(&self, origin: DVec3, dir: DVec3) -> (DVec3, DVec3) {
+        let [x, y, z] = self.rows;
+        let o = origin - self.origin;
+        (
+            DVec3::new(o.dot(x), o.dot(y), o.dot(z)),
+            DVec3::new(dir.dot(x), dir.dot(y), dir.dot(z)),
+        )
+    }
 }
 
 /// A plane n . p + c = 0 as (n, c); a bundle of rays lies where n . p + c >= 0 for each of
@@ -836,6 +869,7 @@ impl SetTracer {
             bvh,
             bounds,
             wide,
+            frames: set.patches.iter().map(LocalFrame::of).collect(),
         }
     }
 
@@ -850,7 +884,7 @@ impl SetTracer {
     ) -> Option<(f64, u32)> {
         let piece = self.pieces.pieces[i as usize];
         let p = &set.patches[piece.patch as usize];
-        let (o, d) = patch_local_ray(p, origin, dir);
+        let (o, d) = self.frames[piece.patch as usize].ray(origin, dir);
         let view = PieceView {
             packed: &self.pieces,
             piece,
@@ -995,7 +1029,9 @@ impl SetTracer {
     }
 }
 
-/// The world ray (origin, dir) in patch `p`'s local unit box, with t unchanged.
+/// The world ray (origin, dir) in patch `p`'s local unit box, with t unchanged (by divisions, as
+/// `Patch::world_to_local`: the tests' reference walk; `LocalFrame` multiplies).
+#[cfg(test)]
 fn patch_local_ray(p: &Patch, origin: DVec3, dir: DVec3) -> (DVec3, DVec3) {
     let d = DVec3::new(
         dir.dot(p.axes[0]) / p.extent.x,
