@@ -365,11 +365,9 @@ fn slab(v0: f64, inverse: f64, a: f64, b: f64) -> (f64, f64) {
         };
     }
     let (ta, tb) = ((a - v0) * inverse, (b - v0) * inverse);
-    if inverse > 0.0 {
-        (ta, tb)
-    } else {
-        (tb, ta)
-    }
+    // Ordered by comparing the two (minsd and maxsd), not by the direction's sign: a branch
+    // on it was mispredicted as often as rays turn.
+    (if ta < tb { ta } else { tb }, if ta < tb { tb } else { ta })
 }
 
 /// The exact first intersection of the ray o + t d (patch-local) with the patch's surface for t
@@ -688,7 +686,9 @@ fn descend(
     stack.push((start, c0, r0, span_of(start, c0, r0, hi)));
     let mut best = hi;
     while let Some((level, c, r, (ta, tb))) = stack.pop() {
-        let tb = tb.min(best);
+        // Plain comparisons here and below: spans and heights are never NaN (f64::min/max's
+        // NaN handling cost three instructions each).
+        let tb = if best < tb { best } else { tb };
         if ta > tb {
             continue;
         }
@@ -702,7 +702,8 @@ fn descend(
         let hmin = f64::from((v & 0xffff).max(1) - 1) * per_code;
         let hmax = f64::from((v >> 16).max(1) - 1) * per_code;
         const SLACK: f64 = 1e-9;
-        if za.max(zb) < hmin - SLACK || za.min(zb) > hmax + SLACK {
+        let (z_low, z_high) = if za < zb { (za, zb) } else { (zb, za) };
+        if z_high < hmin - SLACK || z_low > hmax + SLACK {
             continue;
         }
         if level == 0 {
