@@ -115,6 +115,7 @@ impl SetTriangles {
                 mesh: Arc::new(mesh),
                 rule,
                 stored_rounding,
+                diagonal: std::sync::OnceLock::new(),
             }),
             starts,
             because,

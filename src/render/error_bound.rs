@@ -149,7 +149,7 @@ impl PixelSources {
                     scale,
                 });
             } else if let Some(shaded) = placed.object.payload::<ShadedMesh>() {
-                let reach = bounding_diagonal(&shaded.mesh.positions) * scale;
+                let reach = shaded.diagonal() * scale;
                 let stored = shaded.stored_rounding * scale;
                 for k in taken.meshes.clone() {
                     sources.meshes[k] = IdSource::Mesh { reach, stored };
@@ -408,19 +408,6 @@ pub(crate) fn largest_singular_value(m: &DMat4) -> f64 {
     };
     // A hair up, so that rounding never makes it smaller than it is.
     largest.max(0.0).sqrt() * (1.0 + 1e-12)
-}
-
-/// The diagonal of the box around `points`.
-fn bounding_diagonal(points: &[DVec3]) -> f64 {
-    let (lo, hi) = points.iter().fold(
-        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-        |(lo, hi), &p| (lo.min(p), hi.max(p)),
-    );
-    if points.is_empty() {
-        0.0
-    } else {
-        (hi - lo).length()
-    }
 }
 
 /// A frame's bound figures: the largest and median bound over the drawn pixels with one, and
