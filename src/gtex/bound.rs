@@ -96,15 +96,18 @@ fn power_of_two(e: i32) -> f32 {
     }
 }
 
+/// The least e in [-127, 127] with 2^e >= `v`, or None past 2^127.
+fn least_power_at_or_above(v: f64) -> Option<i32> {
+    (-127..=127).find(|&e| f64::from(power_of_two(e)) >= v)
+}
+
 /// The exponent byte of the least power of two at or above `scale` (the zero scale's for 0): the
 /// scale itself for every map made here (a larger one would only loosen the decoded bounds).
 pub fn exponent_at_least(scale: f32) -> i8 {
     if scale == 0.0 {
         return ZERO_SCALE;
     }
-    (-127..=127)
-        .find(|&e| power_of_two(e) >= scale)
-        .unwrap_or(127) as i8
+    least_power_at_or_above(f64::from(scale)).unwrap_or(127) as i8
 }
 
 /// The scale of exponent byte `e`.
@@ -127,9 +130,7 @@ impl ErrorBoundMap {
         let (scale, storage) = if largest == 0.0 {
             (0.0, ScaleStorage::Exponent)
         } else {
-            // The least power of two at or above the largest bound.
-            let e = (-127..=127).find(|&e| f64::from(power_of_two(e)) >= largest);
-            match e {
+            match least_power_at_or_above(largest) {
                 Some(e) => (power_of_two(e), ScaleStorage::Exponent),
                 None => return Self::with_f32_scale(width, height, cell_bounds),
             }
@@ -142,6 +143,29 @@ impl ErrorBoundMap {
         let map_bytes = super::map_bytes(p.texels(), p.height_bits, p.has_colors());
         let block = block_side(p.width, p.height, map_bytes);
         Self::from_cells(p.width, p.height, block, cell_bounds)
+    }
+
+    /// The map in the blocks a file holds for patch `p` (`block_side` for an exponent scale; an
+    /// f32 scale keeps its 2 x 2 blocks): itself, or re-blocked from its decoded cell bounds
+    /// where it was made with other blocks (each new block keeps the largest it covers, so no
+    /// bound falls), so that a reader finds the blocks the header implies.
+    pub fn in_file_blocks(&self, p: &super::Patch) -> std::borrow::Cow<'_, Self> {
+        let map_bytes = super::map_bytes(p.texels(), p.height_bits, p.has_colors());
+        let block = match self.storage {
+            ScaleStorage::Exponent => block_side(p.width, p.height, map_bytes),
+            ScaleStorage::F32 => BLOCK,
+        };
+        if block == self.block {
+            return std::borrow::Cow::Borrowed(self);
+        }
+        let cells: Vec<f64> = (-1..i64::from(p.height))
+            .flat_map(|j| (-1..i64::from(p.width)).map(move |i| (i, j)))
+            .map(|(i, j)| self.at_cell(p.width, p.height, i, j))
+            .collect();
+        std::borrow::Cow::Owned(match self.storage {
+            ScaleStorage::Exponent => Self::from_cells(p.width, p.height, block, &cells),
+            ScaleStorage::F32 => Self::with_f32_scale(p.width, p.height, &cells),
+        })
     }
 
     /// The map as files of versions 6 and 7 hold it: 2 x 2 blocks under an f32 scale.

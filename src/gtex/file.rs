@@ -120,7 +120,7 @@ pub fn encode(set: &GeometryTextureSet) -> Vec<u8> {
         p.extend_from_slice(bytemuck::cast_slice(&patch.normals));
         p.extend_from_slice(bytemuck::cast_slice(&patch.colors));
         p.extend_from_slice(bytemuck::cast_slice(&patch.outline));
-        put_error_bound(patch.error_bound.as_ref(), &mut p);
+        put_error_bound(patch, &mut p);
     }
     let exponents = (set.patches.iter())
         .filter_map(|p| p.error_bound.as_ref())
@@ -309,8 +309,12 @@ fn read_patch(r: &mut Reader, k: usize, version: u32) -> Result<Patch, String> {
 
 /// A patch's error-bound field: 0, none; 1 (version 6 on), an f32 scale and codes in 2 x 2
 /// blocks; 2 (version 8 on), an exponent byte and codes in blocks of `bound::block_side`.
-fn put_error_bound(map: Option<&super::ErrorBoundMap>, p: &mut Vec<u8>) {
-    match map {
+fn put_error_bound(patch: &Patch, p: &mut Vec<u8>) {
+    match patch
+        .error_bound
+        .as_ref()
+        .map(|map| map.in_file_blocks(patch))
+    {
         None => p.extend_from_slice(&0u32.to_le_bytes()),
         Some(map) => {
             match map.storage {
@@ -801,6 +805,20 @@ mod tests {
         let h = encode(&hybrid);
         assert_eq!(&h[8..12], &VERSION.to_le_bytes());
         assert_eq!(decode(&h).unwrap(), hybrid);
+        // A map made in blocks other than the patch's rule is written in the rule's, each
+        // stored bound kept or raised (never lowered).
+        let mut odd = s.clone();
+        let odd_map = crate::gtex::ErrorBoundMap::from_cells(2, 3, 4, &cells);
+        odd.patches[0].error_bound = Some(odd_map.clone());
+        let back = decode(&encode(&odd)).unwrap();
+        let read = back.patches[0].error_bound.as_ref().unwrap();
+        assert_eq!((read.block, odd_map.block), (map.block, 4));
+        for j in -1..3 {
+            for i in -1..2 {
+                assert!(read.at_cell(2, 3, i, j) >= odd_map.at_cell(2, 3, i, j));
+                assert!(read.at_cell(2, 3, i, j) >= cells[((j + 1) * 3 + i + 1) as usize]);
+            }
+        }
         // A zero map is its exponent byte alone, and reads back whole.
         let mut zero = s.clone();
         zero.patches[0].error_bound = Some(crate::gtex::ErrorBoundMap::for_patch(
