@@ -296,7 +296,7 @@ impl<'p> CellRay<'p> {
             dz: d.z,
             inverse_dx: along_lines_or_inverse(d.x * w),
             inverse_dy: along_lines_or_inverse(d.y * h),
-            graze: 0.5 * per_code, // `graze`
+            graze: graze(p),
             per_code,
         }
     }

@@ -158,10 +158,7 @@ impl ErrorBoundMap {
         if block == self.block {
             return std::borrow::Cow::Borrowed(self);
         }
-        let cells: Vec<f64> = (-1..i64::from(p.height))
-            .flat_map(|j| (-1..i64::from(p.width)).map(move |i| (i, j)))
-            .map(|(i, j)| self.at_cell(p.width, p.height, i, j))
-            .collect();
+        let cells = self.decoded_cells(p.width, p.height);
         std::borrow::Cow::Owned(match self.storage {
             ScaleStorage::Exponent => Self::from_cells(p.width, p.height, block, &cells),
             ScaleStorage::F32 => Self::with_f32_scale(p.width, p.height, &cells),
@@ -236,6 +233,15 @@ impl ErrorBoundMap {
         block_of_cell(width, height, self.block, i, j).map_or(0.0, |(bi, bj)| {
             Self::decode(self.codes[bj * bw + bi], f64::from(self.scale))
         })
+    }
+
+    /// Every cell's decoded bound ((w + 1) x (h + 1), row by row from cell (-1, -1), as
+    /// `from_cells` takes them) of a patch of `width` x `height` texels.
+    pub fn decoded_cells(&self, width: u32, height: u32) -> Vec<f64> {
+        (-1..i64::from(height))
+            .flat_map(|j| (-1..i64::from(width)).map(move |i| (i, j)))
+            .map(|(i, j)| self.at_cell(width, height, i, j))
+            .collect()
     }
 
     /// Every block's decoded bound, row by row.

@@ -98,13 +98,8 @@ fn patch_dict<'py>(py: Python<'py>, p: &Patch) -> PyResult<Bound<'py, PyDict>> {
     d.set_item("ring_faces", PyArray1::from_slice(py, &p.ring_faces))?;
     // Per cell (rows and columns from cell -1, as `_with_cell_bounds` takes them), each cell
     // showing its block's stored bound.
-    let bound = p.error_bound.as_ref().map(|map| {
-        let cells: Vec<f64> = (-1..i64::from(p.height))
-            .flat_map(|j| (-1..i64::from(p.width)).map(move |i| (i, j)))
-            .map(|(i, j)| map.at_cell(p.width, p.height, i, j))
-            .collect();
-        matrix(py, cells, h + 1, w + 1)
-    });
+    let bound = (p.error_bound.as_ref())
+        .map(|map| matrix(py, map.decoded_cells(p.width, p.height), h + 1, w + 1));
     d.set_item("error_bound", bound)?;
     Ok(d)
 }
