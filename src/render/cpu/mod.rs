@@ -227,7 +227,7 @@ impl CpuRenderer {
                     trace.nearest(o, d, span)
                 };
                 hit.map_or(miss, |h| {
-                    let n = trace.normal(&h, o, d, true);
+                    let n = trace.query_normal(&h, o, d);
                     (h.t, (trace.id(&h), n.as_vec3().to_array()))
                 })
             })
@@ -320,7 +320,7 @@ fn trace_pixels(
     let pixel = |bundle: &Bundle, x: usize, y: usize| -> Option<PixelHit> {
         let (o, d) = lines.at(x as f64 + 0.5, y as f64 + 0.5);
         let hit = trace.nearest_in(bundle, o, d, span)?;
-        let (n, color) = (trace.normal(&hit, o, d, false), trace.color(&hit, o, d));
+        let (n, color) = trace.shade(&hit, o, d);
         // Headlight (camera_functions.wgsl): light comes from the eye.
         let light = 0.25 + 0.75 * n.dot(d.normalize()).abs();
         let normal = n.as_vec3().to_array();

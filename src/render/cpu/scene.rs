@@ -298,33 +298,38 @@ impl SceneTrace {
         }
     }
 
-    /// The world unit normal of a hit of the world ray o + t d: the shading normal (a mesh's
-    /// corner normals blended), or with `geometric` a mesh's face normal (ray queries').
-    pub fn normal(&self, hit: &Hit, o: DVec3, d: DVec3, geometric: bool) -> DVec3 {
+    /// The world unit normal a ray query reports for a hit of the world ray o + t d: a set's
+    /// shading normal, a mesh's face normal (as the GPU's queries).
+    pub fn query_normal(&self, hit: &Hit, o: DVec3, d: DVec3) -> DVec3 {
         let placed = &self.placed[hit.object];
         let n = match (&placed.traced, hit.part) {
             (Traced::Set(s), Part::Patch(k)) => {
                 let m = &placed.object_from_world;
                 s.normal(k, m.transform_point3(o), m.transform_vector3(d), hit.t)
             }
-            (Traced::Mesh(m), Part::Face(face)) if geometric => m.face_normal(&face),
-            (Traced::Mesh(m), Part::Face(face)) => m.normal(&face),
+            (Traced::Mesh(m), Part::Face(face)) => m.face_normal(&face),
             _ => unreachable!("a set's hit is a patch, a mesh's a face"),
         };
         (placed.world_normal_from_object * n).normalize_or_zero()
     }
 
-    /// The base color (RGBA8) of a hit of the world ray o + t d.
-    pub fn color(&self, hit: &Hit, o: DVec3, d: DVec3) -> [u8; 4] {
+    /// What a frame's pixel shows of a hit of the world ray o + t d: the world unit shading
+    /// normal (a set's as `query_normal`, a mesh's corner normals blended) and the base color (RGBA8), found together (a set's hit is placed
+    /// in its maps once for both).
+    pub fn shade(&self, hit: &Hit, o: DVec3, d: DVec3) -> (DVec3, [u8; 4]) {
         let placed = &self.placed[hit.object];
-        match (&placed.traced, hit.part) {
+        let (n, color) = match (&placed.traced, hit.part) {
             (Traced::Set(s), Part::Patch(k)) => {
                 let m = &placed.object_from_world;
-                s.color(k, m.transform_point3(o), m.transform_vector3(d), hit.t)
+                s.shade(k, m.transform_point3(o), m.transform_vector3(d), hit.t)
             }
-            (Traced::Mesh(m), Part::Face(face)) => m.color(&face),
+            (Traced::Mesh(m), Part::Face(face)) => (m.normal(&face), m.color(&face)),
             _ => unreachable!("a set's hit is a patch, a mesh's a face"),
-        }
+        };
+        (
+            (placed.world_normal_from_object * n).normalize_or_zero(),
+            color,
+        )
     }
 
     /// The world bounds of every object (the frame's depth range is made from them).

@@ -90,16 +90,22 @@ impl SetSearch {
     /// The set-space unit normal at the hit of ray o + t d in patch `k`.
     pub fn normal(&self, k: u32, o: DVec3, d: DVec3, t: f64) -> DVec3 {
         let (p, x, y) = self.at(k, o, d, t);
-        let n_local = crease_aware_normal(p, x, y);
-        // Normal maps hold unit normals in the box's axes (not stretched by its extent).
-        (p.axes[0] * n_local.x + p.axes[1] * n_local.y + p.axes[2] * n_local.z).normalize_or_zero()
+        set_normal(p, x, y)
     }
 
-    /// The base color (RGBA8) at the hit of ray o + t d in patch `k`.
-    pub fn color(&self, k: u32, o: DVec3, d: DVec3, t: f64) -> [u8; 4] {
+    /// The set-space unit normal and the base color (RGBA8) at the hit of ray o + t d in
+    /// patch `k`, the hit's map coordinates found once for both.
+    pub fn shade(&self, k: u32, o: DVec3, d: DVec3, t: f64) -> (DVec3, [u8; 4]) {
         let (p, x, y) = self.at(k, o, d, t);
-        bilinear_color(p, x, y)
+        (set_normal(p, x, y), bilinear_color(p, x, y))
     }
+}
+
+/// The set-space unit normal of patch `p` at texel-centre point (x, y).
+fn set_normal(p: &Patch, x: f64, y: f64) -> DVec3 {
+    let n_local = crease_aware_normal(p, x, y);
+    // Normal maps hold unit normals in the box's axes (not stretched by its extent).
+    (p.axes[0] * n_local.x + p.axes[1] * n_local.y + p.axes[2] * n_local.z).normalize_or_zero()
 }
 
 /// The four texels around texel-centre point (x, y) (clamped to the map) and their weights.
@@ -129,11 +135,14 @@ fn crease_aware_normal(p: &Patch, x: f64, y: f64) -> DVec3 {
             best
         }
     });
-    let anchor = normals[nearest].normalize_or_zero();
+    // Decoded normals are unit or zero (`decode_normal`): the anchor needs no normalizing and a
+    // normal's length is 1 or 0 (four square roots a pixel saved).
+    let anchor = normals[nearest];
+    let length = |n: &DVec3| if *n == DVec3::ZERO { 0.0 } else { 1.0 };
     let (mut all, mut same_side) = (DVec3::ZERO, DVec3::ZERO);
     for (n, (_, w)) in normals.iter().zip(texels) {
         all += w * *n;
-        if n.dot(anchor) >= CREASE_COS * n.length() {
+        if n.dot(anchor) >= CREASE_COS * length(n) {
             same_side += w * *n;
         }
     }
