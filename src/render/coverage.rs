@@ -1,10 +1,13 @@
 //! Which pixels' coverage (drawn or not) could differ from the source mesh's
 //! (`Frame::coverage_uncertain`). Only a pixel beside a coverage transition can (a drawn pixel
-//! with an undrawn 8-neighbour, or the other way round), as long as the surfaces involved stand
-//! off the mesh by less than a pixel. Around each such pixel's centre eight probe rays are cast
-//! at the distance the drawn surface may stand off the mesh there (its error bound plus a tenth
-//! of a texel of outline rounding, projected to pixels at its depth): the pixel is uncertain when
-//! a probe's hit or miss differs from the pixel's own. An undrawn pixel whose ray passes the box
+//! with an undrawn 8-neighbour, or the other way round; the pixels just past the frame's edges
+//! are traced for this, `Ring`), as long as the surfaces involved stand off the mesh by less
+//! than a pixel. Around each such pixel's centre eight probe rays are cast at the distance the
+//! drawn surface may stand off the mesh there (its error bound plus a tenth of a texel of outline
+//! rounding, projected to pixels at its depth): the pixel is uncertain when a probe's hit or miss
+//! differs from the pixel's own. Where that distance reaches a pixel or more (close-ups), every
+//! pixel within it (and a pixel and a half more) of the transition is uncertain, unprobed: the
+//! mesh's outline may lie anywhere there. An undrawn pixel whose ray passes the box
 //! of a hybrid set's patch probes at least as far as that patch's outline allowance: where the
 //! patch meets the set's triangles, its outline may leave a crack with no pixel of the patch
 //! beside it. The probes are one batched ray query of the renderer against the same scene
@@ -25,6 +28,11 @@ use crate::error::Result;
 /// Pixels added to every probe distance: the probe rays are traced in f32.
 const PROBE_MARGIN_PX: f64 = 1e-3;
 
+/// Pixels added to a stand-off of a pixel or more to find the pixels it makes uncertain: a
+/// differing pixel's centre lies within the stand-off of the frame's true outline, which lies
+/// within a pixel (and a little more, diagonally) of its transition pixels.
+const WIDE_REACH_PX: f64 = 1.5;
+
 /// Probes per uncertain-candidate pixel: the eight compass directions.
 const PROBES: usize = 8;
 
@@ -37,14 +45,36 @@ pub struct CoverageFigures {
     pub ms: f64,
 }
 
-/// Pixels of a `w` x `h` image (`drawn` per pixel) that have an 8-neighbour of the other state,
-/// rows on every core (serial, through `neighbours`, this pass took an eighth of the step).
-pub(crate) fn transitions(drawn: &[bool], w: usize, h: usize) -> Vec<usize> {
+/// Pixels of a `w` x `h` image (`drawn` per pixel, `outside(x, y)` for the pixels just past its
+/// edges) that have an 8-neighbour of the other state, rows on every core (serial, through
+/// `neighbours`, this pass took an eighth of the step).
+pub(crate) fn transitions(
+    drawn: &[bool],
+    w: usize,
+    h: usize,
+    outside: impl Fn(i64, i64) -> bool + Sync,
+) -> Vec<usize> {
+    let state = |x: i64, y: i64| {
+        let inside = x >= 0 && y >= 0 && (x as usize) < w && (y as usize) < h;
+        if inside {
+            drawn[y as usize * w + x as usize]
+        } else {
+            outside(x, y)
+        }
+    };
     let differs = |x: usize, y: usize| {
         let me = drawn[y * w + x];
-        let (x0, x1) = (x.saturating_sub(1), (x + 1).min(w - 1));
-        (y.saturating_sub(1)..=(y + 1).min(h - 1))
-            .any(|ny| drawn[ny * w + x0..=ny * w + x1].iter().any(|&d| d != me))
+        if x == 0 || y == 0 || x + 1 == w || y + 1 == h {
+            let (x, y) = (x as i64, y as i64);
+            return (-1..=1)
+                .flat_map(|dy| (-1..=1).map(move |dx| (x + dx, y + dy)))
+                .any(|(nx, ny)| state(nx, ny) != me);
+        }
+        (y - 1..=y + 1).any(|ny| {
+            drawn[ny * w + x - 1..=ny * w + x + 1]
+                .iter()
+                .any(|&d| d != me)
+        })
     };
     (0..h)
         .into_par_iter()
@@ -56,6 +86,42 @@ pub(crate) fn transitions(drawn: &[bool], w: usize, h: usize) -> Vec<usize> {
         .collect()
 }
 
+/// Every pixel of a `w` x `h` image within reach of one of `sources` (pixel, reach in pixels),
+/// found by stepping out one 8-neighbour at a time while reach is left (a diagonal step counts
+/// one, so at least the Euclidean disc is covered), each pixel stepped from once per larger reach.
+fn within_reach(sources: &[(usize, f64)], w: usize, h: usize) -> Vec<usize> {
+    if sources.is_empty() {
+        return Vec::new();
+    }
+    let mut best = vec![0.0f32; w * h];
+    let mut frontier: Vec<(usize, f32)> = Vec::with_capacity(sources.len());
+    for &(i, reach) in sources {
+        // Rounded up: the pixels' reach never falls below the stand-off's.
+        let reach = crate::render::error_bound::f32_at_least(reach);
+        if reach > best[i] {
+            best[i] = reach;
+            frontier.push((i, reach));
+        }
+    }
+    while !frontier.is_empty() {
+        let mut next = Vec::new();
+        for (i, reach) in frontier {
+            let left = reach - 1.0;
+            if reach < best[i] || left <= 0.0 {
+                continue; // superseded by a larger reach, or spent
+            }
+            for n in neighbours((i % w) as i64, (i / w) as i64, w, h) {
+                if left > best[n] {
+                    best[n] = left;
+                    next.push((n, left));
+                }
+            }
+        }
+        frontier = next;
+    }
+    (0..w * h).filter(|&i| best[i] > 0.0).collect()
+}
+
 /// The in-image 8-neighbours of pixel (x, y).
 fn neighbours(x: i64, y: i64, w: usize, h: usize) -> impl Iterator<Item = usize> {
     (-1..=1)
@@ -64,6 +130,95 @@ fn neighbours(x: i64, y: i64, w: usize, h: usize) -> impl Iterator<Item = usize>
             (nx, ny) != (x, y) && nx >= 0 && ny >= 0 && (nx as usize) < w && (ny as usize) < h
         })
         .map(move |(nx, ny)| ny as usize * w + nx as usize)
+}
+
+/// The pixels just outside a `w` x `h` frame (x from -1 to w, y from -1 to h, on its border),
+/// traced like its own: a border pixel then sees whether the surface goes on past the frame's
+/// edge beside it, and how far that surface may stand off. Without them an undrawn border pixel
+/// beside surface just out of view was no transition, and its coverage could differ unflagged
+/// (3 pixels of a close-up a random test draw found).
+struct Ring {
+    width: i64,
+    height: i64,
+    /// Per ring pixel (`index`): its surface's stand-off in pixels (NaN where unknown), None
+    /// where it shows nothing.
+    stand_off: Vec<Option<f64>>,
+}
+
+impl Ring {
+    /// Ring pixel (x, y)'s index: the rows above and below (x from -1 to w), then the columns
+    /// left and right (y from 0 to h - 1); None for a pixel not on the ring.
+    fn index(&self, x: i64, y: i64) -> Option<usize> {
+        let (w, h) = (self.width, self.height);
+        let k = if y == -1 && (-1..=w).contains(&x) {
+            x + 1
+        } else if y == h && (-1..=w).contains(&x) {
+            w + 2 + x + 1
+        } else if x == -1 && (0..h).contains(&y) {
+            2 * (w + 2) + y
+        } else if x == w && (0..h).contains(&y) {
+            2 * (w + 2) + h + y
+        } else {
+            return None;
+        };
+        Some(k as usize)
+    }
+
+    /// Every ring pixel's (x, y), in `index` order.
+    fn pixels(w: i64, h: i64) -> Vec<(i64, i64)> {
+        let rows = [-1, h]
+            .into_iter()
+            .flat_map(|y| (-1..=w).map(move |x| (x, y)));
+        let columns = [-1, w]
+            .into_iter()
+            .flat_map(|x| (0..h).map(move |y| (x, y)));
+        rows.chain(columns).collect()
+    }
+
+    /// Ring pixel (x, y)'s stand-off, None where it shows nothing or is not on the ring.
+    fn at(&self, x: i64, y: i64) -> Option<f64> {
+        self.index(x, y).and_then(|k| self.stand_off[k])
+    }
+
+    /// The ring of the frame `inputs` describes, traced by `backend` (or, where it does not
+    /// trace every object, drawn everywhere with an unknown stand-off).
+    fn traced(
+        backend: &mut impl RayBackend,
+        (scene, search, traced): (&Scene, &SearchOptions, bool),
+        inputs: &CoverageInputs,
+    ) -> Result<Ring> {
+        let (w, h) = (i64::from(inputs.pixels.width), i64::from(inputs.height));
+        let pixels = Ring::pixels(w, h);
+        let mut ring = Ring {
+            width: w,
+            height: h,
+            stand_off: vec![Some(f64::NAN); pixels.len()],
+        };
+        if !traced {
+            return Ok(ring);
+        }
+        let forward = inputs.pixels.forward;
+        let rays: Vec<(DVec3, DVec3)> = (pixels.iter())
+            .map(|&(x, y)| {
+                let (o, d) = inputs.pixels.lines.at(x as f64 + 0.5, y as f64 + 0.5);
+                (o, d.normalize())
+            })
+            .collect();
+        let near = inputs.lens.near;
+        let ranges: Vec<(f64, f64)> = (rays.iter())
+            .map(|(_, d)| (near / d.dot(forward), f64::from(f32::MAX)))
+            .collect();
+        let (distance, ids) = backend.nearest_hits(scene, &rays, &ranges, search)?;
+        for (k, ((o, d), (t, id))) in rays.iter().zip(distance.into_iter().zip(ids)).enumerate() {
+            ring.stand_off[k] = (id != -1).then(|| {
+                let point = *o + *d * t;
+                let world =
+                    inputs.sources.bound_at(point, id, 0.0) + inputs.sources.outline_allowance(id);
+                world / pixel_size(inputs.lens, t * d.dot(forward))
+            });
+        }
+        Ok(ring)
+    }
 }
 
 /// What the probe distance of a pixel is made from.
@@ -89,17 +244,21 @@ impl CoverageInputs<'_> {
     }
 
     /// The probe distance (pixels) of transition pixel `i`: its own stand-off where drawn, else
-    /// the largest of its drawn neighbours' and of the seams its ray passes; NaN where one
-    /// involved is unknown.
-    fn probe_distance(&self, i: usize) -> f64 {
+    /// the largest of its drawn neighbours' (`ring`'s past the frame's edges) and of the seams
+    /// its ray passes; NaN where one involved is unknown.
+    fn probe_distance(&self, i: usize, ring: &Ring) -> f64 {
         let w = self.pixels.width as usize;
         let d = if self.drawn(i) {
             self.stand_off(i)
         } else {
             let (x, y) = ((i % w) as i64, (i / w) as i64);
+            let outside = (-1..=1)
+                .flat_map(|dy| (-1..=1).map(move |dx| (x + dx, y + dy)))
+                .filter_map(|(nx, ny)| ring.at(nx, ny));
             neighbours(x, y, w, self.height as usize)
                 .filter(|&j| self.drawn(j))
                 .map(|j| self.stand_off(j))
+                .chain(outside)
                 .fold(self.seam_stand_off(i), |m, d| {
                     if m.is_nan() || d.is_nan() {
                         f64::NAN
@@ -143,18 +302,25 @@ pub(crate) fn coverage_uncertain(
         .collect();
     let mut uncertain = vec![false; w * h];
     let traced = all_traced(backend, scene)?;
+    let ring = Ring::traced(backend, (scene, search, traced), inputs)?;
     let mut probed = Vec::new();
-    let found = transitions(&drawn, w, h);
+    let found = transitions(&drawn, w, h, |x, y| ring.at(x, y).is_some());
     let distances: Vec<f64> = found
         .par_iter()
-        .map(|&i| inputs.probe_distance(i))
+        .map(|&i| inputs.probe_distance(i, &ring))
         .collect();
+    let mut wide = Vec::new();
     for (i, d) in found.into_iter().zip(distances) {
         if d.is_nan() || !traced {
             uncertain[i] = true;
+        } else if d >= 1.0 {
+            wide.push((i, d + WIDE_REACH_PX));
         } else {
             probed.push((i, d));
         }
+    }
+    for i in within_reach(&wide, w, h) {
+        uncertain[i] = true;
     }
     let (rays, ranges) = probe_rays(camera, inputs.lens, &probed, w);
     if !rays.is_empty() {
@@ -211,6 +377,35 @@ fn probe_rays(
 mod tests {
     use super::*;
 
+    /// A source reaching 2.5 pixels takes its 5 x 5 square (Chebyshev distance 2) and no more;
+    /// two sources take the union; a reach under a pixel takes the source alone.
+    #[test]
+    fn a_reach_takes_the_pixels_within_it() {
+        let (w, h) = (9, 7);
+        let at = |x: usize, y: usize| y * w + x;
+        let square = |cx: usize, cy: usize, r: usize| {
+            let mut v: Vec<usize> = (cy - r..=cy + r)
+                .flat_map(|y| (cx - r..=cx + r).map(move |x| y * w + x))
+                .collect();
+            v.sort_unstable();
+            v
+        };
+        assert_eq!(within_reach(&[(at(4, 3), 2.5)], w, h), square(4, 3, 2));
+        assert_eq!(within_reach(&[(at(4, 3), 0.5)], w, h), vec![at(4, 3)]);
+        let mut both = square(2, 2, 1);
+        both.extend(square(6, 4, 1));
+        both.sort_unstable();
+        assert_eq!(
+            within_reach(&[(at(2, 2), 1.8), (at(6, 4), 2.0)], w, h),
+            both
+        );
+        // Clipped at the image's edges.
+        assert_eq!(
+            within_reach(&[(at(0, 0), 2.0)], w, h),
+            vec![at(0, 0), at(1, 0), at(0, 1), at(1, 1)]
+        );
+    }
+
     #[test]
     fn transitions_are_the_pixels_beside_the_other_state() {
         // A 5 x 4 image with a 2 x 2 block drawn at (1, 1).
@@ -218,7 +413,7 @@ mod tests {
         for i in [6, 7, 11, 12] {
             drawn[i] = true;
         }
-        let t = transitions(&drawn, 5, 4);
+        let t = transitions(&drawn, 5, 4, |_, _| false);
         // Every pixel of columns 0..=3 is beside the block; column 4 is not.
         assert_eq!(
             t,

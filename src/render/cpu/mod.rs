@@ -538,6 +538,23 @@ impl RayBackend for CpuRenderer {
             .map(|(&(o, d), &span)| trace.first_found(o, d, span).map_or(-1, |h| trace.id(&h)))
             .collect())
     }
+
+    fn nearest_hits(
+        &mut self,
+        scene: &Scene,
+        rays: &[(DVec3, DVec3)],
+        ranges: &[(f64, f64)],
+        _search: &SearchOptions,
+    ) -> Result<(Vec<f64>, Vec<i32>)> {
+        let (trace, _) = self.prepare(scene)?;
+        Ok((rays.par_iter().zip(ranges))
+            .map(|(&(o, d), &span)| {
+                trace
+                    .nearest(o, d, span)
+                    .map_or((f64::INFINITY, -1), |h| (h.t, trace.id(&h)))
+            })
+            .unzip())
+    }
 }
 
 #[cfg(test)]
