@@ -6,8 +6,9 @@
 //! drawn surface may stand off the mesh there (its error bound plus a tenth of a texel of outline
 //! rounding, projected to pixels at its depth): the pixel is uncertain when a probe's hit or miss
 //! differs from the pixel's own. Where that distance reaches a pixel or more (close-ups), every
-//! pixel within it (and a pixel and a half more) of the transition is uncertain, unprobed: the
-//! mesh's outline may lie anywhere there. An undrawn pixel whose ray passes the box
+//! pixel within it (and a pixel and a half more) of the transition probes too, as far as the
+//! widest such distance reaching it: the mesh's outline may lie anywhere there. An undrawn pixel whose ray
+//! passes the box
 //! of a hybrid set's patch probes at least as far as that patch's outline allowance: where the
 //! patch meets the set's triangles, its outline may leave a crack with no pixel of the patch
 //! beside it. The probes are one batched ray query of the renderer against the same scene
@@ -28,7 +29,7 @@ use crate::error::Result;
 /// Pixels added to every probe distance: the probe rays are traced in f32.
 const PROBE_MARGIN_PX: f64 = 1e-3;
 
-/// Pixels added to a stand-off of a pixel or more to find the pixels it makes uncertain: a
+/// Pixels added to a stand-off of a pixel or more to find the pixels that probe for it: a
 /// differing pixel's centre lies within the stand-off of the frame's true outline, which lies
 /// within a pixel (and a little more, diagonally) of its transition pixels.
 const WIDE_REACH_PX: f64 = 1.5;
@@ -86,40 +87,46 @@ pub(crate) fn transitions(
         .collect()
 }
 
-/// Every pixel of a `w` x `h` image within reach of one of `sources` (pixel, reach in pixels),
-/// found by stepping out one 8-neighbour at a time while reach is left (a diagonal step counts
-/// one, so at least the Euclidean disc is covered), each pixel stepped from once per larger reach.
-fn within_reach(sources: &[(usize, f64)], w: usize, h: usize) -> Vec<usize> {
+/// Every pixel of a `w` x `h` image within reach of one of `sources` (pixel, reach in pixels,
+/// stand-off in pixels), with the largest stand-off among the sources that reach it: found by
+/// stepping out one 8-neighbour at a time while reach is left (a diagonal step counts one, so
+/// at least the Euclidean disc is covered).
+fn within_reach(sources: &[(usize, f64, f64)], w: usize, h: usize) -> Vec<(usize, f64)> {
     if sources.is_empty() {
         return Vec::new();
     }
-    let mut best = vec![0.0f32; w * h];
-    let mut frontier: Vec<(usize, f32)> = Vec::with_capacity(sources.len());
-    for &(i, reach) in sources {
-        // Rounded up: the pixels' reach never falls below the stand-off's.
-        let reach = crate::render::error_bound::f32_at_least(reach);
-        if reach > best[i] {
-            best[i] = reach;
-            frontier.push((i, reach));
+    // Per pixel the largest reach left on arriving and the largest stand-off arriving.
+    let (mut reach_at, mut stand_off_at) = (vec![0.0f64; w * h], vec![0.0f64; w * h]);
+    let mut frontier: Vec<(usize, f64, f64)> = Vec::with_capacity(sources.len());
+    for &(i, reach, stand_off) in sources {
+        stand_off_at[i] = stand_off_at[i].max(stand_off);
+        if reach > reach_at[i] {
+            reach_at[i] = reach;
         }
+        frontier.push((i, reach, stand_off));
     }
     while !frontier.is_empty() {
         let mut next = Vec::new();
-        for (i, reach) in frontier {
+        for (i, reach, stand_off) in frontier {
             let left = reach - 1.0;
-            if reach < best[i] || left <= 0.0 {
-                continue; // superseded by a larger reach, or spent
+            if left <= 0.0 {
+                continue;
             }
             for n in neighbours((i % w) as i64, (i / w) as i64, w, h) {
-                if left > best[n] {
-                    best[n] = left;
-                    next.push((n, left));
+                // Stepped on where it brings more reach or a larger stand-off than arrived so far.
+                if left > reach_at[n] || stand_off > stand_off_at[n] {
+                    reach_at[n] = reach_at[n].max(left);
+                    stand_off_at[n] = stand_off_at[n].max(stand_off);
+                    next.push((n, left, stand_off));
                 }
             }
         }
         frontier = next;
     }
-    (0..w * h).filter(|&i| best[i] > 0.0).collect()
+    (0..w * h)
+        .filter(|&i| reach_at[i] > 0.0)
+        .map(|i| (i, stand_off_at[i]))
+        .collect()
 }
 
 /// The in-image 8-neighbours of pixel (x, y).
@@ -310,17 +317,23 @@ pub(crate) fn coverage_uncertain(
         .map(|&i| inputs.probe_distance(i, &ring))
         .collect();
     let mut wide = Vec::new();
+    let mut transition = vec![false; w * h];
     for (i, d) in found.into_iter().zip(distances) {
+        transition[i] = true;
         if d.is_nan() || !traced {
             uncertain[i] = true;
-        } else if d >= 1.0 {
-            wide.push((i, d + WIDE_REACH_PX));
-        } else {
+            continue;
+        }
+        if d >= 1.0 {
+            wide.push((i, d + WIDE_REACH_PX, d));
+        }
+        probed.push((i, d));
+    }
+    // The pixels within reach of a wide stand-off probe as far as the widest reaching them.
+    for (i, d) in within_reach(&wide, w, h) {
+        if !transition[i] {
             probed.push((i, d));
         }
-    }
-    for i in within_reach(&wide, w, h) {
-        uncertain[i] = true;
     }
     let (rays, ranges) = probe_rays(camera, inputs.lens, &probed, w);
     if !rays.is_empty() {
@@ -378,11 +391,13 @@ mod tests {
     use super::*;
 
     /// A source reaching 2.5 pixels takes its 5 x 5 square (Chebyshev distance 2) and no more;
-    /// two sources take the union; a reach under a pixel takes the source alone.
+    /// two sources take the union, each pixel with the larger stand-off reaching it; a reach
+    /// under a pixel takes the source alone; the image's edges clip.
     #[test]
     fn a_reach_takes_the_pixels_within_it() {
         let (w, h) = (9, 7);
         let at = |x: usize, y: usize| y * w + x;
+        let pixels = |found: Vec<(usize, f64)>| found.into_iter().map(|p| p.0).collect::<Vec<_>>();
         let square = |cx: usize, cy: usize, r: usize| {
             let mut v: Vec<usize> = (cy - r..=cy + r)
                 .flat_map(|y| (cx - r..=cx + r).map(move |x| y * w + x))
@@ -390,18 +405,31 @@ mod tests {
             v.sort_unstable();
             v
         };
-        assert_eq!(within_reach(&[(at(4, 3), 2.5)], w, h), square(4, 3, 2));
-        assert_eq!(within_reach(&[(at(4, 3), 0.5)], w, h), vec![at(4, 3)]);
-        let mut both = square(2, 2, 1);
-        both.extend(square(6, 4, 1));
-        both.sort_unstable();
         assert_eq!(
-            within_reach(&[(at(2, 2), 1.8), (at(6, 4), 2.0)], w, h),
-            both
+            pixels(within_reach(&[(at(4, 3), 2.5, 1.0)], w, h)),
+            square(4, 3, 2)
         );
-        // Clipped at the image's edges.
         assert_eq!(
-            within_reach(&[(at(0, 0), 2.0)], w, h),
+            within_reach(&[(at(4, 3), 0.5, 1.0)], w, h),
+            vec![(at(4, 3), 1.0)]
+        );
+        let both = within_reach(&[(at(2, 2), 1.8, 1.0), (at(4, 2), 2.0, 3.0)], w, h);
+        let mut union = square(2, 2, 1);
+        union.extend(square(4, 2, 1));
+        union.sort_unstable();
+        union.dedup();
+        assert_eq!(pixels(both.clone()), union);
+        let stand_off = |i: usize| both.iter().find(|p| p.0 == i).unwrap().1;
+        assert_eq!(
+            (
+                stand_off(at(1, 2)),
+                stand_off(at(3, 2)),
+                stand_off(at(5, 2))
+            ),
+            (1.0, 3.0, 3.0)
+        );
+        assert_eq!(
+            pixels(within_reach(&[(at(0, 0), 2.0, 1.0)], w, h)),
             vec![at(0, 0), at(1, 0), at(0, 1), at(1, 1)]
         );
     }
