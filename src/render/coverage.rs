@@ -95,14 +95,13 @@ fn within_reach(sources: &[(usize, f64, f64)], w: usize, h: usize) -> Vec<(usize
     if sources.is_empty() {
         return Vec::new();
     }
-    // Per pixel the largest reach left on arriving and the largest stand-off arriving.
-    let (mut reach_at, mut stand_off_at) = (vec![0.0f64; w * h], vec![0.0f64; w * h]);
+    // Per pixel reached: the largest reach left on arriving and the largest stand-off arriving
+    // (a map, not two images: the pixels reached are few beside a 16384² frame's).
+    let mut at: std::collections::HashMap<usize, (f64, f64)> = std::collections::HashMap::new();
     let mut frontier: Vec<(usize, f64, f64)> = Vec::with_capacity(sources.len());
     for &(i, reach, stand_off) in sources {
-        stand_off_at[i] = stand_off_at[i].max(stand_off);
-        if reach > reach_at[i] {
-            reach_at[i] = reach;
-        }
+        let entry = at.entry(i).or_insert((0.0, 0.0));
+        *entry = (entry.0.max(reach), entry.1.max(stand_off));
         frontier.push((i, reach, stand_off));
     }
     while !frontier.is_empty() {
@@ -114,19 +113,21 @@ fn within_reach(sources: &[(usize, f64, f64)], w: usize, h: usize) -> Vec<(usize
             }
             for n in neighbours((i % w) as i64, (i / w) as i64, w, h) {
                 // Stepped on where it brings more reach or a larger stand-off than arrived so far.
-                if left > reach_at[n] || stand_off > stand_off_at[n] {
-                    reach_at[n] = reach_at[n].max(left);
-                    stand_off_at[n] = stand_off_at[n].max(stand_off);
+                let entry = at.entry(n).or_insert((0.0, 0.0));
+                if left > entry.0 || stand_off > entry.1 {
+                    *entry = (entry.0.max(left), entry.1.max(stand_off));
                     next.push((n, left, stand_off));
                 }
             }
         }
         frontier = next;
     }
-    (0..w * h)
-        .filter(|&i| reach_at[i] > 0.0)
-        .map(|i| (i, stand_off_at[i]))
-        .collect()
+    let mut reached: Vec<(usize, f64)> = (at.into_iter())
+        .filter(|(_, (reach, _))| *reach > 0.0)
+        .map(|(i, (_, stand_off))| (i, stand_off))
+        .collect();
+    reached.sort_unstable_by_key(|p| p.0);
+    reached
 }
 
 /// The in-image 8-neighbours of pixel (x, y).
