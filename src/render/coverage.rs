@@ -216,7 +216,7 @@ impl Ring {
         let ranges: Vec<(f64, f64)> = (rays.iter())
             .map(|(_, d)| (near / d.dot(forward), f64::from(f32::MAX)))
             .collect();
-        let (distance, ids) = backend.nearest_hits(scene, &rays, &ranges, search)?;
+        let (distance, ids) = backend.hits(scene, &rays, &ranges, search, false)?;
         for (k, ((o, d), (t, id))) in rays.iter().zip(distance.into_iter().zip(ids)).enumerate() {
             ring.stand_off[k] = (id != -1).then(|| {
                 let point = *o + *d * t;
@@ -338,7 +338,7 @@ pub(crate) fn coverage_uncertain(
     }
     let (rays, ranges) = probe_rays(camera, inputs.lens, &probed, w);
     if !rays.is_empty() {
-        let hits = backend.probe(scene, &rays, &ranges, search)?;
+        let (_, hits) = backend.hits(scene, &rays, &ranges, search, true)?;
         for (k, &(i, _)) in probed.iter().enumerate() {
             let probes = &hits[k * PROBES..(k + 1) * PROBES];
             uncertain[i] = probes.iter().any(|&id| (id != -1) != drawn[i]);

@@ -578,24 +578,16 @@ pub(crate) trait RayBackend {
     /// How the points this backend draws are rounded (error_bound.rs).
     fn rounding(&self) -> Rounding;
 
-    /// Per ray (unit direction) within its stretch, the nearest hit's distance along it and
-    /// id, (infinity, -1) for none.
-    fn nearest_hits(
+    /// Per ray (unit direction) within its stretch, the nearest hit's distance along it and id,
+    /// or with `any_hit` the first hit found's; (infinity, -1) for none.
+    fn hits(
         &mut self,
         scene: &Scene,
         rays: &[(glam::DVec3, glam::DVec3)],
         ranges: &[(f64, f64)],
         search: &SearchOptions,
+        any_hit: bool,
     ) -> Result<(Vec<f64>, Vec<i32>)>;
-
-    /// Per ray (unit direction) within its stretch, the id of the first hit found, -1 for none.
-    fn probe(
-        &mut self,
-        scene: &Scene,
-        rays: &[(glam::DVec3, glam::DVec3)],
-        ranges: &[(f64, f64)],
-        search: &SearchOptions,
-    ) -> Result<Vec<i32>>;
 }
 
 impl RayBackend for Renderer {
@@ -624,29 +616,17 @@ impl RayBackend for Renderer {
         self.occluded(scene, origin, parallel, count, ray, search, cancel)
     }
 
-    fn probe(
+    fn hits(
         &mut self,
         scene: &Scene,
         rays: &[(glam::DVec3, glam::DVec3)],
         ranges: &[(f64, f64)],
         search: &SearchOptions,
-    ) -> Result<Vec<i32>> {
-        let batch = self.largest_batch();
-        let never = &crate::cancel::NEVER;
-        let hits = self.trace_rays(scene, rays, Some(ranges), batch, search, true, never)?;
-        Ok(hits.patch_id)
-    }
-
-    fn nearest_hits(
-        &mut self,
-        scene: &Scene,
-        rays: &[(glam::DVec3, glam::DVec3)],
-        ranges: &[(f64, f64)],
-        search: &SearchOptions,
+        any_hit: bool,
     ) -> Result<(Vec<f64>, Vec<i32>)> {
         let batch = self.largest_batch();
         let never = &crate::cancel::NEVER;
-        let hits = self.trace_rays(scene, rays, Some(ranges), batch, search, false, never)?;
+        let hits = self.trace_rays(scene, rays, Some(ranges), batch, search, any_hit, never)?;
         Ok((hits.distance, hits.patch_id))
     }
 }

@@ -526,32 +526,23 @@ impl RayBackend for CpuRenderer {
         Ok((occluded, traced))
     }
 
-    fn probe(
+    fn hits(
         &mut self,
         scene: &Scene,
         rays: &[(DVec3, DVec3)],
         ranges: &[(f64, f64)],
         _search: &SearchOptions,
-    ) -> Result<Vec<i32>> {
-        let (trace, _) = self.prepare(scene)?;
-        Ok((rays.par_iter().zip(ranges))
-            .map(|(&(o, d), &span)| trace.first_found(o, d, span).map_or(-1, |h| trace.id(&h)))
-            .collect())
-    }
-
-    fn nearest_hits(
-        &mut self,
-        scene: &Scene,
-        rays: &[(DVec3, DVec3)],
-        ranges: &[(f64, f64)],
-        _search: &SearchOptions,
+        any_hit: bool,
     ) -> Result<(Vec<f64>, Vec<i32>)> {
         let (trace, _) = self.prepare(scene)?;
         Ok((rays.par_iter().zip(ranges))
             .map(|(&(o, d), &span)| {
-                trace
-                    .nearest(o, d, span)
-                    .map_or((f64::INFINITY, -1), |h| (h.t, trace.id(&h)))
+                let hit = if any_hit {
+                    trace.first_found(o, d, span)
+                } else {
+                    trace.nearest(o, d, span)
+                };
+                hit.map_or((f64::INFINITY, -1), |h| (h.t, trace.id(&h)))
             })
             .unzip())
     }
