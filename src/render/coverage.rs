@@ -7,11 +7,10 @@
 //! rounding, projected to pixels at its depth): the pixel is uncertain when a probe's hit or miss
 //! differs from the pixel's own. Where that distance reaches a pixel or more (close-ups), every
 //! pixel within it (and a pixel and a half more) of the transition probes too, as far as the
-//! widest such distance reaching it: the mesh's outline may lie anywhere there. An undrawn pixel whose ray
-//! passes the box
-//! of a hybrid set's patch probes at least as far as that patch's outline allowance: where the
-//! patch meets the set's triangles, its outline may leave a crack with no pixel of the patch
-//! beside it. The probes are one batched ray query of the renderer against the same scene
+//! widest such distance reaching it: the mesh's outline may lie anywhere there. An undrawn pixel
+//! whose ray passes the box of a hybrid set's patch probes at least as far as that patch's
+//! outline allowance: where the patch meets the set's triangles, its outline may leave a crack
+//! with no pixel of the patch beside it. The probes are one batched ray query of the renderer against the same scene
 //! (query.rs).
 //!
 //! Spaces: pixels row-major from the top, sub-pixel offsets in pixels; rays in world space.
@@ -66,10 +65,7 @@ pub(crate) fn transitions(
     let differs = |x: usize, y: usize| {
         let me = drawn[y * w + x];
         if x == 0 || y == 0 || x + 1 == w || y + 1 == h {
-            let (x, y) = (x as i64, y as i64);
-            return (-1..=1)
-                .flat_map(|dy| (-1..=1).map(move |dx| (x + dx, y + dy)))
-                .any(|(nx, ny)| state(nx, ny) != me);
+            return around(x as i64, y as i64).any(|(nx, ny)| state(nx, ny) != me);
         }
         (y - 1..=y + 1).any(|ny| {
             drawn[ny * w + x - 1..=ny * w + x + 1]
@@ -130,13 +126,17 @@ fn within_reach(sources: &[(usize, f64, f64)], w: usize, h: usize) -> Vec<(usize
     reached
 }
 
-/// The in-image 8-neighbours of pixel (x, y).
-fn neighbours(x: i64, y: i64, w: usize, h: usize) -> impl Iterator<Item = usize> {
+/// The 8-neighbours of pixel (x, y), in the image or not.
+fn around(x: i64, y: i64) -> impl Iterator<Item = (i64, i64)> {
     (-1..=1)
         .flat_map(move |dy| (-1..=1).map(move |dx| (x + dx, y + dy)))
-        .filter(move |&(nx, ny)| {
-            (nx, ny) != (x, y) && nx >= 0 && ny >= 0 && (nx as usize) < w && (ny as usize) < h
-        })
+        .filter(move |&p| p != (x, y))
+}
+
+/// The in-image 8-neighbours of pixel (x, y).
+fn neighbours(x: i64, y: i64, w: usize, h: usize) -> impl Iterator<Item = usize> {
+    around(x, y)
+        .filter(move |&(nx, ny)| nx >= 0 && ny >= 0 && (nx as usize) < w && (ny as usize) < h)
         .map(move |(nx, ny)| ny as usize * w + nx as usize)
 }
 
@@ -260,9 +260,7 @@ impl CoverageInputs<'_> {
             self.stand_off(i)
         } else {
             let (x, y) = ((i % w) as i64, (i / w) as i64);
-            let outside = (-1..=1)
-                .flat_map(|dy| (-1..=1).map(move |dx| (x + dx, y + dy)))
-                .filter_map(|(nx, ny)| ring.at(nx, ny));
+            let outside = around(x, y).filter_map(|(nx, ny)| ring.at(nx, ny));
             neighbours(x, y, w, self.height as usize)
                 .filter(|&j| self.drawn(j))
                 .map(|j| self.stand_off(j))
