@@ -265,9 +265,9 @@ fn clip_to_unit_box(o: DVec3, d: DVec3, t0: f64, t1: f64) -> Option<(f64, f64)> 
 
 /// A patch-local ray made ready for descents: its cell-walk form and the span of t where it is
 /// inside the unit box (over all t; a descent's own span is cut from it). Made once per ray and
-/// patch: a ray descends 2.4 pieces on average, mostly of one patch, and the setup (the box
-/// clip's and the walk's divisions) was a large share of each descent.
-pub(crate) struct LocalRay<'p> {
+/// patch, not per piece: the bunny's rays visit 1.9 (frames) to 2.2 (shadow rays) pieces of each
+/// patch they enter, and the setup is seven divisions.
+struct LocalRay<'p> {
     cells: CellRay<'p>,
     inside: (f64, f64),
 }
