@@ -122,7 +122,8 @@ def test_any_scale_and_offset(r160: gt.Renderer, log_scale: float, offset, direc
 # frame.coverage_uncertain until the pixels just past the edges were traced (render/coverage.rs).
 @example(pick=929963, uvh=(0.1015625, 0.0, 0.125), direction=(-1.0, 0.0, -1.0), quality="exact")
 @example(pick=161714, uvh=(0.75, 0.76171875, 0.625), direction=(0.75, 0.75, 0.625), quality="exact")
-# A close-up whose outlines stand 1-5 pixels off: differing pixels two and more from a transition.
+# A close-up whose outlines stand a pixel or more off: 21 differing pixels beside transition pixels,
+# not transitions themselves.
 @example(pick=300, uvh=(0.8125, 0.0, 0.0), direction=(1.0, 0.0, 0.0), quality="exact")
 def test_camera_inside_a_patch_box(r160: gt.Renderer, pick: int, uvh, direction, quality: str) -> None:  # type: ignore[no-untyped-def]
     """The eye anywhere inside a patch's box (often inside the torus's tube, or just off a
